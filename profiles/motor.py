@@ -1,0 +1,190 @@
+"""Motor files (`stepramp.motor/1`) and the acceleration capability they give.
+
+Capability (issue #3):
+    a_acc(v) = (sf·T(v) − T_f) / J · steps_per_rev / 2π   [pps/s]
+    a_dec(v) = (sf·T(v) + T_f) / J · steps_per_rev / 2π
+with T(v) the pull-out torque, piecewise linear in speed; its last point is
+the top usable speed. Everything here is SI (speeds in pps, torque in N·m).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import FieldRangeError, FormatError
+from .table import read_json
+
+FORMAT = "stepramp.motor/1"
+_REQUIRED = {"format", "steps_per_rev", "pullout_torque", "inertia_kgm2", "safety_factor",
+             "start_pps"}
+_OPTIONAL = {"friction_torque_nm", "max_jump_pps", "max_pps", "max_jerk_pps3", "name",
+             "holding_torque_nm", "rotor_teeth"}
+
+
+@dataclass(frozen=True)
+class Motor:
+    steps_per_rev: int
+    curve_speed_pps: np.ndarray = field(repr=False)
+    curve_torque_nm: np.ndarray = field(repr=False)
+    inertia_kgm2: float
+    safety_factor: float
+    start_pps: float
+    friction_torque_nm: float = 0.0
+    max_jump_pps: float | None = None
+    max_pps: float | None = None
+    max_jerk_pps3: float | None = None
+    name: str = ""
+    holding_torque_nm: float | None = None
+    rotor_teeth: int | None = None
+
+    def __post_init__(self) -> None:
+        v = np.asarray(self.curve_speed_pps, dtype=float)
+        t = np.asarray(self.curve_torque_nm, dtype=float)
+        v.setflags(write=False)
+        t.setflags(write=False)
+        object.__setattr__(self, "curve_speed_pps", v)
+        object.__setattr__(self, "curve_torque_nm", t)
+        if v.ndim != 1 or len(v) < 2 or len(v) != len(t):
+            raise FormatError("pullout_torque: needs at least two [speed_pps, torque_nm] points")
+        if v[0] != 0 or np.any(np.diff(v) <= 0):
+            raise FormatError("pullout_torque: speeds must start at 0 and strictly increase")
+        if np.any(t < 0) or not np.all(np.isfinite(t)):
+            raise FormatError("pullout_torque: torques must be finite and ≥ 0")
+        _positive("steps_per_rev", self.steps_per_rev, 1, 10_000_000)
+        _positive("inertia_kgm2", self.inertia_kgm2, 1e-12, 1e3)
+        if not 0 < self.safety_factor <= 1:
+            raise FieldRangeError("safety_factor", self.safety_factor, "0 (exclusive)", 1)
+        if not 0 <= self.friction_torque_nm < 1e4:
+            raise FieldRangeError("friction_torque_nm", self.friction_torque_nm, 0, 1e4)
+        _positive("start_pps", self.start_pps, 1e-9, self.top_curve_pps)
+        for name in ("max_jump_pps", "max_pps", "max_jerk_pps3", "holding_torque_nm"):
+            value = getattr(self, name)
+            if value is not None:
+                _positive(name, value, 1e-12, 1e18)
+        if self.a_acc_pps2(0.0) <= 0:
+            raise FormatError("the motor cannot accelerate from rest: safety_factor × torque at "
+                              "0 pps does not exceed the friction torque")
+
+    # --- capability -------------------------------------------------------
+    @property
+    def top_curve_pps(self) -> float:
+        return float(self.curve_speed_pps[-1])
+
+    @property
+    def top_pps(self) -> float:
+        """Highest usable speed: the curve's last point, capped by max_pps."""
+        top = self.top_curve_pps
+        return top if self.max_pps is None else min(top, self.max_pps)
+
+    @property
+    def jump_pps(self) -> float:
+        """Largest instantaneous step of pulse frequency (default: start_pps)."""
+        return self.start_pps if self.max_jump_pps is None else self.max_jump_pps
+
+    @property
+    def _k(self) -> float:
+        # torque [N·m] → acceleration [pps/s]
+        return self.steps_per_rev / (2 * math.pi * self.inertia_kgm2)
+
+    def torque_nm(self, speed_pps: Any) -> Any:
+        """Pull-out torque at `speed_pps` (linear interpolation; 0 beyond the curve)."""
+        return np.interp(speed_pps, self.curve_speed_pps, self.curve_torque_nm, right=0.0)
+
+    def a_acc_pps2(self, speed_pps: Any) -> Any:
+        return (self.safety_factor * self.torque_nm(speed_pps) - self.friction_torque_nm) * self._k
+
+    def a_dec_pps2(self, speed_pps: Any) -> Any:
+        return (self.safety_factor * self.torque_nm(speed_pps) + self.friction_torque_nm) * self._k
+
+    def min_a_acc_pps2(self, lo_pps: Any, hi_pps: Any) -> Any:
+        """Exact minimum of a_acc over [lo, hi] (vectorised): the curve is piecewise
+        linear, so the minimum sits at an end or at a breakpoint inside."""
+        return self._min_over(lo_pps, hi_pps, self.a_acc_pps2)
+
+    def min_a_dec_pps2(self, lo_pps: Any, hi_pps: Any) -> Any:
+        return self._min_over(lo_pps, hi_pps, self.a_dec_pps2)
+
+    def _min_over(self, lo: Any, hi: Any, f: Any) -> Any:
+        lo_a = np.asarray(lo, dtype=float)
+        hi_a = np.asarray(hi, dtype=float)
+        out = np.minimum(f(lo_a), f(hi_a))
+        for bp in self.curve_speed_pps[1:-1]:
+            inside = (lo_a < bp) & (bp < hi_a)
+            out = np.where(inside, np.minimum(out, f(bp)), out)
+        return out if out.ndim else float(out)
+
+    # --- file format ------------------------------------------------------
+    def to_json(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"format": FORMAT}
+        if self.name:
+            out["name"] = self.name
+        out.update(steps_per_rev=self.steps_per_rev,
+                   pullout_torque=[[float(v), float(t)] for v, t in
+                                   zip(self.curve_speed_pps, self.curve_torque_nm, strict=True)],
+                   inertia_kgm2=self.inertia_kgm2, friction_torque_nm=self.friction_torque_nm,
+                   safety_factor=self.safety_factor, start_pps=self.start_pps)
+        for key in ("max_jump_pps", "max_pps", "max_jerk_pps3", "holding_torque_nm",
+                    "rotor_teeth"):
+            if getattr(self, key) is not None:
+                out[key] = getattr(self, key)
+        return out
+
+    @classmethod
+    def from_json(cls, obj: Any) -> Motor:
+        if not isinstance(obj, dict):
+            raise FormatError("a motor file holds one JSON object")
+        if obj.get("format") != FORMAT:
+            raise FormatError(f"format: expected {FORMAT!r}, got {obj.get('format')!r}")
+        unknown = set(obj) - _REQUIRED - _OPTIONAL
+        if unknown:
+            raise FormatError(f"unknown key(s) in motor file: {', '.join(sorted(unknown))}")
+        missing = _REQUIRED - set(obj)
+        if missing:
+            raise FormatError(f"missing key(s) in motor file: {', '.join(sorted(missing))}")
+        curve = obj["pullout_torque"]
+        if not isinstance(curve, list) or not all(
+                isinstance(p, list) and len(p) == 2 and all(_is_num(x) for x in p) for p in curve):
+            raise FormatError("pullout_torque: expected a list of [speed_pps, torque_nm] pairs")
+        for key in (_REQUIRED | _OPTIONAL) - {"format", "pullout_torque", "name"}:
+            if key in obj and not _is_num(obj[key]):
+                raise FormatError(f"{key}: expected a number, got {obj[key]!r}")
+        if not isinstance(obj["steps_per_rev"], int):
+            raise FormatError("steps_per_rev: expected an integer")
+        return cls(steps_per_rev=obj["steps_per_rev"],
+                   curve_speed_pps=np.array([p[0] for p in curve], dtype=float),
+                   curve_torque_nm=np.array([p[1] for p in curve], dtype=float),
+                   inertia_kgm2=float(obj["inertia_kgm2"]),
+                   safety_factor=float(obj["safety_factor"]),
+                   start_pps=float(obj["start_pps"]),
+                   friction_torque_nm=float(obj.get("friction_torque_nm", 0.0)),
+                   max_jump_pps=_opt(obj, "max_jump_pps"), max_pps=_opt(obj, "max_pps"),
+                   max_jerk_pps3=_opt(obj, "max_jerk_pps3"), name=str(obj.get("name", "")),
+                   holding_torque_nm=_opt(obj, "holding_torque_nm"),
+                   rotor_teeth=int(obj["rotor_teeth"]) if "rotor_teeth" in obj else None)
+
+
+def load_motor(path: str | Path) -> Motor:
+    return Motor.from_json(read_json(path))
+
+
+def bundled_motor_paths() -> list[Path]:
+    """The example motors shipped with stepramp."""
+    return sorted((Path(__file__).parent / "data").glob("motor-*.json"))
+
+
+def _is_num(x: Any) -> bool:
+    return not isinstance(x, bool) and isinstance(x, int | float) and math.isfinite(x)
+
+
+def _opt(obj: dict[str, Any], key: str) -> float | None:
+    return float(obj[key]) if key in obj else None
+
+
+def _positive(name: str, value: float, lo: float, hi: float) -> None:
+    if not lo <= value <= hi:
+        raise FieldRangeError(name, value, lo, hi)

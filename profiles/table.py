@@ -1,0 +1,241 @@
+"""PPMC-312 acceleration tables and their JSON file format (`stepramp.table/1`).
+
+Two kinds, as the chip has two ways to get a table:
+- `FreeCurveTable`: every stage given (free-curve command 01). `rates` and
+  the pulse counts are listed fastest (smallest rate) first, as uploaded.
+- `InitTable`: the init command (00) parameters; the chip builds the stages.
+
+Loading refuses what cannot even be represented on the wire (a value that does
+not fit its byte field, a negative count, an unknown key: `StepRampError`).
+What fits the wire but breaks a chip rule (rate 1, 200 stages, a stage of
+1 pulse …) loads fine and is reported by `verify.checks`, with the chip's code.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from .clock import Clock
+from .errors import FieldRangeError, FormatError
+
+FORMAT = "stepramp.table/1"
+DEVICE = "ppmc312"
+
+# Wire widths (SPEC §1.3–1.4): what a field can carry at all.
+RATE_FIELD_MAX = 0xFFFF          # 2-byte rate entries
+PULSES_FIELD_MAX = 0xFFFFFF      # 3-byte pulse counts
+STAGE_COUNT_FIELD_MAX = 0xFF     # 1-byte stage counts
+
+Shape = Literal["linear", "s_curve"]
+
+
+@dataclass(frozen=True)
+class FreeCurveTable:
+    clock: Clock
+    rates: tuple[int, ...]
+    accel_pulses: tuple[int, ...]
+    decel_pulses: tuple[int, ...] | None = None
+
+    kind = "free_curve"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "rates", _ints("rates", self.rates, RATE_FIELD_MAX))
+        object.__setattr__(self, "accel_pulses",
+                           _ints("accel_pulses", self.accel_pulses, PULSES_FIELD_MAX))
+        if self.decel_pulses is not None:
+            object.__setattr__(self, "decel_pulses",
+                               _ints("decel_pulses", self.decel_pulses, PULSES_FIELD_MAX))
+        for name, seq in self._lists():
+            if len(seq) > STAGE_COUNT_FIELD_MAX:
+                raise FieldRangeError(f"{name} (stage count)", len(seq), 0, STAGE_COUNT_FIELD_MAX)
+        # Shared-rate reading (docs/manual-notes.md): there is one rate entry per
+        # stage of the longer side; each side uses the fastest stages it counts.
+        longest = max(len(self.accel_pulses), len(self.decel_pulses or ()))
+        if len(self.rates) != longest:
+            raise FormatError(f"rates: {len(self.rates)} entries, but the longer pulse list has "
+                              f"{longest} stages; give one rate per stage of the longer side")
+
+    def _lists(self) -> list[tuple[str, tuple[int, ...]]]:
+        out = [("rates", self.rates), ("accel_pulses", self.accel_pulses)]
+        if self.decel_pulses is not None:
+            out.append(("decel_pulses", self.decel_pulses))
+        return out
+
+    @property
+    def separate(self) -> bool:
+        """LE bit: separate accel/decel pulse counts."""
+        return self.decel_pulses is not None
+
+    @property
+    def decel(self) -> tuple[int, ...]:
+        """Decel pulse counts as the chip runs them (the accel counts when LE=0)."""
+        return self.accel_pulses if self.decel_pulses is None else self.decel_pulses
+
+    @property
+    def accel_total(self) -> int:
+        return sum(self.accel_pulses)
+
+    @property
+    def decel_total(self) -> int:
+        return sum(self.decel)
+
+    def speeds_pps(self) -> np.ndarray:
+        """Stage speeds, fastest first (same order as `rates`)."""
+        return self.clock.hz / np.asarray(self.rates, dtype=float)
+
+    def to_json(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"format": FORMAT, "device": DEVICE, "kind": self.kind,
+                               "clock": self.clock.to_json(), "rates": list(self.rates),
+                               "accel_pulses": list(self.accel_pulses)}
+        if self.decel_pulses is not None:
+            out["decel_pulses"] = list(self.decel_pulses)
+        return out
+
+
+@dataclass(frozen=True)
+class InitTable:
+    clock: Clock
+    shape: Shape
+    start_rate: int
+    high_rate: int
+    accel_pulses: int
+    stop_rate: int | None = None
+    decel_pulses: int | None = None
+
+    kind = "init"
+
+    def __post_init__(self) -> None:
+        if self.shape not in ("linear", "s_curve"):
+            raise FormatError(f"shape: {self.shape!r} is not 'linear' or 's_curve'")
+        if (self.stop_rate is None) != (self.decel_pulses is None):
+            raise FormatError("stop_rate and decel_pulses go together (both give LE=1)")
+        for name, hi in (("start_rate", RATE_FIELD_MAX), ("high_rate", RATE_FIELD_MAX),
+                         ("accel_pulses", PULSES_FIELD_MAX), ("stop_rate", RATE_FIELD_MAX),
+                         ("decel_pulses", PULSES_FIELD_MAX)):
+            value = getattr(self, name)
+            if value is not None:
+                object.__setattr__(self, name, _int_field(name, value, hi))
+
+    @property
+    def separate(self) -> bool:
+        return self.stop_rate is not None
+
+    @property
+    def effective_stop_rate(self) -> int:
+        return self.start_rate if self.stop_rate is None else self.stop_rate
+
+    @property
+    def effective_decel_pulses(self) -> int:
+        return self.accel_pulses if self.decel_pulses is None else self.decel_pulses
+
+    def to_json(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"format": FORMAT, "device": DEVICE, "kind": self.kind,
+                               "clock": self.clock.to_json(), "shape": self.shape,
+                               "start_rate": self.start_rate, "high_rate": self.high_rate,
+                               "accel_pulses": self.accel_pulses}
+        if self.stop_rate is not None:
+            out["stop_rate"] = self.stop_rate
+            out["decel_pulses"] = self.decel_pulses
+        return out
+
+
+Table = FreeCurveTable | InitTable
+
+_COMMON = {"format", "device", "kind", "clock"}
+_KEYS = {
+    "free_curve": (_COMMON | {"rates", "accel_pulses"}, {"decel_pulses"}),
+    "init": (_COMMON | {"shape", "start_rate", "high_rate", "accel_pulses"},
+             {"stop_rate", "decel_pulses"}),
+}
+
+
+def table_from_json(obj: Any) -> Table:
+    """Build a table from a parsed `stepramp.table/1` object, refusing anything else."""
+    if not isinstance(obj, dict):
+        raise FormatError("a table file holds one JSON object")
+    if obj.get("format") != FORMAT:
+        raise FormatError(f"format: expected {FORMAT!r}, got {obj.get('format')!r}")
+    if obj.get("device") != DEVICE:
+        raise FormatError(f"device: expected {DEVICE!r}, got {obj.get('device')!r}")
+    kind = obj.get("kind")
+    if kind not in _KEYS:
+        raise FormatError(f"kind: expected 'free_curve' or 'init', got {kind!r}")
+    required, optional = _KEYS[kind]
+    unknown = set(obj) - required - optional
+    if unknown:
+        raise FormatError(f"unknown key(s) for a {kind} table: {', '.join(sorted(unknown))} "
+                          f"(allowed: {', '.join(sorted(required | optional))})")
+    missing = required - set(obj)
+    if missing:
+        raise FormatError(f"missing key(s) for a {kind} table: {', '.join(sorted(missing))}")
+    clock = Clock.from_json(obj["clock"])
+    if kind == "free_curve":
+        decel = obj.get("decel_pulses")
+        return FreeCurveTable(clock, _list(obj, "rates"), _list(obj, "accel_pulses"),
+                              None if decel is None else _list(obj, "decel_pulses"))
+    if ("stop_rate" in obj) != ("decel_pulses" in obj):
+        raise FormatError("stop_rate and decel_pulses go together (both give LE=1)")
+    return InitTable(clock, obj["shape"], _int(obj, "start_rate"), _int(obj, "high_rate"),
+                     _int(obj, "accel_pulses"),
+                     _int(obj, "stop_rate") if "stop_rate" in obj else None,
+                     _int(obj, "decel_pulses") if "decel_pulses" in obj else None)
+
+
+def load_table(path: str | Path) -> Table:
+    """Read a table file; every problem is a one-line `StepRampError`."""
+    return table_from_json(read_json(path))
+
+
+def dump_table(table: Table) -> str:
+    return json.dumps(table.to_json(), indent=1) + "\n"
+
+
+def read_json(path: str | Path) -> Any:
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise FormatError(f"{p}: no such file") from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise FormatError(f"{p}: cannot read ({e.__class__.__name__}: {e})") from None
+    if not text.strip():
+        raise FormatError(f"{p}: the file is empty")
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as e:
+        raise FormatError(f"{p}: not valid JSON (line {e.lineno}, column {e.colno}: {e.msg})"
+                          ) from None
+
+
+def _list(obj: dict[str, Any], key: str) -> list[int]:
+    value = obj[key]
+    if not isinstance(value, list):
+        raise FormatError(f"{key}: expected a list of integers, got {type(value).__name__}")
+    for i, v in enumerate(value):
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise FormatError(f"{key}[{i}]: expected an integer, got {v!r}")
+    return value
+
+
+def _int(obj: dict[str, Any], key: str) -> int:
+    v = obj[key]
+    if isinstance(v, bool) or not isinstance(v, int):
+        raise FormatError(f"{key}: expected an integer, got {v!r}")
+    return v
+
+
+def _int_field(label: str, v: Any, hi: int) -> int:
+    if isinstance(v, bool) or not isinstance(v, int | np.integer):
+        raise FormatError(f"{label}: expected an integer, got {v!r}")
+    if not 0 <= v <= hi:
+        raise FieldRangeError(label, int(v), 0, hi)
+    return int(v)
+
+
+def _ints(name: str, values: Any, hi: int) -> tuple[int, ...]:
+    return tuple(_int_field(f"{name}[{i}]", v, hi) for i, v in enumerate(values))

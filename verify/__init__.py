@@ -1,0 +1,1 @@
+"""stepramp.verify: chip-rule checks, simulation, comparison and the CLI."""
