@@ -23,7 +23,8 @@ class FieldRangeError(StepRampError, ValueError):
         self.value = value
         self.lo = lo
         self.hi = hi
-        super().__init__(f"{field}: {_show(value)} is outside the allowed range {_show(lo)}..{_show(hi)}")
+        super().__init__(f"{field}: {_show(value)} is outside the allowed range "
+                         f"{_show(lo)}..{_show(hi)}")
 
 
 class DecodeError(StepRampError, ValueError):
