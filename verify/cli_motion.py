@@ -53,7 +53,8 @@ def cmd_plan(args: argparse.Namespace) -> int:
     from profiles.clock import Clock
     from profiles.motor import load_motor
     from profiles.table import dump_table
-    from verify.cli import EXIT_OK, write_output
+    from verify.cli import EXIT_OK
+    from verify.output import write_output
 
     motor = load_motor(args.motor)
     clock = Clock.internal(args.clock) if args.clock else None
@@ -95,7 +96,8 @@ def cmd_plan(args: argparse.Namespace) -> int:
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     from profiles.table import load_table
-    from verify.cli import EXIT_OK, write_output
+    from verify.cli import EXIT_OK
+    from verify.output import write_output
     from verify.simulate import simulate_move, to_csv
 
     execution = simulate_move(load_table(args.table), args.pulses, high_rate=args.high_rate)
@@ -117,8 +119,9 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 def cmd_compare(args: argparse.Namespace) -> int:
     from profiles.motor import load_motor
     from profiles.table import load_table
-    from verify.cli import EXIT_OK, write_output
+    from verify.cli import EXIT_OK
     from verify.compare import compare_table
+    from verify.output import write_output
 
     names = tuple(n.strip() for n in args.references.split(",") if n.strip())
     unknown = set(names) - {"toppra", "ruckig", "casadi"}
