@@ -1,0 +1,7 @@
+"""Continuous time-optimal references for a rest-to-rest move: exact oracle, toppra,
+ruckig and casadi (toppra, casadi and ruckig are imported lazily, inside the solvers)."""
+
+from ._common import MoveLimits, Reference, ReferenceSolveError, move_limits
+from .exact import exact_optimum
+
+__all__ = ["MoveLimits", "Reference", "ReferenceSolveError", "exact_optimum", "move_limits"]
