@@ -1,0 +1,375 @@
+"""What the PPMC-312 runs for an accel/decel move (command 82): a model, per stage.
+
+The chip walks a staircase of (rate, pulse count) stages. This module turns a
+table and a move's pulse count into the segments the chip outputs, in exact
+integer clock ticks (a segment of `pulses` at `rate` lasts `pulses × rate`
+ticks), the response status it reports and the first-pulse latency
+(manual §8-3, SPEC §1.6). It never iterates per pulse: a 0xFFFFFFFF-pulse move
+is a handful of segments.
+
+Shapes (choices where the manual is silent: docs/notes/simulate.md):
+- trapezoid, pulses ≥ accel total + decel total: accel stages slowest →
+  fastest, cruise at the high rate, decel stages fastest → slowest.
+- triangle, fewer pulses but ≥ the rate-difference pulses (the pulses of the
+  stages one side has beyond the other, LE=1): the longer side runs its extra
+  stages whole; the rest is split between the shared stages in the table's
+  accel:decel ratio (accel share rounded down); accel runs the first pulses of
+  its staircase, decel the last pulses of its staircase (the chip decelerates by
+  pulses remaining: manual §8-10, "the decel point stays the same").
+- straight triangle, fewer pulses than the rate-difference pulses: start →
+  accel → stop (accel side longer: the first pulses of its extra stages) or
+  start → decel → stop (decel side longer: the last pulses of its extra stages).
+- high-rate override: a high rate slower than the accel side's 2nd stage cannot
+  accelerate (straight triangle decel: the move runs at the slower of the high
+  and start rates, then down the decel stages slower than that); otherwise the
+  stages faster than the high rate are dropped and the cruise runs at it.
+
+Time origin: t = 0 is the start of the first pulse's period; a pulse counts as
+emitted at the END of its period, so `position_at(0) == 0` and the last pulse
+lands exactly at `duration_s`. The first-pulse latency is reported apart.
+"""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+
+from profiles.clock import Clock
+from profiles.errors import FieldRangeError, StepRampError
+from profiles.table import RATE_FIELD_MAX, STAGE_COUNT_FIELD_MAX, FreeCurveTable, InitTable
+
+Phase = Literal["accel", "cruise", "decel"]
+Shape = Literal["trapezoid", "triangle", "straight_triangle_decel", "straight_triangle_accel"]
+
+MOVE_PULSES_MAX = 0xFFFFFFFF
+STATUS: dict[str, int] = {"trapezoid": 0x00, "triangle": 0x10,
+                          "straight_triangle_decel": 0x20, "straight_triangle_accel": 0x40}
+HELD_BY_RUN = 0x01
+# Manual §8-3 table: time from the last parameter written to the first pulse.
+LATENCY_S: dict[tuple[bool, bool], float] = {
+    # (is_trapezoid, high_rate_given): seconds
+    (True, False): 100e-6, (False, False): 700e-6,
+    (True, True): 900e-6, (False, True): 1400e-6,
+}
+CHIP_RATE_OUT_OF_RANGE = 0x20   # parameter error: pulse rate setting out of range (§11-6)
+CHIP_BAD_PULSE_COUNT = 0x23     # parameter error: the move's pulse count is wrong (§11-6)
+
+
+class MoveParameterError(FieldRangeError):
+    """A move parameter the chip would refuse with parameter error `chip_code` (response F0)."""
+
+    def __init__(self, field_name: str, value: object, lo: int, hi: int, chip_code: int) -> None:
+        super().__init__(field_name, value, lo, hi)
+        self.chip_code = chip_code
+        self.args = (f"{self.args[0]} (the chip answers F0 {chip_code:02X})",)
+
+
+@dataclass(frozen=True)
+class Segment:
+    """`pulses` pulses at divisor `rate`, starting `start_tick` clock ticks after t = 0."""
+
+    phase: Phase
+    rate: int
+    pulses: int
+    start_tick: int
+
+    @property
+    def ticks(self) -> int:
+        return self.pulses * self.rate
+
+    @property
+    def end_tick(self) -> int:
+        return self.start_tick + self.ticks
+
+
+@dataclass(frozen=True)
+class Execution:
+    """One accel/decel move as the chip runs it (see the module docstring)."""
+
+    shape: str
+    status: int
+    segments: list[Segment]
+    pulses: int
+    clock: Clock
+    high_rate: int          # the rate the cruise would run at (after any override)
+    high_rate_given: bool   # a non-zero high rate in the command (longer latency)
+    held_by_run: bool = False
+    ticks: int = field(init=False)
+    _rate: np.ndarray = field(init=False, repr=False, compare=False)
+    _count: np.ndarray = field(init=False, repr=False, compare=False)
+    _start: np.ndarray = field(init=False, repr=False, compare=False)
+    _before: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        rate = np.array([s.rate for s in self.segments], dtype=np.int64)
+        count = np.array([s.pulses for s in self.segments], dtype=np.int64)
+        ticks = rate * count
+        start = np.concatenate([[0], np.cumsum(ticks)[:-1]]) if len(ticks) else ticks
+        object.__setattr__(self, "ticks", int(ticks.sum()))
+        object.__setattr__(self, "_rate", rate)
+        object.__setattr__(self, "_count", count)
+        # Ticks stay below 2**53 (0xFFFFFFFF × 0xFFFF ≈ 2.8e14): exact as float64.
+        object.__setattr__(self, "_start", start.astype(float))
+        object.__setattr__(self, "_before",
+                           np.concatenate([[0], np.cumsum(count)[:-1]]) if len(count) else count)
+
+    # --- summary ----------------------------------------------------------
+    @property
+    def duration_s(self) -> float:
+        """From the start of the first pulse's period to the end of the last one."""
+        return self.ticks / self.clock.hz
+
+    @property
+    def first_pulse_latency_s(self) -> float:
+        return LATENCY_S[(self.shape == "trapezoid", self.high_rate_given)]
+
+    @property
+    def status_hex(self) -> str:
+        return f"0x{self.status:02X}"
+
+    # --- time queries (vectorised, per segment) ----------------------------
+    def _locate(self, t_s: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Ticks since t = 0 (snapped to whole ticks when within float noise) and the
+        index of the segment whose span [start, end) holds them (clipped to valid)."""
+        ticks = np.asarray(t_s, dtype=float) * self.clock.hz
+        whole = np.rint(ticks)
+        # t = k / hz round-trips to k·(1 ± 2ε): snap it so exact pulse instants count.
+        ticks = np.where(np.abs(ticks - whole) <= 4 * np.spacing(np.abs(ticks)), whole, ticks)
+        idx = np.searchsorted(self._start, ticks, side="right") - 1
+        return ticks, np.clip(idx, 0, max(len(self.segments) - 1, 0))
+
+    def position_at(self, t_s: Any) -> np.ndarray:
+        """Pulses emitted by time `t_s` (a pulse counts at the end of its period)."""
+        ticks, idx = self._locate(t_s)
+        if not self.segments:
+            return np.zeros(np.shape(ticks), dtype=np.int64)
+        within = np.floor((ticks - self._start[idx]) / self._rate[idx])
+        within = np.clip(within, 0, self._count[idx])
+        pos = self._before[idx] + within.astype(np.int64)
+        pos = np.where(ticks <= 0, 0, pos)
+        return np.where(ticks >= self.ticks, self.pulses, pos).astype(np.int64)
+
+    def position_linear_at(self, t_s: Any) -> np.ndarray:
+        """The staircase integrated continuously: linear within each segment, equal to
+        `position_at` at every pulse instant and above it between them."""
+        ticks, idx = self._locate(t_s)
+        if not self.segments:
+            return np.zeros(np.shape(ticks))
+        within = np.clip((ticks - self._start[idx]) / self._rate[idx], 0, self._count[idx])
+        pos = self._before[idx] + within
+        pos = np.where(ticks <= 0, 0.0, pos)
+        return np.where(ticks >= self.ticks, float(self.pulses), pos)
+
+    def speed_at(self, t_s: Any) -> np.ndarray:
+        """The staircase speed in pps: the running segment's clock.hz / rate, 0 outside
+        [0, duration)."""
+        ticks, idx = self._locate(t_s)
+        if not self.segments:
+            return np.zeros(np.shape(ticks))
+        speed = self.clock.hz / self._rate[idx]
+        return np.where((ticks >= 0) & (ticks < self.ticks), speed, 0.0)
+
+    def segment_accel_pps2(self) -> np.ndarray:
+        """Per segment: the slope from its start (time, speed) to the next segment's
+        start, i.e. the finite difference of the staircase's stage starts; 0 for the
+        last segment. The jumps from rest and back to rest are not included."""
+        if not self.segments:
+            return np.zeros(0)
+        speed = self.clock.hz / self._rate
+        dur = self._rate * self._count / self.clock.hz
+        out = np.zeros(len(speed))
+        out[:-1] = np.diff(speed) / np.where(dur[:-1] > 0, dur[:-1], np.inf)
+        return out
+
+    def sample(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """`n` equally spaced instants over [0, duration]: (t_s, pulses emitted, staircase
+        speed_pps, accel_pps2 from `segment_accel_pps2`; 0 outside the move)."""
+        if isinstance(n, bool) or not isinstance(n, int | np.integer) or not 2 <= n <= 10**8:
+            raise FieldRangeError("sample n", n, 2, 10**8)
+        t = np.linspace(0.0, self.duration_s, int(n))
+        ticks, idx = self._locate(t)
+        a = self.segment_accel_pps2()[idx] if self.segments else np.zeros(len(t))
+        a = np.where((ticks >= 0) & (ticks < self.ticks), a, 0.0)
+        return t, self.position_at(t), self.speed_at(t), a
+
+    def pulse_times_s(self, limit: int = 10_000_000) -> np.ndarray:
+        """The instant of every pulse (end of its period), built with repeat/cumsum.
+        Refuses moves of more than `limit` pulses rather than exhausting memory."""
+        if self.pulses > limit:
+            raise FieldRangeError("pulse_times_s: move pulses (raise limit= to allow)",
+                                  self.pulses, 0, limit)
+        period = np.repeat(self._rate, self._count)
+        return np.cumsum(period) / self.clock.hz
+
+    # --- output -------------------------------------------------------------
+    def to_json(self) -> dict[str, Any]:
+        return {"shape": self.shape, "status": self.status, "status_hex": self.status_hex,
+                "held_by_run": self.held_by_run, "pulses": self.pulses,
+                "clock": self.clock.to_json(), "high_rate": self.high_rate,
+                "high_rate_given": self.high_rate_given, "ticks": self.ticks,
+                "duration_s": self.duration_s,
+                "first_pulse_latency_s": self.first_pulse_latency_s,
+                "segments": [{"phase": s.phase, "rate": s.rate,
+                              "speed_pps": self.clock.speed_pps(s.rate), "pulses": s.pulses,
+                              "start_tick": s.start_tick, "end_tick": s.end_tick}
+                             for s in self.segments]}
+
+
+def to_csv(execution: Execution) -> str:
+    """One line per segment: phase, rate, speed_pps, pulses, start/end tick and seconds."""
+    out = io.StringIO()
+    out.write("phase,rate,speed_pps,pulses,start_tick,end_tick,start_s,end_s\n")
+    hz = execution.clock.hz
+    for s in execution.segments:
+        out.write(f"{s.phase},{s.rate},{execution.clock.speed_pps(s.rate)!r},{s.pulses},"
+                  f"{s.start_tick},{s.end_tick},{s.start_tick / hz!r},{s.end_tick / hz!r}\n")
+    return out.getvalue()
+
+
+# --- the chip's move model ------------------------------------------------------
+
+Stage = tuple[int, int, int]  # (index in the fastest-first lists, rate, pulses)
+
+
+def simulate_move(table: FreeCurveTable | InitTable, pulses: int, *, high_rate: int = 0,
+                  held_by_run: bool = False) -> Execution:
+    """The accel/decel move (82) of `pulses` pulses with `table` loaded.
+
+    `high_rate` 0 runs the table's fastest stage; otherwise it must lie within the
+    table's rate range. `held_by_run` (RUN low at the start) adds 1 to the status.
+    """
+    if isinstance(table, InitTable):
+        from profiles.init_model import expand_init
+
+        table = expand_init(table)
+    if not isinstance(table, FreeCurveTable):
+        raise StepRampError(f"table: expected a FreeCurveTable or InitTable, got "
+                            f"{type(table).__name__}")
+    _check_pulses(pulses)
+    pulses = int(pulses)
+    rates = table.rates
+    acc = [(i, rates[i], p) for i, p in enumerate(table.accel_pulses)]
+    dec = [(i, rates[i], p) for i, p in enumerate(table.decel)]
+    for name, side in (("accel", acc), ("decel", dec)):
+        if not side:
+            raise FieldRangeError(f"{name} stage count", 0, 1, STAGE_COUNT_FIELD_MAX)
+    for i, r in enumerate(rates):
+        if r < 1:
+            raise FieldRangeError(f"rates[{i}]", r, 1, RATE_FIELD_MAX)
+    lo, hi = min(rates), max(rates)
+    if isinstance(high_rate, bool) or not isinstance(high_rate, int | np.integer) or (
+            high_rate != 0 and not lo <= high_rate <= hi):
+        raise MoveParameterError("high_rate (0 = the table's)", high_rate, lo, hi,
+                                 CHIP_RATE_OUT_OF_RANGE)
+    high_rate = int(high_rate)
+    given = high_rate != 0
+    if given and len(acc) >= 2 and high_rate > acc[-2][1]:
+        shape, plan = _no_accel(acc, dec, pulses, high_rate)
+        cruise_rate = max(high_rate, acc[-1][1])
+    else:
+        cruise_rate = high_rate if given else rates[0]
+        if given:  # stages faster than the high rate are never reached
+            acc = [s for s in acc if s[1] >= high_rate]
+            dec = [s for s in dec if s[1] >= high_rate]
+        shape, plan = _shape(acc, dec, pulses, cruise_rate, min(len(table.accel_pulses),
+                                                                len(table.decel)))
+    segments: list[Segment] = []
+    tick = 0
+    for phase, rate, count in plan:
+        if count <= 0:
+            continue
+        if segments and segments[-1].phase == phase and segments[-1].rate == rate:
+            last = segments.pop()  # e.g. clamped decel pulses at the peak rate: one segment
+            segments.append(Segment(phase, rate, last.pulses + count, last.start_tick))
+        else:
+            segments.append(Segment(phase, rate, count, tick))
+        tick += rate * count
+    status = STATUS[shape] + (HELD_BY_RUN if held_by_run else 0)
+    return Execution(shape=shape, status=status, segments=segments, pulses=pulses,
+                     clock=table.clock, high_rate=cruise_rate, high_rate_given=given,
+                     held_by_run=bool(held_by_run))
+
+
+Plan = list[tuple[Phase, int, int]]
+
+
+def _shape(acc: list[Stage], dec: list[Stage], pulses: int, cruise_rate: int,
+           shared: int) -> tuple[Shape, Plan]:
+    """Trapezoid / triangle / straight triangle for sides listed fastest first; stages
+    with index ≥ `shared` belong to one side only (the rate-difference stages)."""
+    a_total = sum(p for _, _, p in acc)
+    d_total = sum(p for _, _, p in dec)
+    acc_extra = [s for s in acc if s[0] >= shared]
+    dec_extra = [s for s in dec if s[0] >= shared]
+    acc_shared = [s for s in acc if s[0] < shared]
+    dec_shared = [s for s in dec if s[0] < shared]
+    rate_diff = sum(p for _, _, p in acc_extra) + sum(p for _, _, p in dec_extra)
+    if pulses >= a_total + d_total:
+        cruise: Plan = [("cruise", cruise_rate, pulses - a_total - d_total)]
+        return "trapezoid", _up(acc, a_total) + cruise + _down(dec, d_total)
+    if pulses >= rate_diff:
+        rest = pulses - rate_diff
+        a_sh = sum(p for _, _, p in acc_shared)
+        d_sh = sum(p for _, _, p in dec_shared)
+        # The chip keeps the table's accel:decel ratio; the accel share rounds down.
+        q_acc = rest * a_sh // (a_sh + d_sh) if a_sh + d_sh else 0
+        q_dec = rest - q_acc
+        up = _up(acc_extra, rate_diff if acc_extra else 0) + _up(acc_shared, q_acc)
+        down = _down(dec_shared, q_dec) + _down(dec_extra, rate_diff if dec_extra else 0)
+        if up:
+            # With LE=1 the split can end the accel below the stage the decel share starts
+            # on; decelerating never speeds up, so those decel pulses run at the peak rate.
+            peak = min(rate for _, rate, _ in up)
+            down = [(phase, max(rate, peak), n) for phase, rate, n in down]
+        return "triangle", up + down
+    if any(p for _, _, p in acc_extra):
+        return "straight_triangle_accel", _up(acc_extra, pulses)
+    return "straight_triangle_decel", _down(dec_extra, pulses)
+
+
+def _no_accel(acc: list[Stage], dec: list[Stage], pulses: int,
+              high_rate: int) -> tuple[Shape, Plan]:
+    """High rate slower than the 2nd stage: the chip cannot accelerate (manual §8-3)."""
+    level = max(high_rate, acc[-1][1])  # never faster than the start rate or the high rate
+    tail = [s for s in dec if s[1] > level]
+    d_total = sum(p for _, _, p in tail)
+    if pulses >= d_total:
+        cruise: Plan = [("cruise", level, pulses - d_total)]
+        return "straight_triangle_decel", cruise + _down(tail, d_total)
+    return "straight_triangle_decel", _down(tail, pulses)
+
+
+def _up(side: Iterable[Stage], count: int) -> Plan:
+    """The first `count` pulses of a side run slowest → fastest (accelerating)."""
+    out: Plan = []
+    for _, rate, p in reversed(list(side)):
+        if count <= 0:
+            break
+        take = min(p, count)
+        if take:
+            out.append(("accel", rate, take))
+        count -= take
+    return out
+
+
+def _down(side: Iterable[Stage], count: int) -> Plan:
+    """The last `count` pulses of a side run fastest → slowest (decelerating)."""
+    out: Plan = []
+    for _, rate, p in reversed(list(side)):  # from the slow end backwards
+        if count <= 0:
+            break
+        take = min(p, count)
+        if take:
+            out.append(("decel", rate, take))
+        count -= take
+    return out[::-1]
+
+
+def _check_pulses(pulses: Any) -> None:
+    if isinstance(pulses, bool) or not isinstance(pulses, int | np.integer) or \
+            not 1 <= pulses <= MOVE_PULSES_MAX:
+        raise MoveParameterError("pulses", pulses, 1, MOVE_PULSES_MAX, CHIP_BAD_PULSE_COUNT)
