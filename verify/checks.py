@@ -1,0 +1,289 @@
+"""PPMC-312 chip-rule checks for tables: findings with the chip's own error codes.
+
+`check_table(table)` returns every rule a table breaks (errors: the chip refuses
+it or cannot output it) and every legal-but-suspect property (warnings), errors
+first, then by stage. Stage numbers index the table's fastest-first lists.
+Stall safety needs a motor and lives in `verify.stall`, not here.
+
+Rules (SPEC §1.3–1.4, manual §7-1, §7-2, §11-6; choices in docs/notes/checks.md):
+
+free curve
+  stage-count       error 0x11  accel (decel) stage count outside 2..127
+  rate-min          error 0x18  a stage rate ≤ 1
+  speed-max         error       clock / rate above 2 Mpps
+  pulses-min        error 0x19  a stage pulse count ≤ 1
+  pulses-field      error       a stage pulse count above 0xFFFFF
+  stage-ticks-min   error       pulses × rate < 256 clock ticks
+  accel-total-max   error 0x1A  accel pulse total above 0xFFFFF
+  decel-total-max   error 0x1A  decel pulse total above 0xFFFFF
+  rates-monotonic   warning     rates not strictly increasing fastest → slowest
+  stage-short       warning     a stage < 1/10 of its neighbours' mean duration
+  stop-speed-high   warning     slowest decel stage ≥ 62.5 kpps (extra pulses)
+  decel-stage-count warning     LE=1 with different accel and decel stage counts
+init
+  rate-range        error 0x01  start/stop outside 0x11..0xFFFF, high outside 2..0xFFEF
+  start-above-high  error 0x03  start or stop ≤ high
+  init-gap          error 0x02  slower of start/stop − high ≤ 127
+                    error 0x04  faster of start/stop − high ≤ 127 (table cannot be built)
+  init-pulses-field error       accel/decel pulses outside 0x10..0xFFFFF
+  init-pulses-min   error       accel/decel pulses < 0x100
+  init-stage-pulses error 0x05  the built table (profiles.init_model) has a stage ≤ 2 pulses
+  speed-max         error       high speed above 2 Mpps
+  stop-speed-high   warning     stop speed ≥ 62.5 kpps
+"""
+
+from __future__ import annotations
+
+import math
+from operator import lt, mul
+
+import numpy as np
+
+from profiles.clock import MAX_OUTPUT_PPS
+from profiles.errors import FormatError
+from profiles.init_model import (
+    HIGH_RATE_MAX,
+    HIGH_RATE_MIN,
+    INIT_PULSES_FIELD_MAX,
+    INIT_PULSES_FIELD_MIN,
+    INIT_PULSES_MIN,
+    MIN_GAP,
+    START_RATE_MAX,
+    START_RATE_MIN,
+    init_stage_problem,
+)
+from profiles.table import FreeCurveTable, InitTable, Table
+
+from .findings import Finding
+
+STAGES_MIN, STAGES_MAX = 2, 127
+STAGE_PULSES_MAX = 0xFFFFF
+TOTAL_PULSES_MAX = 0xFFFFF
+MIN_STAGE_TICKS = 256
+STOP_SPEED_WARN_PPS = 62_500.0   # 8 MHz / 0x80: the chip over-runs at the stop rate
+SHORT_STAGE_FRACTION = 0.1       # a stage under 1/10 of its neighbours' mean duration
+
+
+def check_table(table: Table) -> list[Finding]:
+    """All chip-rule findings for `table`: errors first, then by stage (table-wide first)."""
+    if isinstance(table, FreeCurveTable):
+        out = _check_free_curve(table)
+    elif isinstance(table, InitTable):
+        out = _check_init(table)
+    else:
+        raise FormatError(f"check_table: expected a FreeCurveTable or InitTable, "
+                          f"got {type(table).__name__}")
+    if len(out) > 1:
+        out.sort(key=_order)
+    return out
+
+
+def _order(f: Finding) -> tuple[bool, bool, int]:
+    return (f.severity != "error", f.stage is not None, -1 if f.stage is None else f.stage)
+
+
+def min_rate_for(hz: float) -> int:
+    """Smallest rate whose speed stays ≤ 2 Mpps at clock `hz`."""
+    return max(2, math.ceil(hz / MAX_OUTPUT_PPS - 1e-9))
+
+
+def _stop_rate_min(hz: float) -> int:
+    # Smallest rate whose speed is below 62.5 kpps.
+    return math.floor(hz / STOP_SPEED_WARN_PPS) + 1
+
+
+# --- free curve ----------------------------------------------------------------
+
+def _check_free_curve(t: FreeCurveTable) -> list[Finding]:
+    out: list[Finding] = []
+    rates = t.rates
+    hz = t.clock.hz
+    sides: list[tuple[str, str, tuple[int, ...]]] = [("accel", "accel_pulses", t.accel_pulses)]
+    if t.decel_pulses is not None:
+        sides.append(("decel", "decel_pulses", t.decel_pulses))
+
+    for side, _, pulses in sides:
+        if not STAGES_MIN <= len(pulses) <= STAGES_MAX:
+            out.append(Finding("error", "stage-count",
+                               f"{side} stage count {len(pulses)} is outside {STAGES_MIN}.."
+                               f"{STAGES_MAX}: give {STAGES_MIN} to {STAGES_MAX} stages",
+                               0x11))
+    if t.decel_pulses is not None and len(t.decel_pulses) != len(t.accel_pulses):
+        n_acc, n_dec = len(t.accel_pulses), len(t.decel_pulses)
+        short, n_short = ("decel", n_dec) if n_dec < n_acc else ("accel", n_acc)
+        out.append(Finding("warning", "decel-stage-count",
+                           f"{n_acc} accel stages but {n_dec} decel stages: legal, but the sides "
+                           f"share rates, so {short} uses only the {n_short} fastest rates "
+                           f"(rates[0..{n_short - 1}]) and starts/stops at "
+                           f"{t.clock.speed_pps(rates[n_short - 1]) if n_short else 0:.0f} pps; "
+                           f"give both sides the same count unless that is intended"))
+    if not rates:
+        return out
+
+    # Rates: one min() answers "all fine" for the common case.
+    rmin = min(rates)
+    if rmin <= 1 or hz / rmin > MAX_OUTPUT_PPS:
+        fastest_ok, clk = min_rate_for(hz), t.clock.name
+        for i, r in enumerate(rates):
+            if r <= 1:
+                out.append(Finding("error", "rate-min",
+                                   f"rates[{i}] = {r} is ≤ 1: raise it to ≥ {fastest_ok} "
+                                   f"(≤ 2 Mpps at {clk})", 0x18, i))
+            elif r < fastest_ok:
+                out.append(Finding("error", "speed-max",
+                                   f"rates[{i}] = {r} at {clk} gives {hz / r:.0f} pps > 2 Mpps: "
+                                   f"raise it to ≥ {fastest_ok}", None, i))
+    if not all(map(lt, rates, rates[1:])):
+        for i in range(1, len(rates)):
+            if rates[i] <= rates[i - 1]:
+                what = "repeats" if rates[i] == rates[i - 1] else "is faster than"
+                out.append(Finding("warning", "rates-monotonic",
+                                   f"rates[{i}] = {rates[i]} {what} rates[{i - 1}] = "
+                                   f"{rates[i - 1]}: rates must grow from fastest to slowest; "
+                                   f"make it > {rates[i - 1]} (sort or drop the stage)",
+                                   None, i))
+
+    for side, field, pulses in sides:
+        if not pulses:
+            continue
+        if min(pulses) <= 1:
+            for i, p in enumerate(pulses):
+                if p <= 1:
+                    need = _pulses_needed(rates, i)
+                    out.append(Finding("error", "pulses-min",
+                                       f"{field}[{i}] = {p} is ≤ 1: raise it to ≥ {need}",
+                                       0x19, i))
+        if max(pulses) > STAGE_PULSES_MAX:
+            for i, p in enumerate(pulses):
+                if p > STAGE_PULSES_MAX:
+                    out.append(Finding("error", "pulses-field",
+                                       f"{field}[{i}] = {p} exceeds 0xFFFFF ({STAGE_PULSES_MAX})"
+                                       f": lower it to ≤ {STAGE_PULSES_MAX}", None, i))
+        total = sum(pulses)
+        if total > TOTAL_PULSES_MAX:
+            out.append(Finding("error", f"{side}-total-max",
+                               f"{side} total {total} pulses exceeds 0xFFFFF "
+                               f"({TOTAL_PULSES_MAX}): remove {total - TOTAL_PULSES_MAX} pulses "
+                               f"from {field}", 0x1A))
+        # pulses × rate per stage (a side uses the fastest len(pulses) rates).
+        ticks = list(map(mul, pulses, rates))
+        if min(ticks) < MIN_STAGE_TICKS:
+            clk = t.clock.name
+            for i, (p, r) in enumerate(zip(pulses, rates, strict=False)):
+                if p * r < MIN_STAGE_TICKS and p > 1 and r > 1:
+                    out.append(Finding("error", "stage-ticks-min",
+                                       f"{field}[{i}]: rate {r} at {clk} × {p} pulses = {p * r} "
+                                       f"ticks < {MIN_STAGE_TICKS}: raise the count to "
+                                       f"≥ {_pulses_needed(rates, i)}", None, i))
+        out.extend(_short_stages(side, field, ticks, rates))
+
+    n_dec = len(t.decel)
+    if n_dec and n_dec <= len(rates):
+        r_stop = rates[n_dec - 1]
+        if r_stop > 0 and hz / r_stop >= STOP_SPEED_WARN_PPS:
+            clk = t.clock.name
+            out.append(Finding("warning", "stop-speed-high",
+                               f"slowest decel stage rates[{n_dec - 1}] = {r_stop} at {clk} "
+                               f"stops at {hz / r_stop:.0f} pps ≥ 62500 pps: the chip emits tens "
+                               f"of extra pulses at the stop rate; raise that rate to "
+                               f"≥ {_stop_rate_min(hz)} or add a slower stage", None, n_dec - 1))
+    return out
+
+
+def _pulses_needed(rates: tuple[int, ...], i: int) -> int:
+    r = rates[i] if i < len(rates) else 0
+    return max(2, math.ceil(MIN_STAGE_TICKS / r)) if r > 0 else 2
+
+
+def _short_stages(side: str, field: str, ticks: list[int], rates: tuple[int, ...]
+                  ) -> list[Finding]:
+    n = len(ticks)
+    if n < 2:
+        return []
+    # A short stage is under 1/10 of at least one neighbour: look for such a pair first.
+    tenfold = [10 * x for x in ticks]
+    if not (any(map(lt, tenfold, ticks[1:])) or any(map(lt, tenfold[1:], ticks))):
+        return []
+    t = np.asarray(ticks, dtype=float)
+    neighbour_mean = np.empty(n)
+    neighbour_mean[0], neighbour_mean[-1] = t[1], t[-2]
+    neighbour_mean[1:-1] = (t[:-2] + t[2:]) / 2.0
+    out = []
+    for i in np.flatnonzero(t < SHORT_STAGE_FRACTION * neighbour_mean).tolist():
+        target = SHORT_STAGE_FRACTION * neighbour_mean[i]
+        need = math.ceil(target / rates[i]) if rates[i] > 0 else 2
+        out.append(Finding("warning", "stage-short",
+                           f"{side} stage {i} lasts {ticks[i]} ticks, under 1/10 of its "
+                           f"neighbours' mean {neighbour_mean[i]:.0f} ticks: raise {field}[{i}] "
+                           f"to ≥ {need} or merge the stage into a neighbour", None, i))
+    return out
+
+
+# --- init ------------------------------------------------------------------------
+
+def _check_init(t: InitTable) -> list[Finding]:
+    out: list[Finding] = []
+    hz, clk = t.clock.hz, t.clock.name
+    rate_fields = [("start_rate", t.start_rate, START_RATE_MIN, START_RATE_MAX)]
+    if t.stop_rate is not None:
+        rate_fields.append(("stop_rate", t.stop_rate, START_RATE_MIN, START_RATE_MAX))
+    rate_fields.append(("high_rate", t.high_rate, HIGH_RATE_MIN, HIGH_RATE_MAX))
+    for name, value, lo, hi in rate_fields:
+        if not lo <= value <= hi:
+            fix = f"raise it to ≥ {lo}" if value < lo else f"lower it to ≤ {hi}"
+            out.append(Finding("error", "rate-range",
+                               f"{name} = {value} is outside 0x{lo:X}..0x{hi:X} ({lo}..{hi}): "
+                               f"{fix}", 0x01))
+    rates_ok = not out
+    high = t.high_rate
+    ends = [("start_rate", t.start_rate)]
+    if t.stop_rate is not None:
+        ends.append(("stop_rate", t.stop_rate))
+    # 0x03 first: the chip reports it for start/stop at or below high.
+    low_ends = [(n, v) for n, v in ends if v <= high]
+    for name, value in low_ends:
+        out.append(Finding("error", "start-above-high",
+                           f"{name} = {value} is not slower than high_rate = {high}: raise it "
+                           f"to ≥ {high + MIN_GAP} (high + 0x80)", 0x03))
+    if not low_ends:
+        slow_name, slow = max(ends, key=lambda e: e[1])
+        for name, value in ends:
+            if value - high < MIN_GAP:
+                code = 0x02 if value == slow else 0x04
+                why = ("" if code == 0x02 else
+                       f" (the slower {slow_name} is far enough, but the chip cannot build "
+                       f"the table)")
+                out.append(Finding("error", "init-gap",
+                                   f"{name} − high_rate = {value} − {high} = {value - high} ≤ 127"
+                                   f"{why}: raise {name} to ≥ {high + MIN_GAP} or lower "
+                                   f"high_rate to ≤ {value - MIN_GAP}", code))
+    pulse_fields = [("accel_pulses", t.accel_pulses)]
+    if t.decel_pulses is not None:
+        pulse_fields.append(("decel_pulses", t.decel_pulses))
+    for name, value in pulse_fields:
+        if not INIT_PULSES_FIELD_MIN <= value <= INIT_PULSES_FIELD_MAX:
+            fix = (f"raise it to ≥ {INIT_PULSES_MIN}" if value < INIT_PULSES_FIELD_MIN
+                   else f"lower it to ≤ {INIT_PULSES_FIELD_MAX}")
+            out.append(Finding("error", "init-pulses-field",
+                               f"{name} = {value} is outside 0x10..0xFFFFF "
+                               f"({INIT_PULSES_FIELD_MIN}..{INIT_PULSES_FIELD_MAX}): {fix}"))
+        elif value < INIT_PULSES_MIN:
+            out.append(Finding("error", "init-pulses-min",
+                               f"{name} = {value} is below 0x100 (256): raise it to ≥ 256"))
+    if high > 0 and hz / high > MAX_OUTPUT_PPS:
+        out.append(Finding("error", "speed-max",
+                           f"high_rate = {high} at {clk} gives {hz / high:.0f} pps > 2 Mpps: "
+                           f"raise it to ≥ {min_rate_for(hz)}"))
+    stop = t.effective_stop_rate
+    if stop > 0 and hz / stop >= STOP_SPEED_WARN_PPS:
+        name = "stop_rate" if t.stop_rate is not None else "start_rate (the stop rate, LE=0)"
+        out.append(Finding("warning", "stop-speed-high",
+                           f"{name} = {stop} at {clk} stops at {hz / stop:.0f} pps ≥ 62500 pps: "
+                           f"the chip emits tens of extra pulses at the stop rate; raise it to "
+                           f"≥ {_stop_rate_min(hz)}"))
+    if rates_ok and not any(f.rule in ("start-above-high", "init-gap") for f in out):
+        problem = init_stage_problem(t)
+        if problem is not None:
+            code, reason = problem
+            out.append(Finding("error", "init-stage-pulses", reason, code))
+    return out
