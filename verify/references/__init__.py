@@ -3,5 +3,8 @@ ruckig and casadi (toppra, casadi and ruckig are imported lazily, inside the sol
 
 from ._common import MoveLimits, Reference, ReferenceSolveError, move_limits
 from .exact import exact_optimum
+from .ruckig_ref import ruckig_reference
+from .toppra_ref import toppra_reference
 
-__all__ = ["MoveLimits", "Reference", "ReferenceSolveError", "exact_optimum", "move_limits"]
+__all__ = ["MoveLimits", "Reference", "ReferenceSolveError", "exact_optimum", "move_limits",
+           "ruckig_reference", "toppra_reference"]

@@ -1,0 +1,108 @@
+"""ruckig: jerk-limited rest-to-rest with constant limits, a bracket of the optimum.
+
+ruckig takes scalar limits only, so against a torque curve it brackets the optimum:
+the smallest capability over the speeds used gives a stall-safe (feasible) upper
+bound, the largest capability an infeasible lower bound. Solved in normalised units
+(x/N, t/t_ref): in raw pulses ruckig fails on a few percent of moves.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+import numpy as np
+
+from profiles.errors import FieldRangeError, FormatError
+from profiles.motor import Motor
+
+from ._common import Reference, ReferenceSolveError, move_limits
+
+#: Samples taken from a ruckig trajectory (plus its phase boundaries).
+RUCKIG_SAMPLES = 2001
+
+
+def _max_over(motor: Motor, f: Any, lo: float, hi: float) -> float:
+    """Largest value of a piecewise-linear capability over [lo, hi] (ends or curve points)."""
+    bps = motor.curve_speed_pps
+    speeds = np.concatenate([[lo, hi], bps[(bps > lo) & (bps < hi)]])
+    return float(np.max(f(speeds)))
+
+
+def _limit(name: str, value: float | None, lo: float, hi: float) -> float | None:
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int | float) or not lo <= value <= hi:
+        raise FieldRangeError(name, value, lo, hi)
+    return float(value)
+
+
+def ruckig_reference(motor: Motor, pulses: Any, *, v_max_pps: float | None = None,
+                     a_max_pps2: float | None = None, j_max_pps3: float | None = None,
+                     bound: str = "feasible") -> Reference:
+    """Jerk-limited ruckig move of `pulses` pulses from v0 to v0 with constant limits.
+
+    bound="feasible": accelerate with min a_acc and brake with min a_dec over [v0, v_max]
+    (stall-safe, an upper bound of the optimum's time). bound="optimistic": the largest
+    a_acc and a_dec over [0, v_max] (infeasible in general: a lower bound of the jerk-free
+    optimum). `a_max_pps2` overrides both directions. Jerk: `j_max_pps3`, else the motor's
+    max_jerk_pps3, else none (ruckig's second-order mode: an exact trapezoid).
+    """
+    if bound not in ("feasible", "optimistic"):
+        raise FormatError(f"bound: expected 'feasible' or 'optimistic', got {bound!r}")
+    from ruckig import InputParameter, Result, Ruckig, Trajectory
+
+    start = time.perf_counter()
+    lim = move_limits(motor, pulses)
+    v0 = lim.v0_pps
+    v_max = _limit("v_max_pps", v_max_pps, v0, lim.v_lim_pps) or lim.v_lim_pps
+    a_given = _limit("a_max_pps2", a_max_pps2, 1e-9, 1e15)
+    j_given = _limit("j_max_pps3", j_max_pps3, 1e-9, 1e18)
+    if a_given is not None:
+        a_up = a_down = a_given
+    elif bound == "feasible":
+        a_up = float(motor.min_a_acc_pps2(v0, v_max))
+        a_down = float(motor.min_a_dec_pps2(v0, v_max))
+    else:
+        a_up = _max_over(motor, motor.a_acc_pps2, 0.0, v_max)
+        a_down = _max_over(motor, motor.a_dec_pps2, 0.0, v_max)
+    jerk = j_given if j_given is not None else motor.max_jerk_pps3
+    j_norm = math.inf if jerk is None else jerk / lim.j_ref_pps3
+
+    inp = InputParameter(1)
+    inp.current_position = [0.0]
+    inp.current_velocity = [v0 / lim.v_ref_pps]
+    inp.current_acceleration = [0.0]
+    inp.target_position = [1.0]
+    inp.target_velocity = [v0 / lim.v_ref_pps]
+    inp.target_acceleration = [0.0]
+    inp.max_velocity = [v_max / lim.v_ref_pps]
+    inp.max_acceleration = [a_up / lim.a_ref_pps2]
+    inp.min_acceleration = [-a_down / lim.a_ref_pps2]
+    inp.max_jerk = [j_norm]
+    traj = Trajectory(1)
+    try:
+        result = Ruckig(1).calculate(inp, traj)
+    except RuntimeError as exc:  # ruckig raises RuckigError (a RuntimeError) on bad input
+        raise ReferenceSolveError(f"ruckig: {str(exc).splitlines()[0]}") from exc
+    if result != Result.Working:
+        raise ReferenceSolveError(f"ruckig: calculation failed ({result})")
+    solve_s = time.perf_counter() - start
+
+    duration_n = float(traj.duration)
+    phase_ends = np.cumsum(np.asarray(traj.profiles[0][0].t, dtype=float))
+    t_n = np.unique(np.concatenate([np.linspace(0.0, duration_n, RUCKIG_SAMPLES),
+                                    phase_ends[phase_ends < duration_n]]))
+    pva = np.array([[s[0] for s in traj.at_time(float(t))] for t in t_n])
+    x = pva[:, 0] * lim.pulses
+    x[-1] = lim.pulses
+    v = pva[:, 1] * lim.v_ref_pps
+    v[0] = v[-1] = v0  # ruckig meets the boundary speeds to ~1e-12 relative; pin them
+    a = pva[:, 2] * lim.a_ref_pps2
+    jerk_txt = "none" if jerk is None else f"{jerk:.6g} pps³"
+    info = (f"ruckig {bound}: v_max {v_max:.6g} pps, a +{a_up:.6g}/−{a_down:.6g} pps², "
+            f"jerk {jerk_txt}")
+    return Reference(name=f"ruckig-{bound}", duration_s=duration_n * lim.t_ref_s,
+                     t_s=t_n * lim.t_ref_s, x_pulses=x, v_pps=v, a_pps2=a, solve_s=solve_s,
+                     info=info)
