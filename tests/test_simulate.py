@@ -1,0 +1,297 @@
+"""verify.simulate: the PPMC-312 accel/decel move model (choices: docs/notes/simulate.md)."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from profiles.clock import Clock
+from profiles.errors import FieldRangeError, StepRampError
+from profiles.table import FreeCurveTable, InitTable
+from verify.simulate import (
+    LATENCY_S,
+    MOVE_PULSES_MAX,
+    STATUS,
+    Execution,
+    MoveParameterError,
+    simulate_move,
+    to_csv,
+)
+
+MHZ1 = Clock.internal("1MHz")
+# LE=0, four stages fastest first: 10/20/30/40 pulses at rates 100/200/300/400.
+COMMON = FreeCurveTable(MHZ1, (100, 200, 300, 400), (10, 20, 30, 40))
+# LE=1, accel 5 stages (start rate 500), decel 3 stages (stop rate 300):
+# the rate-difference pulses are accel stages 3 and 4: 40 + 50 = 90.
+LONG_ACCEL = FreeCurveTable(MHZ1, (100, 200, 300, 400, 500), (10, 20, 30, 40, 50), (5, 6, 7))
+# LE=1, decel longer: start rate 300, stop rate 500; rate-difference = 8 + 9 = 17.
+LONG_DECEL = FreeCurveTable(MHZ1, (100, 200, 300, 400, 500), (10, 20, 30), (5, 6, 7, 8, 9))
+
+
+def runs(e: Execution) -> list[tuple[str, int, int]]:
+    return [(s.phase, s.rate, s.pulses) for s in e.segments]
+
+
+# --- shapes and statuses, built by hand --------------------------------------
+
+def test_trapezoid_timeline_by_hand() -> None:
+    e = simulate_move(COMMON, 1000)
+    assert e.shape == "trapezoid" and e.status == 0x00 and e.status_hex == "0x00"
+    assert runs(e) == [("accel", 400, 40), ("accel", 300, 30), ("accel", 200, 20),
+                       ("accel", 100, 10), ("cruise", 100, 800), ("decel", 100, 10),
+                       ("decel", 200, 20), ("decel", 300, 30), ("decel", 400, 40)]
+    by_hand = 2 * (40 * 400 + 30 * 300 + 20 * 200 + 10 * 100) + 800 * 100
+    assert e.ticks == by_hand == 140_000
+    assert e.duration_s == pytest.approx(0.14)
+    starts = [s.start_tick for s in e.segments]
+    assert starts == [0, 16_000, 25_000, 29_000, 30_000, 110_000, 111_000, 115_000, 124_000]
+    assert e.first_pulse_latency_s == pytest.approx(100e-6)
+
+
+def test_exactly_accel_plus_decel_is_a_trapezoid_without_cruise() -> None:
+    e = simulate_move(COMMON, 200)
+    assert e.shape == "trapezoid" and e.status == 0x00
+    assert all(s.phase != "cruise" for s in e.segments)
+    assert sum(s.pulses for s in e.segments) == 200
+
+
+def test_triangle_common_table_splits_half_and_truncates() -> None:
+    e = simulate_move(COMMON, 151)
+    assert e.shape == "triangle" and e.status == 0x10
+    # ratio 100:100, accel share rounded down: 75 accel, 76 decel.
+    assert runs(e) == [("accel", 400, 40), ("accel", 300, 30), ("accel", 200, 5),
+                       ("decel", 200, 6), ("decel", 300, 30), ("decel", 400, 40)]
+    assert e.first_pulse_latency_s == pytest.approx(700e-6)
+
+
+def test_triangle_keeps_table_ratio_le1_same_stage_count() -> None:
+    table = FreeCurveTable(MHZ1, (100, 200, 300), (30, 30, 30), (10, 10, 10))
+    e = simulate_move(table, 80)  # ratio 90:30 → 60 accel, 20 decel
+    acc = sum(s.pulses for s in e.segments if s.phase == "accel")
+    dec = sum(s.pulses for s in e.segments if s.phase == "decel")
+    assert (e.shape, acc, dec) == ("triangle", 60, 20)
+    assert runs(e) == [("accel", 300, 30), ("accel", 200, 30),
+                       ("decel", 200, 10), ("decel", 300, 10)]
+
+
+def test_le1_longer_accel_triangle_and_straight_accel() -> None:
+    e = simulate_move(LONG_ACCEL, 100)
+    # extra 90 accel pulses whole, the other 10 split 60:18 → 7 accel, 3 decel.
+    assert e.shape == "triangle" and e.status == 0x10
+    assert runs(e) == [("accel", 500, 50), ("accel", 400, 40), ("accel", 300, 7),
+                       ("decel", 300, 3)]
+    assert simulate_move(LONG_ACCEL, 90).shape == "triangle"  # == rate-difference pulses
+    s = simulate_move(LONG_ACCEL, 89)
+    assert s.shape == "straight_triangle_accel" and s.status == 0x40
+    assert runs(s) == [("accel", 500, 50), ("accel", 400, 39)]
+    assert s.first_pulse_latency_s == pytest.approx(700e-6)
+    t = simulate_move(LONG_ACCEL, 200)
+    assert t.shape == "trapezoid"
+    assert runs(t)[-3:] == [("decel", 100, 5), ("decel", 200, 6), ("decel", 300, 7)]
+
+
+def test_le1_triangle_decel_never_speeds_up_past_the_accel_peak() -> None:
+    e = simulate_move(LONG_ACCEL, 150)  # accel peaks at rate 200; decel share 14 would
+    peak = min(s.rate for s in e.segments if s.phase == "accel")  # start on stage 0
+    assert peak == 200
+    assert all(s.rate >= peak for s in e.segments if s.phase == "decel")
+    assert sum(s.pulses for s in e.segments) == 150
+
+
+def test_le1_longer_decel_straight_triangle_decel_runs_the_tail() -> None:
+    s = simulate_move(LONG_DECEL, 10)
+    assert s.shape == "straight_triangle_decel" and s.status == 0x20
+    assert runs(s) == [("decel", 400, 1), ("decel", 500, 9)]  # the last 10 of 8 + 9
+    e = simulate_move(LONG_DECEL, 40)
+    assert e.shape == "triangle"
+    assert runs(e)[-2:] == [("decel", 400, 8), ("decel", 500, 9)]
+
+
+def test_held_by_run_adds_one() -> None:
+    for pulses, shape in ((1000, "trapezoid"), (100, "triangle")):
+        e = simulate_move(COMMON, pulses, held_by_run=True)
+        assert e.shape == shape and e.status == STATUS[shape] + 1
+    assert simulate_move(LONG_DECEL, 5, held_by_run=True).status == 0x21
+    assert simulate_move(LONG_ACCEL, 5, held_by_run=True).status == 0x41
+
+
+def test_manual_latency_table() -> None:
+    # Manual §8-3: 100/700 µs without a rate, 900/1400 µs with one.
+    assert simulate_move(COMMON, 1000).first_pulse_latency_s == LATENCY_S[(True, False)] == 100e-6
+    assert simulate_move(COMMON, 50).first_pulse_latency_s == 700e-6
+    assert simulate_move(COMMON, 1000, high_rate=100).first_pulse_latency_s == 900e-6
+    assert simulate_move(COMMON, 50, high_rate=100).first_pulse_latency_s == 1400e-6
+
+
+# --- high-rate override ---------------------------------------------------------
+
+def test_high_rate_equal_to_fastest_stage_is_the_default_motion() -> None:
+    assert runs(simulate_move(COMMON, 1000, high_rate=100)) == runs(simulate_move(COMMON, 1000))
+
+
+def test_high_rate_between_stages_caps_the_staircase() -> None:
+    e = simulate_move(COMMON, 1000, high_rate=250)
+    assert e.shape == "trapezoid" and e.high_rate == 250
+    assert runs(e) == [("accel", 400, 40), ("accel", 300, 30), ("cruise", 250, 860),
+                       ("decel", 300, 30), ("decel", 400, 40)]
+    # The cap shrinks accel + decel to 140: 139 pulses is a triangle.
+    assert simulate_move(COMMON, 139, high_rate=250).shape == "triangle"
+    assert simulate_move(COMMON, 140, high_rate=250).shape == "trapezoid"
+
+
+def test_high_rate_slower_than_second_stage_gives_straight_triangle() -> None:
+    e = simulate_move(COMMON, 500, high_rate=350)  # 2nd stage from the start is 300
+    assert e.shape == "straight_triangle_decel" and e.status == 0x20
+    assert runs(e) == [("cruise", 400, 500)]  # cannot accelerate: stays at the start rate
+    assert e.first_pulse_latency_s == pytest.approx(1400e-6)
+    assert simulate_move(COMMON, 500, high_rate=300).shape == "trapezoid"
+    # Decel side longer: the no-accel move still decelerates down to the stop rate.
+    d = simulate_move(LONG_DECEL, 100, high_rate=250)  # 2nd accel stage is 200
+    assert runs(d) == [("cruise", 300, 83), ("decel", 400, 8), ("decel", 500, 9)]
+
+
+@pytest.mark.parametrize("rate", [99, 401, 0xFFFF, -1])
+def test_high_rate_outside_table_range_is_refused(rate: int) -> None:
+    with pytest.raises(MoveParameterError) as err:
+        simulate_move(COMMON, 100, high_rate=rate)
+    msg = str(err.value)
+    assert "high_rate" in msg and "100 (0x64)..400 (0x190)" in msg and "F0 20" in msg and "\n" not in msg
+
+
+@pytest.mark.parametrize("pulses", [0, -5, MOVE_PULSES_MAX + 1, 1.5, True, "10"])
+def test_pulse_count_range(pulses: object) -> None:
+    with pytest.raises(FieldRangeError, match=r"pulses: .* 1\.\.4294967295"):
+        simulate_move(COMMON, pulses)  # type: ignore[arg-type]
+
+
+def test_full_range_move_is_a_few_segments() -> None:
+    e = simulate_move(COMMON, MOVE_PULSES_MAX)
+    assert len(e.segments) == 9
+    assert sum(s.pulses for s in e.segments) == MOVE_PULSES_MAX
+    assert e.ticks == 2 * 30_000 + (MOVE_PULSES_MAX - 200) * 100
+    assert e.position_at(np.array([e.duration_s]))[0] == MOVE_PULSES_MAX
+    with pytest.raises(StepRampError, match="limit"):
+        e.pulse_times_s()
+
+
+# --- time queries -------------------------------------------------------------
+
+def test_position_speed_and_pulse_times_agree() -> None:
+    e = simulate_move(LONG_ACCEL, 137)
+    times = e.pulse_times_s()
+    assert len(times) == 137 and np.all(np.diff(times) > 0)
+    assert times[-1] == pytest.approx(e.duration_s, abs=0)
+    # At each pulse instant exactly k+1 pulses are out; just before, k.
+    assert np.array_equal(e.position_at(times), np.arange(1, 138))
+    assert np.array_equal(e.position_at(times - 1e-9), np.arange(0, 137))
+    assert e.position_at(0.0) == 0 and e.position_at(-1.0) == 0
+    t = np.linspace(-0.01, e.duration_s + 0.01, 5001)
+    x = e.position_at(t)
+    assert np.all(np.diff(x) >= 0) and x[-1] == 137
+    lin = e.position_linear_at(t)
+    assert np.array_equal(np.floor(lin + 1e-9).astype(np.int64), x)
+    # Speed: the stage's clock / rate inside, 0 outside.
+    v = e.speed_at(np.array([-1e-6, 0.0, times[49] + 1e-9, e.duration_s]))
+    assert v.tolist() == [0.0, 2000.0, 2500.0, 0.0]
+
+
+def test_sample_accel_is_the_stage_start_difference() -> None:
+    e = simulate_move(COMMON, 1000)
+    t, x, v, a = e.sample(1001)
+    assert t[0] == 0 and t[-1] == pytest.approx(e.duration_s)
+    assert x[0] == 0 and x[-1] == 1000 and np.all(np.diff(x) >= 0)
+    # First stage: 2500 pps for 16 ms, next stage 3333.3 pps.
+    assert a[1] == pytest.approx((1e6 / 300 - 1e6 / 400) / 0.016)
+    cruise = (t > 0.031) & (t < 0.109)
+    assert np.all(a[cruise] == 0) and np.all(v[cruise] == 10_000)
+    assert np.all(a[(t > 0.1101) & (t < 0.1239)] < 0)
+    assert np.all(a[t > 0.1241] == 0)  # the last stage has no next stage start: 0
+    with pytest.raises(FieldRangeError):
+        e.sample(1)
+
+
+def test_json_and_csv() -> None:
+    e = simulate_move(LONG_ACCEL, 100)
+    obj = json.loads(json.dumps(e.to_json()))
+    assert obj["shape"] == "triangle" and obj["status"] == 16 and obj["status_hex"] == "0x10"
+    assert obj["ticks"] == e.ticks == 50 * 500 + 40 * 400 + 10 * 300
+    assert obj["pulses"] == 100 and obj["duration_s"] == pytest.approx(0.044)
+    assert [s["pulses"] for s in obj["segments"]] == [50, 40, 7, 3]
+    rows = list(csv.DictReader(io.StringIO(to_csv(e))))
+    assert [r["phase"] for r in rows] == ["accel", "accel", "accel", "decel"]
+    assert int(rows[-1]["end_tick"]) == e.ticks
+    assert float(rows[0]["speed_pps"]) == 2000.0 and float(rows[1]["start_s"]) == 0.025
+    assert all(int(r["end_tick"]) - int(r["start_tick"]) == int(r["pulses"]) * int(r["rate"])
+               for r in rows)
+
+
+def test_bad_tables_are_refused() -> None:
+    with pytest.raises(FieldRangeError, match="rates"):
+        simulate_move(FreeCurveTable(MHZ1, (0, 10), (5, 5)), 3)
+    with pytest.raises(FieldRangeError, match="accel stage count"):
+        simulate_move(FreeCurveTable(MHZ1, (10, 20), (), (5, 5)), 3)
+
+
+def test_init_table_support() -> None:
+    init_model = pytest.importorskip("profiles.init_model")
+    if not hasattr(init_model, "expand_init"):
+        pytest.skip("profiles.init_model.expand_init not there yet")
+    table = InitTable(MHZ1, "linear", start_rate=1000, high_rate=100, accel_pulses=2000)
+    e = simulate_move(table, 10_000)
+    expanded = init_model.expand_init(table)
+    assert runs(e) == runs(simulate_move(expanded, 10_000))
+    assert e.shape == "trapezoid" and e.segments[0].rate == expanded.rates[-1]
+
+
+# --- properties over random tables -------------------------------------------
+
+@st.composite
+def tables(draw: st.DrawFn) -> FreeCurveTable:
+    n_acc = draw(st.integers(1, 8))
+    n_dec = draw(st.integers(1, 8))
+    n = max(n_acc, n_dec)
+    rates = sorted(draw(st.lists(st.integers(2, 5000), min_size=n, max_size=n, unique=True)))
+    counts = st.integers(0, 300)
+    acc = draw(st.lists(counts, min_size=n_acc, max_size=n_acc))
+    if draw(st.booleans()) and n_acc == n:
+        return FreeCurveTable(MHZ1, tuple(rates), tuple(acc))
+    dec = draw(st.lists(counts, min_size=n_dec, max_size=n_dec))
+    return FreeCurveTable(MHZ1, tuple(rates), tuple(acc), tuple(dec))
+
+
+@settings(max_examples=200, deadline=None)
+@given(table=tables(), pulses=st.integers(1, 3000), pick=st.integers(0, 10**6),
+       use_high=st.booleans())
+def test_every_shape_emits_exactly_the_requested_pulses(table: FreeCurveTable, pulses: int,
+                                                        pick: int, use_high: bool) -> None:
+    lo, hi = min(table.rates), max(table.rates)
+    high = lo + pick % (hi - lo + 1) if use_high else 0
+    e = simulate_move(table, pulses, high_rate=high)
+    assert sum(s.pulses for s in e.segments) == pulses == e.pulses
+    assert all(s.pulses > 0 for s in e.segments)
+    tick = 0
+    for s in e.segments:  # contiguous, exact integer ticks
+        assert s.start_tick == tick
+        tick += s.pulses * s.rate
+    assert tick == e.ticks
+    assert e.status == STATUS[e.shape]
+    phases = [s.phase for s in e.segments]
+    assert phases == sorted(phases, key=["accel", "cruise", "decel"].index)
+    acc = [s.rate for s in e.segments if s.phase == "accel"]
+    dec = [s.rate for s in e.segments if s.phase == "decel"]
+    assert acc == sorted(acc, reverse=True) and dec == sorted(dec)  # staircases monotone
+    if e.shape == "trapezoid" and high == 0:
+        assert e.ticks == (sum(p * r for p, r in zip(table.accel_pulses, table.rates,
+                                                      strict=False))
+                           + sum(p * r for p, r in zip(table.decel, table.rates, strict=False))
+                           + (pulses - table.accel_total - table.decel_total) * table.rates[0])
+    if pulses <= 400:
+        times = e.pulse_times_s()
+        assert np.array_equal(e.position_at(times), np.arange(1, pulses + 1))
+        assert e.position_at(0.0) == 0 and e.position_at(e.duration_s) == pulses
