@@ -1,0 +1,403 @@
+"""PPMC-312 upload codec: free curve, init, move, table read, bus writes."""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from profiles.clock import INTERNAL_HZ, Clock
+from profiles.errors import DecodeError, FieldRangeError, FormatError, StepRampError
+from profiles.ppmc312 import ascii as serial
+from profiles.ppmc312.frames import UnsupportedError
+from profiles.ppmc312.upload import (
+    bus_writes,
+    decode_free_curve,
+    decode_init,
+    decode_move,
+    decode_table_read,
+    decode_upload,
+    encode_free_curve,
+    encode_init,
+    encode_move,
+    encode_table,
+    encode_table_read_response,
+)
+from profiles.table import FreeCurveTable, InitTable
+
+SETTINGS = settings(max_examples=150, deadline=None,
+                    suppress_health_check=[HealthCheck.too_slow])
+
+clocks = st.one_of(
+    st.sampled_from(list(INTERNAL_HZ)).map(Clock.internal),
+    st.builds(Clock.extck, st.integers(1, 20_000_000).map(float),
+              st.sampled_from(["rising", "falling"])),
+)
+
+
+@st.composite
+def free_curves(draw: st.DrawFn, lo: int = 2, hi: int = 127) -> FreeCurveTable:
+    """Any table the wire carries: 2..127 stages, LE 0/1 with unequal counts, any values."""
+    clock = draw(clocks)
+    n_acc = draw(st.integers(lo, hi))
+    pulses = st.integers(0, 0xFFFFFF)
+    accel = draw(st.lists(pulses, min_size=n_acc, max_size=n_acc))
+    decel = None
+    if draw(st.booleans()):
+        n_dec = draw(st.integers(lo, hi))
+        decel = draw(st.lists(pulses, min_size=n_dec, max_size=n_dec))
+    n_rates = max(n_acc, len(decel or ()))
+    rates = draw(st.lists(st.integers(0, 0xFFFF), min_size=n_rates, max_size=n_rates))
+    return FreeCurveTable(clock, tuple(rates), tuple(accel),
+                          None if decel is None else tuple(decel))
+
+
+@st.composite
+def init_tables(draw: st.DrawFn, separate: bool | None = None) -> InitTable:
+    clock = draw(clocks)
+    le = draw(st.booleans()) if separate is None else separate
+    rate, pulses = st.integers(0, 0xFFFF), st.integers(0, 0xFFFFFF)
+    return InitTable(clock, draw(st.sampled_from(["linear", "s_curve"])), draw(rate),
+                     draw(rate), draw(pulses), draw(rate) if le else None,
+                     draw(pulses) if le else None)
+
+
+def _hz(table: FreeCurveTable | InitTable) -> float | None:
+    return table.clock.hz if table.clock.external else None
+
+
+def _sections(table: FreeCurveTable) -> list[tuple[int, int]]:
+    """(entry count, entry size) per section, computed from the table itself."""
+    out = [(len(table.rates), 2), (len(table.accel_pulses), 3)]
+    if table.separate:
+        out.append((len(table.decel), 3))
+    return out
+
+
+# --- free curve ---------------------------------------------------------------------
+@SETTINGS
+@given(free_curves(), st.integers(3, 30))
+def test_free_curve_round_trip(table: FreeCurveTable, max_data: int) -> None:
+    blocks = encode_free_curve(table, max_data=max_data)
+    assert decode_free_curve(blocks, extck_hz=_hz(table)) == table
+
+
+@SETTINGS
+@given(free_curves(), st.integers(3, 30))
+def test_free_curve_blocks_obey_the_bus_rules(table: FreeCurveTable, max_data: int) -> None:
+    blocks = encode_free_curve(table, max_data=max_data)
+    command = blocks[0]
+    assert command[0] == 0x02 and command[2] == 0x01
+    assert command[1] == len(command) - 2 == (4 if table.separate else 3)
+    assert command[3] == (0x10 if table.separate else 0) | table.clock.code
+    assert command[4] == len(table.accel_pulses)
+    # Walk the sections independently: each block's data lies in one section
+    # and holds whole entries; headers are 00 … 00 01.
+    sections = _sections(table)
+    section, used = 0, 0
+    for k, block in enumerate(blocks[1:], start=1):
+        assert len(block) <= 32
+        assert block[0] == (0x01 if k == len(blocks) - 1 else 0x00)
+        assert block[1] == len(block) - 2 <= max_data
+        count, size = sections[section]
+        assert (len(block) - 2) % size == 0
+        used += (len(block) - 2) // size
+        assert used <= count
+        if used == count:
+            section, used = section + 1, 0
+    assert section == len(sections)
+
+
+def test_free_curve_layout_by_hand() -> None:
+    # 4 rates (2 B), accel 3 × 3 B, decel 4 × 3 B; 7 data bytes a block → 3 rates,
+    # then 1; 2 accel counts, then 1; 2 decel, then 2.
+    table = FreeCurveTable(Clock.internal("1MHz"), (100, 200, 300, 400), (10, 20, 30),
+                           (5, 6, 7, 8))
+    assert [b.hex(" ") for b in encode_free_curve(table, max_data=7)] == [
+        "02 04 01 11 03 04",
+        "00 06 00 64 00 c8 01 2c", "00 02 01 90",
+        "00 06 00 00 0a 00 00 14", "00 03 00 00 1e",
+        "00 06 00 00 05 00 00 06", "01 06 00 00 07 00 00 08"]
+
+
+@pytest.mark.parametrize("max_data", [2, 31, 0, -1, True, 3.0])
+def test_max_data_outside_3_to_30_is_refused(max_data: object) -> None:
+    table = FreeCurveTable(Clock.internal("8MHz"), (10, 20), (5, 5))
+    with pytest.raises(FieldRangeError, match="max_data"):
+        encode_free_curve(table, max_data=max_data)  # type: ignore[arg-type]
+
+
+def test_free_curve_extck_needs_its_frequency() -> None:
+    table = FreeCurveTable(Clock.extck(4e6), (10, 20), (5, 5))
+    blocks = encode_free_curve(table)
+    with pytest.raises(FormatError, match="extck"):
+        decode_free_curve(blocks)
+    assert decode_free_curve(blocks, extck_hz=4e6) == table
+
+
+GOOD = [bytes.fromhex("02 03 01 00 02"), bytes.fromhex("00 04 00 0a 00 14"),
+        bytes.fromhex("01 06 00 00 05 00 00 06")]
+
+
+@pytest.mark.parametrize(("blocks", "block", "byte", "words"), [
+    ([], None, None, "empty upload"),
+    ([bytes.fromhex("03 03 01 00 02"), *GOOD[1:]], 0, 0, "header"),
+    ([bytes.fromhex("02 05 01 00 02"), *GOOD[1:]], 0, 1, "length byte"),
+    ([bytes.fromhex("02 03 01 20 02"), *GOOD[1:]], 0, 3, "unexpected bits"),
+    ([GOOD[0], bytes.fromhex("04 04 00 0a 00 14"), GOOD[2]], 1, 0, "header"),
+    ([GOOD[0], bytes.fromhex("00 05 00 0a 00 14"), GOOD[2]], 1, 1, "length byte"),
+    ([GOOD[0], bytes.fromhex("00 03 00 0a 00"), bytes.fromhex("00 01 14"), GOOD[2]],
+     1, 4, "split"),
+    ([GOOD[0], bytes.fromhex("00 06 00 0a 00 14 00 1e"), GOOD[2]], 1, 6, "only 2 more"),
+    ([GOOD[0], bytes.fromhex("00 02 00 0a"), bytes.fromhex("01 02 00 14"), GOOD[2]],
+     2, 0, "still missing"),
+    ([GOOD[0], GOOD[1], bytes.fromhex("00 06 00 00 05 00 00 06")], 2, 0, "expected 01"),
+    (GOOD[:2], 2, 0, "missing"),
+    ([*GOOD, bytes.fromhex("01 02 00 0a")], 3, 0, "after the last block"),
+    ([GOOD[0], bytes.fromhex("00 00"), *GOOD[1:]], 1, 1, "no data"),
+    ([GOOD[0], b"", *GOOD[1:]], 1, 0, "empty"),
+    ([b"\x02", *GOOD[1:]], 0, 1, "byte"),
+])
+def test_free_curve_decode_errors_name_block_and_byte(
+        blocks: list[bytes], block: int | None, byte: int | None, words: str) -> None:
+    assert decode_free_curve(GOOD) == FreeCurveTable(Clock.internal("8MHz"), (10, 20), (5, 6))
+    with pytest.raises(DecodeError, match=words) as err:
+        decode_free_curve(blocks)
+    assert (err.value.block, err.value.byte) == (block, byte)
+    assert "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("blocks", [b"\x02\x03\x01\x00\x02", "02 03", None, [1, 2]])
+def test_free_curve_decode_refuses_non_block_lists(blocks: object) -> None:
+    with pytest.raises(DecodeError):
+        decode_free_curve(blocks)
+
+
+@st.composite
+def mutated_uploads(draw: st.DrawFn) -> list[bytes]:
+    table = draw(free_curves(hi=20))
+    blocks = [bytearray(b) for b in encode_free_curve(table, max_data=draw(st.integers(3, 30)))]
+    how = draw(st.sampled_from(["flip_header", "truncate", "length", "drop_last", "junk",
+                                "byte", "swap"]))
+    k = draw(st.integers(0, len(blocks) - 1))
+    if how == "flip_header":
+        blocks[k][0] ^= draw(st.sampled_from([0x01, 0x02, 0x04, 0x80]))
+    elif how == "truncate":
+        blocks[k] = blocks[k][:draw(st.integers(0, len(blocks[k]) - 1))]
+    elif how == "length":
+        blocks[k][1] = (blocks[k][1] + draw(st.integers(1, 255))) % 256
+    elif how == "drop_last":
+        blocks.pop()
+    elif how == "junk":
+        blocks.append(bytearray(draw(st.binary(min_size=0, max_size=40))))
+    elif how == "byte":
+        i = draw(st.integers(0, min(3, len(blocks[k]) - 1)))
+        blocks[k][i] ^= draw(st.integers(1, 255))
+    else:
+        j = draw(st.integers(0, len(blocks) - 1))
+        if blocks[j] == blocks[k]:
+            blocks.pop()
+        blocks[j], blocks[k] = blocks[k], blocks[j]
+    return [bytes(b) for b in blocks]
+
+
+@SETTINGS
+@given(mutated_uploads())
+def test_mutated_uploads_give_a_decode_error_never_a_crash(blocks: list[bytes]) -> None:
+    try:
+        table = decode_free_curve(blocks, extck_hz=1e6)
+    except DecodeError as e:
+        assert "\n" not in str(e)
+        return
+    # A few mutations stay valid (e.g. a data byte, or swapping equal blocks):
+    # then the bytes must be exactly the table's own encoding for some packing.
+    assert any(encode_free_curve(table, max_data=m) == blocks for m in range(3, 31))
+
+
+@SETTINGS
+@given(st.lists(st.binary(max_size=34), max_size=6))
+def test_random_bytes_never_crash_the_decoders(blocks: list[bytes]) -> None:
+    for decode in (decode_free_curve, decode_upload):
+        try:
+            decode(blocks, extck_hz=1e6)
+        except DecodeError:
+            pass
+
+
+# --- init ---------------------------------------------------------------------------
+@SETTINGS
+@given(init_tables())
+def test_init_round_trip(table: InitTable) -> None:
+    block = encode_init(table)
+    assert len(block) == 2 + block[1] == (16 if table.separate else 11)
+    assert decode_init(block, extck_hz=_hz(table)) == table
+    assert decode_upload([block], extck_hz=_hz(table)) == table
+    assert encode_table(table) == [block]
+
+
+@SETTINGS
+@given(init_tables(separate=False), st.integers(0, 15))
+def test_init_ascii_round_trip(table: InitTable, address: int) -> None:
+    if table.clock.code == 7:
+        with pytest.raises(UnsupportedError, match="falling"):
+            encode_table(table, to="ascii", address=address)
+        return
+    [frame] = encode_table(table, to="ascii", address=address)
+    assert frame[0] == 0x90 + address
+    assert decode_upload([frame], extck_hz=_hz(table)) == table
+
+
+def test_init_manual_example_bytes() -> None:
+    # §13-4 example values (CLK 8 MHz, linear, start 1122, high 5566, pulses ABCDEF)
+    # in the parallel §7-1 layout.
+    table = InitTable(Clock.internal("8MHz"), "linear", 0x1122, 0x5566, 0xABCDEF)
+    assert encode_init(table).hex(" ") == "03 09 00 00 11 22 55 66 ab cd ef"
+    separate = InitTable(Clock.internal("62.5kHz"), "s_curve", 0x1000, 0x0100, 0x200,
+                         0x2000, 0x300)
+    assert encode_init(separate).hex(" ") == "03 0e 00 1c 10 00 20 00 01 00 00 02 00 00 03 00"
+
+
+def test_init_le1_has_no_serial_form() -> None:
+    table = InitTable(Clock.internal("8MHz"), "linear", 0x1000, 0x100, 0x200, 0x1000, 0x200)
+    with pytest.raises(UnsupportedError, match="LE=1"):
+        encode_table(table, to="ascii")
+
+
+@pytest.mark.parametrize(("block", "byte"), [
+    ("03 0a 00 00 11 22 55 66 ab cd ef", 1),      # length byte neither 09 nor 0E
+    ("03 09 00 10 11 22 55 66 ab cd ef", 3),      # LE=1 bit in a 9-byte block
+    ("03 09 00 80 11 22 55 66 ab cd ef", 3),      # an x bit set
+    ("02 09 00 00 11 22 55 66 ab cd ef", 0),      # header 02
+    ("03 09 00 00 11 22 55 66 ab cd", 10),        # one byte short
+])
+def test_init_decode_errors(block: str, byte: int) -> None:
+    with pytest.raises(DecodeError) as err:
+        decode_init(bytes.fromhex(block))
+    assert err.value.byte == byte
+
+
+# --- move ---------------------------------------------------------------------------
+@SETTINGS
+@given(st.integers(1, 0xFFFFFFFF), st.booleans(), st.integers(0, 0xFFFF), st.booleans(),
+       st.integers(0, 3))
+def test_move_round_trip(pulses: int, ccw: bool, high_rate: int, override: bool,
+                         trigger: int) -> None:
+    if override and trigger in (0, 2):
+        with pytest.raises(FieldRangeError, match="trigger"):
+            encode_move(pulses, ccw=ccw, high_rate=high_rate, override=override,
+                        trigger=trigger)
+        return
+    block = encode_move(pulses, ccw=ccw, high_rate=high_rate, override=override,
+                        trigger=trigger)
+    assert block[:3] == b"\x03\x08\x82" and len(block) == 10
+    assert int.from_bytes(block[6:], "big") == pulses
+    assert decode_move(block) == {"pulses": pulses, "ccw": ccw, "high_rate": high_rate,
+                                  "override": override, "trigger": trigger}
+
+
+def test_move_layout_and_ranges() -> None:
+    assert encode_move(0x12345678, ccw=True).hex(" ") == "03 08 82 40 00 00 12 34 56 78"
+    assert encode_move(5, high_rate=0x1234, override=True, trigger=3).hex(" ") == \
+        "03 08 82 07 12 34 00 00 00 05"
+    for bad in (0, 0x1_0000_0000, -1):
+        with pytest.raises(FieldRangeError, match="pulses"):
+            encode_move(bad)
+    with pytest.raises(FieldRangeError, match="high_rate"):
+        encode_move(10, high_rate=0x10000)
+    with pytest.raises(DecodeError, match="pulses"):
+        decode_move(bytes.fromhex("03 08 82 00 00 00 00 00 00 00"))
+    with pytest.raises(DecodeError, match="TRG"):
+        decode_move(bytes.fromhex("03 08 82 04 00 00 00 00 00 01"))
+
+
+# --- encode_table / decode_upload ---------------------------------------------------
+def test_free_curve_has_no_serial_form() -> None:
+    table = FreeCurveTable(Clock.internal("8MHz"), (10, 20), (5, 5))
+    with pytest.raises(StepRampError, match="no serial"):
+        encode_table(table, to="ascii")
+    with pytest.raises(FormatError, match="to"):
+        encode_table(table, to="usb")
+
+
+@SETTINGS
+@given(free_curves(), st.integers(3, 30))
+def test_decode_upload_recognises_free_curves(table: FreeCurveTable, max_data: int) -> None:
+    blocks = encode_table(table, max_data=max_data)
+    assert decode_upload(blocks, extck_hz=_hz(table)) == table
+
+
+def test_decode_upload_refuses_other_commands() -> None:
+    with pytest.raises(DecodeError, match="not a table upload"):
+        decode_upload([encode_move(100)])
+    init = encode_init(InitTable(Clock.internal("8MHz"), "linear", 0x1000, 0x100, 0x200))
+    with pytest.raises(DecodeError, match="one block") as err:
+        decode_upload([init, init])
+    assert err.value.block == 1
+    frame = serial.encode_serial_move(1, 100)
+    with pytest.raises(DecodeError, match="block 0"):
+        decode_upload([frame])
+
+
+# --- table read ---------------------------------------------------------------------
+@SETTINGS
+@given(free_curves())
+def test_table_read_round_trip(table: FreeCurveTable) -> None:
+    if table.accel_total > 0xFFFFFF or table.decel_total > 0xFFFFFF:
+        with pytest.raises(FieldRangeError, match="total"):
+            encode_table_read_response(table)
+        return
+    blocks = encode_table_read_response(table)
+    first = blocks[0]
+    assert first[:3] == b"\x02\x0a\x41"  # PAL 1, NEXT 0
+    assert list(first[3:6]) == [len(table.rates), len(table.accel_pulses),
+                                len(table.decel_pulses or ())]
+    assert int.from_bytes(first[6:9], "big") == table.accel_total
+    assert int.from_bytes(first[9:12], "big") == table.decel_total
+    kinds = [b[2] for b in blocks[1:]]
+    assert kinds == sorted(kinds)  # one item kind per block, in order 01, 02, 03
+    assert [b[0] for b in blocks[1:]] == [0] * (len(blocks) - 2) + [1]
+    assert all(b[1] == len(b) - 2 <= 14 for b in blocks[1:])
+    assert decode_table_read(blocks, clock=table.clock) == table
+
+
+def test_table_read_cross_checks_totals_and_next() -> None:
+    table = FreeCurveTable(Clock.internal("8MHz"), (10, 20, 30), (5, 6, 7))
+    blocks = encode_table_read_response(table)
+    bad_total = bytearray(blocks[0])
+    bad_total[8] += 1
+    with pytest.raises(DecodeError, match="accel total") as err:
+        decode_table_read([bytes(bad_total), *blocks[1:]], clock=table.clock)
+    assert (err.value.block, err.value.byte) == (0, 6)
+    no_next = bytearray(blocks[-1])
+    no_next[0] = 0
+    with pytest.raises(DecodeError, match="NEXT"):
+        decode_table_read([*blocks[:-1], bytes(no_next)], clock=table.clock)
+    with pytest.raises(DecodeError, match="item kind"):
+        decode_table_read([blocks[0], blocks[2], blocks[1]], clock=table.clock)
+    with pytest.raises(UnsupportedError):
+        encode_table_read_response(InitTable(table.clock, "linear", 0x1000, 0x100, 0x200))
+
+
+# --- bus writes ---------------------------------------------------------------------
+def test_bus_writes_manual_example_order() -> None:
+    # §5-6: accel move CCW 0x12345678 in the manual's old layout (length 06).
+    writes = bus_writes(bytes.fromhex("03 06 82 40 12 34 56 78"))
+    assert writes[:2] == [("WCR", 0x20), ("WAR", 0x20 - 8)]
+    assert [v for r, v in writes[2:] if r == "DWR"] == [0x78, 0x56, 0x34, 0x12, 0x40, 0x82,
+                                                         0x06, 0x03]
+    assert len(writes) == 10
+
+
+@SETTINGS
+@given(st.binary(min_size=1, max_size=32).filter(lambda b: b[0] < 0x80))
+def test_bus_writes_reverse_any_block(block: bytes) -> None:
+    writes = bus_writes(block)
+    assert writes[1] == ("WAR", 0x20 - len(block))
+    assert bytes(v for _r, v in writes[2:]) == block[::-1]
+
+
+def test_bus_writes_refuse_oversize_blocks() -> None:
+    with pytest.raises(FieldRangeError, match="block size"):
+        bus_writes(bytes(33))
+    with pytest.raises(FieldRangeError, match="block size"):
+        bus_writes(b"")
