@@ -45,8 +45,9 @@ def _check_one(path: str, motor: Any, extck_hz: float | None) -> Any:
     try:
         table, chip_findings = _load_checkable(path, extck_hz)
         findings = list(chip_findings)
-        findings += check_table(table)
-        if motor is not None:
+        if table is not None:
+            findings += check_table(table)
+        if motor is not None and table is not None:
             from verify.stall import check_stall
 
             findings += check_stall(_as_free_curve(table), motor)
@@ -77,14 +78,14 @@ def _as_free_curve(table: Any) -> Any:
     return table
 
 
-def _load_checkable(path: str, extck_hz: float | None) -> tuple[Any, list[Any]]:
+def _load_checkable(path: str, extck_hz: float | None) -> tuple[Any | None, list[Any]]:
     """A table file, or an upload file judged first by what the chip would answer."""
     from profiles.table import read_json, table_from_json
 
     raw = _read_bytes(path)
     if _looks_like_table_json(raw):
         return table_from_json(read_json(path)), []
-    from profiles.ppmc312.emulator import ChipEmulator
+    from profiles.ppmc312.emulator import accept_upload
     from profiles.ppmc312.files import parse_upload
     from profiles.ppmc312.upload import decode_upload
     from verify.findings import Finding
@@ -92,12 +93,13 @@ def _load_checkable(path: str, extck_hz: float | None) -> tuple[Any, list[Any]]:
     blocks = parse_upload(raw)
     findings: list[Any] = []
     if blocks and blocks[0][:1] in (b"\x02", b"\x03"):  # parallel blocks: ask the chip model
-        verdict = ChipEmulator().accept_upload(blocks)
+        verdict = accept_upload(blocks)
         if not verdict.ok:
-            findings.append(Finding("error", "chip-rejects-upload",
-                                    f"block {verdict.block}: {verdict.message}",
-                                    chip_code=verdict.error_code))
-            return None, findings  # type: ignore[return-value]
+            # F0 carries a parameter-error code; F1/F6 (state, size) are the code themselves.
+            code = verdict.error_code if verdict.response_code == 0xF0 else verdict.response_code
+            findings.append(Finding("error", "chip-rejects-upload", verdict.message,
+                                    chip_code=code, stage=None))
+            return None, findings
     return decode_upload(blocks, extck_hz=extck_hz), findings
 
 

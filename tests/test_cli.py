@@ -1,0 +1,167 @@
+"""The `stepramp` command: exit codes, output shapes, bad input, no half-written files."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from profiles.ppmc312.files import parse_upload
+from profiles.ppmc312.upload import decode_upload, encode_table
+from profiles.table import load_table
+from verify.cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
+GOOD = ROOT / "examples" / "free-curve-nema17.json"
+BAD = ROOT / "examples" / "free-curve-bad.json"
+INIT = ROOT / "examples" / "init-linear.json"
+
+
+def run(capsys: pytest.CaptureFixture[str], *argv: str | Path) -> tuple[int, str, str]:
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_check_good_and_bad(capsys: pytest.CaptureFixture[str]) -> None:
+    assert run(capsys, "check", GOOD, INIT)[0] == 0
+    code, out, _ = run(capsys, "check", GOOD, BAD)
+    assert code == 1
+    assert "chip 0x18" in out and "chip 0x19" in out
+
+
+def test_check_json_shape(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, _ = run(capsys, "check", GOOD, BAD, "--format", "json")
+    assert code == 1
+    doc = json.loads(out)
+    assert [f["path"] for f in doc["files"]] == [str(GOOD), str(BAD)]
+    assert doc["files"][0]["ok"] is True and doc["files"][1]["ok"] is False
+    finding = next(f for f in doc["files"][1]["findings"] if f["chip_code"] == "0x18")
+    assert set(finding) == {"severity", "rule", "chip_code", "stage", "message"}
+    assert finding["severity"] == "error" and finding["stage"] == 0
+
+
+def test_check_upload_files_by_what_the_chip_answers(
+        capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    hexfile = tmp_path / "good.upload.hex"
+    assert run(capsys, "export", GOOD, "--format", "hex", "-o", hexfile)[0] == 0
+    assert run(capsys, "check", hexfile)[0] == 0
+    binfile = tmp_path / "good.upload.bin"
+    assert run(capsys, "export", GOOD, "--format", "bin", "-o", binfile)[0] == 0
+    assert run(capsys, "check", binfile)[0] == 0
+    # an upload whose stage count the chip refuses (0x11): one stage only
+    lines = hexfile.read_text().splitlines()
+    first = lines[0].split()
+    first[4] = "01"
+    (tmp_path / "bad.upload.hex").write_text(" ".join(first) + "\n" + "\n".join(lines[1:]))
+    code, out, _ = run(capsys, "check", tmp_path / "bad.upload.hex", "--format", "json")
+    assert code == 1
+    codes = {f["chip_code"] for f in json.loads(out)["files"][0]["findings"]}
+    assert "0x11" in codes
+
+
+def test_export_decode_round_trip(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    table = load_table(GOOD)
+    for fmt in ("hex", "bin", "json"):
+        out = tmp_path / f"t.{fmt}"
+        assert run(capsys, "export", GOOD, "--format", fmt, "-o", out)[0] == 0
+        back = tmp_path / f"back-{fmt}.json"
+        assert run(capsys, "decode", out, "-o", back)[0] == 0
+        assert load_table(back) == table
+    assert decode_upload(parse_upload((tmp_path / "t.hex").read_bytes())) == table
+
+
+def test_export_hex_format_is_exact(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, _ = run(capsys, "export", GOOD, "--format", "hex")
+    assert code == 0
+    blocks = encode_table(load_table(GOOD))
+    assert out == "".join(b.hex(" ").upper() + "\n" for b in blocks)
+    assert out.splitlines()[0].startswith("02 ")
+    assert out.splitlines()[-1].startswith("01 ")
+
+
+def test_export_ascii_init_frame(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, _ = run(capsys, "export", INIT, "--to", "ascii", "--address", "3",
+                       "--format", "hex")
+    assert code == 0
+    frame = bytes.fromhex(out.strip())
+    assert frame[0] == 0x93  # command frame to slave 3
+    assert all(0x30 <= b < 0x7F for b in frame[1:])
+
+
+def test_export_refuses_table_with_errors(capsys: pytest.CaptureFixture[str],
+                                          tmp_path: Path) -> None:
+    out = tmp_path / "bad.hex"
+    code, _, err = run(capsys, "export", BAD, "-o", out)
+    assert code == 1 and "--force" in err
+    assert not out.exists()
+    assert run(capsys, "export", BAD, "--force", "-o", out)[0] == 0
+    assert out.read_text().startswith("02 ")
+
+
+@pytest.mark.parametrize("content, match", [
+    ("", "empty"),
+    ("{not json", "not valid JSON"),
+    ('{"format": "stepramp.table/1", "device": "ppmc312", "kind": "free_curve", '
+     '"clock": "8MHz", "rates": [400, 70000], "accel_pulses": [10, 10]}', "65535"),
+    ('{"format": "stepramp.table/1", "device": "ppmc312", "kind": "free_curve", '
+     '"clock": "8MHz", "rates": [400, 800], "accel_pulses": [10, -3]}', "accel_pulses"),
+    ('{"format": "stepramp.table/1", "device": "ppmc312", "kind": "free_curve", '
+     '"clock": "8MHz", "rates": [400, 800], "accel_pulses": [10, 3], "extra": 1}', "unknown"),
+    ('{"format": "stepramp.table/1", "device": "ppmc312", "kind": "free_curve", '
+     '"clock": "9MHz", "rates": [400, 800], "accel_pulses": [10, 3]}', "clock"),
+])
+def test_bad_table_files_exit_2_with_one_line(capsys: pytest.CaptureFixture[str],
+                                              tmp_path: Path, content: str, match: str) -> None:
+    path = tmp_path / "t.json"
+    path.write_text(content)
+    out = tmp_path / "out.hex"
+    code, _, err = run(capsys, "export", path, "-o", out)
+    assert code == 2
+    assert match in err and len(err.strip().splitlines()) == 1
+    assert "Traceback" not in err
+    assert not out.exists() and list(tmp_path.iterdir()) == [path]
+
+
+@pytest.mark.parametrize("content", ["02 03 01 00\n", "zz 01\n", "02 03 01 00 1A\n01 04 01 90",
+                                     "\x00\x01\x02"])
+def test_corrupt_uploads_exit_2(capsys: pytest.CaptureFixture[str], tmp_path: Path,
+                                content: str) -> None:
+    path = tmp_path / "u.hex"
+    path.write_text(content)
+    out = tmp_path / "t.json"
+    code, _, err = run(capsys, "decode", path, "-o", out)
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_missing_file_and_bad_arguments(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, _ = run(capsys, "check", "/nonexistent.json", "--format", "json")
+    assert code == 2
+    assert "no such file" in json.loads(out)["files"][0]["error"]
+    assert run(capsys, "export", GOOD, "--address", "-1")[0] == 2
+    assert run(capsys, "export", GOOD, "--to", "ascii", "--address", "16")[0] == 2
+    assert run(capsys, "frobnicate")[0] == 2
+
+
+def test_check_junit_is_xml(capsys: pytest.CaptureFixture[str]) -> None:
+    import xml.etree.ElementTree as ET
+
+    code, out, _ = run(capsys, "check", GOOD, BAD, "--format", "junit")
+    assert code == 1
+    root = ET.fromstring(out)
+    assert len(root.findall(".//testcase")) == 2
+    assert root.findall(".//failure")
+
+
+def test_console_script_cold_imports_nothing_heavy() -> None:
+    code = ("import sys; from verify import cli; cli._load_extra_commands(); "
+            "rc = cli.main(['check', sys.argv[1]]); "
+            "heavy = [m for m in ('toppra', 'casadi', 'matplotlib', 'ruckig') "
+            "if m in sys.modules]; print(rc, heavy)")
+    res = subprocess.run([sys.executable, "-c", code, str(GOOD)], capture_output=True,
+                         text=True, cwd=ROOT, check=False)
+    assert res.stdout.strip().splitlines()[-1] == "0 []", res.stdout + res.stderr
