@@ -111,12 +111,13 @@ def _check_free_curve(t: FreeCurveTable) -> list[Finding]:
     if t.decel_pulses is not None and len(t.decel_pulses) != len(t.accel_pulses):
         n_acc, n_dec = len(t.accel_pulses), len(t.decel_pulses)
         short, n_short = ("decel", n_dec) if n_dec < n_acc else ("accel", n_acc)
+        end_rate = rates[n_short - 1] if 0 < n_short <= len(rates) else 0
+        at = f" and starts/stops at rate {end_rate}" if end_rate else ""
         out.append(Finding("warning", "decel-stage-count",
                            f"{n_acc} accel stages but {n_dec} decel stages: legal, but the sides "
                            f"share rates, so {short} uses only the {n_short} fastest rates "
-                           f"(rates[0..{n_short - 1}]) and starts/stops at "
-                           f"{t.clock.speed_pps(rates[n_short - 1]) if n_short else 0:.0f} pps; "
-                           f"give both sides the same count unless that is intended"))
+                           f"(rates[0..{n_short - 1}]){at}; give both sides the same count "
+                           f"unless that is intended"))
     if not rates:
         return out
 

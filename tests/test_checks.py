@@ -1,0 +1,333 @@
+"""verify.checks: every PPMC-312 chip rule, its code, its stage and its advice."""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from profiles.clock import Clock
+from profiles.init_model import init_stage_problem
+from profiles.table import FreeCurveTable, InitTable, load_table
+from verify.checks import check_table
+from verify.findings import Finding
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+C8 = Clock.internal("8MHz")
+
+
+def fc(rates: list[int], accel: list[int], decel: list[int] | None = None,
+       clock: Clock = C8) -> FreeCurveTable:
+    return FreeCurveTable(clock, tuple(rates), tuple(accel),
+                          None if decel is None else tuple(decel))
+
+
+def good(n: int = 10) -> FreeCurveTable:
+    """A clean table: rates 400, 500, …, 100 pulses each (≥ 40 000 ticks a stage)."""
+    return fc([400 + 100 * k for k in range(n)], [100] * n)
+
+
+def rules(findings: list[Finding]) -> set[tuple[str, int | None, int | None]]:
+    return {(f.rule, f.stage, f.chip_code) for f in findings}
+
+
+def errors(findings: list[Finding]) -> list[Finding]:
+    return [f for f in findings if f.severity == "error"]
+
+
+# --- free curve --------------------------------------------------------------------
+
+def test_good_tables_have_no_findings() -> None:
+    assert check_table(good()) == []
+    assert check_table(load_table(EXAMPLES / "free-curve-nema17.json")) == []
+    assert check_table(load_table(EXAMPLES / "init-linear.json")) == []
+
+
+def test_bad_example_reports_each_planted_problem() -> None:
+    found = rules(check_table(load_table(EXAMPLES / "free-curve-bad.json")))
+    assert ("rate-min", 0, 0x18) in found
+    assert ("pulses-min", 3, 0x19) in found
+    assert ("stage-ticks-min", 1, None) in found
+    assert ("rates-monotonic", 3, None) in found   # 380 after 400
+    assert ("rates-monotonic", 7, None) in found   # 1200 twice
+
+
+@pytest.mark.parametrize("n, bad", [(1, True), (2, False), (127, False), (128, True)])
+def test_stage_count(n: int, bad: bool) -> None:
+    t = fc([400 + 10 * k for k in range(n)], [100] * n)
+    assert (("stage-count", None, 0x11) in rules(check_table(t))) == bad
+
+
+def test_decel_stage_count_rule_and_warning() -> None:
+    t = fc([400 + 100 * k for k in range(10)], [100] * 10, [100])
+    found = check_table(t)
+    assert ("stage-count", None, 0x11) in rules(found)
+    t = fc([400 + 100 * k for k in range(10)], [100] * 10, [100] * 6)
+    warn = [f for f in check_table(t) if f.rule == "decel-stage-count"]
+    assert len(warn) == 1 and warn[0].severity == "warning"
+    assert "6 fastest rates" in warn[0].message and "rates[0..5]" in warn[0].message
+
+
+@pytest.mark.parametrize("rate", [0, 1])
+def test_rate_at_most_one_is_0x18(rate: int) -> None:
+    t = fc([rate, 500, 600], [300, 100, 100])
+    f = [x for x in check_table(t) if x.rule == "rate-min"]
+    assert len(f) == 1 and f[0].chip_code == 0x18 and f[0].stage == 0
+    assert f"rates[0] = {rate}" in f[0].message and "raise it to ≥ 4" in f[0].message
+
+
+@pytest.mark.parametrize("clock, rate, bad", [
+    (C8, 3, True), (C8, 4, False),                      # 8 MHz / 4 = 2 Mpps exactly: allowed
+    (Clock.internal("1MHz"), 2, False),                 # 500 kpps
+    (Clock.extck(20e6), 9, True), (Clock.extck(20e6), 10, False),
+])
+def test_speed_never_above_2mpps(clock: Clock, rate: int, bad: bool) -> None:
+    t = fc([rate, 500, 600], [300, 100, 100], clock=clock)
+    found = [f for f in check_table(t) if f.rule == "speed-max"]
+    assert bool(found) == bad
+    if bad:
+        need = math.ceil(clock.hz / 2e6)
+        assert found[0].stage == 0 and f"raise it to ≥ {need}" in found[0].message
+
+
+def test_pulse_count_at_most_one_is_0x19() -> None:
+    t = fc([400, 500, 600], [100, 1, 100])
+    f = [x for x in check_table(t) if x.rule == "pulses-min"]
+    assert [(x.stage, x.chip_code) for x in f] == [(1, 0x19)]
+    assert "accel_pulses[1] = 1" in f[0].message and "≥ 2" in f[0].message
+    # Decel side too, with its own field name.
+    t = fc([400, 500, 600], [100] * 3, [100, 100, 0])
+    f = [x for x in check_table(t) if x.rule == "pulses-min"]
+    assert [(x.stage, x.chip_code) for x in f] == [(2, 0x19)]
+    assert "decel_pulses[2] = 0" in f[0].message
+
+
+@pytest.mark.parametrize("pulses, rate, bad", [(2, 127, True), (2, 128, False),
+                                               (3, 85, True), (3, 86, False)])
+def test_stage_ticks_at_least_256(pulses: int, rate: int, bad: bool) -> None:
+    t = fc([rate, 400, 500], [pulses, 100, 100])
+    found = [f for f in check_table(t) if f.rule == "stage-ticks-min"]
+    assert bool(found) == bad
+    if bad:
+        need = math.ceil(256 / rate)
+        assert found[0].stage == 0
+        assert f"{pulses * rate} ticks < 256" in found[0].message
+        assert f"raise the count to ≥ {need}" in found[0].message
+        # The advice is right: that count clears the rule.
+        fixed = fc([rate, 400, 500], [need, 100, 100])
+        assert not [f for f in check_table(fixed) if f.rule == "stage-ticks-min"]
+
+
+def test_stage_pulse_field_and_totals_0x1a() -> None:
+    limit = 0xFFFFF
+    ok = fc([400, 500], [limit - 1000, 1000])
+    assert errors(check_table(ok)) == []
+    over = fc([400, 500], [limit - 1000, 1001])
+    f = [x for x in check_table(over) if x.rule == "accel-total-max"]
+    assert len(f) == 1 and f[0].chip_code == 0x1A and f[0].stage is None
+    assert "remove 1 pulses" in f[0].message
+    huge = fc([400, 500], [limit + 1, 100], [100, 100])
+    found = rules(check_table(huge))
+    assert ("pulses-field", 0, None) in found and ("accel-total-max", None, 0x1A) in found
+    assert not any(r[0] == "decel-total-max" for r in found)
+    dec = fc([400, 500], [100, 100], [limit, 1])
+    assert ("decel-total-max", None, 0x1A) in rules(check_table(dec))
+
+
+def test_rates_must_grow_fastest_to_slowest() -> None:
+    t = fc([400, 500, 500, 450, 900], [100] * 5)
+    f = [x for x in check_table(t) if x.rule == "rates-monotonic"]
+    assert [(x.stage, x.severity) for x in f] == [(2, "warning"), (3, "warning")]
+    assert "repeats" in f[0].message and "is faster than" in f[1].message
+
+
+def test_short_stage_threshold_is_a_tenth_of_neighbour_mean() -> None:
+    # Interior stage 2 (rate 1000): neighbours 200 × 500 and 100 × 1500 ticks → mean
+    # 125 000; a tenth is 12 500 ticks = 12.5 pulses at rate 1000.
+    def stage2(p: int) -> list[Finding]:
+        t = fc([400, 500, 1000, 1500, 2000], [100, 200, p, 100, 100])
+        return [f for f in check_table(t) if f.rule == "stage-short"]
+    assert [f.stage for f in stage2(12)] == [2]
+    assert "raise accel_pulses[2] to ≥ 13" in stage2(12)[0].message
+    assert stage2(13) == []
+    # An end stage compares with its one neighbour: 10 × rate-400 ticks vs 100 × 500.
+    t = fc([400, 500, 600], [12, 100, 100])
+    assert [f.stage for f in check_table(t) if f.rule == "stage-short"] == [0]
+    t = fc([400, 500, 600], [13, 100, 100])
+    assert [f.stage for f in check_table(t) if f.rule == "stage-short"] == []
+
+
+def test_stop_speed_warning_at_slowest_decel_stage() -> None:
+    # 8 MHz / 128 = 62.5 kpps exactly: warn; 129: no warning.
+    t = fc([100, 110, 128], [100] * 3)
+    f = [x for x in check_table(t) if x.rule == "stop-speed-high"]
+    assert [(x.stage, x.severity) for x in f] == [(2, "warning")]
+    assert "≥ 129" in f[0].message
+    assert not [x for x in check_table(fc([100, 110, 129], [100] * 3))
+                if x.rule == "stop-speed-high"]
+    # LE=1, 2 decel stages: the decel side stops at rates[1].
+    t = fc([100, 110, 5000], [100] * 3, [100, 100])
+    assert [x.stage for x in check_table(t) if x.rule == "stop-speed-high"] == [1]
+
+
+def test_order_errors_first_then_stage() -> None:
+    t = fc([1, 500, 500, 400, 700], [100, 1, 100, 100, 100], [100, 100])
+    found = check_table(t)
+    sev = [f.severity for f in found]
+    assert sev == sorted(sev, key=lambda s: s != "error")
+    err_stages = [f.stage for f in found if f.severity == "error"]
+    assert err_stages == sorted(err_stages, key=lambda s: -1 if s is None else s)
+    assert len(found) > 3
+
+
+def test_messages_are_one_line_with_numbers() -> None:
+    t = load_table(EXAMPLES / "free-curve-bad.json")
+    for f in check_table(t):
+        assert "\n" not in f.message and re.search(r"\d", f.message)
+        assert re.fullmatch(r"[a-z]+(-[a-z]+)*", f.rule)
+
+
+def test_check_table_refuses_other_objects() -> None:
+    from profiles.errors import FormatError
+    with pytest.raises(FormatError, match="FreeCurveTable or InitTable"):
+        check_table("not a table")  # type: ignore[arg-type]
+
+
+# An independent, plain-loop statement of the error rules, to cross-check the fast code.
+def reference_errors(t: FreeCurveTable) -> set[tuple[str, int | None]]:
+    out: set[tuple[str, int | None]] = set()
+    sides = [("accel", t.accel_pulses)] + ([("decel", t.decel_pulses)] if t.decel_pulses
+                                           is not None else [])
+    for side, pulses in sides:
+        if not 2 <= len(pulses) <= 127:
+            out.add(("stage-count", None))
+        if sum(pulses) > 0xFFFFF:
+            out.add((f"{side}-total-max", None))
+        for i, p in enumerate(pulses):
+            r = t.rates[i]
+            if p <= 1:
+                out.add(("pulses-min", i))
+            if p > 0xFFFFF:
+                out.add(("pulses-field", i))
+            if p > 1 and r > 1 and p * r < 256:
+                out.add(("stage-ticks-min", i))
+    for i, r in enumerate(t.rates):
+        if r <= 1:
+            out.add(("rate-min", i))
+        elif t.clock.hz / r > 2e6:
+            out.add(("speed-max", i))
+    return out
+
+
+@st.composite
+def tables(draw: st.DrawFn) -> FreeCurveTable:
+    n = draw(st.integers(1, 130))
+    rates = draw(st.lists(st.integers(0, 0xFFFF), min_size=n, max_size=n))
+    accel = draw(st.lists(st.integers(0, 2000), min_size=n, max_size=n))
+    decel = draw(st.none() | st.lists(st.integers(0, 2000), min_size=1, max_size=n))
+    if draw(st.booleans()):
+        rates.sort()
+    return fc(rates, accel, decel)
+
+
+@settings(max_examples=150, deadline=None)
+@given(tables())
+def test_errors_agree_with_plain_reference(t: FreeCurveTable) -> None:
+    got = {(f.rule, f.stage) for f in check_table(t) if f.severity == "error"}
+    assert got == reference_errors(t)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.integers(2, 127), st.integers(4, 2000), st.data())
+def test_sorted_strict_rates_with_enough_pulses_have_no_errors(
+        n: int, fastest: int, data: st.DataObject) -> None:
+    rates = sorted(data.draw(st.sets(st.integers(fastest, 0xFFFF), min_size=n, max_size=n)))
+    accel = [max(2, math.ceil(256 / r)) + data.draw(st.integers(0, 50)) for r in rates]
+    t = fc(rates, accel)
+    found = check_table(t)
+    assert errors(found) == []
+    assert not any(f.rule == "rates-monotonic" for f in found)
+
+
+# --- init ---------------------------------------------------------------------------
+
+def init(**kw: object) -> InitTable:
+    base = InitTable(C8, "linear", 10000, 400, 2000)
+    return replace(base, **kw)  # type: ignore[arg-type]
+
+
+def init_rules(t: InitTable) -> set[tuple[str, int | None]]:
+    return {(f.rule, f.chip_code) for f in check_table(t)}
+
+
+@pytest.mark.parametrize("kw", [dict(start_rate=0x10), dict(high_rate=1),
+                                dict(high_rate=0xFFF0, start_rate=0xFFFF),
+                                dict(stop_rate=0x10, decel_pulses=2000)])
+def test_init_rate_ranges_0x01(kw: dict[str, int]) -> None:
+    found = [f for f in check_table(init(**kw)) if f.rule == "rate-range"]
+    assert len(found) == 1 and found[0].chip_code == 0x01
+    name = next(iter(kw))
+    assert found[0].message.startswith(name)
+
+
+def test_init_start_or_stop_not_above_high_0x03() -> None:
+    assert ("start-above-high", 0x03) in init_rules(init(start_rate=400))
+    assert ("start-above-high", 0x03) in init_rules(init(start_rate=300))
+    t = init(stop_rate=399, decel_pulses=2000)
+    found = [f for f in check_table(t) if f.rule == "start-above-high"]
+    assert len(found) == 1 and found[0].message.startswith("stop_rate = 399")
+    assert "≥ 528" in found[0].message
+
+
+@pytest.mark.parametrize("gap, bad", [(127, True), (128, False)])
+def test_init_gap_of_the_slower_side_0x02(gap: int, bad: bool) -> None:
+    t = init(start_rate=400 + gap)
+    assert (("init-gap", 0x02) in init_rules(t)) == bad
+
+
+def test_init_gap_of_the_faster_side_is_0x04() -> None:
+    t = init(stop_rate=400 + 100, decel_pulses=2000)   # start 10000 is far enough
+    found = [f for f in check_table(t) if f.rule == "init-gap"]
+    assert [(f.chip_code, f.message.split(" ")[0]) for f in found] == [(0x04, "stop_rate")]
+    assert init_stage_problem(t) is not None and init_stage_problem(t)[0] == 0x04  # type: ignore[index]
+
+
+def test_init_pulse_limits() -> None:
+    assert ("init-pulses-field", None) in init_rules(init(accel_pulses=0x0F))
+    assert ("init-pulses-field", None) in init_rules(init(accel_pulses=0x100000))
+    assert ("init-pulses-min", None) in init_rules(init(accel_pulses=0xFF))
+    assert ("init-pulses-min", None) not in init_rules(init(accel_pulses=0x100))
+    assert ("init-pulses-min", None) in init_rules(init(stop_rate=9000, decel_pulses=0x80))
+
+
+def test_init_speed_and_stop_speed() -> None:
+    assert ("speed-max", None) in init_rules(init(high_rate=3, start_rate=0x200))
+    assert ("speed-max", None) not in init_rules(init(high_rate=4, start_rate=0x200))
+    warn = [f for f in check_table(init(high_rate=2, start_rate=0x80 + 2,
+                                        clock=Clock.internal("1MHz")))
+            if f.rule == "stop-speed-high"]
+    assert warn == []   # 1 MHz / 130 = 7.7 kpps
+    # At 8 MHz start ≥ high + 0x80 ≥ 130 keeps the stop below 62.5 kpps; a 20 MHz
+    # external clock can reach it: 20 MHz / 300 = 66.7 kpps, fixed from rate 321.
+    t = init(high_rate=10, start_rate=300, accel_pulses=5000, clock=Clock.extck(20e6))
+    warn = [f for f in check_table(t) if f.rule == "stop-speed-high"]
+    assert len(warn) == 1 and warn[0].severity == "warning" and "≥ 321" in warn[0].message
+    assert not [f for f in check_table(replace(t, start_rate=321))
+                if f.rule == "stop-speed-high"]
+
+
+def test_init_built_stage_too_short_is_0x05_and_advice_fixes_it() -> None:
+    t = init(start_rate=1000, high_rate=4, accel_pulses=256)
+    found = [f for f in check_table(t) if f.rule == "init-stage-pulses"]
+    assert len(found) == 1 and found[0].chip_code == 0x05
+    need = int(re.search(r"≥ (\d+)", found[0].message).group(1))  # type: ignore[union-attr]
+    assert need > 256
+    assert not [f for f in check_table(replace(t, accel_pulses=need))
+                if f.rule == "init-stage-pulses"]
+    assert [f for f in check_table(replace(t, accel_pulses=need - 1))
+            if f.rule == "init-stage-pulses"]
