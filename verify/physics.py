@@ -9,6 +9,9 @@ Model, in pulses (one pulse = one commanded step of the driver):
     δ    = c_e · L,  c_e = 2π · Nr / steps_per_rev   [electrical radians]
     J·θ̈ = T_amp(|ω|) · sin δ − T_f · sign(ω) + D · (ω_cmd − ω)
 
+  (at ω = 0 friction is static: it holds the rotor while the drive torque is
+  below T_f, and otherwise opposes the drive);
+
 - x_cmd is `Execution.position_linear_at`: the staircase integrated linearly
   within each segment (equal to the exact pulse count at every pulse instant).
   The per-pulse ripple of a real step train is not modelled.
@@ -181,6 +184,10 @@ class _Run:
             accel -= r.friction_pps2
         elif u < 0:
             accel += r.friction_pps2
+        elif abs(accel) <= r.friction_pps2:
+            accel = 0.0  # at rest, friction holds the rotor until the drive exceeds it
+        else:
+            accel -= math.copysign(r.friction_pps2, accel)
         return s, -accel  # dL/dt = s; ds/dt = dv/dt − du/dt = −rotor accel
 
     def segment(self, t0: float, t1: float, v: float, *, mark_end: bool) -> None:
