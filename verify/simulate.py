@@ -15,7 +15,7 @@ Shapes (choices where the manual is silent: docs/notes/simulate.md):
   stages whole; the rest is split between the shared stages in the table's
   accel:decel ratio (accel share rounded down); accel runs the first pulses of
   its staircase, decel the last pulses of its staircase (the chip decelerates by
-  pulses remaining: manual §8-10, "the decel point stays the same").
+  pulses remaining: manual §8-8, "the decel point stays the same").
 - straight triangle, fewer pulses than the rate-difference pulses: start →
   accel → stop (accel side longer: the first pulses of its extra stages) or
   start → decel → stop (decel side longer: the last pulses of its extra stages).
