@@ -500,6 +500,18 @@ def parse_command(w0: int, w1: int, w2: int) -> tuple[int, int, int, int]:
     return d["cmd"], d["func"], _signed28((d["para_hi"] << 14) | d["para_lo"]), pairs[0]
 
 
+class PairCode(IntEnum):
+    """Bits 15–14 of every command word (bits 3–2 of the status word)."""
+
+    NOOP = 0
+    ONE = 1
+    TWO = 2
+    THREE = 3
+
+    def next(self) -> PairCode:
+        return PairCode(next_pair(self))
+
+
 def next_pair(pair: int) -> int:
     """Pair code after `pair`: 1 → 2 → 3 → 1 (0, the no-op, is never produced)."""
     _int_in("pair", pair, 0, 3)

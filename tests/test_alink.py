@@ -267,6 +267,9 @@ def test_pair_codes_cycle_from_one() -> None:
     pairs = [writer.put(A.Cmd.READ, 0, 0).pair for _ in range(7)]
     assert pairs == [1, 2, 3, 1, 2, 3, 1]
     assert [A.next_pair(p) for p in (0, 1, 2, 3)] == [1, 2, 3, 1]
+    assert A.PairCode.NOOP.next() is A.PairCode.ONE and A.PairCode.THREE.next() == 1
+    with pytest.raises(FieldRangeError, match="pair"):
+        A.next_pair(4)
     words = list(A.CommandWriter().stream([(A.Cmd.LOGIC, 0, 0x14), (A.Cmd.MOVE_A, 28, 100000)]))
     assert words == [(0x401C, 0x4000, 0x4014), (0x9C22, 0x8006, 0x86A0)]
 
