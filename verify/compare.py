@@ -46,7 +46,7 @@ class Comparison:
 
     @property
     def stall_margin(self) -> float:
-        return float(self.margins["min_margin"])
+        return float(self.margins["min"])
 
     def to_json(self) -> dict[str, Any]:
         refs = {name: {"duration_s": r.duration_s, "ratio": self.table_s / r.duration_s,

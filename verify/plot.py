@@ -51,7 +51,7 @@ def comparison_figure(comparison: Any) -> Any:
     ax_x.set(xlabel="position [pulses]", ylabel="speed [pps]")
     for ax in (ax_t, ax_x):
         ax.grid(alpha=0.3)
-        ax.legend(loc="lower center", fontsize=8)
+        ax.legend(loc="best", fontsize=8, framealpha=0.85)
         ax.set_ylim(bottom=0)
 
     margins = comparison.margins
