@@ -1,0 +1,112 @@
+"""PPMC-312 frame descriptions: layouts, bit fields and response headers."""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from profiles.errors import DecodeError, FieldRangeError
+from profiles.fields import Const, Frame
+from profiles.ppmc312 import frames as F
+
+SETTINGS = settings(max_examples=100, deadline=None)
+
+FIXED = [F.INIT_COMMON, F.INIT_SEPARATE, F.FC_COMMAND_COMMON, F.FC_COMMAND_SEPARATE, F.MOVE,
+         F.FC_PROGRESS, F.FC_DONE, F.INIT_DONE, F.PARAM_ERROR, F.STATE_ERROR, F.SIZE_ERROR,
+         F.TABLE_READ_COMMAND, F.TABLE_READ_FIRST]
+
+
+@pytest.mark.parametrize("frame", FIXED, ids=lambda f: f.name)
+def test_length_byte_counts_every_byte_after_it(frame: Frame) -> None:
+    # Fixed frames start header, length: length = size − 2, and fit the bus.
+    assert frame.size is not None and frame.size <= F.MAX_BLOCK_BYTES
+    length = frame.fields[1]
+    assert isinstance(length, Const) and length.value == bytes([frame.size - 2])
+
+
+@SETTINGS
+@given(st.integers(0, 1), st.integers(0, 7), st.integers(0, 0xFFFF), st.integers(0, 0xFFFF),
+       st.integers(0, 0xFFFFFF))
+def test_init_mode_byte(fo: int, clk: int, start: int, high: int, pulses: int) -> None:
+    block = F.INIT_COMMON.encode(fo=fo, clk=clk, start_rate=start, high_rate=high,
+                                 accel_pulses=pulses)
+    assert block[3] == fo << 3 | clk  # bit4 LE = 0, bits 7-5 zero
+    assert block[4:6] == start.to_bytes(2, "big") and block[8:11] == pulses.to_bytes(3, "big")
+    assert F.INIT_COMMON.decode(block) == {"fo": fo, "clk": clk, "start_rate": start,
+                                           "high_rate": high, "accel_pulses": pulses}
+    sep = F.INIT_SEPARATE.encode(fo=fo, clk=clk, start_rate=start, stop_rate=start,
+                                 high_rate=high, accel_pulses=pulses, decel_pulses=pulses)
+    assert sep[3] == 0x10 | fo << 3 | clk
+
+
+def test_free_curve_command_layouts() -> None:
+    assert F.FC_COMMAND_COMMON.encode(clk=3, accel_stages=0x7F).hex(" ") == "02 03 01 03 7f"
+    assert F.FC_COMMAND_SEPARATE.encode(clk=0, accel_stages=2, decel_stages=9).hex(" ") == \
+        "02 04 01 10 02 09"
+    with pytest.raises(FieldRangeError, match="accel_stages"):
+        F.FC_COMMAND_COMMON.encode(clk=0, accel_stages=0)
+    with pytest.raises(DecodeError, match="unexpected bits"):
+        F.FC_COMMAND_COMMON.decode(bytes.fromhex("02 03 01 08 02"))  # bit3 (FO) is x here
+
+
+@SETTINGS
+@given(st.sampled_from([F.RATE_BLOCK, F.ACCEL_BLOCK, F.DECEL_BLOCK]), st.booleans(),
+       st.data())
+def test_parameter_blocks(frame: Frame, last: bool, data: st.DataObject) -> None:
+    item = frame.fields[-1].item  # type: ignore[union-attr]
+    items = data.draw(st.lists(st.integers(0, item.max), min_size=1,
+                               max_size=F.MAX_BLOCK_DATA // item.size))
+    block = frame.encode(last=int(last), length=len(items) * item.size, items=items)
+    assert block[0] == int(last) and block[1] == len(block) - 2 <= F.MAX_BLOCK_DATA
+    assert block[2:] == b"".join(v.to_bytes(item.size, "big") for v in items)
+    assert frame.decode(block)["items"] == items
+
+
+def test_move_mode_bits() -> None:
+    block = F.MOVE.encode(dir=1, ov=1, trg=3, high_rate=0x0102, pulses=0xFFFFFFFF)
+    assert block.hex(" ") == "03 08 82 47 01 02 ff ff ff ff"
+    with pytest.raises(DecodeError, match="unexpected bits"):
+        F.MOVE.decode(bytes.fromhex("03 08 82 80 00 00 00 00 00 01"))
+
+
+@pytest.mark.parametrize(("byte", "bits"), [
+    (0x03, {"cmr": 0, "resp": 0, "pal": 1, "next": 1}),   # every bus answer we emit
+    (0x02, {"cmr": 0, "resp": 0, "pal": 1, "next": 0}),   # table read, first block
+    (0x01, {"cmr": 0, "resp": 0, "pal": 0, "next": 1}),   # table read, last item block
+    (0x3B, {"cmr": 1, "resp": 3, "pal": 1, "next": 1}),   # non-command, from override
+])
+def test_response_header_bits(byte: int, bits: dict[str, int]) -> None:
+    assert F.RESPONSE_HEADER.unpack_int(byte, 0) == bits
+    assert F.RESPONSE_HEADER.pack_int(bits, "header") == byte
+    with pytest.raises(DecodeError):
+        F.RESPONSE_HEADER.unpack_int(byte | 0x04, 0)  # bit 2 is always 0
+
+
+def test_responses() -> None:
+    assert F.FC_DONE.encode(accel_total=0x12345, decel_total=0xFFFFF).hex(" ") == \
+        "03 08 01 0f 01 23 45 0f ff ff"
+    assert F.PARAM_ERROR.encode(error=0x19, command=1).hex(" ") == "03 03 f0 19 01"
+    assert F.FC_PROGRESS.decode(bytes.fromhex("03 03 01 02 05")) == {"status": 2,
+                                                                      "remaining": 5}
+    with pytest.raises(DecodeError, match="status"):
+        F.FC_PROGRESS.decode(bytes.fromhex("03 03 01 03 05"))
+
+
+def test_table_read_item_blocks_carry_a_kind_byte() -> None:
+    block = F.READ_ACCEL.encode(next=1, length=7, items=[5, 0x10203])
+    assert block.hex(" ") == "01 07 02 00 00 05 01 02 03"
+    with pytest.raises(DecodeError, match="kind"):
+        F.READ_RATES.decode(block)
+
+
+def test_check_length_byte_and_choice_error() -> None:
+    assert F.check_length_byte(bytes.fromhex("00 02 0a 0b"), 1) == 2
+    with pytest.raises(DecodeError, match="carries 1") as err:
+        F.check_length_byte(bytes.fromhex("00 02 0a"), 4)
+    assert (err.value.block, err.value.byte) == (4, 1)
+    with pytest.raises(DecodeError, match="no length byte"):
+        F.check_length_byte(b"\x00", 0)
+    err2 = F.FieldChoiceError("trigger", 2, (1, 3))
+    assert str(err2) == "trigger: 2 is not one of the allowed values 1, 3"
+    assert isinstance(err2, FieldRangeError)
