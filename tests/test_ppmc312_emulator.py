@@ -233,3 +233,14 @@ def test_mutated_uploads_give_a_chip_error_or_decode_error(blocks: list[bytes]) 
         assert verdict.error_code is not None or "waiting" in verdict.message
         if verdict.error_code is not None:
             assert verdict.responses[-1][2] in (0xF0, 0xF1, 0xF6)
+
+
+def test_empty_parameter_block_changes_nothing() -> None:
+    blocks = _upload((10, 20), (300, 400))
+    chip = ChipEmulator()
+    assert chip.feed(blocks[0]).hex(" ") == "03 03 01 00 02"
+    assert chip.feed(bytes.fromhex("00 00")).hex(" ") == "03 03 01 00 02"
+    assert [chip.feed(b)[3] for b in blocks[1:]] == [0x01, 0x0F]
+    # …but an empty block cannot end an upload that still expects data.
+    verdict = accept_upload([blocks[0], bytes.fromhex("01 00")])
+    assert (verdict.error_code, verdict.block) == (0x17, 1)
