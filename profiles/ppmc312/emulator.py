@@ -16,8 +16,8 @@ table builder and are left to `verify`.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 from ..errors import DecodeError
 from .frames import (
@@ -106,7 +106,7 @@ class ChipEmulator:
         """A free-curve upload has started and still expects data."""
         return self._upload is not None
 
-    def feed(self, block: Any) -> bytes:
+    def feed(self, block: bytes) -> bytes:
         data = block_bytes(block)
         if not data:
             raise DecodeError("empty block: nothing was written")
@@ -263,7 +263,7 @@ class ChipEmulator:
 _NAMES = ("rate", "accel", "decel")
 
 
-def accept_upload(blocks: Any, emulator: ChipEmulator | None = None) -> Verdict:
+def accept_upload(blocks: Sequence[bytes], emulator: ChipEmulator | None = None) -> Verdict:
     """Feed a whole upload from power-on; stop at the first refusal."""
     chip = emulator if emulator is not None else ChipEmulator()
     chip.reset()

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 import string
-from typing import Any
+from collections.abc import Sequence
 
 from ..errors import DecodeError, FormatError
 from .frames import HDR_CODE_EXEC, block_list
@@ -25,7 +25,7 @@ def hex_line(block: bytes) -> str:
     return " ".join(f"{b:02X}" for b in block)
 
 
-def render(blocks: Any, fmt: str) -> bytes:
+def render(blocks: Sequence[bytes], fmt: str) -> bytes:
     """The upload file in format `fmt` (one of hex, bin, c, json, bus)."""
     items = block_list(blocks)
     if not items:

@@ -15,6 +15,7 @@ Chip rules (2..127 stages, rates ≥ 2 …) are checked by the emulator and
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from ..clock import Clock
@@ -24,7 +25,6 @@ from ..table import FreeCurveTable, InitTable, Table
 from . import ascii as serial
 from .frames import (
     ACCEL_BLOCK,
-    CODE_ACCEL_MOVE,
     CODE_FREE_CURVE,
     CODE_INIT,
     DECEL_BLOCK,
@@ -98,7 +98,7 @@ def encode_free_curve(table: FreeCurveTable, *, max_data: int = MAX_BLOCK_DATA) 
     return blocks
 
 
-def decode_free_curve(blocks: Any, *, extck_hz: float | None = None) -> FreeCurveTable:
+def decode_free_curve(blocks: Sequence[bytes], *, extck_hz: float | None = None) -> FreeCurveTable:
     """The table a free-curve upload carries; anything else is a `DecodeError`."""
     blocks = block_list(blocks)
     if not blocks:
@@ -181,7 +181,7 @@ def encode_init(table: InitTable) -> bytes:
     return INIT_COMMON.encode(values)
 
 
-def decode_init(block: Any, *, extck_hz: float | None = None) -> InitTable:
+def decode_init(block: bytes, *, extck_hz: float | None = None) -> InitTable:
     data = block_bytes(block)
     if len(data) < 2:
         raise DecodeError(f"the init block is {len(data)} byte(s)", byte=len(data))
@@ -205,7 +205,7 @@ def encode_move(pulses: int, *, ccw: bool = False, high_rate: int = 0, override:
                        high_rate=high_rate, pulses=pulses)
 
 
-def decode_move(block: Any) -> dict[str, Any]:
+def decode_move(block: bytes) -> dict[str, Any]:
     f = MOVE.decode(block_bytes(block))
     if f["ov"] and f["trg"] not in OVERRIDE_TRIGGERS:
         raise DecodeError(f"TRG {f['trg']:02b} with override: the manual allows 01 or 11 only",
@@ -232,7 +232,7 @@ def encode_table(table: Table, *, to: str = "parallel", address: int = 0,
     raise FormatError(f"not a PPMC-312 table: {type(table).__name__}")
 
 
-def decode_upload(blocks: Any, *, extck_hz: float | None = None) -> Table:
+def decode_upload(blocks: Sequence[bytes], *, extck_hz: float | None = None) -> Table:
     """A parallel free-curve upload, a parallel init block or an ASCII init frame."""
     blocks = block_list(blocks)
     if not blocks:
@@ -259,9 +259,9 @@ def decode_upload(blocks: Any, *, extck_hz: float | None = None) -> Table:
                       "upload (02 …01 free curve or 03 …00 init expected)", block=0, byte=0)
 
 
-def _with_block(decode: Any) -> Table:
+def _with_block(decode: Callable[[], InitTable]) -> InitTable:
     try:
-        return decode()  # type: ignore[no-any-return]
+        return decode()
     except DecodeError as e:
         message = str(e).partition(": ")[2] if e.byte is not None else str(e)
         raise DecodeError(message, block=0, byte=e.byte) from None
@@ -300,7 +300,7 @@ def _read_item_size(frame: Frame) -> int:
     return _item_size(frame)
 
 
-def decode_table_read(blocks: Any, *, clock: Clock) -> FreeCurveTable:
+def decode_table_read(blocks: Sequence[bytes], *, clock: Clock) -> FreeCurveTable:
     """The free-curve table in a table-read (41) answer; totals are cross-checked."""
     blocks = block_list(blocks)
     if not blocks:
@@ -367,7 +367,6 @@ def bus_writes(block: bytes) -> list[tuple[str, int]]:
 
 
 __all__ = [
-    "CODE_ACCEL_MOVE",
     "bus_writes",
     "decode_free_curve",
     "decode_init",
