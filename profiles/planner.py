@@ -185,7 +185,7 @@ def _grid_rates(pb: _Problem, target: int) -> np.ndarray:
         f_lo, f_hi = hz / r_slow, hz / pb.r_fast
 
         def build(step: float) -> np.ndarray:
-            r_dense = max(pb.r_fast, int(math.floor((math.sqrt(1 + 4 * hz / step) - 1) / 2)))
+            r_dense = max(pb.r_fast, math.floor((math.sqrt(1 + 4 * hz / step) - 1) / 2))
             dense = np.arange(r_dense, pb.r_fast - 1, -1, dtype=np.int64)
             f_top = hz / r_dense
             coarse = np.round(hz / np.arange(f_lo, f_top, step)).astype(np.int64)
