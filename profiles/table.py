@@ -163,7 +163,7 @@ def table_from_json(obj: Any) -> Table:
     if obj.get("device") != DEVICE:
         raise FormatError(f"device: expected {DEVICE!r}, got {obj.get('device')!r}")
     kind = obj.get("kind")
-    if kind not in _KEYS:
+    if not isinstance(kind, str) or kind not in _KEYS:
         raise FormatError(f"kind: expected 'free_curve' or 'init', got {kind!r}")
     required, optional = _KEYS[kind]
     unknown = set(obj) - required - optional
