@@ -27,7 +27,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from profiles.clock import Clock  # noqa: E402
-from profiles.ppmc312.emulator import ChipEmulator  # noqa: E402
+from profiles.ppmc312.emulator import accept_upload  # noqa: E402
 from profiles.ppmc312.upload import decode_free_curve, encode_free_curve  # noqa: E402
 from profiles.table import FreeCurveTable, table_from_json  # noqa: E402
 from verify.checks import check_table  # noqa: E402
@@ -80,7 +80,7 @@ def main() -> None:
         assert decode_free_curve(encode_free_curve(t)) == t
 
     def accept(t: FreeCurveTable) -> None:
-        assert ChipEmulator().accept_upload(encode_free_curve(t)).ok
+        assert accept_upload(encode_free_curve(t)).ok
 
     rt = rate(codec, tables, args.seconds)
     em = rate(accept, tables, args.seconds)
