@@ -612,3 +612,180 @@ def plan_baseline(motor: Motor, *, clock: Clock | None = None, max_stages: int =
     rate and the top rate with minimal pulse counts (LE=0), no refinement."""
     return _plan(motor, clock, max_stages, pulses, False, grid="geometric", refine=False,
                  label="baseline")
+
+
+# --------------------------------------------------------------------------- quantising
+QUANTISE_CANDIDATES = 400  # speed levels the level-choice DP considers at most
+
+
+def quantise_reference(t_s: Any, x_pulses: Any, v_pps: Any, *, clock: Clock,
+                       max_stages: int = 127) -> QuantisedPlan:
+    """A staircase table that never runs ahead of a sampled rest-to-rest reference.
+
+    Position domain: u_i = 1 / (τ_i − τ_{i−1}) is the reference's mean speed over pulse i
+    (τ_i the first time it reaches position i, linear between samples). Every pulse of the
+    staircase runs at a speed ≤ u_i, so each of its steps lands no earlier than the
+    reference's. The levels (≤ max_stages rates) minimise the total time, i.e. the lag at
+    the end, by a DP over candidate levels; each step's lateness is reported in µs.
+    """
+    _check_args(max_stages, None)
+    t, x, v = (np.asarray(a, dtype=float) for a in (t_s, x_pulses, v_pps))
+    for name, arr in (("t_s", t), ("x_pulses", x), ("v_pps", v)):
+        if arr.ndim != 1 or len(arr) != len(t) or len(arr) < 2 or not np.all(np.isfinite(arr)):
+            raise PlanError(f"{name}: expected a finite 1-D array as long as t_s (≥ 2 samples)")
+    if np.any(np.diff(t) <= 0):
+        raise PlanError("t_s: sample times must strictly increase")
+    if np.any(np.diff(x) < -1e-6 * max(1.0, abs(x[-1]))):
+        raise PlanError("x_pulses: the reference moves backwards; give one rest-to-rest move")
+    xm = np.maximum.accumulate(x - x[0])
+    total = round(float(xm[-1]))
+    if total < 8:
+        raise FieldRangeError("x_pulses (move length)", total, 8, 0xFFFFFFFF)
+    xp, first = np.unique(xm, return_index=True)
+    tau = np.interp(np.arange(total + 1, dtype=float), xp, t[first] - t[0])
+    dt = np.diff(tau)
+    with np.errstate(divide="ignore"):
+        u = np.where(dt > 0, 1.0 / np.where(dt > 0, dt, 1.0), np.inf)
+    u = np.minimum(u, MAX_OUTPUT_PPS)
+    peak = int(np.argmax(u))
+    cap = np.empty_like(u)
+    cap[: peak + 1] = np.minimum.accumulate(u[: peak + 1][::-1])[::-1]
+    cap[peak:] = np.minimum.accumulate(u[peak:])
+    hz = clock.hz
+    need = np.maximum(RATE_MIN, np.ceil(hz / cap - 1e-9)).astype(np.int64)
+    if need.max() > RATE_MAX:
+        slow = int(np.argmax(need))
+        raise PlanError(f"clock {clock.name}: pulse {slow + 1} of the reference runs at "
+                        f"{cap[slow]:.4g} pps, slower than rate {RATE_MAX} allows "
+                        f"({hz / RATE_MAX:.4g} pps); use a slower clock")
+    # every stage needs its chip minimum of pulses on each side: a run that starts at a
+    # pulse runs at that pulse's rate for at least that many pulses (slower, never ahead)
+    need = np.concatenate((_group_needs(need[: peak + 1]),
+                           _group_needs(need[peak + 1:][::-1])[::-1]))
+    levels = _choose_levels(need, hz, max_stages)
+    for _ in range(len(levels)):
+        runs = _assign(need, peak, levels)
+        if runs is not None:
+            break
+        levels = levels[:-1]  # the top level cannot hold its minimum pulses: drop it
+    else:
+        runs = None
+    if runs is None or len(levels) < STAGES_MIN:
+        raise PlanError("the reference is too short to hold a two-stage staircase of legal "
+                        "stage counts (2 pulses and 256 clock ticks per stage on each side)")
+    n, d, level_of_pulse = runs
+    speeds = hz / levels[level_of_pulse].astype(float)
+    if n.sum() > SIDE_TOTAL_MAX or d.sum() > SIDE_TOTAL_MAX:
+        raise PlanError(f"the reference's ramps need {int(n.sum())} + {int(d.sum())} pulses; "
+                        f"a free-curve side holds at most {SIDE_TOTAL_MAX}")
+    step_t = np.cumsum(1.0 / speeds)
+    late = step_t - tau[1:]
+    sep = not np.array_equal(n, d)
+    table = FreeCurveTable(clock, tuple(int(r) for r in levels[::-1]),
+                           tuple(int(c) for c in n[::-1]),
+                           tuple(int(c) for c in d[::-1]) if sep else None)
+    info = (f"quantised {total} pulses into {len(levels)} stages (LE={int(sep)}), lag at the end "
+            f"{late[-1] * 1e3:.4g} ms, worst step {late.max() * 1e6:.4g} µs late")
+    return QuantisedPlan(table, float(late.max() * 1e6), float(late.mean() * 1e6), info)
+
+
+def _choose_levels(need: np.ndarray, hz: float, max_stages: int) -> np.ndarray:
+    """Stage rates (slowest first) minimising Σ_i 1/level(i), level(i) the fastest chosen
+    speed not above pulse i's cap; the slowest needed rate is always a level."""
+    rates, weight = np.unique(need, return_counts=True)
+    rates, weight = rates[::-1], weight[::-1].astype(float)  # slowest first
+    if len(rates) > QUANTISE_CANDIDATES:
+        # candidate levels: the slowest rate and quantiles of the pulses over speed; every
+        # pulse falls to the fastest candidate at or below its cap
+        cum = np.cumsum(weight)
+        picks = np.searchsorted(cum, np.linspace(0, cum[-1], QUANTISE_CANDIDATES),
+                                side="left")
+        keep = np.unique(np.concatenate(([0], np.minimum(picks, len(rates) - 1))))
+        owner = np.searchsorted(keep, np.arange(len(rates)), side="right") - 1
+        weight = np.bincount(owner, weights=weight, minlength=len(keep))
+        rates = rates[keep]
+    if len(rates) <= max_stages:
+        return rates
+    q = hz / rates.astype(float)
+    c = len(rates)
+    cum = np.concatenate(([0.0], np.cumsum(weight)))
+    # cost[i, j]: level q_i serving candidate bins i..j−1
+    cost = (cum[None, :] - cum[:c, None]) / q[:, None]
+    ii, jj = np.indices(cost.shape)
+    cost = np.where(jj > ii, cost, np.inf)
+    best = cost[0].copy()          # one level (bin 0) serving bins 0..j−1
+    parents = []
+    for _ in range(max_stages - 1):
+        tot = best[:c, None] + cost
+        arg = np.argmin(tot, axis=0)
+        new = tot[arg, np.arange(c + 1)]
+        better = new < best
+        if not better.any():
+            break
+        parents.append(np.where(better, arg, -1))
+        best = np.where(better, new, best)
+    chosen = []
+    j = c
+    for par in reversed(parents):
+        p = int(par[j])
+        if p >= 0:
+            chosen.append(p)
+            j = p
+    chosen.append(0)
+    return rates[np.asarray(sorted(set(chosen)))]
+
+
+def _assign(need: np.ndarray, peak: int, levels: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """Per-pulse levels and the accel/decel counts (slowest first), every stage at least its
+    chip minimum on both sides: a stage short of pulses runs on into the next faster stage's
+    pulses (slower than needed there, so never ahead). None if the top stage runs short."""
+    # level index per pulse (levels slowest first, i.e. descending rates): the fastest
+    # level whose rate is ≥ the pulse's needed rate
+    idx = len(levels) - 1 - np.searchsorted(levels[::-1], need, side="left")
+    base = _base_pulses(levels).astype(np.int64)
+    k_top = len(levels) - 1
+    acc_idx = _fill_runs(idx[: peak + 1].copy(), base)
+    dec_idx = _fill_runs(idx[peak + 1:][::-1].copy(), base)
+    if acc_idx is None or dec_idx is None:
+        return None
+    n = np.bincount(acc_idx, minlength=len(levels))
+    d = np.bincount(dec_idx, minlength=len(levels))
+    middle = n[k_top] + d[k_top]
+    if middle < 2 * base[k_top] or np.any(n[:k_top] < base[:k_top]) or np.any(
+            d[:k_top] < base[:k_top]):
+        return None
+    n[k_top] = d[k_top] = base[k_top]  # the rest of the top level is cruise
+    per_pulse = np.concatenate((acc_idx, dec_idx[::-1]))  # level index of every pulse
+    return n.astype(np.int64), d.astype(np.int64), per_pulse
+
+
+def _group_needs(side: np.ndarray) -> np.ndarray:
+    """One side's needed rates (slowest first, non-increasing), each run of a rate at least
+    the chip minimum long: a short run takes over the next pulses at its own rate."""
+    out = side.copy()
+    m = len(out)
+    pos = 0
+    while pos < m:
+        length = int(_base_pulses(out[pos]))
+        if pos + length < m and out[pos + length - 1] != out[pos]:
+            out[pos: pos + length] = out[pos]
+        changes = np.flatnonzero(out[pos + length:] != out[pos + length - 1]) if (
+            pos + length < m) else np.empty(0, dtype=np.int64)
+        pos = pos + length + int(changes[0]) if len(changes) else m
+    return out
+
+
+def _fill_runs(idx: np.ndarray, base: np.ndarray) -> np.ndarray | None:
+    """Slowest-first walk over one side: level k covers its pulses and at least base[k]."""
+    out = idx
+    pos = 0
+    m = len(out)
+    for k in range(len(base) - 1):
+        end = pos + int(np.searchsorted(out[pos:], k, side="right"))
+        length = max(end - pos, int(base[k]))
+        if pos + length > m:
+            return None
+        out[pos: pos + length] = k
+        pos += length
+    return out
