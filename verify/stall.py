@@ -107,10 +107,12 @@ def check_stall(table: FreeCurveTable, motor: Motor) -> list[Finding]:
                            f"motor's top usable speed {motor.top_pps:.6g} pps: raise rates[0] to "
                            f"≥ {need_rate}", stage=0))
     start_rate = math.ceil(hz / motor.start_pps * (1 - REL_TOL))
+    seen: set[int] = set()
     for side, counts in (("accel", table.accel_pulses), ("decel", table.decel)):
-        if not counts:
-            continue
+        if not counts or len(counts) - 1 in seen:
+            continue  # LE=0 or equal stage counts: one slowest stage, one finding
         k = len(counts) - 1
+        seen.add(k)
         f1 = hz / rates[k]
         if f1 > motor.start_pps * (1 + REL_TOL):
             out.append(Finding("error", "stall-start-speed",
