@@ -255,7 +255,7 @@ def test_pre_commit_hook(firmware_repo: Path) -> None:
     assert "good.table.json:" not in out and "notes.json" not in out
     assert "2 files checked: 1 ok, 1 failed" in out
 
-    _git(["rm", "-q", "bad.table.json"], firmware_repo)
+    _git(["rm", "-q", "-f", "bad.table.json"], firmware_repo)
     passing = _pre_commit(firmware_repo)
     out = passing.stdout + passing.stderr
     assert passing.returncode == 0, out
@@ -284,6 +284,6 @@ def test_pre_commit_files_override(firmware_repo: Path) -> None:
     assert "elsewhere.table.json" not in out
     assert "2 files checked: 1 ok, 1 failed" in out
 
-    _git(["rm", "-q", "ramps/y.json"], firmware_repo)
+    _git(["rm", "-q", "-f", "ramps/y.json"], firmware_repo)
     passing = _pre_commit(firmware_repo)
     assert passing.returncode == 0, passing.stdout + passing.stderr
