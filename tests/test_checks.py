@@ -155,10 +155,13 @@ def test_short_stage_threshold_is_a_tenth_of_neighbour_mean() -> None:
     assert [f.stage for f in stage2(12)] == [2]
     assert "raise accel_pulses[2] to ≥ 13" in stage2(12)[0].message
     assert stage2(13) == []
-    # An end stage compares with its one neighbour: 10 × rate-400 ticks vs 100 × 500.
-    t = fc([400, 500, 600], [12, 100, 100])
-    assert [f.stage for f in check_table(t) if f.rule == "stage-short"] == [0]
-    t = fc([400, 500, 600], [13, 100, 100])
+    # The slowest end stage compares with its one neighbour: 10 × rate-600 vs 100 × 500.
+    t = fc([400, 500, 600], [100, 100, 8])
+    assert [f.stage for f in check_table(t) if f.rule == "stage-short"] == [2]
+    t = fc([400, 500, 600], [100, 100, 9])
+    assert [f.stage for f in check_table(t) if f.rule == "stage-short"] == []
+    # The fastest stage runs on into the cruise at its own rate: never suspect.
+    t = fc([400, 500, 600], [2, 100, 100])
     assert [f.stage for f in check_table(t) if f.rule == "stage-short"] == []
 
 

@@ -210,7 +210,11 @@ def _short_stages(side: str, field: str, ticks: list[int], rates: tuple[int, ...
     neighbour_mean[0], neighbour_mean[-1] = t[1], t[-2]
     neighbour_mean[1:-1] = (t[:-2] + t[2:]) / 2.0
     out = []
+    # Stage 0 (the fastest) runs straight on into the cruise at the same rate, so its
+    # own length does not matter: planners give it the minimum on purpose.
     for i in np.flatnonzero(t < SHORT_STAGE_FRACTION * neighbour_mean).tolist():
+        if i == 0:
+            continue
         target = SHORT_STAGE_FRACTION * neighbour_mean[i]
         need = math.ceil(target / rates[i]) if rates[i] > 0 else 2
         out.append(Finding("warning", "stage-short",
