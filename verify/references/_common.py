@@ -23,7 +23,7 @@ MAX_PULSES = 10_000_000_000
 
 #: Relative margin below the speed where a_acc reaches 0 (see notes): the approach
 #: to that speed is logarithmically slow and the solvers need a_acc(v_lim) > 0.
-ZERO_ACCEL_MARGIN = 0.01
+ZERO_ACCEL_MARGIN = 1e-6
 
 
 class ReferenceSolveError(StepRampError, RuntimeError):

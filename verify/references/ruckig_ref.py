@@ -38,12 +38,22 @@ def _limit(name: str, value: float | None, lo: float, hi: float) -> float | None
     return float(value)
 
 
+def _v_max_candidates(motor: Motor, v0: float, v_lim: float) -> list[float]:
+    """Speed caps to try: geometric between v0 and v_lim, plus the curve's points."""
+    if v_lim <= v0 * (1 + 1e-9):
+        return [v_lim]
+    bps = motor.curve_speed_pps
+    grid = np.geomspace(v0 * (1 + 1e-6), v_lim, 96)
+    return sorted({*grid.tolist(), *bps[(bps > v0) & (bps < v_lim)].tolist(), v_lim})
+
+
 def ruckig_reference(motor: Motor, pulses: Any, *, v_max_pps: float | None = None,
                      a_max_pps2: float | None = None, j_max_pps3: float | None = None,
                      bound: str = "feasible") -> Reference:
     """Jerk-limited ruckig move of `pulses` pulses from v0 to v0 with constant limits.
 
-    bound="feasible": accelerate with min a_acc and brake with min a_dec over [v0, v_max]
+    bound="feasible": accelerate with min a_acc and brake with min a_dec over [v0, v_max],
+    v_max (unless given) being the cap that makes this move fastest
     (stall-safe, an upper bound of the optimum's time). bound="optimistic": the largest
     a_acc and a_dec over [0, v_max] (infeasible in general: a lower bound of the jerk-free
     optimum). `a_max_pps2` overrides both directions. Jerk: `j_max_pps3`, else the motor's
@@ -56,38 +66,54 @@ def ruckig_reference(motor: Motor, pulses: Any, *, v_max_pps: float | None = Non
     start = time.perf_counter()
     lim = move_limits(motor, pulses)
     v0 = lim.v0_pps
-    v_max = _limit("v_max_pps", v_max_pps, v0, lim.v_lim_pps) or lim.v_lim_pps
+    v_given = _limit("v_max_pps", v_max_pps, v0, lim.v_lim_pps)
     a_given = _limit("a_max_pps2", a_max_pps2, 1e-9, 1e15)
     j_given = _limit("j_max_pps3", j_max_pps3, 1e-9, 1e18)
-    if a_given is not None:
-        a_up = a_down = a_given
-    elif bound == "feasible":
-        a_up = float(motor.min_a_acc_pps2(v0, v_max))
-        a_down = float(motor.min_a_dec_pps2(v0, v_max))
-    else:
-        a_up = _max_over(motor, motor.a_acc_pps2, 0.0, v_max)
-        a_down = _max_over(motor, motor.a_dec_pps2, 0.0, v_max)
     jerk = j_given if j_given is not None else motor.max_jerk_pps3
     j_norm = math.inf if jerk is None else jerk / lim.j_ref_pps3
 
-    inp = InputParameter(1)
-    inp.current_position = [0.0]
-    inp.current_velocity = [v0 / lim.v_ref_pps]
-    inp.current_acceleration = [0.0]
-    inp.target_position = [1.0]
-    inp.target_velocity = [v0 / lim.v_ref_pps]
-    inp.target_acceleration = [0.0]
-    inp.max_velocity = [v_max / lim.v_ref_pps]
-    inp.max_acceleration = [a_up / lim.a_ref_pps2]
-    inp.min_acceleration = [-a_down / lim.a_ref_pps2]
-    inp.max_jerk = [j_norm]
-    traj = Trajectory(1)
-    try:
-        result = Ruckig(1).calculate(inp, traj)
-    except RuntimeError as exc:  # ruckig raises RuckigError (a RuntimeError) on bad input
-        raise ReferenceSolveError(f"ruckig: {str(exc).splitlines()[0]}") from exc
-    if result != Result.Working:
-        raise ReferenceSolveError(f"ruckig: calculation failed ({result})")
+    def limits(v_max: float) -> tuple[float, float]:
+        if a_given is not None:
+            return a_given, a_given
+        if bound == "feasible":
+            return (float(motor.min_a_acc_pps2(v0, v_max)),
+                    float(motor.min_a_dec_pps2(v0, v_max)))
+        return (_max_over(motor, motor.a_acc_pps2, 0.0, v_max),
+                _max_over(motor, motor.a_dec_pps2, 0.0, v_max))
+
+    def solve(v_max: float) -> Any:
+        a_up, a_down = limits(v_max)
+        inp = InputParameter(1)
+        inp.current_position = [0.0]
+        inp.current_velocity = [v0 / lim.v_ref_pps]
+        inp.current_acceleration = [0.0]
+        inp.target_position = [1.0]
+        inp.target_velocity = [v0 / lim.v_ref_pps]
+        inp.target_acceleration = [0.0]
+        inp.max_velocity = [v_max / lim.v_ref_pps]
+        inp.max_acceleration = [a_up / lim.a_ref_pps2]
+        inp.min_acceleration = [-a_down / lim.a_ref_pps2]
+        inp.max_jerk = [j_norm]
+        traj = Trajectory(1)
+        try:
+            result = Ruckig(1).calculate(inp, traj)
+        except RuntimeError as exc:  # ruckig raises RuckigError (a RuntimeError) on bad input
+            raise ReferenceSolveError(f"ruckig: {str(exc).splitlines()[0]}") from exc
+        if result != Result.Working:
+            raise ReferenceSolveError(f"ruckig: calculation failed ({result})")
+        return traj
+
+    if v_given is not None or bound != "feasible" or a_given is not None:
+        v_max = v_given if v_given is not None else lim.v_lim_pps
+    else:
+        # With constant limits, the feasible acceleration is the capability's minimum
+        # over [v0, v_max]: a higher cap can make every move slower (down to nothing
+        # near the speed where a_acc reaches 0). Choose the cap that gives the fastest
+        # feasible move; one calculate takes about a microsecond.
+        v_max = min(_v_max_candidates(motor, v0, lim.v_lim_pps),
+                    key=lambda v: float(solve(v).duration) if limits(v)[0] > 0 else math.inf)
+    a_up, a_down = limits(v_max)
+    traj = solve(v_max)
     solve_s = time.perf_counter() - start
 
     duration_n = float(traj.duration)
