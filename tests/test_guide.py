@@ -377,3 +377,16 @@ def test_c_headers_from_the_guide_compile(fast_run: tuple[Path, list[str]], tmp_
                            "-Wno-unused-variable", "-fsyntax-only",
                            str(source)], capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
+
+
+def test_internal_links_resolve() -> None:
+    text = guide_text()
+    # GitHub's heading anchors: lower case, punctuation other than - and _ dropped,
+    # spaces to hyphens.
+    anchors = {re.sub(r"[^\w\- ]", "", h.strip().lower()).replace(" ", "-")
+               for h in re.findall(r"^#{2,4} (.+)$", text, re.M)}
+    links = re.findall(r"\]\(#([^)]+)\)", text)
+    assert len(links) >= 10
+    assert sorted(set(links) - anchors) == []
+    for target in re.findall(r"\]\((\.\./[^)#]+)\)", text):
+        assert (GUIDE.parent / target).exists(), target
