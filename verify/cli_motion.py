@@ -123,6 +123,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
     from verify.compare import compare_table
     from verify.output import write_output
 
+    if args.plot and not args.plot.lower().endswith((".png", ".svg")):
+        raise FormatError(f"--plot {args.plot}: the figure format is taken from the "
+                          "extension: .png or .svg")
     names = tuple(n.strip() for n in args.references.split(",") if n.strip())
     unknown = set(names) - {"toppra", "ruckig", "casadi"}
     if unknown:
