@@ -21,7 +21,9 @@ import re
 import shutil
 import subprocess
 import sys
+import tempfile
 import xml.etree.ElementTree as ET
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -211,9 +213,11 @@ def _git(args: list[str], cwd: Path) -> str:
                           text=True, timeout=60).stdout.strip()
 
 
-def _pre_commit(cwd: Path) -> subprocess.CompletedProcess[str]:
+def _pre_commit(cwd: Path, home: Path) -> subprocess.CompletedProcess[str]:
     env = {k: v for k, v in os.environ.items() if not k.startswith("GIT_")}
     env.pop("PYTHONPATH", None)  # the hook must run from its own installed environment
+    # A hook environment is ~0.5 GB per stepramp commit: keep it out of ~/.cache.
+    env["PRE_COMMIT_HOME"] = str(home)
     return subprocess.run([sys.executable, "-m", "pre_commit", "run", "--all-files",
                            "--color", "never"], cwd=cwd, env=env, capture_output=True, text=True,
                           timeout=PRE_COMMIT_TIMEOUT_S)
@@ -227,6 +231,13 @@ def _local_config(config: dict[str, Any], rev: str) -> str:
     return yaml.safe_dump(config, sort_keys=False)
 
 
+@pytest.fixture(scope="module")
+def pre_commit_home() -> Iterator[Path]:
+    """pre-commit's cache, shared by this module's tests and removed after them."""
+    with tempfile.TemporaryDirectory(prefix="stepramp-pre-commit-") as home:
+        yield Path(home)
+
+
 @pytest.fixture
 def firmware_repo(tmp_path: Path) -> Path:
     if shutil.which("git") is None or not (REPO / ".git").exists():
@@ -236,7 +247,7 @@ def firmware_repo(tmp_path: Path) -> Path:
 
 
 @pytest.mark.slow
-def test_pre_commit_hook(firmware_repo: Path) -> None:
+def test_pre_commit_hook(firmware_repo: Path, pre_commit_home: Path) -> None:
     rev = _git(["rev-parse", "HEAD"], REPO)
     config = pre_commit_configs()[0]
     assert "files" not in config["repos"][0]["hooks"][0], "the first snippet is the plain one"
@@ -246,7 +257,7 @@ def test_pre_commit_hook(firmware_repo: Path) -> None:
     (firmware_repo / "notes.json").write_text('{"not": "a table"}\n')  # outside the pattern
     _git(["add", "-A"], firmware_repo)
 
-    failing = _pre_commit(firmware_repo)
+    failing = _pre_commit(firmware_repo, pre_commit_home)
     out = failing.stdout + failing.stderr
     assert failing.returncode == 1, out
     assert f"- hook id: {HOOK_ID}" in out and "- exit code: 1" in out
@@ -256,14 +267,14 @@ def test_pre_commit_hook(firmware_repo: Path) -> None:
     assert "2 files checked: 1 ok, 1 failed" in out
 
     _git(["rm", "-q", "-f", "bad.table.json"], firmware_repo)
-    passing = _pre_commit(firmware_repo)
+    passing = _pre_commit(firmware_repo, pre_commit_home)
     out = passing.stdout + passing.stderr
     assert passing.returncode == 0, out
     assert re.search(r"stepramp check .*Passed", out)
 
 
 @pytest.mark.slow
-def test_pre_commit_files_override(firmware_repo: Path) -> None:
+def test_pre_commit_files_override(firmware_repo: Path, pre_commit_home: Path) -> None:
     rev = _git(["rev-parse", "HEAD"], REPO)
     [config] = [c for c in pre_commit_configs() if "files" in c["repos"][0]["hooks"][0]]
     hook = config["repos"][0]["hooks"][0]
@@ -277,7 +288,7 @@ def test_pre_commit_files_override(firmware_repo: Path) -> None:
     shutil.copy(BAD, firmware_repo / "elsewhere.table.json")  # not selected by the override
     _git(["add", "-A"], firmware_repo)
 
-    failing = _pre_commit(firmware_repo)
+    failing = _pre_commit(firmware_repo, pre_commit_home)
     out = failing.stdout + failing.stderr
     assert failing.returncode == 1, out
     assert "ramps/y.json: error [rate-min] stage 0 (chip 0x18)" in out
@@ -285,5 +296,5 @@ def test_pre_commit_files_override(firmware_repo: Path) -> None:
     assert "2 files checked: 1 ok, 1 failed" in out
 
     _git(["rm", "-q", "-f", "ramps/y.json"], firmware_repo)
-    passing = _pre_commit(firmware_repo)
+    passing = _pre_commit(firmware_repo, pre_commit_home)
     assert passing.returncode == 0, passing.stdout + passing.stderr
