@@ -104,4 +104,4 @@ def test_real_check_results_render_in_every_format() -> None:
     assert {f["chip_code"] for f in doc["files"][2]["findings"]} >= {"0x18", "0x19"}
     root = ET.fromstring(render(results, "junit"))
     assert int(root.get("failures") or 0) == sum(
-        f.severity == "error" for r in results for f in r.findings)
+        any(f.severity == "error" for f in r.findings) for r in results) == 1

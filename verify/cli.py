@@ -104,8 +104,11 @@ def _load_checkable(path: str, extck_hz: float | None) -> tuple[Any | None, list
 
 
 def _looks_like_table_json(raw: bytes) -> bool:
-    head = raw.lstrip()[:1]
-    return head == b"{" and b"stepramp.table/1" in raw
+    """A JSON object that is not a `{"blocks": …}` upload is judged as a table file, so
+    a wrong or missing "format" is reported as such."""
+    if raw.lstrip()[:1] != b"{":
+        return False
+    return b"stepramp.table/1" in raw or b'"blocks"' not in raw
 
 
 def _read_bytes(path: str) -> bytes:

@@ -160,7 +160,7 @@ def cmd_alink_decode(args: argparse.Namespace) -> int:
     if args.format == "json":
         write_output(None, json.dumps(doc, indent=1) + "\n")
     else:
-        flags = [k for k, v in doc.items() if v is True and k not in ("valid", "read_back")]
+        flags = [k for k, v in doc.items() if v is True and k not in ("ack", "valid", "read_back")]
         write_output(None, f"{'Ack' if resp.ack else 'Nak'}, value {resp.value}, pair codes "
                            f"{resp.pair_codes} ({'valid' if resp.valid else resp.mismatch})"
                            + (f", flags: {', '.join(flags)}" if flags else "") + "\n")

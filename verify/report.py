@@ -91,7 +91,8 @@ def _text(results: Sequence[FileResult]) -> str:
 
 
 def _junit(results: Sequence[FileResult]) -> str:
-    failures = sum(1 for r in results for f in r.findings if f.severity == "error")
+    # JUnit counts failed test cases (files), however many <failure> elements each holds.
+    failures = sum(1 for r in results if any(f.severity == "error" for f in r.findings))
     errors = sum(1 for r in results if r.error is not None)
     suite = ET.Element("testsuite", {"name": SUITE_NAME, "tests": str(len(results)),
                                      "failures": str(failures), "errors": str(errors),
