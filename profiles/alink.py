@@ -1,7 +1,7 @@
 """ALGO A-Link ALUM024/025 positioning unit: speed multiplier, settings, command words.
 
 Facts: SPEC §2 and the manual (`seeds/alink-alum-manual-ja.txt`, §11–13). Choices
-where the manual is silent or contradicts itself: docs/notes/alink-mc200.md.
+where the manual is silent or contradicts itself: docs/manual-notes.md.
 
 - Speeds are `steps × multiplier` (steps 1–8000); the unit picks the multiplier
   itself (appendix 2). `unit_applies` models what the unit runs for any setting,

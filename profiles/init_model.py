@@ -28,7 +28,7 @@ out of range; 0x03 start or stop ≤ high; 0x02 the slower of start/stop is
 within 127 of high; 0x04 the faster of start/stop is within 127 of high (the
 limit needs both ≥ high + 0x80, but 0x02 only tests the slower one, so the
 other "is close to high and no table can be built"); 0x05 a built stage of
-≤ 2 pulses. See docs/notes/checks.md.
+≤ 2 pulses. See docs/manual-notes.md.
 """
 
 from __future__ import annotations

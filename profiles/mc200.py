@@ -2,7 +2,7 @@
 
 Facts: SPEC §3 and `seeds/mc200-spi-ja.txt` (one page per control mode). Every
 packet is 12 bytes, little-endian; bytes 10–11 are a checksum over bytes 0–9.
-Choices where the manual is silent or contradicts itself: docs/notes/alink-mc200.md.
+Choices where the manual is silent or contradicts itself: docs/manual-notes.md.
 
 - `HostPacket` / `DriverPacket`: one `fields.Frame` per layout serves encode and decode.
 - Sequences: `servo_on`, `servo_off`, `mode_switch`, `spi_error_reset`, checked by

@@ -1,4 +1,4 @@
-"""verify.simulate: the PPMC-312 accel/decel move model (choices: docs/notes/simulate.md)."""
+"""verify.simulate: the PPMC-312 accel/decel move model (choices: docs/manual-notes.md)."""
 
 from __future__ import annotations
 

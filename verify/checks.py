@@ -5,7 +5,7 @@ it or cannot output it) and every legal-but-suspect property (warnings), errors
 first, then by stage. Stage numbers index the table's fastest-first lists.
 Stall safety needs a motor and lives in `verify.stall`, not here.
 
-Rules (SPEC §1.3–1.4, manual §7-1, §7-2, §11-6; choices in docs/notes/checks.md):
+Rules (SPEC §1.3–1.4, manual §7-1, §7-2, §11-6; choices in docs/manual-notes.md):
 
 free curve
   stage-count       error 0x11  accel (decel) stage count outside 2..127

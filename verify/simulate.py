@@ -7,7 +7,7 @@ ticks), the response status it reports and the first-pulse latency
 (manual §8-3, SPEC §1.6). It never iterates per pulse: a 0xFFFFFFFF-pulse move
 is a handful of segments.
 
-Shapes (choices where the manual is silent: docs/notes/simulate.md):
+Shapes (choices where the manual is silent: docs/manual-notes.md):
 - trapezoid, pulses ≥ accel total + decel total: accel stages slowest →
   fastest, cruise at the high rate, decel stages fastest → slowest.
 - triangle, fewer pulses but ≥ the rate-difference pulses (the pulses of the

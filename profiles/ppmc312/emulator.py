@@ -7,7 +7,7 @@ parameter-error code, F1 (a header out of sequence), F6 (a length byte ≥ 31).
 The chip sees a block's size from WAR, so the emulator compares the length
 byte with the bytes written.
 
-When each rule is checked (our reading; see docs/notes/ppmc312-codec.md):
+When each rule is checked (our reading; see docs/manual-notes.md):
 per block, as the data arrives — length (15), header (10/17), section fit
 (16), rate ≤ 1 (18), pulses ≤ 1 (19), running total > 0xFFFFF (1A) — and the
 stage counts (11) on the command block. Init errors 04/05 need the chip's
