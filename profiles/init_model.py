@@ -58,30 +58,56 @@ class InitBuildError(StepRampError, ValueError):
         super().__init__(f"init table (chip code 0x{chip_code:02X}): {reason}")
 
 
-def init_parameter_problem(table: InitTable) -> tuple[int, str] | None:
-    """The chip's answer to the rate parameters before any table is built (0x01–0x04)."""
+def init_rate_problems(table: InitTable) -> list[tuple[int, str, str]]:
+    """Every way the rate parameters break the chip's rules, as (chip code, rule id,
+    message saying what to change); the one source of these rules for the model and
+    for `verify.checks`. Order: 0x01 ranges; then 0x03 (start or stop ≤ high); else
+    0x02 for the slower end within 127 of high and 0x04 for the faster one."""
+    out: list[tuple[int, str, str]] = []
     rates = [("start_rate", table.start_rate, START_RATE_MIN, START_RATE_MAX)]
     if table.stop_rate is not None:
         rates.append(("stop_rate", table.stop_rate, START_RATE_MIN, START_RATE_MAX))
     rates.append(("high_rate", table.high_rate, HIGH_RATE_MIN, HIGH_RATE_MAX))
     for name, value, lo, hi in rates:
         if not lo <= value <= hi:
-            return 0x01, f"{name} = {value} is outside 0x{lo:X}..0x{hi:X} ({lo}..{hi})"
+            fix = f"raise it to ≥ {lo}" if value < lo else f"lower it to ≤ {hi}"
+            out.append((0x01, "rate-range",
+                        f"{name} = {value} is outside 0x{lo:X}..0x{hi:X} ({lo}..{hi}): {fix}"))
     high = table.high_rate
-    ends = [("start_rate", table.start_rate), ("stop_rate", table.effective_stop_rate)]
-    for name, value in ends:
-        if value <= high:
-            return 0x03, (f"{name} = {value} is not slower than high_rate = {high}: "
-                          f"raise it to ≥ {high + MIN_GAP}")
-    slow_name, slow = max(ends, key=lambda e: e[1])
-    fast_name, fast = min(ends, key=lambda e: e[1])
-    if slow - high < MIN_GAP:
-        return 0x02, (f"{slow_name} − high_rate = {slow - high} ≤ 127: raise {slow_name} to "
-                      f"≥ {high + MIN_GAP} or lower high_rate to ≤ {slow - MIN_GAP}")
-    if fast - high < MIN_GAP:
-        return 0x04, (f"{fast_name} − high_rate = {fast - high} ≤ 127, too close to build a "
-                      f"table: raise {fast_name} to ≥ {high + MIN_GAP}")
-    return None
+    ends = [("start_rate", table.start_rate)]
+    if table.stop_rate is not None:
+        ends.append(("stop_rate", table.stop_rate))
+    low_ends = [(n, v) for n, v in ends if v <= high]
+    for name, value in low_ends:
+        out.append((0x03, "start-above-high",
+                    f"{name} = {value} is not slower than high_rate = {high}: raise it "
+                    f"to ≥ {high + MIN_GAP} (high + 0x80)"))
+    if not low_ends:
+        slow_name, slow = max(ends, key=lambda e: e[1])
+        for name, value in ends:
+            if value - high < MIN_GAP:
+                code = 0x02 if value == slow else 0x04
+                why = ("" if code == 0x02 else
+                       f" (the slower {slow_name} is far enough, but the chip cannot build "
+                       f"the table)")
+                out.append((code, "init-gap",
+                            f"{name} − high_rate = {value} − {high} = {value - high} ≤ 127"
+                            f"{why}: raise {name} to ≥ {high + MIN_GAP} or lower "
+                            f"high_rate to ≤ {value - MIN_GAP}"))
+    return out
+
+
+def init_parameter_problem(table: InitTable) -> tuple[int, str] | None:
+    """The chip's answer to the rate parameters before any table is built (0x01–0x04):
+    the first of `init_rate_problems`, in the order the chip checks them."""
+    problems = init_rate_problems(table)
+    if not problems:
+        return None
+    code, _, message = min(problems, key=lambda p: _CHIP_ORDER.index(p[0]))
+    return code, message
+
+
+_CHIP_ORDER = (0x01, 0x03, 0x02, 0x04)
 
 
 def init_stage_problem(table: InitTable, *, max_stages: int = MAX_STAGES) -> tuple[int, str] | None:

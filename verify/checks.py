@@ -42,14 +42,10 @@ import numpy as np
 from profiles.clock import MAX_OUTPUT_PPS
 from profiles.errors import FormatError
 from profiles.init_model import (
-    HIGH_RATE_MAX,
-    HIGH_RATE_MIN,
     INIT_PULSES_FIELD_MAX,
     INIT_PULSES_FIELD_MIN,
     INIT_PULSES_MIN,
-    MIN_GAP,
-    START_RATE_MAX,
-    START_RATE_MIN,
+    init_rate_problems,
     init_stage_problem,
 )
 from profiles.table import FreeCurveTable, InitTable, Table
@@ -229,39 +225,10 @@ def _short_stages(side: str, field: str, ticks: list[int], rates: tuple[int, ...
 def _check_init(t: InitTable) -> list[Finding]:
     out: list[Finding] = []
     hz, clk = t.clock.hz, t.clock.name
-    rate_fields = [("start_rate", t.start_rate, START_RATE_MIN, START_RATE_MAX)]
-    if t.stop_rate is not None:
-        rate_fields.append(("stop_rate", t.stop_rate, START_RATE_MIN, START_RATE_MAX))
-    rate_fields.append(("high_rate", t.high_rate, HIGH_RATE_MIN, HIGH_RATE_MAX))
-    for name, value, lo, hi in rate_fields:
-        if not lo <= value <= hi:
-            fix = f"raise it to ≥ {lo}" if value < lo else f"lower it to ≤ {hi}"
-            out.append(Finding("error", "rate-range",
-                               f"{name} = {value} is outside 0x{lo:X}..0x{hi:X} ({lo}..{hi}): "
-                               f"{fix}", 0x01))
-    rates_ok = not out
+    out += [Finding("error", rule, message, code) for code, rule, message in
+            init_rate_problems(t)]
+    rates_ok = not any(f.rule == "rate-range" for f in out)
     high = t.high_rate
-    ends = [("start_rate", t.start_rate)]
-    if t.stop_rate is not None:
-        ends.append(("stop_rate", t.stop_rate))
-    # 0x03 first: the chip reports it for start/stop at or below high.
-    low_ends = [(n, v) for n, v in ends if v <= high]
-    for name, value in low_ends:
-        out.append(Finding("error", "start-above-high",
-                           f"{name} = {value} is not slower than high_rate = {high}: raise it "
-                           f"to ≥ {high + MIN_GAP} (high + 0x80)", 0x03))
-    if not low_ends:
-        slow_name, slow = max(ends, key=lambda e: e[1])
-        for name, value in ends:
-            if value - high < MIN_GAP:
-                code = 0x02 if value == slow else 0x04
-                why = ("" if code == 0x02 else
-                       f" (the slower {slow_name} is far enough, but the chip cannot build "
-                       f"the table)")
-                out.append(Finding("error", "init-gap",
-                                   f"{name} − high_rate = {value} − {high} = {value - high} ≤ 127"
-                                   f"{why}: raise {name} to ≥ {high + MIN_GAP} or lower "
-                                   f"high_rate to ≤ {value - MIN_GAP}", code))
     pulse_fields = [("accel_pulses", t.accel_pulses)]
     if t.decel_pulses is not None:
         pulse_fields.append(("decel_pulses", t.decel_pulses))
