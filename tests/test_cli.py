@@ -165,3 +165,17 @@ def test_console_script_cold_imports_nothing_heavy() -> None:
     res = subprocess.run([sys.executable, "-c", code, str(GOOD)], capture_output=True,
                          text=True, cwd=ROOT, check=False)
     assert res.stdout.strip().splitlines()[-1] == "0 []", res.stdout + res.stderr
+
+
+def test_expand_init_table(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    from profiles.init_model import expand_init
+    from profiles.table import FreeCurveTable
+
+    out = tmp_path / "free.json"
+    assert run(capsys, "expand", INIT, "-o", out)[0] == 0
+    free = load_table(out)
+    assert isinstance(free, FreeCurveTable)
+    assert free == expand_init(load_table(INIT))  # type: ignore[arg-type]
+    init = load_table(INIT)
+    assert free.accel_total == init.accel_pulses  # type: ignore[union-attr]
+    assert run(capsys, "expand", GOOD)[0] == 2

@@ -176,6 +176,16 @@ def cmd_decode(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def cmd_expand(args: argparse.Namespace) -> int:
+    from profiles.table import FreeCurveTable, dump_table, load_table
+
+    table = load_table(args.table)
+    if isinstance(table, FreeCurveTable):
+        raise FormatError(f"{args.table}: already a free curve; expand takes an init table")
+    write_output(args.output, dump_table(_as_free_curve(table)))
+    return EXIT_OK
+
+
 # --- parser ------------------------------------------------------------------
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="stepramp", description=__doc__.splitlines()[0])
@@ -205,6 +215,12 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--extck-hz", type=_float)
     d.add_argument("-o", "--output", metavar="TABLE")
     d.set_defaults(func=cmd_decode)
+
+    x = sub.add_parser("expand", help="the free curve equivalent to an init table (the "
+                                      "modelled staircase the chip builds)")
+    x.add_argument("table", metavar="TABLE")
+    x.add_argument("-o", "--output", metavar="OUT")
+    x.set_defaults(func=cmd_expand)
 
     for register in _EXTRA_COMMANDS:
         register(sub)
