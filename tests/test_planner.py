@@ -15,9 +15,9 @@ from profiles.planner import (
     choose_clock,
     plan_baseline,
     plan_free_curve,
-    quantise_reference,
     reference_pulses,
 )
+from profiles.quantise import quantise_reference
 from profiles.table import FreeCurveTable
 from verify.stall import check_stall
 

@@ -9,7 +9,8 @@ import pytest
 from profiles.clock import Clock
 from profiles.errors import StepRampError
 from profiles.motor import Motor, bundled_motor_paths, load_motor
-from profiles.planner import QuantisedPlan, choose_clock, quantise_reference
+from profiles.planner import choose_clock
+from profiles.quantise import QuantisedPlan, quantise_reference
 from profiles.table import FreeCurveTable
 from verify.checks import check_table
 from verify.references import Reference, ruckig_reference, toppra_reference

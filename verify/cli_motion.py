@@ -59,7 +59,8 @@ def cmd_plan(args: argparse.Namespace) -> int:
     motor = load_motor(args.motor)
     clock = Clock.internal(args.clock) if args.clock else None
     if args.source:
-        from profiles.planner import choose_clock, quantise_reference
+        from profiles.planner import choose_clock
+        from profiles.quantise import quantise_reference
         from verify import references
 
         if args.pulses is None:
