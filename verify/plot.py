@@ -49,26 +49,44 @@ def comparison_figure(comparison: Any) -> Any:
              title=f"{comparison.motor.name or 'motor'}: {comparison.pulses} pulses, "
                    f"table / optimum = {comparison.ratio:.3f}")
     ax_x.set(xlabel="position [pulses]", ylabel="speed [pps]")
+    # Headroom above the cruise holds the one legend (both panels share its styles),
+    # so it never hides a curve whatever the move's shape.
+    v_top = max([float(np.max(v))] + [float(np.max(r.v_pps)) for r in
+                                       comparison.references.values() if len(r.v_pps)])
     for ax in (ax_t, ax_x):
         ax.grid(alpha=0.3)
-        ax.legend(loc="best", fontsize=8, framealpha=0.85)
-        ax.set_ylim(bottom=0)
+        ax.set_ylim(0, 1.32 * v_top)
+    ax_t.legend(loc="upper center", ncols=3, fontsize=8, framealpha=0.9)
 
     margins = comparison.margins
     acc = np.asarray(margins["accel"], float)
-    stages = np.arange(len(acc))
-    ax_m.bar(stages - 0.2, np.where(np.isfinite(acc), acc, np.nan), width=0.4,
-             color="tab:red", label="accel")
     dec = margins.get("decel")
+    dec = None if dec is None else np.asarray(dec, float)
+    shown = [m[np.isfinite(m)] for m in (acc, dec) if m is not None]
+    finite = np.concatenate(shown) if shown else np.array([])
+    # Margins span 1 … tens: a log axis keeps the stages near the limit readable.
+    bottom = min(0.8, 0.8 * float(finite.min())) if finite.size else 0.8
+    top = max(2.0, 1.5 * float(finite.max())) if finite.size else 2.0
+    stages = np.arange(len(acc))
+    ax_m.bar(stages - 0.2, np.where(np.isfinite(acc), acc, np.nan) - bottom, width=0.4,
+             bottom=bottom, color="tab:red", label="accel")
     if dec is not None:
-        dec = np.asarray(dec, float)
-        ax_m.bar(np.arange(len(dec)) + 0.2, np.where(np.isfinite(dec), dec, np.nan), width=0.4,
-                 color="tab:orange", label="decel")
-    ax_m.axhline(1.0, color="k", lw=1, ls="--", label="stall limit")
+        ax_m.bar(np.arange(len(dec)) + 0.2, np.where(np.isfinite(dec), dec, np.nan) - bottom,
+                 width=0.4, bottom=bottom, color="tab:orange", label="decel")
+    ax_m.axhline(1.0, color="k", lw=1, ls="--", label="stall limit (1)")
+    ax_m.set_yscale("log")
+    ax_m.set_ylim(bottom, top)
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullLocator
+
+    # Plain numbers (1, 2, 5, 10 …) read better than 10^0 on a margin axis.
+    ax_m.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+    ax_m.yaxis.set_minor_locator(NullLocator())
+    ax_m.yaxis.set_major_formatter(FuncFormatter(lambda y, _pos: f"{y:g}"))
     ax_m.set(xlabel="stage (0 = fastest)", ylabel="stall margin\n(capability / need)",
-             title=f"smallest margin {comparison.stall_margin:.3f}")
-    ax_m.grid(alpha=0.3, axis="y")
-    ax_m.legend(fontsize=8)
+             title=f"stall margin per stage (log scale; ≥ 1 is stall-safe): smallest "
+                   f"{comparison.stall_margin:.3f}")
+    ax_m.grid(alpha=0.3, axis="y", which="both")
+    ax_m.legend(fontsize=8, loc="upper left", ncols=3)
     return fig
 
 
