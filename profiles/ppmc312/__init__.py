@@ -5,30 +5,6 @@ serial frames, `files` the upload file formats, `emulator` answers each block
 as the chip would. Frame layouts live once in `frames`.
 """
 
-from .upload import (
-    bus_writes,
-    decode_free_curve,
-    decode_init,
-    decode_move,
-    decode_table_read,
-    decode_upload,
-    encode_free_curve,
-    encode_init,
-    encode_move,
-    encode_table,
-    encode_table_read_response,
-)
-
-__all__ = [
-    "bus_writes",
-    "decode_free_curve",
-    "decode_init",
-    "decode_move",
-    "decode_table_read",
-    "decode_upload",
-    "encode_free_curve",
-    "encode_init",
-    "encode_move",
-    "encode_table",
-    "encode_table_read_response",
-]
+# The package's public API is upload's; one list of names serves both.
+from .upload import *  # noqa: F403
+from .upload import __all__ as __all__
