@@ -179,3 +179,34 @@ def test_expand_init_table(capsys: pytest.CaptureFixture[str], tmp_path: Path) -
     init = load_table(INIT)
     assert free.accel_total == init.accel_pulses  # type: ignore[union-attr]
     assert run(capsys, "expand", GOOD)[0] == 2
+
+
+def test_move_command_bytes(capsys: pytest.CaptureFixture[str]) -> None:
+    from profiles.ppmc312.ascii import decode_serial_move
+    from profiles.ppmc312.upload import decode_move
+
+    code, out, _ = run(capsys, "move", "--pulses", "0x12345678", "--ccw", "--format", "bus")
+    assert code == 0
+    # the manual's bus example order (§5-6): last byte first, header last
+    assert out.split()[-8:] == ["DWR", "40", "DWR", "82", "DWR", "08", "DWR", "03"]
+    code, out, _ = run(capsys, "move", "--pulses", "5000", "--high-rate", "300")
+    assert decode_move(bytes.fromhex(out)) == {"pulses": 5000, "ccw": False, "high_rate": 300,
+                                               "override": False, "trigger": 0}
+    code, out, _ = run(capsys, "move", "--pulses", "5000", "--to", "ascii", "--address", "2")
+    assert decode_serial_move(bytes.fromhex(out))["pulses"] == 5000
+    assert run(capsys, "move", "--pulses", "0")[0] == 2
+    assert run(capsys, "move", "--pulses", "9", "--to", "ascii", "--override", "1")[0] == 2
+
+
+def test_decode_table_read_response(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    from profiles.ppmc312.files import render
+    from profiles.ppmc312.upload import encode_table_read_response
+
+    table = load_table(GOOD)
+    path = tmp_path / "read.hex"
+    path.write_bytes(render(encode_table_read_response(table), "hex"))  # type: ignore[arg-type]
+    out = tmp_path / "t.json"
+    assert run(capsys, "decode", path, "--table-read", "--clock", "8MHz", "-o", out)[0] == 0
+    assert load_table(out) == table
+    code, _, err = run(capsys, "decode", path, "--table-read")
+    assert code == 2 and "--clock" in err

@@ -277,7 +277,7 @@ def test_every_command_has_an_example() -> None:
     for name, sub in top.choices.items():  # type: ignore[union-attr]
         nested = [a for a in sub._actions if a.__class__.__name__ == "_SubParsersAction"]
         names |= {f"{name} {n}" for n in nested[0].choices} if nested else {name}
-    expected = {"check", "export", "decode", "expand", "plan", "simulate", "compare",
+    expected = {"check", "export", "decode", "move", "expand", "plan", "simulate", "compare",
                 "alink settings", "alink decode", "mc200 stream", "mc200 decode"}
     assert names >= expected
     documented = {c.name for c in guide_commands()}

@@ -167,12 +167,40 @@ def cmd_export(args: argparse.Namespace) -> int:
 
 
 def cmd_decode(args: argparse.Namespace) -> int:
+    from profiles.clock import Clock
     from profiles.ppmc312.files import parse_upload
-    from profiles.ppmc312.upload import decode_upload
+    from profiles.ppmc312.upload import decode_table_read, decode_upload
     from profiles.table import dump_table
 
-    table = decode_upload(parse_upload(_read_bytes(args.upload)), extck_hz=args.extck_hz)
+    blocks = parse_upload(_read_bytes(args.upload))
+    if args.table_read:
+        # The table-read response (41) carries stages, not the CLK field: the user says.
+        if not args.clock:
+            raise FormatError("--table-read needs --clock (the response does not carry it)")
+        clock = (Clock.extck(args.extck_hz) if args.clock == "EXTCK"
+                 else Clock.internal(args.clock))
+        table = decode_table_read(blocks, clock=clock)
+    else:
+        table = decode_upload(blocks, extck_hz=args.extck_hz)
     write_output(args.output, dump_table(table))
+    return EXIT_OK
+
+
+def cmd_move(args: argparse.Namespace) -> int:
+    from profiles.ppmc312.ascii import encode_serial_move
+    from profiles.ppmc312.files import render
+    from profiles.ppmc312.upload import encode_move
+
+    if args.to == "ascii":
+        if args.override:
+            raise FormatError("--override has no serial form (parallel bus only)")
+        blocks = [encode_serial_move(args.address, args.pulses, ccw=args.ccw,
+                                     high_rate=args.high_rate)]
+    else:
+        blocks = [encode_move(args.pulses, ccw=args.ccw, high_rate=args.high_rate,
+                              override=args.override is not None,
+                              trigger=args.override or 0)]
+    write_output(args.output, render(blocks, args.format))
     return EXIT_OK
 
 
@@ -213,8 +241,25 @@ def build_parser() -> argparse.ArgumentParser:
     d = sub.add_parser("decode", help="decode an upload file (hex or bin) back into a table")
     d.add_argument("upload", metavar="UPLOAD")
     d.add_argument("--extck-hz", type=_float)
+    d.add_argument("--table-read", action="store_true",
+                   help="the file is the chip's table-read response (41), not an upload")
+    d.add_argument("--clock", help="with --table-read: the table's clock (8MHz … 15.625kHz, "
+                                   "or EXTCK with --extck-hz)")
     d.add_argument("-o", "--output", metavar="TABLE")
     d.set_defaults(func=cmd_decode)
+
+    m = sub.add_parser("move", help="the accel/decel move command (82) bytes")
+    m.add_argument("--pulses", type=_positive_int, required=True, help="1..0xFFFFFFFF")
+    m.add_argument("--ccw", action="store_true", help="direction CCW (default CW)")
+    m.add_argument("--high-rate", type=_positive_int, default=0,
+                   help="high-rate override (0 = the table's)")
+    m.add_argument("--override", type=int, choices=(1, 3), metavar="TRG",
+                   help="register as an override with trigger TRG (1 or 3), parallel only")
+    m.add_argument("--to", choices=("parallel", "ascii"), default="parallel")
+    m.add_argument("--address", type=_positive_int, default=0, help="ASCII slave address 0-15")
+    m.add_argument("--format", choices=("hex", "bin", "c", "json", "bus"), default="hex")
+    m.add_argument("-o", "--output", metavar="OUT")
+    m.set_defaults(func=cmd_move)
 
     x = sub.add_parser("expand", help="the free curve equivalent to an init table (the "
                                       "modelled staircase the chip builds)")
