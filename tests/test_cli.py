@@ -210,3 +210,20 @@ def test_decode_table_read_response(capsys: pytest.CaptureFixture[str], tmp_path
     assert load_table(out) == table
     code, _, err = run(capsys, "decode", path, "--table-read")
     assert code == 2 and "--clock" in err
+
+
+def test_simulate_pulse_times_and_samples(capsys: pytest.CaptureFixture[str],
+                                          tmp_path: Path) -> None:
+    from verify.simulate import simulate_move
+
+    run_ = simulate_move(load_table(GOOD), 3000)
+    pt, sm = tmp_path / "pt.csv", tmp_path / "s.csv"
+    code, out, _ = run(capsys, "simulate", GOOD, "--pulses", "3000", "--pulse-times", pt,
+                       "--samples", sm)
+    assert code == 0 and "trapezoid" in out
+    rows = pt.read_text().splitlines()
+    assert rows[0] == "pulse,time_s" and len(rows) == 3001
+    assert float(rows[-1].split(",")[1]) == pytest.approx(run_.duration_s, abs=1e-9)
+    samples = sm.read_text().splitlines()
+    assert samples[0] == "t_s,x_pulses,v_pps,a_pps2" and len(samples) == 1001
+    assert float(samples[-1].split(",")[1]) == 3000

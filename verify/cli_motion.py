@@ -34,6 +34,10 @@ def register(sub: Any) -> None:
     s.add_argument("--high-rate", type=_positive_int, default=0)
     s.add_argument("--format", choices=("text", "json"), default="text")
     s.add_argument("--csv", metavar="OUT", help="write the per-stage timeline as CSV")
+    s.add_argument("--pulse-times", metavar="OUT",
+                   help="write every pulse's time [s] as CSV (pulse,time_s); ≤ 10 M pulses")
+    s.add_argument("--samples", metavar="OUT",
+                   help="write the staircase sampled at 1000 points as CSV (t_s,x,v_pps,a_pps2)")
     s.set_defaults(func=cmd_simulate)
 
     c = sub.add_parser("compare", help="a table against the continuous time optimum")
@@ -104,6 +108,18 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     execution = simulate_move(load_table(args.table), args.pulses, high_rate=args.high_rate)
     if args.csv:
         write_output(args.csv, to_csv(execution))
+    if args.pulse_times:
+        import numpy as np
+
+        times = execution.pulse_times_s()
+        rows = np.column_stack([np.arange(1, len(times) + 1), times])
+        write_output(args.pulse_times, "pulse,time_s\n" + "".join(
+            f"{int(i)},{t:.9f}\n" for i, t in rows))
+    if args.samples:
+        t, x, v, a = execution.sample(1000)
+        write_output(args.samples, "t_s,x_pulses,v_pps,a_pps2\n" + "".join(
+            f"{ti:.9f},{xi:.6f},{vi:.6f},{ai:.6f}\n" for ti, xi, vi, ai in zip(
+                t, x, v, a, strict=True)))
     if args.format == "json":
         write_output(None, json.dumps(execution.to_json(), indent=1) + "\n")
     else:
