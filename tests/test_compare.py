@@ -1,0 +1,61 @@
+"""verify.compare and verify.plot: the numbers and the figure behind `stepramp compare`."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import pytest
+
+from profiles.motor import bundled_motor_paths, load_motor
+from profiles.planner import plan_free_curve
+from verify.compare import compare_table, staircase_xy
+from verify.simulate import simulate_move
+
+MOTOR = load_motor(bundled_motor_paths()[0])
+PLAN = plan_free_curve(MOTOR, pulses=4000)
+
+
+def test_numbers_are_the_chip_time_against_the_best_reference() -> None:
+    cmp = compare_table(PLAN.table, MOTOR, 4000, include=("ruckig",))
+    assert cmp.table_s == simulate_move(PLAN.table, 4000).duration_s
+    assert cmp.optimum == "exact"  # the jerk-free optimum: a true lower bound
+    assert cmp.ratio == pytest.approx(cmp.table_s / cmp.optimum_s)
+    assert cmp.ratio >= 1.0
+    assert cmp.stall_margin >= 1.0 - 1e-9  # the planner's table is stall-safe
+    doc = cmp.to_json()
+    assert {"table_s", "optimum_s", "ratio", "stall_margin", "references", "shape"} <= set(doc)
+    assert set(doc["references"]) == {"exact", "ruckig"}
+    assert "jerk_limited_optimum_s" not in doc
+    assert "ratio" in cmp.to_text()
+
+
+def test_staircase_edges_cover_the_move() -> None:
+    run = simulate_move(PLAN.table, 4000)
+    t, x, v = staircase_xy(run)
+    assert t[0] == 0 and t[-1] == pytest.approx(run.duration_s)
+    assert x[0] == 0 and x[-1] == 4000
+    assert v.max() == pytest.approx(PLAN.table.speeds_pps().max())
+
+
+@pytest.mark.parametrize("suffix", ["png", "svg"])
+def test_figure_is_written(tmp_path: Path, suffix: str) -> None:
+    cmp = compare_table(PLAN.table, MOTOR, 4000, include=("ruckig",))
+    out = tmp_path / f"c.{suffix}"
+    cmp.plot(out)
+    head = out.read_bytes()[:64]
+    assert head.startswith(b"\x89PNG") if suffix == "png" else b"<svg" in out.read_bytes()
+    fig = cmp.figure()
+    assert len(fig.axes) == 3
+    labels = [ax.get_xlabel() for ax in fig.axes]
+    assert labels == ["time [ms]", "position [pulses]", "stage (0 = fastest)"]
+
+
+@pytest.mark.slow
+def test_jerk_limited_motor_reports_casadi_as_the_jerk_limited_optimum() -> None:
+    motor = dataclasses.replace(MOTOR, max_jerk_pps3=5e9)
+    plan = plan_free_curve(motor, pulses=4000)
+    cmp = compare_table(plan.table, motor, 4000, include=("casadi",))
+    doc = cmp.to_json()
+    assert doc["jerk_limited_optimum_s"] == cmp.references["casadi"].duration_s
+    assert doc["jerk_limited_optimum_s"] >= cmp.optimum_s * (1 - 1e-3)
