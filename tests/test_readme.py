@@ -1,0 +1,36 @@
+"""The README's examples run, and CI runs the README's test command."""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+README = (ROOT / "README.md").read_text(encoding="utf-8")
+
+
+def fenced(lang: str) -> list[str]:
+    return re.findall(rf"^```{lang}\n(.*?)^```", README, flags=re.S | re.M)
+
+
+def test_ci_runs_the_readme_test_command() -> None:
+    quick = fenced("sh")
+    assert len(quick) == 2, "the quick start is exactly two commands"
+    test_command = quick[1].strip()
+    assert "pytest" in test_command and "\n" not in test_command
+    ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8").splitlines()
+    assert test_command in ci, ".ci/run must run the README's test command verbatim"
+    assert ci.index(test_command) == len(ci) - 1, "and close on it (the runner's summary)"
+
+
+@pytest.mark.slow
+def test_python_example_runs(monkeypatch: pytest.MonkeyPatch,
+                             capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.setenv("MPLBACKEND", os.environ.get("MPLBACKEND", "Agg"))
+    [code] = fenced("python")
+    exec(compile(code, "README.md", "exec"), {})  # the README's own example
+    out = capsys.readouterr().out
+    assert out.startswith("02 ")  # the upload's command block comes first
