@@ -343,30 +343,27 @@ def _no_accel(acc: list[Stage], dec: list[Stage], pulses: int,
     return "straight_triangle_decel", _down(tail, pulses)
 
 
-def _up(side: Iterable[Stage], count: int) -> Plan:
-    """The first `count` pulses of a side run slowest → fastest (accelerating)."""
+def _from_slow_end(side: Iterable[Stage], count: int, phase: Phase) -> Plan:
+    """`count` pulses of a side taken from its slow end, slowest stage first."""
     out: Plan = []
     for _, rate, p in reversed(list(side)):
         if count <= 0:
             break
         take = min(p, count)
         if take:
-            out.append(("accel", rate, take))
+            out.append((phase, rate, take))
         count -= take
     return out
 
 
+def _up(side: Iterable[Stage], count: int) -> Plan:
+    """The first `count` pulses of a side run slowest → fastest (accelerating)."""
+    return _from_slow_end(side, count, "accel")
+
+
 def _down(side: Iterable[Stage], count: int) -> Plan:
     """The last `count` pulses of a side run fastest → slowest (decelerating)."""
-    out: Plan = []
-    for _, rate, p in reversed(list(side)):  # from the slow end backwards
-        if count <= 0:
-            break
-        take = min(p, count)
-        if take:
-            out.append(("decel", rate, take))
-        count -= take
-    return out[::-1]
+    return _from_slow_end(side, count, "decel")[::-1]
 
 
 def _check_pulses(pulses: Any) -> None:
