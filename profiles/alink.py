@@ -330,22 +330,22 @@ def plan_settings(motor: Motor, *, pulses: int | None = None, max_pps: float = 0
     if not vh_all:
         raise FieldRangeError("motor.top_pps", motor.top_pps, 2, SPEED_MAX_PPS)
     vh = np.concatenate(vh_all)
-    m = np.concatenate(m_all)
-    v0 = np.floor(start_cap / m) * m
+    mult = np.concatenate(m_all)
+    v0 = np.floor(start_cap / mult) * mult
     v0 = np.minimum(v0, vh)
     a_lim = np.minimum(motor.min_a_acc_pps2(v0, vh), motor.min_a_dec_pps2(v0, vh))
     peak_factor = S_CURVE_PEAK_FACTOR if s_curve else 1.0
     a_avg_lim = a_lim / peak_factor
     with np.errstate(divide="ignore", invalid="ignore"):
         para_exact = PPS2_PER_INV_PARA / a_avg_lim
-        para = np.ceil(para_exact * (1 + 1e-12) / m) * m
-    para = np.maximum(para, m)
-    ok = (v0 >= m) & (a_lim > 0) & np.isfinite(para) & (para <= STEPS_MAX * m)
+        para = np.ceil(para_exact * (1 + 1e-12) / mult) * mult
+    para = np.maximum(para, mult)
+    ok = (v0 >= mult) & (a_lim > 0) & np.isfinite(para) & (para <= STEPS_MAX * mult)
     if not ok.any():
         raise StepRampError(f"{motor.name or 'motor'}: no A-Link setting is stall-safe (start "
                             f"speed {start_cap:g} pps, acceleration bounds outside "
                             "the para ranges); lower the load or set MAX_SPEED")
-    vh, m, v0, para, a_lim = vh[ok], m[ok], v0[ok], para[ok], a_lim[ok]
+    vh, mult, v0, para, a_lim = vh[ok], mult[ok], v0[ok], para[ok], a_lim[ok]
     a = PPS2_PER_INV_PARA / para
     ramp_t = (vh - v0) / a
     if pulses is not None:
@@ -360,7 +360,7 @@ def plan_settings(motor: Motor, *, pulses: int | None = None, max_pps: float = 0
                         f"{ramp_t[best]:.3g} s")
     if v0[best] < start_cap:
         warnings.append(f"self-start speed {v0[best]:g} pps (motor allows {start_cap:g}: "
-                        f"multiplier ×{m[best]})")
+                        f"multiplier ×{mult[best]})")
     settings = AlinkSettings(int(v0[best]), int(vh[best]), int(para[best]), max_int, s_curve,
                              False, tuple(warnings))
     predicted = None
@@ -689,7 +689,8 @@ def decode_response(w0: int, w1: int, w2: int, *, expected_pair: int | None = No
     if read_back:
         return AlinkResponse(**common, extended=bool(d["extended"]),
                              subcommand=d["subcommand"], param0=d["param0"])
-    return AlinkResponse(**common, **{k: bool(d[k]) for k in _FLAGS})
+    flags: dict[str, Any] = {k: bool(d[k]) for k in _FLAGS}
+    return AlinkResponse(**common, **flags)
 
 
 NAK_CAUSES = ("motor type differs", "parameter value not valid",

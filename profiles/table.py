@@ -176,8 +176,8 @@ def table_from_json(obj: Any) -> Table:
     clock = Clock.from_json(obj["clock"])
     if kind == "free_curve":
         decel = obj.get("decel_pulses")
-        return FreeCurveTable(clock, _list(obj, "rates"), _list(obj, "accel_pulses"),
-                              None if decel is None else _list(obj, "decel_pulses"))
+        return FreeCurveTable(clock, tuple(_list(obj, "rates")), tuple(_list(obj, "accel_pulses")),
+                              None if decel is None else tuple(_list(obj, "decel_pulses")))
     if ("stop_rate" in obj) != ("decel_pulses" in obj):
         raise FormatError("stop_rate and decel_pulses go together (both give LE=1)")
     return InitTable(clock, obj["shape"], _int(obj, "start_rate"), _int(obj, "high_rate"),

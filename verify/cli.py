@@ -170,9 +170,10 @@ def cmd_decode(args: argparse.Namespace) -> int:
     from profiles.clock import Clock
     from profiles.ppmc312.files import parse_upload
     from profiles.ppmc312.upload import decode_table_read, decode_upload
-    from profiles.table import dump_table
+    from profiles.table import Table, dump_table
 
     blocks = parse_upload(_read_bytes(args.upload))
+    table: Table
     if args.table_read:
         # The table-read response (41) carries stages, not the CLK field: the user says.
         if not args.clock:

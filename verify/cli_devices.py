@@ -174,6 +174,7 @@ def cmd_mc200_stream(args: argparse.Namespace) -> int:
     from verify.output import write_output
 
     limits = (args.vmax, args.amax, args.jmax)
+    position_at: mc200.PositionFn
     if args.motor:
         if any(v is not None for v in limits):
             raise FormatError("give either --motor or --vmax/--amax/--jmax")

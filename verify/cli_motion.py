@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Callable
 from typing import Any
 
 from profiles.errors import FormatError
@@ -69,8 +70,9 @@ def cmd_plan(args: argparse.Namespace) -> int:
 
         if args.pulses is None:
             raise FormatError("--from needs --pulses: a reference is a move of N pulses")
-        make = {"ruckig": references.ruckig_reference,
-                "toppra": references.toppra_reference}[args.source]
+        makers: dict[str, Callable[..., Any]] = {"ruckig": references.ruckig_reference,
+                                                 "toppra": references.toppra_reference}
+        make = makers[args.source]
         ref = make(motor, args.pulses)
         q = quantise_reference(ref.t_s, ref.x_pulses, ref.v_pps,
                                clock=clock or choose_clock(motor), max_stages=args.max_stages)

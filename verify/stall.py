@@ -122,8 +122,8 @@ def check_stall(table: FreeCurveTable, motor: Motor) -> list[Finding]:
     longest = max(len(table.accel_pulses), len(table.decel))
     speeds = hz / np.asarray(rates[:longest], dtype=float)
     jumps = speeds[:-1] - speeds[1:]
-    for k in np.flatnonzero(jumps > motor.jump_pps * (1 + REL_TOL)):
-        slower = int(k) + 1
+    for k in np.flatnonzero(jumps > motor.jump_pps * (1 + REL_TOL)).tolist():
+        slower = k + 1
         out.append(Finding("error", "stall-jump",
                            f"stage {slower} → {slower - 1} steps from {speeds[slower]:.6g} to "
                            f"{speeds[slower - 1]:.6g} pps (+{jumps[k]:.6g}), above the largest "
@@ -135,8 +135,7 @@ def check_stall(table: FreeCurveTable, motor: Motor) -> list[Finding]:
         sp, n = _side(table, counts)
         s = _slopes(sp, n, cap)
         bad = s["need"] > s["cap"] * (1 + REL_TOL)
-        for k in np.flatnonzero(bad):
-            k = int(k)
+        for k in np.flatnonzero(bad).tolist():
             capk = float(s["cap"][k])
             head = (f"{side}_pulses[{k}] = {int(n[k])} at {sp[k]:.6g} pps then +{s['delta'][k]:.6g}"
                     f" pps needs {s['need'][k]:.6g} pps/s")
@@ -164,8 +163,7 @@ def _jerk(side: str, speeds_fast_first: np.ndarray, counts_fast_first: np.ndarra
     prev = np.concatenate(([0.0], sigma[:-1]))
     rate = np.abs(sigma - prev) / t
     out = []
-    for i in np.flatnonzero(rate > jerk * (1 + REL_TOL)):
-        i = int(i)
+    for i in np.flatnonzero(rate > jerk * (1 + REL_TOL)).tolist():
         k = m - 1 - i  # fastest-first index
         out.append(Finding("error", "stall-jerk",
                            f"{side} slope changes from {prev[i]:.6g} to {sigma[i]:.6g} pps/s over "

@@ -278,7 +278,7 @@ def encode_table_read_response(table: FreeCurveTable) -> list[bytes]:
     # what the chip runs (the accel counts).
     first = TABLE_READ_FIRST.encode(
         rate_stages=len(table.rates), accel_stages=len(table.accel_pulses),
-        decel_stages=len(table.decel_pulses) if table.separate else 0,
+        decel_stages=0 if table.decel_pulses is None else len(table.decel_pulses),
         accel_total=table.accel_total, decel_total=table.decel_total)
     parts: list[tuple[Frame, tuple[int, ...]]] = [(READ_RATES, table.rates),
                                                   (READ_ACCEL, table.accel_pulses)]
