@@ -36,6 +36,8 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import FieldRangeError, StepRampError
+from .limits import MIN_STAGE_TICKS
+from .limits import STAGES_MAX as MAX_STAGES
 from .table import FreeCurveTable, InitTable
 
 # Init parameter ranges and limits (manual §7-1).
@@ -44,9 +46,7 @@ HIGH_RATE_MIN, HIGH_RATE_MAX = 0x02, 0xFFEF
 INIT_PULSES_FIELD_MIN, INIT_PULSES_FIELD_MAX = 0x10, 0xFFFFF
 INIT_PULSES_MIN = 0x100
 MIN_GAP = 0x80                # start/stop ≥ high + 0x80
-MAX_STAGES = 127
 MIN_BUILT_STAGE_PULSES = 3    # a built stage of ≤ 2 pulses is error 0x05
-MIN_STAGE_TICKS = 256         # free-curve pulses × rate ≥ 256: keeps expand_init output valid
 
 
 class InitBuildError(StepRampError, ValueError):

@@ -37,15 +37,18 @@ import numpy as np
 
 from .clock import INTERNAL_HZ, MAX_OUTPUT_PPS, Clock
 from .errors import FieldRangeError, StepRampError
+from .limits import (
+    MIN_STAGE_TICKS,
+    RATE_MAX,
+    RATE_MIN,
+    SIDE_TOTAL_MAX,
+    STAGE_PULSES_MAX,
+    STAGES_MAX,
+    STAGES_MIN,
+)
 from .motor import Motor
 from .table import FreeCurveTable
 
-RATE_MIN = 2
-RATE_MAX = 0xFFFF
-STAGE_PULSES_MAX = 0xFFFFF
-SIDE_TOTAL_MAX = 0xFFFFF
-MIN_STAGE_TICKS = 256
-STAGES_MIN, STAGES_MAX = 2, 127
 GRID_TARGET = 900          # DP nodes when the integer rate range is larger
 REFERENCE_MOVE_FACTOR = 10  # pulses=None: 10 × the continuous ramps' pulses (see notes)
 BASELINE_POINTS = 600

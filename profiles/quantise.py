@@ -18,16 +18,15 @@ import numpy as np
 
 from .clock import MAX_OUTPUT_PPS, Clock
 from .errors import FieldRangeError
-from .planner import (
+from .limits import (
     MIN_STAGE_TICKS,
     RATE_MAX,
     RATE_MIN,
     SIDE_TOTAL_MAX,
     STAGE_PULSES_MAX,
     STAGES_MIN,
-    PlanError,
-    check_plan_args,
 )
+from .planner import PlanError, check_plan_args
 from .table import FreeCurveTable
 
 

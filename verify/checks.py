@@ -48,14 +48,17 @@ from profiles.init_model import (
     init_rate_problems,
     init_stage_problem,
 )
+from profiles.limits import (
+    MIN_STAGE_TICKS,
+    SIDE_TOTAL_MAX,
+    STAGE_PULSES_MAX,
+    STAGES_MAX,
+    STAGES_MIN,
+)
 from profiles.table import FreeCurveTable, InitTable, Table
 
 from .findings import Finding
 
-STAGES_MIN, STAGES_MAX = 2, 127
-STAGE_PULSES_MAX = 0xFFFFF
-TOTAL_PULSES_MAX = 0xFFFFF
-MIN_STAGE_TICKS = 256
 STOP_SPEED_WARN_PPS = 62_500.0   # 8 MHz / 0x80: the chip over-runs at the stop rate
 SHORT_STAGE_FRACTION = 0.1       # a stage under 1/10 of its neighbours' mean duration
 
@@ -157,10 +160,10 @@ def _check_free_curve(t: FreeCurveTable) -> list[Finding]:
                                        f"{field}[{i}] = {p} exceeds 0xFFFFF ({STAGE_PULSES_MAX})"
                                        f": lower it to ≤ {STAGE_PULSES_MAX}", None, i))
         total = sum(pulses)
-        if total > TOTAL_PULSES_MAX:
+        if total > SIDE_TOTAL_MAX:
             out.append(Finding("error", f"{side}-total-max",
                                f"{side} total {total} pulses exceeds 0xFFFFF "
-                               f"({TOTAL_PULSES_MAX}): remove {total - TOTAL_PULSES_MAX} pulses "
+                               f"({SIDE_TOTAL_MAX}): remove {total - SIDE_TOTAL_MAX} pulses "
                                f"from {field}", 0x1A))
         # pulses × rate per stage (a side uses the fastest len(pulses) rates).
         ticks = list(map(mul, pulses, rates))

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 from ..clock import Clock
 from ..errors import DecodeError
 from ..init_model import init_parameter_problem
+from ..limits import SIDE_TOTAL_MAX, STAGES_MAX, STAGES_MIN
 from ..table import InitTable
 from .frames import (
     CODE_FREE_CURVE,
@@ -50,9 +51,6 @@ from .frames import (
     block_bytes,
     block_list,
 )
-
-MIN_STAGES, MAX_STAGES = 2, 127
-MAX_SIDE_TOTAL = 0xFFFFF
 
 STATE_INI, STATE_NOR = 0x01, 0x02  # F1 state bits: INI initial, NOR normal (a table)
 
@@ -180,7 +178,7 @@ class ChipEmulator:
         accel_n = data[4]
         decel_n = data[5] if separate else accel_n
         for side, n in (("accel", accel_n), ("decel", decel_n)):
-            if not MIN_STAGES <= n <= MAX_STAGES:
+            if not STAGES_MIN <= n <= STAGES_MAX:
                 raise self._param(0x11, CODE_FREE_CURVE, f"{side} stage count {n}")
         counts = [max(accel_n, decel_n), accel_n] + ([decel_n] if separate else [])
         self._upload = _Upload(separate, counts)
@@ -216,7 +214,7 @@ class ChipEmulator:
                         raise self._param(0x19, CODE_FREE_CURVE, f"{_NAMES[section]} pulses "
                                           f"{value} at stage {stage}")
                     up.totals[section - 1] += value
-                    if up.totals[section - 1] > MAX_SIDE_TOTAL:
+                    if up.totals[section - 1] > SIDE_TOTAL_MAX:
                         raise self._param(0x1A, CODE_FREE_CURVE,
                                           f"{_NAMES[section]} total passes 0xFFFFF at stage "
                                           f"{stage}")
