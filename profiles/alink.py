@@ -24,7 +24,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .errors import FieldRangeError, FormatError, StepRampError
+from .errors import FieldRangeError, FormatError, StepRampError, require_int
 from .fields import Bit, Bits, Frame
 from .motor import Motor
 
@@ -93,7 +93,7 @@ def unit_applies(start_pps: int, high_pps: int, para: int, *, max_pps: int = 0,
     m = multiplier(high_pps, max_pps)
     if nn not in (1, 2):
         raise FieldRangeError("nn", nn, 1, 2)
-    _int_in("para", para, 0, MOVE_PULSES_MAX)
+    require_int("para", para, 0, MOVE_PULSES_MAX)
     notes: list[str] = []
     speeds = []
     for name, value in (("start", start_pps), ("high", high_pps)):
@@ -146,7 +146,7 @@ class AlinkSettings:
                 raise FormatError(f"{name}: {getattr(self, name)} is not a multiple of the "
                                   f"unit's multiplier ×{m}; use quantise_settings")
         lo, hi = PARA_RANGE[m]
-        _int_in("accel_para", self.accel_para, lo, hi)
+        require_int("accel_para", self.accel_para, lo, hi)
         if self.accel_para % m:
             raise FormatError(f"accel_para: {self.accel_para} is not a multiple of ×{m}; "
                               "use quantise_settings")
@@ -268,7 +268,7 @@ def _move_times(v0: Any, vh: Any, a: Any, pulses: float,
 
 def move_time_s(settings: AlinkSettings, pulses: int) -> MoveTime:
     """Predicted duration of a `pulses` move with these settings (continuous model)."""
-    _int_in("pulses", pulses, 1, MOVE_PULSES_MAX)
+    require_int("pulses", pulses, 1, MOVE_PULSES_MAX)
     t, vp, shape, ramp = _move_times(settings.start_pps, settings.high_pps, settings.accel_pps2,
                                      pulses, settings.triangle_avoidance)
     shapes: tuple[Shape, Shape, Shape] = ("trapezoid", "triangle", "avoided_triangle")
@@ -306,7 +306,7 @@ def plan_settings(motor: Motor, *, pulses: int | None = None, max_pps: float = 0
     speed whose ramp lasts at most `ramp_limit_s`.
     """
     if pulses is not None:
-        _int_in("pulses", pulses, 1, MOVE_PULSES_MAX)
+        require_int("pulses", pulses, 1, MOVE_PULSES_MAX)
     if isinstance(ramp_limit_s, bool) or not isinstance(ramp_limit_s, int | float) or not (
             0 < ramp_limit_s <= 3600):
         raise FieldRangeError("ramp_limit_s", ramp_limit_s, 0, 3600)
@@ -481,8 +481,8 @@ def _form_words(cmd: int, func: int, para: int, pair: int) -> tuple[int, int, in
     if isinstance(cmd, bool) or not isinstance(cmd, int):
         raise UnknownCommandError(f"cmd: {cmd!r} is not an A-Link ALUM command code")
     command_name(cmd)
-    _int_in("func", func, 0, FUNC_MAX)
-    _int_in("para", para, PARA_MIN, PARA_MAX)
+    require_int("func", func, 0, FUNC_MAX)
+    require_int("para", para, PARA_MIN, PARA_MAX)
     raw = para & 0x0FFF_FFFF
     data = COMMAND_FRAME.encode(pair0=pair, pair1=pair, pair2=pair, func=func, cmd=int(cmd),
                                 para_hi=raw >> 14, para_lo=raw & 0x3FFF)
@@ -514,7 +514,7 @@ class PairCode(IntEnum):
 
 def next_pair(pair: int) -> int:
     """Pair code after `pair`: 1 → 2 → 3 → 1 (0, the no-op, is never produced)."""
-    _int_in("pair", pair, 0, 3)
+    require_int("pair", pair, 0, 3)
     return pair % 3 + 1
 
 
@@ -580,9 +580,9 @@ _SLAVE_MAX = {"full": 53, "half": 58}  # last address of the 2-axis unit must st
 def _address(base: int, slave_address: int, axis: int, duplex: str, word: int) -> int:
     if duplex not in _SLAVE_MAX:
         raise FormatError(f"duplex: {duplex!r} is not 'full' or 'half'")
-    _int_in("slave_address", slave_address, 1, _SLAVE_MAX[duplex])
-    _int_in("axis", axis, 0, AXES - 1)
-    _int_in("word", word, 0, 2)
+    require_int("slave_address", slave_address, 1, _SLAVE_MAX[duplex])
+    require_int("axis", axis, 0, AXES - 1)
+    require_int("word", word, 0, 2)
     step = 2 if duplex == "full" else 1
     return base + 2 * (slave_address + step * (3 * axis + word))
 
@@ -667,7 +667,7 @@ def decode_response(w0: int, w1: int, w2: int, *, expected_pair: int | None = No
     disagrees) while the pair codes differ or differ from `expected_pair`: the host
     polls again. For read-backs, `expected_cmd` checks the echoed sub-command."""
     if expected_pair is not None:
-        _int_in("expected_pair", expected_pair, 0, 3)
+        require_int("expected_pair", expected_pair, 0, 3)
     frame = READBACK_FRAME if read_back else RESPONSE_FRAME
     d = frame.decode(_pack_words((w0, w1, w2)))
     pairs = (d["pair0"], d["pair1"], d["pair2"])
@@ -700,7 +700,7 @@ NAK_CAUSES = ("motor type differs", "parameter value not valid",
 
 def decode_nak_cause(param2: int) -> list[str]:
     """READ_STAT type 7 (Nak cause) PARAM2 bits D0–D4, as text."""
-    _int_in("param2", param2, 0, 0x3FFF)
+    require_int("param2", param2, 0, 0x3FFF)
     return [text for bit, text in enumerate(NAK_CAUSES) if param2 >> bit & 1]
 
 
@@ -713,7 +713,7 @@ def _words(data: bytes) -> tuple[int, int, int]:
 
 def _pack_words(words: tuple[int, int, int]) -> bytes:
     for name, w in zip(_WORD_NAMES, words, strict=True):
-        _int_in(f"{name} word", w, 0, 0xFFFF)
+        require_int(f"{name} word", w, 0, 0xFFFF)
     return b"".join(w.to_bytes(2, "little") for w in words)
 
 
@@ -721,19 +721,12 @@ def _signed28(raw: int) -> int:
     return raw - (1 << 28) if raw & (1 << 27) else raw
 
 
-def _int_in(name: str, value: Any, lo: int, hi: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or not (
-            lo <= value <= hi):
-        raise FieldRangeError(name, value, lo, hi)
-    return int(value)
-
-
 def _speed(name: str, value: Any) -> int:
-    return _int_in(name, value, SPEED_MIN_PPS, SPEED_MAX_PPS)
+    return require_int(name, value, SPEED_MIN_PPS, SPEED_MAX_PPS)
 
 
 def _max_speed(value: Any) -> int:
-    return _int_in("max_pps", value, 0, SPEED_MAX_PPS)
+    return require_int("max_pps", value, 0, SPEED_MAX_PPS)
 
 
 def _max_setting(max_pps: Any) -> int:

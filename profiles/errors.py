@@ -6,6 +6,8 @@ the CLI prints that line and exits 2. Anything else escaping is a bug.
 
 from __future__ import annotations
 
+import numbers
+
 
 class StepRampError(Exception):
     """Base class: bad input, described in one line."""
@@ -40,6 +42,15 @@ class DecodeError(StepRampError, ValueError):
             where.append(f"byte {byte}")
         prefix = (", ".join(where) + ": ") if where else ""
         super().__init__(prefix + message)
+
+
+def require_int(name: str, value: object, lo: int, hi: int) -> int:
+    """`value` as an int if it is a whole number (numpy's included, bool not) in lo..hi;
+    else the FieldRangeError naming `name`, the value and the range."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not (
+            lo <= int(value) <= hi):
+        raise FieldRangeError(name, value, lo, hi)
+    return int(value)
 
 
 def _show(value: object) -> str:

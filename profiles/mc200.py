@@ -20,7 +20,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from .errors import DecodeError, FieldRangeError, FormatError, StepRampError
+from .errors import DecodeError, FieldRangeError, FormatError, StepRampError, require_int
 from .fields import F32, Bit, Bits, Checksum, Frame, Reserved, SInt, UInt
 
 PACKET_SIZE = 12
@@ -301,8 +301,8 @@ def stream_move(position_at: PositionFn, duration_s: float, pulses: int, *, peri
     target. Commands are ⌊profile⌋ (never ahead), so a period's step never exceeds
     ⌈the profile's advance⌉; the last one is exactly the target.
     """
-    _int_range("pulses", pulses, 1, INT32_MAX)
-    _int_range("start_position", start_position, -INT32_MAX - 1, INT32_MAX - pulses)
+    require_int("pulses", pulses, 1, INT32_MAX)
+    require_int("start_position", start_position, -INT32_MAX - 1, INT32_MAX - pulses)
     _count("hold_packets", hold_packets, 5)
     if isinstance(period_us, bool) or not isinstance(period_us, int | float) or not (
             PERIOD_US_RANGE[0] <= period_us <= PERIOD_US_RANGE[1]):
@@ -348,7 +348,7 @@ def ruckig_profile(pulses: int, v_max_pps: float, a_max_pps2: float,
     (position / pulses, time / sqrt(pulses / a_max)) and evaluated vectorised."""
     from ruckig import InputParameter, Result, Ruckig, Trajectory
 
-    _int_range("pulses", pulses, 1, INT32_MAX)
+    require_int("pulses", pulses, 1, INT32_MAX)
     for name, value in (("v_max_pps", v_max_pps), ("a_max_pps2", a_max_pps2),
                         ("j_max_pps3", j_max_pps3)):
         if isinstance(value, bool) or not isinstance(value, int | float) or not (
@@ -451,10 +451,3 @@ def _stream_bytes(data: bytes | str) -> bytes:
                               byte=k % PACKET_SIZE)
         out.append(int(tok, 16))
     return bytes(out)
-
-
-def _int_range(name: str, value: Any, lo: int, hi: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or not (
-            lo <= value <= hi):
-        raise FieldRangeError(name, value, lo, hi)
-    return int(value)

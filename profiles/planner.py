@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from .clock import INTERNAL_HZ, MAX_OUTPUT_PPS, Clock
-from .errors import FieldRangeError, StepRampError
+from .errors import StepRampError, require_int
 from .limits import (
     MIN_STAGE_TICKS,
     RATE_MAX,
@@ -139,13 +139,10 @@ def _problem(motor: Motor, clock: Clock, separate: bool) -> _Problem:
 
 
 def check_plan_args(max_stages: int, pulses: int | None) -> None:
-    if isinstance(max_stages, bool) or not isinstance(max_stages, int | np.integer) or not (
-            STAGES_MIN <= max_stages <= STAGES_MAX):
-        raise FieldRangeError("max_stages", max_stages, STAGES_MIN, STAGES_MAX)
-    if pulses is not None and (isinstance(pulses, bool) or not isinstance(pulses, int | np.integer)
-                               or not 8 <= pulses <= 0xFFFFFFFF):
+    require_int("max_stages", max_stages, STAGES_MIN, STAGES_MAX)
+    if pulses is not None:
         # 2 stages × 2 pulses × 2 sides is the smallest trapezoid a free curve can run
-        raise FieldRangeError("pulses", pulses, 8, 0xFFFFFFFF)
+        require_int("pulses", pulses, 8, 0xFFFFFFFF)
 
 
 def reference_pulses(motor: Motor) -> int:

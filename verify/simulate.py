@@ -39,7 +39,7 @@ from typing import Any, Literal
 import numpy as np
 
 from profiles.clock import Clock
-from profiles.errors import FieldRangeError, StepRampError
+from profiles.errors import FieldRangeError, StepRampError, require_int
 from profiles.table import RATE_FIELD_MAX, STAGE_COUNT_FIELD_MAX, FreeCurveTable, InitTable
 
 Phase = Literal["accel", "cruise", "decel"]
@@ -188,9 +188,7 @@ class Execution:
     def sample(self, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """`n` equally spaced instants over [0, duration]: (t_s, pulses emitted, staircase
         speed_pps, accel_pps2 from `segment_accel_pps2`; 0 outside the move)."""
-        if isinstance(n, bool) or not isinstance(n, int | np.integer) or not 2 <= n <= 10**8:
-            raise FieldRangeError("sample n", n, 2, 10**8)
-        t = np.linspace(0.0, self.duration_s, int(n))
+        t = np.linspace(0.0, self.duration_s, require_int("sample n", n, 2, 10**8))
         ticks, idx = self._locate(t)
         a = self.segment_accel_pps2()[idx] if self.segments else np.zeros(len(t))
         a = np.where((ticks >= 0) & (ticks < self.ticks), a, 0.0)
