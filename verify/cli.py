@@ -11,7 +11,6 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Callable, Sequence
-from pathlib import Path
 from typing import Any
 
 from profiles.errors import FormatError, StepRampError
@@ -80,11 +79,11 @@ def _as_free_curve(table: Any) -> Any:
 
 def _load_checkable(path: str, extck_hz: float | None) -> tuple[Any | None, list[Any]]:
     """A table file, or an upload file judged first by what the chip would answer."""
-    from profiles.table import read_json, table_from_json
+    from profiles.table import parse_json, read_bytes, table_from_json
 
-    raw = _read_bytes(path)
+    raw = read_bytes(path)
     if _looks_like_table_json(raw):
-        return table_from_json(read_json(path)), []
+        return table_from_json(parse_json(raw, path)), []
     from profiles.ppmc312.emulator import accept_upload
     from profiles.ppmc312.files import parse_upload
     from profiles.ppmc312.upload import decode_upload
@@ -109,19 +108,6 @@ def _looks_like_table_json(raw: bytes) -> bool:
     if raw.lstrip()[:1] != b"{":
         return False
     return b"stepramp.table/1" in raw or b'"blocks"' not in raw
-
-
-def _read_bytes(path: str) -> bytes:
-    p = Path(path)
-    try:
-        data = p.read_bytes()
-    except FileNotFoundError:
-        raise FormatError(f"{path}: no such file") from None
-    except OSError as e:
-        raise FormatError(f"{path}: cannot read ({e.strerror})") from None
-    if not data.strip():
-        raise FormatError(f"{path}: the file is empty")
-    return data
 
 
 def cmd_check(args: argparse.Namespace) -> int:
@@ -170,9 +156,9 @@ def cmd_decode(args: argparse.Namespace) -> int:
     from profiles.clock import Clock
     from profiles.ppmc312.files import parse_upload
     from profiles.ppmc312.upload import decode_table_read, decode_upload
-    from profiles.table import Table, dump_table
+    from profiles.table import Table, dump_table, read_bytes
 
-    blocks = parse_upload(_read_bytes(args.upload))
+    blocks = parse_upload(read_bytes(args.upload))
     table: Table
     if args.table_read:
         # The table-read response (41) carries stages, not the CLK field: the user says.

@@ -209,10 +209,11 @@ def cmd_mc200_decode(args: argparse.Namespace) -> int:
     from dataclasses import asdict
 
     from profiles import mc200
-    from verify.cli import EXIT_OK, _read_bytes
+    from profiles.table import read_bytes
+    from verify.cli import EXIT_OK
     from verify.output import write_output
 
-    packets = mc200.decode_stream(_read_bytes(args.file), args.direction)
+    packets = mc200.decode_stream(read_bytes(args.file), args.direction)
     rows = [asdict(p) for p in packets]
     if args.format == "json":
         write_output(None, json.dumps({"direction": args.direction, "packets": rows},
