@@ -9,7 +9,7 @@ import pytest
 
 from profiles.motor import bundled_motor_paths, load_motor
 from profiles.planner import plan_free_curve
-from verify.compare import compare_table, staircase_xy
+from verify.compare import compare_table
 from verify.simulate import simulate_move
 
 MOTOR = load_motor(bundled_motor_paths()[0])
@@ -32,7 +32,7 @@ def test_numbers_are_the_chip_time_against_the_best_reference() -> None:
 
 def test_staircase_edges_cover_the_move() -> None:
     run = simulate_move(PLAN.table, 4000)
-    t, x, v = staircase_xy(run)
+    t, x, v = run.edges()
     assert t[0] == 0 and t[-1] == pytest.approx(run.duration_s)
     assert x[0] == 0 and x[-1] == 4000
     assert v.max() == pytest.approx(PLAN.table.speeds_pps().max())

@@ -12,8 +12,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from profiles.motor import Motor
 from profiles.table import FreeCurveTable, InitTable, Table
 
@@ -133,14 +131,3 @@ def compare_table(table: Table, motor: Motor, pulses: int, *,
 
 def _finite(x: float) -> float | None:
     return x if math.isfinite(x) else None
-
-
-def staircase_xy(execution: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Edges of the executed staircase: (t_s, x_pulses, speed_pps) at each segment start
-    plus the end, for step plots against time and against position."""
-    hz = execution.duration_s / execution.ticks if execution.ticks else 0.0
-    starts = np.array([s.start_tick for s in execution.segments] + [execution.ticks], float)
-    pulses = np.array([s.pulses for s in execution.segments], float)
-    speeds = np.array([1.0 / (s.rate * hz) for s in execution.segments])
-    x = np.concatenate([[0.0], np.cumsum(pulses)])
-    return starts * hz, x, np.append(speeds, speeds[-1])

@@ -29,13 +29,11 @@ def _plt() -> Any:
 def comparison_figure(comparison: Any) -> Any:
     """Speed against time and against position (staircase as steps, references as
     lines), and the stall margin of each stage."""
-    from verify.compare import staircase_xy
-
     plt = _plt()
     fig, axes = plt.subplots(3, 1, figsize=(8.0, 9.0), constrained_layout=True,
                              gridspec_kw={"height_ratios": [3, 3, 2]})
     ax_t, ax_x, ax_m = axes
-    t, x, v = staircase_xy(comparison.execution)
+    t, x, v = comparison.execution.edges()
     label = (f"table ({len(comparison.table.rates)} stages, "
              f"{comparison.table_s * 1e3:.2f} ms)")
     ax_t.step(t * 1e3, v, where="post", color="tab:red", lw=1.6, label=label)

@@ -194,6 +194,16 @@ class Execution:
         a = np.where((ticks >= 0) & (ticks < self.ticks), a, 0.0)
         return t, self.position_at(t), self.speed_at(t), a
 
+    def edges(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The staircase's corners for step plots: (t_s, pulses emitted, speed_pps) at each
+        segment start plus the end (the last speed repeated), against time or position."""
+        hz = self.clock.hz
+        starts = np.array([s.start_tick for s in self.segments] + [self.ticks], float)
+        pulses = np.array([s.pulses for s in self.segments], float)
+        speeds = hz / np.array([s.rate for s in self.segments], float)
+        return starts / hz, np.concatenate([[0.0], np.cumsum(pulses)]), np.append(speeds,
+                                                                                 speeds[-1])
+
     def pulse_times_s(self, limit: int = 10_000_000) -> np.ndarray:
         """The instant of every pulse (end of its period), built with repeat/cumsum.
         Refuses moves of more than `limit` pulses rather than exhausting memory."""
