@@ -12,7 +12,7 @@ from profiles.errors import FormatError
 
 
 def register(sub: Any) -> None:
-    from verify.cli import _float, _positive_int
+    from verify.cli import _positive_int
 
     p = sub.add_parser("plan", help="plan the fastest stall-safe free-curve table for a motor")
     p.add_argument("--motor", required=True, metavar="M.json")
@@ -51,7 +51,6 @@ def register(sub: Any) -> None:
                    help="comma-separated references to compute (default: all three)")
     c.add_argument("--physics", action="store_true", help="also run the load-angle simulation")
     c.set_defaults(func=cmd_compare)
-    del _float
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
