@@ -142,6 +142,17 @@ def expand_init(table: InitTable, *, max_stages: int = MAX_STAGES) -> FreeCurveT
                           None if decel is None else tuple(int(p) for p in decel[::-1]))
 
 
+def as_free_curve(table: FreeCurveTable | InitTable) -> FreeCurveTable:
+    """The stages a table gives the chip: a free curve as it is, an init table through
+    this module's model (`expand_init`)."""
+    if isinstance(table, InitTable):
+        return expand_init(table)
+    if not isinstance(table, FreeCurveTable):
+        raise StepRampError(f"table: expected a FreeCurveTable or InitTable, got "
+                            f"{type(table).__name__}")
+    return table
+
+
 # --- the model ---------------------------------------------------------------
 
 def _build(table: InitTable, max_stages: int

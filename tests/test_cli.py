@@ -227,3 +227,17 @@ def test_simulate_pulse_times_and_samples(capsys: pytest.CaptureFixture[str],
     samples = sm.read_text().splitlines()
     assert samples[0] == "t_s,x_pulses,v_pps,a_pps2" and len(samples) == 1001
     assert float(samples[-1].split(",")[1]) == 3000
+
+
+def test_check_with_motor_on_an_init_table_the_chip_refuses(
+        capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    # No stages can be built, so there is nothing to judge for stall-safety: the chip's
+    # error is the finding (exit 1), not "unusable input".
+    path = tmp_path / "init.json"
+    path.write_text('{"format": "stepramp.table/1", "device": "ppmc312", "kind": "init", '
+                    '"clock": "8MHz", "shape": "linear", "start_rate": 400, '
+                    '"high_rate": 400, "accel_pulses": 2000}')
+    motor = ROOT / "profiles" / "data" / "motor-nema17-1600.json"
+    code, out, _ = run(capsys, "check", path, "--motor", motor, "--format", "json")
+    assert code == 1
+    assert [f["chip_code"] for f in json.loads(out)["files"][0]["findings"]] == ["0x03"]

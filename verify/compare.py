@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from profiles.motor import Motor
-from profiles.table import FreeCurveTable, InitTable, Table
+from profiles.table import FreeCurveTable, Table
 
 DEFAULT_REFERENCES = ("toppra", "ruckig", "casadi")
 
@@ -108,14 +108,12 @@ class Comparison:
 def compare_table(table: Table, motor: Motor, pulses: int, *,
                   include: tuple[str, ...] = DEFAULT_REFERENCES,
                   physics: bool = False) -> Comparison:
+    from profiles.init_model import as_free_curve
     from verify.references import best_reference, references
     from verify.simulate import simulate_move
     from verify.stall import stall_margins
 
-    if isinstance(table, InitTable):
-        from profiles.init_model import expand_init
-
-        table = expand_init(table)
+    table = as_free_curve(table)
     execution = simulate_move(table, pulses)
     refs = references(motor, pulses, include=include)
     best = best_reference(refs)

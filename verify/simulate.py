@@ -39,7 +39,7 @@ from typing import Any, Literal
 import numpy as np
 
 from profiles.clock import Clock
-from profiles.errors import FieldRangeError, StepRampError, require_int
+from profiles.errors import FieldRangeError, require_int
 from profiles.table import RATE_FIELD_MAX, STAGE_COUNT_FIELD_MAX, FreeCurveTable, InitTable
 
 Phase = Literal["accel", "cruise", "decel"]
@@ -250,13 +250,9 @@ def simulate_move(table: FreeCurveTable | InitTable, pulses: int, *, high_rate: 
     `high_rate` 0 runs the table's fastest stage; otherwise it must lie within the
     table's rate range. `held_by_run` (RUN low at the start) adds 1 to the status.
     """
-    if isinstance(table, InitTable):
-        from profiles.init_model import expand_init
+    from profiles.init_model import as_free_curve
 
-        table = expand_init(table)
-    if not isinstance(table, FreeCurveTable):
-        raise StepRampError(f"table: expected a FreeCurveTable or InitTable, got "
-                            f"{type(table).__name__}")
+    table = as_free_curve(table)
     _check_pulses(pulses)
     pulses = int(pulses)
     rates = table.rates
