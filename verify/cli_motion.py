@@ -140,15 +140,16 @@ def cmd_compare(args: argparse.Namespace) -> int:
     from verify.cli import EXIT_OK
     from verify.compare import compare_table
     from verify.output import write_output
+    from verify.references import SOLVERS
 
     if args.plot and not args.plot.lower().endswith((".png", ".svg")):
         raise FormatError(f"--plot {args.plot}: the figure format is taken from the "
                           "extension: .png or .svg")
     names = tuple(n.strip() for n in args.references.split(",") if n.strip())
-    unknown = set(names) - {"toppra", "ruckig", "casadi"}
-    if unknown:
+    unknown = set(names) - set(SOLVERS)
+    if unknown:  # refused before any table is read or solver run
         raise FormatError(f"--references: unknown {', '.join(sorted(unknown))} "
-                          "(choose from toppra, ruckig, casadi)")
+                          f"(choose from {', '.join(SOLVERS)})")
     result = compare_table(load_table(args.table), load_motor(args.motor), args.pulses,
                            include=names, physics=args.physics)
     if args.plot:

@@ -14,8 +14,7 @@ from typing import Any
 
 from profiles.motor import Motor
 from profiles.table import FreeCurveTable, Table
-
-DEFAULT_REFERENCES = ("toppra", "ruckig", "casadi")
+from verify.references import SOLVERS as DEFAULT_REFERENCES
 
 
 @dataclass

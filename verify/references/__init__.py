@@ -2,12 +2,12 @@
 ruckig and casadi (toppra, casadi and ruckig are imported lazily, inside the solvers)."""
 
 from ._common import MoveLimits, Reference, ReferenceSolveError, move_limits
-from ._suite import best_reference, is_feasible, references
+from ._suite import SOLVERS, best_reference, is_feasible, references
 from .casadi_ref import casadi_reference
 from .exact import exact_optimum
 from .ruckig_ref import ruckig_reference
 from .toppra_ref import toppra_reference
 
-__all__ = ["MoveLimits", "Reference", "ReferenceSolveError", "best_reference",
+__all__ = ["SOLVERS", "MoveLimits", "Reference", "ReferenceSolveError", "best_reference",
            "casadi_reference", "exact_optimum", "is_feasible", "move_limits", "references",
            "ruckig_reference", "toppra_reference"]
