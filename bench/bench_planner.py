@@ -27,12 +27,12 @@ sys.path.insert(0, str(ROOT))
 
 import numpy as np  # noqa: E402
 
-from profiles.init_planner import init_candidates, plan_init  # noqa: E402
 from profiles.motor import Motor, bundled_motor_paths, load_motor  # noqa: E402
-from profiles.planner import plan_baseline, plan_free_curve  # noqa: E402
-from profiles.table import FreeCurveTable  # noqa: E402
+from profiles.ppmc312.execution import simulate_move  # noqa: E402
+from profiles.ppmc312.init_planner import init_candidates, plan_init  # noqa: E402
+from profiles.ppmc312.planner import plan_baseline, plan_free_curve  # noqa: E402
+from profiles.ppmc312.table import FreeCurveTable  # noqa: E402
 from verify.references import exact_optimum, toppra_reference  # noqa: E402
-from verify.simulate import simulate_move  # noqa: E402
 
 MOVES = (300, 2_000, 10_000, 100_000)
 

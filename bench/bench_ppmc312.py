@@ -26,10 +26,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from profiles.clock import Clock  # noqa: E402
+from profiles.ppmc312.clock import Clock  # noqa: E402
 from profiles.ppmc312.emulator import accept_upload  # noqa: E402
+from profiles.ppmc312.table import FreeCurveTable, table_from_json  # noqa: E402
 from profiles.ppmc312.upload import decode_free_curve, encode_free_curve  # noqa: E402
-from profiles.table import FreeCurveTable, table_from_json  # noqa: E402
 from verify.checks import check_table  # noqa: E402
 
 

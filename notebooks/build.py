@@ -41,7 +41,7 @@ import numpy as np
 from matplotlib.ticker import FuncFormatter
 
 from profiles.motor import bundled_motor_paths, load_motor
-from profiles.planner import plan_free_curve
+from profiles.ppmc312.planner import plan_free_curve
 from verify.compare import compare_table
 from verify.plot import motor_figure
 from verify.references import exact_optimum
@@ -207,9 +207,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import HTML, display
 
-from profiles.init_planner import init_candidates, plan_init
+from profiles.ppmc312.init_planner import init_candidates, plan_init
 from profiles.motor import bundled_motor_paths, load_motor
-from profiles.planner import plan_free_curve
+from profiles.ppmc312.planner import plan_free_curve
 
 LENGTHS = (300, 2_000, 10_000, 100_000)
 SHAPES = ("linear", "s_curve")
@@ -313,14 +313,14 @@ from profiles.alink import (
     plan_settings,
     settings_commands,
 )
-from profiles.init_planner import plan_init
+from profiles.ppmc312.init_planner import plan_init
 from profiles.mc200 import decode_stream, encode_stream, render_hex, stream_move
 from profiles.motor import bundled_motor_paths, load_motor
-from profiles.planner import plan_free_curve
+from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312 import decode_upload, encode_free_curve
 from profiles.ppmc312.ascii import decode_serial_init, encode_serial_init
 from profiles.ppmc312.files import parse_upload, render
-from verify.simulate import simulate_move
+from profiles.ppmc312.execution import simulate_move
 
 PULSES = 10_000
 motor = load_motor(next(p for p in bundled_motor_paths() if "nema17" in p.name))
@@ -502,7 +502,7 @@ def write_figure(path: Path = FIGURE) -> Path:
     matplotlib.use("Agg")
     sys.path.insert(0, str(ROOT))  # a plain checkout works without installing
     from profiles.motor import bundled_motor_paths, load_motor
-    from profiles.planner import plan_free_curve
+    from profiles.ppmc312.planner import plan_free_curve
     from verify.compare import compare_table
 
     motor = load_motor(next(p for p in bundled_motor_paths() if "nema17" in p.name))

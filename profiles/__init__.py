@@ -5,10 +5,10 @@ Heavy optional machinery (toppra, casadi, matplotlib) is imported lazily by
 the modules that need it, never here.
 """
 
-from .clock import Clock
 from .errors import DecodeError, FieldRangeError, FormatError, StepRampError
 from .motor import Motor, load_motor
-from .table import FreeCurveTable, InitTable, Table, load_table, table_from_json
+from .ppmc312.clock import Clock
+from .ppmc312.table import FreeCurveTable, InitTable, Table, load_table, table_from_json
 
 __all__ = [
     "Clock",

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from .errors import FieldRangeError, FormatError
-from .table import read_json
+from .reading import read_json
 
 FORMAT = "stepramp.motor/1"
 _REQUIRED = {"format", "steps_per_rev", "pullout_torque", "inertia_kgm2", "safety_factor",

@@ -11,9 +11,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from profiles.clock import Clock
-from profiles.init_model import init_stage_problem
-from profiles.table import FreeCurveTable, InitTable, load_table
+from profiles.ppmc312.clock import Clock
+from profiles.ppmc312.init_model import init_stage_problem
+from profiles.ppmc312.table import FreeCurveTable, InitTable, load_table
 from verify.checks import check_table
 from verify.findings import Finding
 

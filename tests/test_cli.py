@@ -10,8 +10,8 @@ from pathlib import Path
 import pytest
 
 from profiles.ppmc312.files import parse_upload
+from profiles.ppmc312.table import load_table
 from profiles.ppmc312.upload import decode_upload, encode_table
-from profiles.table import load_table
 from verify.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -168,8 +168,8 @@ def test_console_script_cold_imports_nothing_heavy() -> None:
 
 
 def test_expand_init_table(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
-    from profiles.init_model import expand_init
-    from profiles.table import FreeCurveTable
+    from profiles.ppmc312.init_model import expand_init
+    from profiles.ppmc312.table import FreeCurveTable
 
     out = tmp_path / "free.json"
     assert run(capsys, "expand", INIT, "-o", out)[0] == 0
@@ -214,7 +214,7 @@ def test_decode_table_read_response(capsys: pytest.CaptureFixture[str], tmp_path
 
 def test_simulate_pulse_times_and_samples(capsys: pytest.CaptureFixture[str],
                                           tmp_path: Path) -> None:
-    from verify.simulate import simulate_move
+    from profiles.ppmc312.execution import simulate_move
 
     run_ = simulate_move(load_table(GOOD), 3000)
     pt, sm = tmp_path / "pt.csv", tmp_path / "s.csv"

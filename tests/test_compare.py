@@ -8,9 +8,9 @@ from pathlib import Path
 import pytest
 
 from profiles.motor import bundled_motor_paths, load_motor
-from profiles.planner import plan_free_curve
+from profiles.ppmc312.execution import simulate_move
+from profiles.ppmc312.planner import plan_free_curve
 from verify.compare import compare_table
-from verify.simulate import simulate_move
 
 MOTOR = load_motor(bundled_motor_paths()[0])
 PLAN = plan_free_curve(MOTOR, pulses=4000)

@@ -41,8 +41,8 @@ import pytest
 from profiles.motor import _OPTIONAL as MOTOR_OPTIONAL
 from profiles.motor import _REQUIRED as MOTOR_REQUIRED
 from profiles.motor import Motor, load_motor
-from profiles.table import _KEYS as TABLE_KEYS
-from profiles.table import table_from_json
+from profiles.ppmc312.table import _KEYS as TABLE_KEYS
+from profiles.ppmc312.table import table_from_json
 from verify import cli
 
 REPO = Path(__file__).resolve().parents[1]

@@ -1,4 +1,4 @@
-"""profiles.init_model: the documented model of the staircase the chip builds."""
+"""profiles.ppmc312.init_model: the documented model of the staircase the chip builds."""
 
 from __future__ import annotations
 
@@ -9,15 +9,15 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from profiles.clock import Clock
 from profiles.errors import FieldRangeError, StepRampError
-from profiles.init_model import (
+from profiles.ppmc312.clock import Clock
+from profiles.ppmc312.init_model import (
     InitBuildError,
     expand_init,
     init_parameter_problem,
     init_stage_problem,
 )
-from profiles.table import FreeCurveTable, InitTable
+from profiles.ppmc312.table import FreeCurveTable, InitTable
 from verify.checks import check_table
 
 C8 = Clock.internal("8MHz")

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import pytest
 
-from profiles.init_planner import InitPlanError, init_candidates, plan_init
 from profiles.motor import Motor, bundled_motor_paths, load_motor
-from profiles.planner import plan_free_curve
+from profiles.ppmc312.execution import simulate_move
+from profiles.ppmc312.init_planner import InitPlanError, init_candidates, plan_init
+from profiles.ppmc312.planner import plan_free_curve
 from verify.checks import check_table
-from verify.simulate import simulate_move
 from verify.stall import check_stall
 
 MOTORS = [load_motor(p) for p in bundled_motor_paths()]
@@ -36,7 +36,7 @@ def test_counts_are_near_minimal() -> None:
     cand = init_candidates(motor, "linear", highs=3, separate_decel=False)[0]  # fastest high
     smaller = type(cand.table)(cand.table.clock, "linear", cand.table.start_rate,
                                cand.table.high_rate, int(cand.table.accel_pulses * 0.97))
-    from profiles.init_model import InitBuildError, expand_init
+    from profiles.ppmc312.init_model import InitBuildError, expand_init
 
     try:
         stages = expand_init(smaller)

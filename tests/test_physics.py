@@ -7,12 +7,12 @@ import math
 import numpy as np
 import pytest
 
-from profiles.clock import Clock
 from profiles.errors import FieldRangeError
 from profiles.motor import Motor, bundled_motor_paths, load_motor
-from profiles.table import FreeCurveTable
+from profiles.ppmc312.clock import Clock
+from profiles.ppmc312.execution import simulate_move
+from profiles.ppmc312.table import FreeCurveTable
 from verify.physics import STALL_LAG_FULL_STEPS, load_angle_check
-from verify.simulate import simulate_move
 
 MHZ1 = Clock.internal("1MHz")
 

@@ -8,17 +8,17 @@ import math
 import numpy as np
 import pytest
 
-from profiles.clock import Clock
 from profiles.errors import StepRampError
 from profiles.motor import Motor, bundled_motor_paths, load_motor
-from profiles.planner import (
+from profiles.ppmc312.clock import Clock
+from profiles.ppmc312.planner import (
     choose_clock,
     plan_baseline,
     plan_free_curve,
     reference_pulses,
 )
-from profiles.quantise import quantise_reference
-from profiles.table import FreeCurveTable
+from profiles.ppmc312.quantise import quantise_reference
+from profiles.ppmc312.table import FreeCurveTable
 from verify.stall import check_stall
 
 MOTORS = {p.stem: load_motor(p) for p in bundled_motor_paths()}

@@ -6,7 +6,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from profiles.clock import Clock
 from profiles.errors import DecodeError, FieldRangeError, FormatError
 from profiles.ppmc312.ascii import (
     KINDS,
@@ -20,8 +19,9 @@ from profiles.ppmc312.ascii import (
     encode_serial_init,
     encode_serial_move,
 )
+from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.frames import UnsupportedError
-from profiles.table import InitTable
+from profiles.ppmc312.table import InitTable
 
 SETTINGS = settings(max_examples=150, deadline=None)
 

@@ -6,11 +6,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from profiles.clock import INTERNAL_HZ, Clock
 from profiles.errors import DecodeError
+from profiles.ppmc312.clock import INTERNAL_HZ, Clock
 from profiles.ppmc312.emulator import ChipEmulator, accept_upload
+from profiles.ppmc312.table import FreeCurveTable, InitTable
 from profiles.ppmc312.upload import encode_free_curve, encode_init
-from profiles.table import FreeCurveTable, InitTable
 
 SETTINGS = settings(max_examples=120, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])

@@ -12,12 +12,12 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from profiles.clock import Clock
 from profiles.errors import DecodeError, FormatError, StepRampError
 from profiles.ppmc312.ascii import encode_serial_init
+from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.files import parse_upload, render
+from profiles.ppmc312.table import FreeCurveTable, InitTable
 from profiles.ppmc312.upload import bus_writes, encode_free_curve
-from profiles.table import FreeCurveTable, InitTable
 
 SETTINGS = settings(max_examples=100, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])

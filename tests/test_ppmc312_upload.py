@@ -6,10 +6,11 @@ import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-from profiles.clock import INTERNAL_HZ, Clock
 from profiles.errors import DecodeError, FieldRangeError, FormatError, StepRampError
 from profiles.ppmc312 import ascii as serial
+from profiles.ppmc312.clock import INTERNAL_HZ, Clock
 from profiles.ppmc312.frames import UnsupportedError
+from profiles.ppmc312.table import FreeCurveTable, InitTable
 from profiles.ppmc312.upload import (
     bus_writes,
     decode_free_curve,
@@ -23,7 +24,6 @@ from profiles.ppmc312.upload import (
     encode_table,
     encode_table_read_response,
 )
-from profiles.table import FreeCurveTable, InitTable
 
 SETTINGS = settings(max_examples=150, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])

@@ -6,15 +6,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from profiles.clock import Clock
 from profiles.errors import StepRampError
 from profiles.motor import Motor, bundled_motor_paths, load_motor
-from profiles.planner import choose_clock
-from profiles.quantise import QuantisedPlan, quantise_reference
-from profiles.table import FreeCurveTable
+from profiles.ppmc312.clock import Clock
+from profiles.ppmc312.execution import simulate_move
+from profiles.ppmc312.planner import choose_clock
+from profiles.ppmc312.quantise import QuantisedPlan, quantise_reference
+from profiles.ppmc312.table import FreeCurveTable
 from verify.checks import check_table
 from verify.references import Reference, ruckig_reference, toppra_reference
-from verify.simulate import simulate_move
 
 MOTORS = {p.stem: load_motor(p) for p in bundled_motor_paths()}
 MOVES = (2000, 10000)

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from profiles.errors import FormatError
-from profiles.table import load_table
+from profiles.ppmc312.table import load_table
 from verify.checks import check_table
 from verify.findings import Finding, has_errors
 from verify.report import FileResult, render

@@ -7,10 +7,10 @@ import re
 import numpy as np
 import pytest
 
-from profiles.clock import Clock
 from profiles.motor import Motor, bundled_motor_paths, load_motor
-from profiles.planner import plan_free_curve
-from profiles.table import FreeCurveTable
+from profiles.ppmc312.clock import Clock
+from profiles.ppmc312.planner import plan_free_curve
+from profiles.ppmc312.table import FreeCurveTable
 from verify.stall import check_stall, stall_margins
 
 NEMA23 = next(load_motor(p) for p in bundled_motor_paths() if "nema23" in p.name)

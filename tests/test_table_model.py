@@ -1,4 +1,4 @@
-"""profiles.table + clock loader (stepramp.table/1) and its JSON Schema agree."""
+"""profiles.ppmc312.table + clock loader (stepramp.table/1) and its JSON Schema agree."""
 
 from __future__ import annotations
 
@@ -13,9 +13,9 @@ from hypothesis import strategies as st
 
 jsonschema = pytest.importorskip("jsonschema")
 
-from profiles.clock import Clock  # noqa: E402
 from profiles.errors import FieldRangeError, FormatError, StepRampError  # noqa: E402
-from profiles.table import (  # noqa: E402
+from profiles.ppmc312.clock import Clock  # noqa: E402
+from profiles.ppmc312.table import (  # noqa: E402
     FreeCurveTable,
     InitTable,
     dump_table,

@@ -27,7 +27,7 @@ init
                     error 0x04  faster of start/stop − high ≤ 127 (table cannot be built)
   init-pulses-field error       accel/decel pulses outside 0x10..0xFFFFF
   init-pulses-min   error       accel/decel pulses < 0x100
-  init-stage-pulses error 0x05  the built table (profiles.init_model) has a stage ≤ 2 pulses
+  init-stage-pulses error 0x05  the built table (profiles.ppmc312.init_model) has a stage ≤ 2 pulses
   speed-max         error       high speed above 2 Mpps
   stop-speed-high   warning     stop speed ≥ 62.5 kpps
 """
@@ -39,23 +39,23 @@ from operator import lt, mul
 
 import numpy as np
 
-from profiles.clock import MAX_OUTPUT_PPS
 from profiles.errors import FormatError
-from profiles.init_model import (
+from profiles.ppmc312.clock import MAX_OUTPUT_PPS
+from profiles.ppmc312.init_model import (
     INIT_PULSES_FIELD_MAX,
     INIT_PULSES_FIELD_MIN,
     INIT_PULSES_MIN,
     init_rate_problems,
     init_stage_problem,
 )
-from profiles.limits import (
+from profiles.ppmc312.limits import (
     MIN_STAGE_TICKS,
     SIDE_TOTAL_MAX,
     STAGE_PULSES_MAX,
     STAGES_MAX,
     STAGES_MIN,
 )
-from profiles.table import FreeCurveTable, InitTable, Table
+from profiles.ppmc312.table import FreeCurveTable, InitTable, Table
 
 from .findings import Finding
 

@@ -47,7 +47,7 @@ def _check_one(path: str, motor: Any, extck_hz: float | None) -> Any:
         if table is not None:
             findings += check_table(table)
         if motor is not None and table is not None:
-            from profiles.init_model import InitBuildError, as_free_curve
+            from profiles.ppmc312.init_model import InitBuildError, as_free_curve
             from verify.stall import check_stall
 
             try:
@@ -73,7 +73,8 @@ def _dedupe(findings: list[Any]) -> list[Any]:
 
 def _load_checkable(path: str, extck_hz: float | None) -> tuple[Any | None, list[Any]]:
     """A table file, or an upload file judged first by what the chip would answer."""
-    from profiles.table import parse_json, read_bytes, table_from_json
+    from profiles.ppmc312.table import table_from_json
+    from profiles.reading import parse_json, read_bytes
 
     raw = read_bytes(path)
     if _looks_like_table_json(raw):
@@ -127,8 +128,8 @@ def _load_motor(path: str) -> Any:
 # --- export / decode ---------------------------------------------------------
 def cmd_export(args: argparse.Namespace) -> int:
     from profiles.ppmc312.files import render
+    from profiles.ppmc312.table import load_table
     from profiles.ppmc312.upload import encode_table
-    from profiles.table import load_table
     from verify.checks import check_table
 
     table = load_table(args.table)
@@ -147,10 +148,11 @@ def cmd_export(args: argparse.Namespace) -> int:
 
 
 def cmd_decode(args: argparse.Namespace) -> int:
-    from profiles.clock import Clock
+    from profiles.ppmc312.clock import Clock
     from profiles.ppmc312.files import parse_upload
+    from profiles.ppmc312.table import Table, dump_table
     from profiles.ppmc312.upload import decode_table_read, decode_upload
-    from profiles.table import Table, dump_table, read_bytes
+    from profiles.reading import read_bytes
 
     blocks = parse_upload(read_bytes(args.upload))
     table: Table
@@ -186,8 +188,8 @@ def cmd_move(args: argparse.Namespace) -> int:
 
 
 def cmd_expand(args: argparse.Namespace) -> int:
-    from profiles.init_model import as_free_curve
-    from profiles.table import FreeCurveTable, dump_table, load_table
+    from profiles.ppmc312.init_model import as_free_curve
+    from profiles.ppmc312.table import FreeCurveTable, dump_table, load_table
 
     table = load_table(args.table)
     if isinstance(table, FreeCurveTable):

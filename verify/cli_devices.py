@@ -179,8 +179,8 @@ def cmd_mc200_stream(args: argparse.Namespace) -> int:
         if any(v is not None for v in limits):
             raise FormatError("give either --motor or --vmax/--amax/--jmax")
         from profiles.motor import load_motor
-        from profiles.planner import plan_free_curve
-        from verify.simulate import simulate_move
+        from profiles.ppmc312.execution import simulate_move
+        from profiles.ppmc312.planner import plan_free_curve
 
         plan = plan_free_curve(load_motor(args.motor), pulses=args.pulses)
         execution = simulate_move(plan.table, args.pulses)
@@ -209,7 +209,7 @@ def cmd_mc200_decode(args: argparse.Namespace) -> int:
     from dataclasses import asdict
 
     from profiles import mc200
-    from profiles.table import read_bytes
+    from profiles.reading import read_bytes
     from verify.cli import EXIT_OK
     from verify.output import write_output
 

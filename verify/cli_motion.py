@@ -54,17 +54,17 @@ def register(sub: Any) -> None:
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
-    from profiles.clock import Clock
     from profiles.motor import load_motor
-    from profiles.table import dump_table
+    from profiles.ppmc312.clock import Clock
+    from profiles.ppmc312.table import dump_table
     from verify.cli import EXIT_OK
     from verify.output import write_output
 
     motor = load_motor(args.motor)
     clock = Clock.internal(args.clock) if args.clock else None
     if args.source:
-        from profiles.planner import choose_clock
-        from profiles.quantise import quantise_reference
+        from profiles.ppmc312.planner import choose_clock
+        from profiles.ppmc312.quantise import quantise_reference
         from verify import references
 
         if args.pulses is None:
@@ -81,7 +81,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
                    "max_step_error_us": q.max_step_error_us,
                    "mean_step_error_us": q.mean_step_error_us, "info": q.info}
     else:
-        from profiles.planner import plan_free_curve
+        from profiles.ppmc312.planner import plan_free_curve
 
         plan = plan_free_curve(motor, clock=clock, max_stages=args.max_stages,
                                pulses=args.pulses, separate_decel=args.separate_decel)
@@ -101,10 +101,10 @@ def cmd_plan(args: argparse.Namespace) -> int:
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
-    from profiles.table import load_table
+    from profiles.ppmc312.execution import simulate_move, to_csv
+    from profiles.ppmc312.table import load_table
     from verify.cli import EXIT_OK
     from verify.output import write_output
-    from verify.simulate import simulate_move, to_csv
 
     execution = simulate_move(load_table(args.table), args.pulses, high_rate=args.high_rate)
     if args.csv:
@@ -136,7 +136,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
 def cmd_compare(args: argparse.Namespace) -> int:
     from profiles.motor import load_motor
-    from profiles.table import load_table
+    from profiles.ppmc312.table import load_table
     from verify.cli import EXIT_OK
     from verify.compare import compare_table
     from verify.output import write_output

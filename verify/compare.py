@@ -1,6 +1,6 @@
 """A table against the continuous time optimum: the numbers behind `stepramp compare`.
 
-The table's time is what the chip runs (`verify.simulate`, exact ticks); the
+The table's time is what the chip runs (`profiles.ppmc312.execution`, exact ticks); the
 references are continuous profiles on the same move (`verify.references`);
 the stall margin is capability / need over the table's stages (`verify.stall`).
 """
@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from profiles.motor import Motor
-from profiles.table import FreeCurveTable, Table
+from profiles.ppmc312.table import FreeCurveTable, Table
 from verify.references import SOLVERS as DEFAULT_REFERENCES
 
 
@@ -22,7 +22,7 @@ class Comparison:
     table: FreeCurveTable
     motor: Motor
     pulses: int
-    execution: Any  # verify.simulate.Execution
+    execution: Any  # profiles.ppmc312.execution.Execution
     references: dict[str, Any]  # name -> verify.references.Reference
     optimum: str
     margins: dict[str, Any]
@@ -107,9 +107,9 @@ class Comparison:
 def compare_table(table: Table, motor: Motor, pulses: int, *,
                   include: tuple[str, ...] = DEFAULT_REFERENCES,
                   physics: bool = False) -> Comparison:
-    from profiles.init_model import as_free_curve
+    from profiles.ppmc312.execution import simulate_move
+    from profiles.ppmc312.init_model import as_free_curve
     from verify.references import best_reference, references
-    from verify.simulate import simulate_move
     from verify.stall import stall_margins
 
     table = as_free_curve(table)

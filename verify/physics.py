@@ -2,7 +2,7 @@
 
 Beyond the stall criterion of `verify.stall` (capability against the table's
 accelerations) this integrates the standard load-angle ("pendulum") model of a
-hybrid stepper driven by the executed staircase (`verify.simulate.Execution`).
+hybrid stepper driven by the executed staircase (`profiles.ppmc312.execution.Execution`).
 Model, in pulses (one pulse = one commanded step of the driver):
 
     lag  L = x_cmd(t) − x(t)                [pulses; > 0 when the rotor is behind]
@@ -50,7 +50,7 @@ import numpy as np
 
 from profiles.errors import FieldRangeError, StepRampError
 from profiles.motor import Motor
-from verify.simulate import Execution
+from profiles.ppmc312.execution import Execution
 
 DEFAULT_ROTOR_TEETH = 50          # 1.8° hybrid: 200 full steps per revolution
 FULL_STEP_ELECTRICAL_RAD = math.pi / 2  # 2-phase hybrid: one full step = 90° electrical

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from profiles.motor import Motor
-from profiles.table import FreeCurveTable
+from profiles.ppmc312.table import FreeCurveTable
 
 from .findings import Finding
 

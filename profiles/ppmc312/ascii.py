@@ -16,11 +16,11 @@ import string
 from dataclasses import dataclass
 from typing import Any
 
-from ..clock import EXTCK_FALLING, Clock
 from ..errors import DecodeError, FieldRangeError, FormatError
 from ..fields import Bit, Bits, Frame, UInt
-from ..table import InitTable
+from .clock import EXTCK_FALLING, Clock
 from .frames import UnsupportedError, block_bytes
+from .table import InitTable
 
 # type field (bits 5-4) by direction; data/special only ever come from a slave.
 MASTER_KINDS = {"poll": 0, "command": 1}

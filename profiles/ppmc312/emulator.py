@@ -19,11 +19,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-from ..clock import Clock
 from ..errors import DecodeError
-from ..init_model import init_parameter_problem
-from ..limits import SIDE_TOTAL_MAX, STAGES_MAX, STAGES_MIN
-from ..table import InitTable
+from .clock import Clock
 from .frames import (
     CODE_FREE_CURVE,
     CODE_INIT,
@@ -51,6 +48,9 @@ from .frames import (
     block_bytes,
     block_list,
 )
+from .init_model import init_parameter_problem
+from .limits import SIDE_TOTAL_MAX, STAGES_MAX, STAGES_MIN
+from .table import InitTable
 
 STATE_INI, STATE_NOR = 0x01, 0x02  # F1 state bits: INI initial, NOR normal (a table)
 

@@ -18,11 +18,10 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from ..clock import Clock
 from ..errors import DecodeError, FieldRangeError, FormatError
 from ..fields import Array, Frame
-from ..table import FreeCurveTable, InitTable, Table
 from . import ascii as serial
+from .clock import Clock
 from .frames import (
     ACCEL_BLOCK,
     CODE_FREE_CURVE,
@@ -55,6 +54,7 @@ from .frames import (
     block_list,
     check_length_byte,
 )
+from .table import FreeCurveTable, InitTable, Table
 
 MIN_MAX_DATA = PULSES_SIZE  # a block must hold at least one 3-byte pulse count
 

@@ -1,4 +1,4 @@
-"""verify.simulate: the PPMC-312 accel/decel move model (choices: docs/manual-notes.md)."""
+"""profiles.ppmc312.execution: the chip's accel/decel move model (choices: docs/manual-notes.md)."""
 
 from __future__ import annotations
 
@@ -11,10 +11,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from profiles.clock import Clock
 from profiles.errors import FieldRangeError, StepRampError
-from profiles.table import FreeCurveTable, InitTable
-from verify.simulate import (
+from profiles.ppmc312.clock import Clock
+from profiles.ppmc312.execution import (
     LATENCY_S,
     MOVE_PULSES_MAX,
     STATUS,
@@ -23,6 +22,7 @@ from verify.simulate import (
     simulate_move,
     to_csv,
 )
+from profiles.ppmc312.table import FreeCurveTable, InitTable
 
 MHZ1 = Clock.internal("1MHz")
 # LE=0, four stages fastest first: 10/20/30/40 pulses at rates 100/200/300/400.
@@ -240,9 +240,9 @@ def test_bad_tables_are_refused() -> None:
 
 
 def test_init_table_support() -> None:
-    init_model = pytest.importorskip("profiles.init_model")
+    init_model = pytest.importorskip("profiles.ppmc312.init_model")
     if not hasattr(init_model, "expand_init"):
-        pytest.skip("profiles.init_model.expand_init not there yet")
+        pytest.skip("profiles.ppmc312.init_model.expand_init not there yet")
     table = InitTable(MHZ1, "linear", start_rate=1000, high_rate=100, accel_pulses=2000)
     e = simulate_move(table, 10_000)
     expanded = init_model.expand_init(table)

@@ -38,9 +38,9 @@ from typing import Any, Literal
 
 import numpy as np
 
-from profiles.clock import Clock
 from profiles.errors import FieldRangeError, require_int
-from profiles.table import RATE_FIELD_MAX, STAGE_COUNT_FIELD_MAX, FreeCurveTable, InitTable
+from profiles.ppmc312.clock import Clock
+from profiles.ppmc312.table import RATE_FIELD_MAX, STAGE_COUNT_FIELD_MAX, FreeCurveTable, InitTable
 
 Phase = Literal["accel", "cruise", "decel"]
 Shape = Literal["trapezoid", "triangle", "straight_triangle_decel", "straight_triangle_accel"]
@@ -250,7 +250,7 @@ def simulate_move(table: FreeCurveTable | InitTable, pulses: int, *, high_rate: 
     `high_rate` 0 runs the table's fastest stage; otherwise it must lie within the
     table's rate range. `held_by_run` (RUN low at the start) adds 1 to the status.
     """
-    from profiles.init_model import as_free_curve
+    from profiles.ppmc312.init_model import as_free_curve
 
     table = as_free_curve(table)
     _check_pulses(pulses)

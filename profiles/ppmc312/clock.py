@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from .errors import FieldRangeError, FormatError
+from ..errors import FieldRangeError, FormatError
 
 INTERNAL_HZ: dict[str, float] = {
     "8MHz": 8_000_000.0,

@@ -35,8 +35,9 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import StepRampError, require_int
+from ..motor import Motor
 from .clock import INTERNAL_HZ, MAX_OUTPUT_PPS, Clock
-from .errors import StepRampError, require_int
 from .limits import (
     MIN_STAGE_TICKS,
     RATE_MAX,
@@ -46,7 +47,6 @@ from .limits import (
     STAGES_MAX,
     STAGES_MIN,
 )
-from .motor import Motor
 from .table import FreeCurveTable
 
 GRID_TARGET = 900          # DP nodes when the integer rate range is larger

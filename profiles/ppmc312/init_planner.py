@@ -3,7 +3,7 @@
 What the free curve buys is only visible against the best the chip's own init
 tables can do, so this searches them honestly: for each candidate high rate
 the smallest accel (and, LE=1, decel) pulse counts whose modelled staircase
-(`profiles.init_model.expand_init`, a documented model of the chip's table
+(`profiles.ppmc312.init_model.expand_init`, a documented model of the chip's table
 builder) passes the stall-safety criterion (`verify.stall.check_stall`), then
 the candidate with the shortest simulated move wins.
 
@@ -20,8 +20,9 @@ from typing import Literal
 
 import numpy as np
 
+from ..errors import StepRampError
+from ..motor import Motor
 from .clock import Clock
-from .errors import StepRampError
 from .init_model import (
     HIGH_RATE_MIN,
     INIT_PULSES_FIELD_MAX,
@@ -32,7 +33,6 @@ from .init_model import (
     InitBuildError,
     expand_init,
 )
-from .motor import Motor
 from .table import FreeCurveTable, InitTable
 
 Shape = Literal["linear", "s_curve"]
@@ -95,7 +95,7 @@ def plan_init(motor: Motor, shape: Shape, pulses: int, *, clock: Clock | None = 
               separate_decel: bool = True,
               candidates: list[InitCandidate] | None = None) -> InitPlan:
     """The stall-safe init table with the shortest modelled move of `pulses`."""
-    from verify.simulate import simulate_move
+    from profiles.ppmc312.execution import simulate_move
 
     cands = candidates if candidates is not None else init_candidates(
         motor, shape, clock=clock, separate_decel=separate_decel)

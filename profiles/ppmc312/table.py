@@ -20,8 +20,9 @@ from typing import Any, Literal
 
 import numpy as np
 
+from ..errors import FieldRangeError, FormatError
+from ..reading import read_json
 from .clock import Clock
-from .errors import FieldRangeError, FormatError
 
 FORMAT = "stepramp.table/1"
 DEVICE = "ppmc312"
@@ -193,35 +194,6 @@ def load_table(path: str | Path) -> Table:
 
 def dump_table(table: Table) -> str:
     return json.dumps(table.to_json(), indent=1) + "\n"
-
-
-def read_bytes(path: str | Path) -> bytes:
-    """A file's bytes; a missing, unreadable or empty file is a one-line FormatError."""
-    p = Path(path)
-    try:
-        data = p.read_bytes()
-    except FileNotFoundError:
-        raise FormatError(f"{p}: no such file") from None
-    except OSError as e:
-        raise FormatError(f"{p}: cannot read ({e.__class__.__name__}: {e})") from None
-    if not data.strip():
-        raise FormatError(f"{p}: the file is empty")
-    return data
-
-
-def parse_json(data: bytes, path: str | Path) -> Any:
-    """JSON from a file's bytes (read once); `path` names it in errors."""
-    try:
-        return json.loads(data.decode("utf-8"))
-    except UnicodeDecodeError as e:
-        raise FormatError(f"{path}: cannot read ({e.__class__.__name__}: {e})") from None
-    except json.JSONDecodeError as e:
-        raise FormatError(f"{path}: not valid JSON (line {e.lineno}, column {e.colno}: "
-                          f"{e.msg})") from None
-
-
-def read_json(path: str | Path) -> Any:
-    return parse_json(read_bytes(path), path)
 
 
 def _list(obj: dict[str, Any], key: str) -> list[int]:

@@ -16,8 +16,8 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import FieldRangeError
 from .clock import MAX_OUTPUT_PPS, Clock
-from .errors import FieldRangeError
 from .limits import (
     MIN_STAGE_TICKS,
     RATE_MAX,

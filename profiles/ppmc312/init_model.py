@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .errors import FieldRangeError, StepRampError
+from ..errors import FieldRangeError, StepRampError
 from .limits import MIN_STAGE_TICKS
 from .limits import STAGES_MAX as MAX_STAGES
 from .table import FreeCurveTable, InitTable
