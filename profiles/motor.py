@@ -1,10 +1,13 @@
 """Motor files (`stepramp.motor/1`) and the acceleration capability they give.
 
-Capability (issue #3):
-    a_acc(v) = (sf·T(v) − T_f) / J · steps_per_rev / 2π   [pps/s]
-    a_dec(v) = (sf·T(v) + T_f) / J · steps_per_rev / 2π
+Capability (issue #3; load torque: docs/manual-notes.md, "Motor model"):
+    a_acc(v) = (sf·T(v) − T_f − |T_L|) / J · steps_per_rev / 2π   [pps/s]
+    a_dec(v) = (sf·T(v) + T_f − |T_L|) / J · steps_per_rev / 2π
 with T(v) the pull-out torque, piecewise linear in speed; its last point is
-the top usable speed. Everything here is SI (speeds in pps, torque in N·m).
+the top usable speed. T_L (`load_torque_nm`, signed, > 0 opposes forward
+motion) helps one direction and hinders the other; the chip runs one table
+both ways, so the capability is the worse direction's. Everything here is SI
+(speeds in pps, torque in N·m).
 """
 
 from __future__ import annotations
@@ -23,7 +26,11 @@ FORMAT = "stepramp.motor/1"
 _REQUIRED = {"format", "steps_per_rev", "pullout_torque", "inertia_kgm2", "safety_factor",
              "start_pps"}
 _OPTIONAL = {"friction_torque_nm", "max_jump_pps", "max_pps", "max_jerk_pps3", "name",
-             "holding_torque_nm", "rotor_teeth"}
+             "holding_torque_nm", "rotor_teeth", "phases", "damping_ratio", "load_torque_nm"}
+# Defaults where a motor file is silent (docs/manual-notes.md, "Load-angle model").
+DEFAULT_PHASES = 2
+DEFAULT_ROTOR_TEETH = 50        # the 1.8° (2-phase) and 0.72° (5-phase) hybrid rotor
+DEFAULT_DAMPING_RATIO = 0.1
 
 
 @dataclass(frozen=True)
@@ -41,6 +48,9 @@ class Motor:
     name: str = ""
     holding_torque_nm: float | None = None
     rotor_teeth: int | None = None
+    phases: int = DEFAULT_PHASES
+    damping_ratio: float = DEFAULT_DAMPING_RATIO
+    load_torque_nm: float = 0.0
 
     def __post_init__(self) -> None:
         v = np.asarray(self.curve_speed_pps, dtype=float)
@@ -66,9 +76,20 @@ class Motor:
             value = getattr(self, name)
             if value is not None:
                 _positive(name, value, 1e-12, 1e18)
+        if isinstance(self.phases, bool) or not isinstance(self.phases, int) or \
+                not 2 <= self.phases <= 10:
+            raise FieldRangeError("phases", self.phases, 2, 10)
+        if self.rotor_teeth is not None and (
+                isinstance(self.rotor_teeth, bool) or not isinstance(self.rotor_teeth, int)
+                or not 1 <= self.rotor_teeth <= self.steps_per_rev):
+            raise FieldRangeError("rotor_teeth", self.rotor_teeth, 1, self.steps_per_rev)
+        if not 0 <= self.damping_ratio <= 10:
+            raise FieldRangeError("damping_ratio", self.damping_ratio, 0, 10)
+        if not abs(self.load_torque_nm) < 1e4:
+            raise FieldRangeError("load_torque_nm", self.load_torque_nm, -1e4, 1e4)
         if self.a_acc_pps2(0.0) <= 0:
             raise FormatError("the motor cannot accelerate from rest: safety_factor × torque at "
-                              "0 pps does not exceed the friction torque")
+                              "0 pps does not exceed the friction and load torque")
 
     # --- capability -------------------------------------------------------
     @property
@@ -95,11 +116,28 @@ class Motor:
         """Pull-out torque at `speed_pps` (linear interpolation; 0 beyond the curve)."""
         return np.interp(speed_pps, self.curve_speed_pps, self.curve_torque_nm, right=0.0)
 
+    @property
+    def teeth(self) -> int:
+        """Rotor teeth Nr: electrical periods per revolution."""
+        return DEFAULT_ROTOR_TEETH if self.rotor_teeth is None else self.rotor_teeth
+
+    @property
+    def electrical_deg_per_pulse(self) -> float:
+        """Load angle per pulse of lag: 360° · Nr / steps_per_rev (2- and 5-phase alike)."""
+        return 360.0 * self.teeth / self.steps_per_rev
+
+    @property
+    def full_step_electrical_deg(self) -> float:
+        """One full step: 90° electrical (2-phase), 36° (5-phase): 180° / phases."""
+        return 180.0 / self.phases
+
     def a_acc_pps2(self, speed_pps: Any) -> Any:
-        return (self.safety_factor * self.torque_nm(speed_pps) - self.friction_torque_nm) * self._k
+        return (self.safety_factor * self.torque_nm(speed_pps) - self.friction_torque_nm
+                - abs(self.load_torque_nm)) * self._k
 
     def a_dec_pps2(self, speed_pps: Any) -> Any:
-        return (self.safety_factor * self.torque_nm(speed_pps) + self.friction_torque_nm) * self._k
+        return (self.safety_factor * self.torque_nm(speed_pps) + self.friction_torque_nm
+                - abs(self.load_torque_nm)) * self._k
 
     def min_a_acc_pps2(self, lo_pps: Any, hi_pps: Any) -> Any:
         """Exact minimum of a_acc over [lo, hi] (vectorised): the curve is piecewise
@@ -132,6 +170,12 @@ class Motor:
                     "rotor_teeth"):
             if getattr(self, key) is not None:
                 out[key] = getattr(self, key)
+        if self.phases != DEFAULT_PHASES:
+            out["phases"] = self.phases
+        if self.damping_ratio != DEFAULT_DAMPING_RATIO:
+            out["damping_ratio"] = self.damping_ratio
+        if self.load_torque_nm:
+            out["load_torque_nm"] = self.load_torque_nm
         return out
 
     @classmethod
@@ -153,8 +197,9 @@ class Motor:
         for key in (_REQUIRED | _OPTIONAL) - {"format", "pullout_torque", "name"}:
             if key in obj and not _is_num(obj[key]):
                 raise FormatError(f"{key}: expected a number, got {obj[key]!r}")
-        if not isinstance(obj["steps_per_rev"], int):
-            raise FormatError("steps_per_rev: expected an integer")
+        for key in ("steps_per_rev", "rotor_teeth", "phases"):
+            if key in obj and not isinstance(obj[key], int):
+                raise FormatError(f"{key}: expected an integer, got {obj[key]!r}")
         return cls(steps_per_rev=obj["steps_per_rev"],
                    curve_speed_pps=np.array([p[0] for p in curve], dtype=float),
                    curve_torque_nm=np.array([p[1] for p in curve], dtype=float),
@@ -165,7 +210,10 @@ class Motor:
                    max_jump_pps=_opt(obj, "max_jump_pps"), max_pps=_opt(obj, "max_pps"),
                    max_jerk_pps3=_opt(obj, "max_jerk_pps3"), name=str(obj.get("name", "")),
                    holding_torque_nm=_opt(obj, "holding_torque_nm"),
-                   rotor_teeth=int(obj["rotor_teeth"]) if "rotor_teeth" in obj else None)
+                   rotor_teeth=int(obj["rotor_teeth"]) if "rotor_teeth" in obj else None,
+                   phases=int(obj.get("phases", DEFAULT_PHASES)),
+                   damping_ratio=float(obj.get("damping_ratio", DEFAULT_DAMPING_RATIO)),
+                   load_torque_nm=float(obj.get("load_torque_nm", 0.0)))
 
 
 def load_motor(path: str | Path) -> Motor:

@@ -161,7 +161,7 @@ def test_high_rate_outside_table_range_is_refused(rate: int) -> None:
     with pytest.raises(MoveParameterError) as err:
         simulate_move(COMMON, 100, high_rate=rate)
     msg = str(err.value)
-    assert "high_rate" in msg and "100 (0x64)..400 (0x190)" in msg
+    assert "high rate" in msg and "100 (0x64)..400 (0x190)" in msg
     assert "F0 20" in msg and "\n" not in msg
 
 

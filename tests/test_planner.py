@@ -11,11 +11,14 @@ import pytest
 from profiles.errors import StepRampError
 from profiles.motor import Motor, bundled_motor_paths, load_motor
 from profiles.ppmc312.clock import Clock
+from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.planner import (
+    PlanError,
     choose_clock,
     plan_baseline,
     plan_free_curve,
     reference_pulses,
+    switch_safe,
 )
 from profiles.ppmc312.quantise import quantise_reference
 from profiles.ppmc312.table import FreeCurveTable
@@ -90,14 +93,41 @@ def test_more_stages_never_slower(name: str, pulses: int | None) -> None:
 
 def test_separate_decel_choice() -> None:
     motor = MOTORS["motor-nema23-heavy"]
-    auto = plan_free_curve(motor, pulses=10000)
-    common = plan_free_curve(motor, pulses=10000, separate_decel=False)
-    forced = plan_free_curve(motor, pulses=10000, separate_decel=True)
+    auto = plan_free_curve(motor, pulses=100_000)
+    common = plan_free_curve(motor, pulses=100_000, separate_decel=False)
+    forced = plan_free_curve(motor, pulses=100_000, separate_decel=True)
     assert common.table.decel_pulses is None and forced.table.decel_pulses is not None
     # decel counts come from a_dec ≥ a_acc: LE=1 is never slower, and here strictly faster
     assert auto.move_time_s <= common.move_time_s
     assert forced.move_time_s < common.move_time_s
     assert sum(forced.table.decel) < sum(forced.table.accel_pulses)
+    # ... and it stays safe for every move length (its triangles switch on safe stages)
+    assert check_stall(forced.table, motor) == []
+    assert switch_safe(np.array(forced.table.accel_pulses[::-1]),
+                       np.array(forced.table.decel[::-1]))
+
+
+def test_forced_le1_that_cannot_be_switch_safe_is_refused() -> None:
+    # at 10 000 pulses the heavy table's LE=1 decel counts would need more pulses than the
+    # move has to keep every triangle's switch safe
+    motor = MOTORS["motor-nema23-heavy"]
+    with pytest.raises(PlanError, match="switch safe"):
+        plan_free_curve(motor, pulses=10_000, separate_decel=True)
+    auto = plan_free_curve(motor, pulses=10_000)
+    assert auto.table.decel_pulses is None and check_stall(auto.table, motor) == []
+
+
+def test_switch_safe_matches_the_move_model() -> None:
+    # a table whose decel share reaches a slower stage than the accel share: the move
+    # model shows the downward switch, switch_safe says no; equal counts say yes
+    rates = (400, 800, 1600)
+    n, d = (10, 10, 10), (2, 2, 40)   # fastest first: the decel's slow end is heavy
+    table = FreeCurveTable(Clock.internal("8MHz"), rates, n, d)
+    drops = [p for p in range(1, 80) if any(
+        a.phase == "accel" and b.phase == "decel" and b.rate > a.rate
+        for a, b in itertools.pairwise(simulate_move(table, p).segments))]
+    assert drops and not switch_safe(np.array(n[::-1]), np.array(d[::-1]))
+    assert switch_safe(np.array(n[::-1]), np.array(n[::-1]))
 
 
 # --- optimality on a tiny problem -------------------------------------------------

@@ -1,17 +1,10 @@
-"""The stall-safety criterion (issue #3) as findings.
+"""The stall-safety criterion as findings, judged on every execution the chip runs.
 
-Stages are read slowest first: speeds f_1 < … < f_N, stage k emits n_k pulses
-lasting t_k = n_k / f_k. A table is stall-safe for a motor when
-- f_1 ≤ start_pps (the motor can start and stop there without a ramp);
-- f_N ≤ motor.top_pps (last point of the pull-out curve, capped by max_pps);
-- f_{k+1} − f_k ≤ motor.jump_pps for every step;
-- (f_{k+1} − f_k) / t_k ≤ min a(v) over [f_k, f_{k+1}] (a_acc for the accel
-  counts, a_dec for the decel counts): the piecewise-linear ramp through the
-  stage starts is within the motor's capability, so the staircase (which lags
-  that ramp) is too;
-- with max_jerk_pps3: the slope during stage k is σ_k = (f_{k+1} − f_k)/t_k,
-  σ_0 = 0 before the first stage (rest) and σ_N = 0 in the top stage (cruise);
-  every stage k obeys |σ_k − σ_{k−1}| / t_k ≤ max_jerk_pps3.
+The rules and how every move length is covered without iterating lengths are in
+`profiles.ppmc312.criterion`; this module groups its problems (the same step in
+many executions is one finding, naming the shortest move that runs it) and says
+what to change, with numbers. `stall_margins` is the table's own view: capability
+/ need per stage and side, as the trapezoid runs them.
 LE=1 tables with different accel and decel stage counts: each side uses the
 fastest stages it counts (the table's shared-rate reading).
 Stage numbers in messages are fastest-first indices, as in the table.
@@ -20,18 +13,21 @@ Stage numbers in messages are fastest-first indices, as in the table.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from typing import Any
 
 import numpy as np
 
 from profiles.motor import Motor
+from profiles.ppmc312.criterion import (
+    REL_TOL,
+    StepProblem,
+    all_length_problems,
+    length_problems,
+)
 from profiles.ppmc312.table import FreeCurveTable
 
 from .findings import Finding
-
-# Planners round pulse counts up with exact float arithmetic; this relative slack
-# only absorbs the last-bit difference between their arithmetic and ours.
-REL_TOL = 1e-9
 
 
 def _side(table: FreeCurveTable, counts: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
@@ -80,8 +76,11 @@ def stall_margins(table: FreeCurveTable, motor: Motor) -> dict[str, Any]:
     return out
 
 
-def check_stall(table: FreeCurveTable, motor: Motor) -> list[Finding]:
-    """Every way `table` breaks the stall-safety criterion for `motor`, as error findings."""
+def check_stall(table: FreeCurveTable, motor: Motor, *, pulses: Iterable[int] | None = None,
+                high_rate: int = 0) -> list[Finding]:
+    """Every way the chip's executions of `table` break the stall-safety criterion for
+    `motor`, as error findings: over every move length 1..0xFFFFFFFF when `pulses` is
+    None, else over the moves of those lengths (profiles.ppmc312.criterion)."""
     out: list[Finding] = []
     rates = table.rates
     if not _ordered(table):
@@ -98,76 +97,123 @@ def check_stall(table: FreeCurveTable, motor: Motor) -> list[Finding]:
         return out  # speeds, steps and slopes mean nothing until the order is fixed
     if not rates:
         return out
+    problems = (all_length_problems(table, motor, high_rate=high_rate) if pulses is None
+                else length_problems(table, motor, pulses, high_rate=high_rate))
+    return findings_from_problems(table, motor, problems)
+
+
+def _key(p: StepProblem) -> tuple[object, ...]:
+    if p.rule == "jump":
+        pair = (p.stage_from, p.stage_to)
+        return (p.rule, min(pair, key=_idx), max(pair, key=_idx))
+    if p.rule in ("accel", "decel"):
+        return (p.rule, p.dwell_stage, p.dwell_pulses, p.stage_from, p.stage_to)
+    if p.rule == "switch":  # one finding for all switches: they share one cause and fix
+        return (p.rule,)
+    if p.rule == "jerk":
+        return (p.rule, p.dwell_side, p.stage_from)
+    return (p.rule, p.stage_from)
+
+
+def _idx(stage: int | None) -> int:
+    return -1 if stage is None else stage
+
+
+def findings_from_problems(table: FreeCurveTable, motor: Motor,
+                           problems: list[StepProblem]) -> list[Finding]:
+    """One finding per distinct problem (the same step in many executions is one finding,
+    naming the shortest move length that runs it), in a stable order."""
+    groups: dict[tuple[object, ...], list[StepProblem]] = {}
+    for p in problems:
+        groups.setdefault(_key(p), []).append(p)
+    out = [_finding(table, motor, g) for g in groups.values()]
+    order = {"top-speed": 0, "start-speed": 1, "jump": 2, "accel": 3, "decel": 4, "switch": 5,
+             "jerk": 6}
+    return sorted(out, key=lambda f: (order[f.rule[len("stall-"):]], _idx(f.stage)))
+
+
+def _finding(table: FreeCurveTable, motor: Motor, group: list[StepProblem]) -> Finding:
+    p = min(group, key=lambda q: q.pulses)
     hz = table.clock.hz
-    top = hz / rates[0]
-    if top > motor.top_pps * (1 + REL_TOL):
+    shortest = f" (shortest move that runs it: {p.pulses} pulses)" if p.pulses else ""
+
+    def rate(stage: int | None) -> str:
+        return "the high-rate override" if stage is None else f"rates[{stage}]"
+
+    if p.rule == "top-speed":
         need_rate = math.ceil(hz / motor.top_pps)
-        out.append(Finding("error", "stall-top-speed",
-                           f"fastest stage rates[0] = {rates[0]} runs {top:.6g} pps, above the "
-                           f"motor's top usable speed {motor.top_pps:.6g} pps: raise rates[0] to "
-                           f"≥ {need_rate}", stage=0))
-    start_rate = math.ceil(hz / motor.start_pps * (1 - REL_TOL))
-    seen: set[int] = set()
-    for side, counts in (("accel", table.accel_pulses), ("decel", table.decel)):
-        if not counts or len(counts) - 1 in seen:
-            continue  # LE=0 or equal stage counts: one slowest stage, one finding
-        k = len(counts) - 1
-        seen.add(k)
-        f1 = hz / rates[k]
-        if f1 > motor.start_pps * (1 + REL_TOL):
-            out.append(Finding("error", "stall-start-speed",
-                               f"slowest {side} stage rates[{k}] = {rates[k]} runs {f1:.6g} pps, "
-                               f"above the start speed {motor.start_pps:.6g} pps: raise rates[{k}] "
-                               f"to ≥ {start_rate}", stage=k))
-    longest = max(len(table.accel_pulses), len(table.decel))
-    speeds = hz / np.asarray(rates[:longest], dtype=float)
-    jumps = speeds[:-1] - speeds[1:]
-    for k in np.flatnonzero(jumps > motor.jump_pps * (1 + REL_TOL)).tolist():
-        slower = k + 1
-        out.append(Finding("error", "stall-jump",
-                           f"stage {slower} → {slower - 1} steps from {speeds[slower]:.6g} to "
-                           f"{speeds[slower - 1]:.6g} pps (+{jumps[k]:.6g}), above the largest "
-                           f"jump {motor.jump_pps:.6g} pps: insert a stage between rates "
-                           f"{rates[slower]} and {rates[slower - 1]}", stage=slower))
-    for side, counts, cap, rule in (
-            ("accel", table.accel_pulses, motor.min_a_acc_pps2, "stall-accel"),
-            ("decel", table.decel, motor.min_a_dec_pps2, "stall-decel")):
-        sp, n = _side(table, counts)
-        s = _slopes(sp, n, cap)
-        bad = s["need"] > s["cap"] * (1 + REL_TOL)
-        for k in np.flatnonzero(bad).tolist():
-            capk = float(s["cap"][k])
-            head = (f"{side}_pulses[{k}] = {int(n[k])} at {sp[k]:.6g} pps then +{s['delta'][k]:.6g}"
-                    f" pps needs {s['need'][k]:.6g} pps/s")
-            if capk <= 0:
-                out.append(Finding("error", rule, f"{head}, but the motor cannot {side}erate "
-                                   f"between {sp[k]:.6g} and {sp[k - 1]:.6g} pps at all: lower the "
-                                   f"top speed below {sp[k]:.6g} pps", stage=k))
-                continue
-            want = math.ceil(s["delta"][k] * sp[k] / capk)
-            out.append(Finding("error", rule, f"{head}, the motor gives {capk:.6g} pps/s: raise "
-                               f"{side}_pulses[{k}] from {int(n[k])} to ≥ {want}", stage=k))
-        if motor.max_jerk_pps3 is not None:
-            out.extend(_jerk(side, sp, n, float(motor.max_jerk_pps3)))
-    return out
+        msg = (f"stage {rate(p.stage_from)} runs {p.v_from_pps:.6g} pps, above the motor's top "
+               f"usable speed {motor.top_pps:.6g} pps: raise it to ≥ {need_rate}")
+        return Finding("error", "stall-top-speed", msg + shortest, stage=p.stage_from)
+    if p.rule == "start-speed":
+        kinds = {q.kind for q in group}
+        verb = ("start and stop" if kinds == {"start", "stop"} else
+                "start from rest" if kinds == {"start"} else "stop")
+        side = "accel" if kinds == {"start"} else "decel"
+        start_rate = math.ceil(hz / motor.start_pps * (1 - REL_TOL))
+        k = p.stage_from
+        slowest = k is not None and k == len(table.accel_pulses if side == "accel"
+                                             else table.decel) - 1
+        fix = (f"raise {rate(k)} to ≥ {start_rate}" if slowest else
+               "give both sides the same stage count (LE=1 shares the fastest stages), so no "
+               "move starts or stops on a faster stage")
+        what = f"slowest {side} stage" if slowest else f"{side} stage"
+        msg = (f"moves {verb} at the {what} {rate(k)} = "
+               f"{'' if k is None else table.rates[k]} ({p.v_from_pps:.6g} pps), above the start "
+               f"speed {motor.start_pps:.6g} pps: {fix}")
+        return Finding("error", "stall-start-speed", msg + shortest, stage=k)
+    if p.rule == "jump":
+        slow, fast = sorted(((p.stage_from, p.v_from_pps), (p.stage_to, p.v_to_pps)),
+                            key=lambda sv: sv[1])
+        jump = fast[1] - slow[1]
+        msg = (f"stage {_idx(slow[0])} → {_idx(fast[0])} steps from {slow[1]:.6g} to "
+               f"{fast[1]:.6g} pps (+{jump:.6g}), above the largest jump {motor.jump_pps:.6g} pps:"
+               f" insert a stage between {rate(slow[0])} and {rate(fast[0])}")
+        return Finding("error", "stall-jump", msg + shortest, stage=slow[0])
+    if p.rule in ("accel", "decel"):
+        side = p.rule
+        k = p.dwell_stage
+        slow_v = min(p.v_from_pps, p.v_to_pps)
+        delta = abs(p.jump_pps)
+        head = (f"{side}_pulses[{_idx(k)}] = {p.dwell_pulses} at {slow_v:.6g} pps then "
+                f"{'+' if side == 'accel' else '−'}{delta:.6g} pps needs {p.need_pps2:.6g} pps/s")
+        if p.cap_pps2 <= 0:
+            msg = (f"{head}, but the motor cannot {side}erate between {slow_v:.6g} and "
+                   f"{max(p.v_from_pps, p.v_to_pps):.6g} pps at all: lower the top speed below "
+                   f"{slow_v:.6g} pps")
+        else:
+            want = math.ceil(delta * slow_v / p.cap_pps2)
+            msg = (f"{head}, the motor gives {p.cap_pps2:.6g} pps/s: raise {side}_pulses[{_idx(k)}]"
+                   f" from {p.dwell_pulses} to ≥ {want}")
+        return Finding("error", f"stall-{side}", msg + shortest, stage=k)
+    if p.rule == "switch":
+        worst = max(group, key=lambda q: abs(q.jump_pps))
+        lengths = sorted({q.family for q in group})
+        span = ", ".join(f"{lo}–{hi}" if hi > lo else f"{lo}" for lo, hi in lengths[:4])
+        more = f" and {len(lengths) - 4} more ranges" if len(lengths) > 4 else ""
+        why = []
+        if abs(p.jump_pps) > motor.jump_pps * (1 + REL_TOL):
+            why.append(f"above the largest jump {motor.jump_pps:.6g} pps")
+        if p.need_pps2 > p.cap_pps2 * (1 + REL_TOL):
+            why.append(f"with {p.dwell_pulses} pulse(s) at {p.v_to_pps:.6g} pps it needs "
+                       f"{p.need_pps2:.6g} pps/s, the motor gives {p.cap_pps2:.6g}")
+        msg = (f"triangle moves of {span}{more} pulses switch from accel stage "
+               f"{_idx(p.stage_from)} ({p.v_from_pps:.6g} pps) to decel stage {_idx(p.stage_to)} "
+               f"({p.v_to_pps:.6g} pps), {p.jump_pps:+.6g} pps, {'; '.join(why)}: the chip keeps "
+               "the accel:decel pulse ratio, so the decel counts must be proportional to the "
+               "accel counts from the slow end (stepramp plan makes them so), or use LE=0; "
+               f"largest switch jump {worst.jump_pps:+.6g} pps (accel stage "
+               f"{_idx(worst.stage_from)} → decel stage {_idx(worst.stage_to)})")
+        return Finding("error", "stall-switch", msg + shortest, stage=p.stage_to)
+    # jerk
+    return Finding("error", "stall-jerk",
+                   f"{p.dwell_side} slope changes from {p.v_from_pps:.6g} to {p.v_to_pps:.6g} "
+                   f"pps/s over stage {p.stage_from}: {p.need_pps2:.6g} pps/s² exceeds "
+                   f"max_jerk_pps3 {p.cap_pps2:.6g}: raise {p.dwell_side}_pulses[{p.stage_from}] "
+                   "(and the counts around it)", stage=p.stage_from)
 
 
-def _jerk(side: str, speeds_fast_first: np.ndarray, counts_fast_first: np.ndarray,
-          jerk: float) -> list[Finding]:
-    f = speeds_fast_first[::-1]
-    n = counts_fast_first[::-1]
-    t = n / f
-    m = len(f)
-    sigma = np.zeros(m)  # slope during each stage (slowest first); the top stage cruises
-    sigma[:-1] = np.diff(f) / t[:-1]
-    prev = np.concatenate(([0.0], sigma[:-1]))
-    rate = np.abs(sigma - prev) / t
-    out = []
-    for i in np.flatnonzero(rate > jerk * (1 + REL_TOL)).tolist():
-        k = m - 1 - i  # fastest-first index
-        out.append(Finding("error", "stall-jerk",
-                           f"{side} slope changes from {prev[i]:.6g} to {sigma[i]:.6g} pps/s over "
-                           f"stage {k} ({t[i] * 1e3:.6g} ms): {rate[i]:.6g} pps/s² exceeds "
-                           f"max_jerk_pps3 {jerk:.6g}: raise {side}_pulses[{k}] (and the "
-                           "counts around it)", stage=k))
-    return out
+def shortest_failing_pulses(problems: list[StepProblem]) -> int | None:
+    """The shortest move length whose execution breaks the criterion (None: none)."""
+    lengths = [p.pulses for p in problems if p.pulses]
+    return min(lengths) if lengths else (0 if problems else None)

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import io
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
 import numpy as np
@@ -241,20 +241,72 @@ def to_csv(execution: Execution) -> str:
 # --- the chip's move model ------------------------------------------------------
 
 Stage = tuple[int, int, int]  # (index in the fastest-first lists, rate, pulses)
+Plan = list[tuple[Phase, int, int]]
 
 
-def simulate_move(table: FreeCurveTable | InitTable, pulses: int, *, high_rate: int = 0,
-                  held_by_run: bool = False) -> Execution:
-    """The accel/decel move (82) of `pulses` pulses with `table` loaded.
+@dataclass(frozen=True)
+class _Sides:
+    """A table's two sides as one move command sees them (after any high-rate override):
+    the single source of both `simulate_move` and `move_families`."""
 
-    `high_rate` 0 runs the table's fastest stage; otherwise it must lie within the
-    table's rate range. `held_by_run` (RUN low at the start) adds 1 to the status.
-    """
+    acc: list[Stage]
+    dec: list[Stage]
+    cruise_rate: int
+    given: bool
+    no_accel: bool   # a high rate slower than the accel side's 2nd stage: no acceleration
+    shared: int      # stages with index ≥ shared belong to one side only
+
+    def plan(self, pulses: int) -> tuple[Shape, Plan]:
+        if self.no_accel:
+            return _no_accel(self.acc, self.dec, pulses, self.cruise_rate)
+        return _shape(self.acc, self.dec, pulses, self.cruise_rate, self.shared)
+
+    def breakpoints(self) -> list[int]:
+        """Every move length at which the sequence of segment rates may change (the first
+        length of each `MoveFamily`), ascending, starting at 1."""
+        out = {1}
+        if self.no_accel:
+            tail = [s for s in self.dec if s[1] > self.cruise_rate]
+            total = sum(p for _, _, p in tail)
+            out.update((total, total + 1))  # the cruise appears one pulse past the tail
+            out.update(c + 1 for c in _slow_end_cumsum(tail))
+            return sorted(b for b in out if 1 <= b <= MOVE_PULSES_MAX)
+        acc, dec, shared = self.acc, self.dec, self.shared
+        acc_extra = [s for s in acc if s[0] >= shared]
+        dec_extra = [s for s in dec if s[0] >= shared]
+        acc_shared = [s for s in acc if s[0] < shared]
+        dec_shared = [s for s in dec if s[0] < shared]
+        rate_diff = sum(p for _, _, p in acc_extra) + sum(p for _, _, p in dec_extra)
+        a_total = sum(p for _, _, p in acc)
+        d_total = sum(p for _, _, p in dec)
+        out.update((rate_diff, a_total + d_total, a_total + d_total + 1))  # +1: a cruise
+        # straight triangles: the stage reached changes one pulse past each stage boundary
+        out.update(c + 1 for c in _slow_end_cumsum(acc_extra) + _slow_end_cumsum(dec_extra)
+                   if c + 1 < rate_diff)
+        # triangles: the accel share q_a = ⌊rest·a/(a+d)⌋ and decel share q_d = rest − q_a
+        # enter a new stage one pulse past each boundary (and leave 0)
+        a = sum(p for _, _, p in acc_shared)
+        d = sum(p for _, _, p in dec_shared)
+        if a + d:
+            for c in [0, *_slow_end_cumsum(acc_shared)]:
+                if a:  # smallest rest with q_a ≥ c + 1
+                    out.add(rate_diff + -(-(c + 1) * (a + d) // a))
+            for c in [0, *_slow_end_cumsum(dec_shared)]:
+                if d:  # q_d = ⌈rest·d/(a+d)⌉ ≥ c + 1 ⟺ rest·d > c·(a+d)
+                    out.add(rate_diff + c * (a + d) // d + 1)
+        return sorted(b for b in out if 1 <= b <= min(MOVE_PULSES_MAX, a_total + d_total + 1))
+
+
+def _slow_end_cumsum(side: list[Stage]) -> list[int]:
+    """Pulses of a side's slowest 1, 2, … stages (all but the whole side)."""
+    counts = [p for _, _, p in reversed(side)]
+    return [int(c) for c in np.cumsum(counts[:-1])] if len(counts) > 1 else []
+
+
+def _sides(table: FreeCurveTable | InitTable, high_rate: int) -> tuple[FreeCurveTable, _Sides]:
     from profiles.ppmc312.init_model import as_free_curve
 
     table = as_free_curve(table)
-    _check_pulses(pulses)
-    pulses = int(pulses)
     rates = table.rates
     acc = [(i, rates[i], p) for i, p in enumerate(table.accel_pulses)]
     dec = [(i, rates[i], p) for i, p in enumerate(table.decel)]
@@ -267,20 +319,34 @@ def simulate_move(table: FreeCurveTable | InitTable, pulses: int, *, high_rate: 
     lo, hi = min(rates), max(rates)
     if isinstance(high_rate, bool) or not isinstance(high_rate, int | np.integer) or (
             high_rate != 0 and not lo <= high_rate <= hi):
-        raise MoveParameterError("high_rate (0 = the table's)", high_rate, lo, hi,
+        raise MoveParameterError("high rate (0 = the table's)", high_rate, lo, hi,
                                  CHIP_RATE_OUT_OF_RANGE)
     high_rate = int(high_rate)
     given = high_rate != 0
+    shared = min(len(table.accel_pulses), len(table.decel))
     if given and len(acc) >= 2 and high_rate > acc[-2][1]:
-        shape, plan = _no_accel(acc, dec, pulses, high_rate)
-        cruise_rate = max(high_rate, acc[-1][1])
-    else:
-        cruise_rate = high_rate if given else rates[0]
-        if given:  # stages faster than the high rate are never reached
-            acc = [s for s in acc if s[1] >= high_rate]
-            dec = [s for s in dec if s[1] >= high_rate]
-        shape, plan = _shape(acc, dec, pulses, cruise_rate, min(len(table.accel_pulses),
-                                                                len(table.decel)))
+        return table, _Sides(acc, dec, max(high_rate, acc[-1][1]), True, True, shared)
+    if given:  # stages faster than the high rate are never reached
+        acc = [s for s in acc if s[1] >= high_rate]
+        dec = [s for s in dec if s[1] >= high_rate]
+    return table, _Sides(acc, dec, high_rate if given else rates[0], given, False, shared)
+
+
+def simulate_move(table: FreeCurveTable | InitTable, pulses: int, *, high_rate: int = 0,
+                  held_by_run: bool = False) -> Execution:
+    """The accel/decel move (82) of `pulses` pulses with `table` loaded.
+
+    `high_rate` 0 runs the table's fastest stage; otherwise it must lie within the
+    table's rate range. `held_by_run` (RUN low at the start) adds 1 to the status.
+    """
+    _check_pulses(pulses)
+    table, sides = _sides(table, high_rate)
+    return _execute(table, sides, int(pulses), held_by_run)
+
+
+def _execute(table: FreeCurveTable, sides: _Sides, pulses: int,
+             held_by_run: bool = False) -> Execution:
+    shape, plan = sides.plan(pulses)
     segments: list[Segment] = []
     tick = 0
     for phase, rate, count in plan:
@@ -294,11 +360,51 @@ def simulate_move(table: FreeCurveTable | InitTable, pulses: int, *, high_rate: 
         tick += rate * count
     status = STATUS[shape] + (HELD_BY_RUN if held_by_run else 0)
     return Execution(shape=shape, status=status, segments=segments, pulses=pulses,
-                     clock=table.clock, high_rate=cruise_rate, high_rate_given=given,
+                     clock=table.clock, high_rate=sides.cruise_rate, high_rate_given=sides.given,
                      held_by_run=bool(held_by_run))
 
 
-Plan = list[tuple[Phase, int, int]]
+@dataclass(frozen=True)
+class MoveFamily:
+    """The move lengths `lo`..`hi` for which the chip runs the same sequence of segment
+    rates with one table (only partial stages and the cruise change length). The
+    families of a table partition 1..0xFFFFFFFF; see `move_families`."""
+
+    table: FreeCurveTable
+    high_rate: int
+    lo: int
+    hi: int
+    shape: str
+    _sides: _Sides = field(repr=False, compare=False)
+
+    def execution(self, pulses: int | None = None) -> Execution:
+        """The move of `pulses` (default: the shortest of the family)."""
+        n = self.lo if pulses is None else int(pulses)
+        if not self.lo <= n <= self.hi:
+            raise FieldRangeError("move pulses of this family", n, self.lo, self.hi)
+        return _execute(self.table, self._sides, n)
+
+    def __contains__(self, pulses: object) -> bool:
+        return isinstance(pulses, int) and self.lo <= pulses <= self.hi
+
+
+def move_families(table: FreeCurveTable | InitTable, *, high_rate: int = 0) -> list[MoveFamily]:
+    """Every distinct execution the chip can produce with `table` for move lengths
+    1..0xFFFFFFFF (trapezoid, each triangle switch, straight triangles), found from the
+    stage boundaries, never by iterating lengths. Ascending and contiguous."""
+    free, sides = _sides(table, high_rate)
+    starts = sides.breakpoints()
+    out: list[MoveFamily] = []
+    last: list[tuple[str, int]] = []
+    for lo, nxt in zip(starts, [*starts[1:], MOVE_PULSES_MAX + 1], strict=True):
+        run = _execute(free, sides, lo)
+        key = [(s.phase, s.rate) for s in run.segments]
+        if out and key == last and run.shape == out[-1].shape:  # a boundary of no effect
+            out[-1] = replace(out[-1], hi=nxt - 1)
+        else:
+            out.append(MoveFamily(free, high_rate, lo, nxt - 1, run.shape, sides))
+        last = key
+    return out
 
 
 def _shape(acc: list[Stage], dec: list[Stage], pulses: int, cruise_rate: int,

@@ -557,6 +557,62 @@ def _plan_variant(motor: Motor, clock: Clock, max_stages: int, budget: int, sepa
     return jerked
 
 
+def switch_safe(n: np.ndarray, d: np.ndarray) -> bool:
+    """Whether every triangle of an LE=1 table with accel counts `n` and decel counts `d`
+    (slowest first, both sides on the same stages) starts its decel on a stage at least
+    as fast as the one its accel reached, and never starts a decel-only move above the
+    slowest stage (the move model of profiles.ppmc312.execution: shares
+    q_a = ⌊rest·a/(a+d)⌋ and q_d = rest − q_a, each from its side's slow end)."""
+    n = np.asarray(n, dtype=np.int64)
+    d = np.asarray(d, dtype=np.int64)
+    a, dd = int(n.sum()), int(d.sum())
+    if a == 0 or dd == 0:
+        return False
+    cn, cd = np.cumsum(n)[:-1], np.cumsum(d)[:-1]
+    rest = -(-(cn + 1) * (a + dd) // a)        # first rest whose accel enters stage j + 1
+    q_dec = -(-(rest * dd) // (a + dd))
+    decel_only = -(-(a + dd) // a) - 1          # longest rest with no accel pulse
+    return bool(np.all(q_dec >= cd + 1)) and decel_only <= d[0]
+
+
+def _switch_safe_decel(pb: _Problem, ev: _Eval, budget: int) -> _Eval | None:
+    """The fastest switch-safe decel counts for `ev`'s stages (None: none fits the budget).
+
+    Two levers, both only raising decel counts: a floor proportional to the accel counts,
+    d_k ≥ c·n_k (c = 1 is the symmetric table, always switch-safe), and extra pulses on
+    the top stage (free on the planned move, but they count against its pulses). For
+    each c on a grid the fewest top pulses that make the table `switch_safe` are found
+    by bisection (more of them only help: they raise the decel total, not its slow end)."""
+    best: _Eval | None = None
+    for c in np.linspace(0.0, 1.0, 21):
+        d0 = np.maximum(ev.d, np.ceil(c * ev.n))
+
+        def with_extra(x: int, d0: np.ndarray = d0) -> np.ndarray:
+            d = d0.copy()
+            d[-1] += x
+            return d
+
+        if switch_safe(ev.n, d0):
+            hi = 0
+        else:
+            hi = 1
+            while not switch_safe(ev.n, with_extra(hi)):
+                hi *= 2
+                if d0.sum() + hi > min(SIDE_TOTAL_MAX, budget):
+                    break
+            else:
+                lo = 0  # not safe at lo, safe at hi
+                while hi - lo > 1:
+                    mid = (lo + hi) // 2
+                    lo, hi = (lo, mid) if switch_safe(ev.n, with_extra(mid)) else (mid, hi)
+            if not switch_safe(ev.n, with_extra(hi)):
+                continue
+        cand = _evaluate(pb, ev.rates, budget, (ev.n, with_extra(hi)))
+        if cand is not None and (best is None or cand.time_s < best.time_s):
+            best = cand
+    return best
+
+
 def _table(clock: Clock, ev: _Eval, separate: bool) -> FreeCurveTable:
     rates = [int(x) for x in ev.rates[::-1]]
     acc = [int(x) for x in ev.n[::-1]]
@@ -574,11 +630,29 @@ def _plan(motor: Motor, clock: Clock | None, max_stages: int, pulses: int | None
     # LE=1 is never slower: for the same speeds its decel counts (from a_dec ≥ a_acc) are
     # at most the common LE=0 counts, so it takes less time and fewer pulses. Auto mode
     # plans LE=1 and writes LE=0 when the decel counts come out equal anyway.
-    sep = True if separate_decel is None else bool(separate_decel)
-    ev = _plan_variant(motor, clock, max_stages, budget, sep, grid=grid, refine=refine,
-                       exhaustive_tops=exhaustive_tops)
-    if separate_decel is None and np.array_equal(ev.n, ev.d):
-        sep = False
+    # LE=1's decel counts (from a_dec ≥ a_acc) are smaller than LE=0's, but the chip runs
+    # short moves as triangles that keep the accel:decel ratio, and with uneven sides the
+    # decel can start on a slower stage than the accel reached: a jump the table never
+    # shows. `_switch_safe_decel` raises the top decel count (free on the planned move:
+    # the top stage runs at cruise speed) until no triangle does that. The symmetric LE=0
+    # table is always all-length safe; auto mode keeps whichever is faster.
+    variants: list[tuple[_Eval, bool]] = []
+    if separate_decel is not False:
+        pb = _problem(motor, clock, True)
+        ev1 = _plan_variant(motor, clock, max_stages, budget, True, grid=grid, refine=refine,
+                            exhaustive_tops=exhaustive_tops)
+        safe = _switch_safe_decel(pb, ev1, budget)
+        if safe is not None:
+            variants.append((safe, not np.array_equal(safe.n, safe.d)))
+    if separate_decel is not True:
+        ev0 = _plan_variant(motor, clock, max_stages, budget, False, grid=grid, refine=refine,
+                            exhaustive_tops=exhaustive_tops)
+        variants.append((ev0, False))
+    if not variants:
+        raise PlanError(f"no LE=1 table fits {budget} pulses and keeps every triangle's "
+                        "accel→decel switch safe; give more pulses or allow LE=0 "
+                        "(--no-separate-decel)")
+    ev, sep = min(variants, key=lambda v: v[0].time_s)
     time_s = ev.time_s
     table = _table(clock, ev, sep)
     objective = (f"move of {pulses} pulses" if pulses is not None
