@@ -222,13 +222,6 @@ def test_jerk_limited_motor() -> None:
 
 
 @pytest.mark.slow
-def test_solve_time_127_stages() -> None:
-    for motor in MOTORS.values():
-        best = min(plan_free_curve(motor, pulses=10000).solve_s for _ in range(3))
-        print(f"{motor.name}: {best * 1e3:.1f} ms")
-        assert best <= 0.05
-
-
 # --- quantising a reference -------------------------------------------------------
 def ruckig_reference(pulses: int, v_max: float, a_max: float, j_max: float,
                      samples: int = 8001) -> tuple[np.ndarray, ...]:
