@@ -3,6 +3,8 @@
 The table's time is what the chip runs (`profiles.ppmc312.execution`, exact ticks); the
 references are continuous profiles on the same move (`verify.references`);
 the stall margin is capability / need over the table's stages (`verify.stall`).
+The move is judged by both judges: the criterion on its execution (`verify.stall`)
+and the load angle in both directions (`verify.physics`); `safe` needs both.
 """
 
 from __future__ import annotations
@@ -26,8 +28,20 @@ class Comparison:
     references: dict[str, Any]  # name -> verify.references.Reference
     optimum: str
     margins: dict[str, Any]
-    physics: Any = None  # verify.physics.PhysicsResult
+    criterion: list[Any] = field(default_factory=list)  # verify.findings.Finding
+    physics: Any = None  # verify.physics.PhysicsVerdict of the move
     extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def safe(self) -> bool:
+        """Both judges pass the move: no criterion finding, load angle below 90°."""
+        return not self.criterion and (self.physics is None or self.physics.safe)
+
+    @property
+    def failed_judges(self) -> list[str]:
+        out = ["criterion"] if self.criterion else []
+        return out + (["load angle"] if self.physics is not None and not self.physics.safe
+                      else [])
 
     @property
     def table_s(self) -> float:
@@ -62,14 +76,13 @@ class Comparison:
             "pulses": self.pulses, "shape": self.execution.shape,
             "table_s": self.table_s, "optimum": self.optimum, "optimum_s": self.optimum_s,
             "ratio": self.ratio, "stall_margin": _finite(self.stall_margin),
-            "references": refs,
+            "references": refs, "safe": self.safe, "failed_judges": self.failed_judges,
+            "criterion": [f.to_json() for f in self.criterion],
         }
         if self.jerk_limited_optimum is not None:
             out["jerk_limited_optimum_s"] = self.jerk_limited_optimum.duration_s
         if self.physics is not None:
-            out["physics"] = {"worst_lag_full_steps": self.physics.worst_lag_full_steps,
-                              "stalled": self.physics.stalled,
-                              "stall_time_s": self.physics.stall_time_s}
+            out["physics"] = self.physics.to_json()
         return out
 
     def to_text(self) -> str:
@@ -87,10 +100,13 @@ class Comparison:
                          f"table/that {self.table_s / jerk.duration_s:.4f}")
         lines.append(f"smallest stall margin: {self.stall_margin:.3f} (capability / need; "
                      f"≥ 1 is stall-safe)")
+        lines.append("criterion: " + ("passes" if not self.criterion else
+                                      f"FAILS ({len(self.criterion)} finding(s))"))
+        lines += [f"  [{f.rule}] {f.message}" for f in self.criterion]
         if self.physics is not None:
-            verdict = "STALLS" if self.physics.stalled else "no stall"
-            lines.append(f"load-angle simulation: worst lag "
-                         f"{self.physics.worst_lag_full_steps:.3f} full steps, {verdict}")
+            lines.append(f"load angle: {self.physics.describe()}")
+        verdict = "SAFE" if self.safe else "UNSAFE (failed: " + ", ".join(self.failed_judges) + ")"
+        lines.append(f"verdict: {verdict}")
         return "\n".join(lines) + "\n"
 
     def figure(self) -> Any:
@@ -106,11 +122,11 @@ class Comparison:
 
 def compare_table(table: Table, motor: Motor, pulses: int, *,
                   include: tuple[str, ...] = DEFAULT_REFERENCES,
-                  physics: bool = False) -> Comparison:
+                  physics: bool = True) -> Comparison:
     from profiles.ppmc312.execution import simulate_move
     from profiles.ppmc312.init_model import as_free_curve
     from verify.references import best_reference, references
-    from verify.stall import stall_margins
+    from verify.stall import check_stall, stall_margins
 
     table = as_free_curve(table)
     execution = simulate_move(table, pulses)
@@ -118,11 +134,12 @@ def compare_table(table: Table, motor: Motor, pulses: int, *,
     best = best_reference(refs)
     optimum = next(name for name, r in refs.items() if r is best)
     result = Comparison(table=table, motor=motor, pulses=pulses, execution=execution,
-                        references=refs, optimum=optimum, margins=stall_margins(table, motor))
+                        references=refs, optimum=optimum, margins=stall_margins(table, motor),
+                        criterion=check_stall(table, motor, pulses=[pulses]))
     if physics:
-        from verify.physics import load_angle_check
+        from verify.physics import judge_executions
 
-        result.physics = load_angle_check(execution, motor)
+        result.physics = judge_executions(table, motor, pulses=[pulses])
     return result
 
 

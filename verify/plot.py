@@ -43,9 +43,13 @@ def comparison_figure(comparison: Any) -> Any:
         lab = f"{name} ({ref.duration_s * 1e3:.2f} ms)"
         ax_t.plot(ref.t_s * 1e3, ref.v_pps, color=color, ls=ls, lw=1.2, label=lab)
         ax_x.plot(ref.x_pulses, ref.v_pps, color=color, ls=ls, lw=1.2, label=lab)
+    verdict = ("SAFE" if comparison.safe else
+               "UNSAFE (" + ", ".join(comparison.failed_judges) + ")")
     ax_t.set(xlabel="time [ms]", ylabel="speed [pps]",
              title=f"{comparison.motor.name or 'motor'}: {comparison.pulses} pulses, "
-                   f"table / optimum = {comparison.ratio:.3f}")
+                   f"table / optimum = {comparison.ratio:.3f} — {verdict}")
+    if not comparison.safe:
+        ax_t.title.set_color("tab:red")
     ax_x.set(xlabel="position [pulses]", ylabel="speed [pps]")
     # Headroom above the cruise holds the one legend (both panels share its styles),
     # so it never hides a curve whatever the move's shape.
@@ -62,8 +66,15 @@ def comparison_figure(comparison: Any) -> Any:
     dec = None if dec is None else np.asarray(dec, float)
     shown = [m[np.isfinite(m)] for m in (acc, dec) if m is not None]
     finite = np.concatenate(shown) if shown else np.array([])
-    # Margins span 1 … tens: a log axis keeps the stages near the limit readable.
-    bottom = min(0.8, 0.8 * float(finite.min())) if finite.size else 0.8
+    # Margins span 1 … tens: a log axis keeps the stages near the limit readable. The
+    # bars start below the smallest positive margin, and a margin at or below 0 (the
+    # motor cannot make that step at all) is drawn at the floor, so none vanishes.
+    positive = finite[finite > 0]
+    floor = float(positive.min()) if positive.size else 0.8
+    bottom = min(0.8, 0.5 * floor)
+    acc = np.where(np.isfinite(acc), np.maximum(acc, bottom * 1.25), acc)
+    if dec is not None:
+        dec = np.where(np.isfinite(dec), np.maximum(dec, bottom * 1.25), dec)
     top = max(2.0, 1.5 * float(finite.max())) if finite.size else 2.0
     stages = np.arange(len(acc))
     ax_m.bar(stages - 0.2, np.where(np.isfinite(acc), acc, np.nan) - bottom, width=0.4,
