@@ -612,7 +612,7 @@ def render_settings(doc: dict[str, Any], fmt: str) -> str:
         raise FormatError(f"format: {fmt!r} is not one of {', '.join(SETTINGS_FORMATS)}")
     lines = [f"multiplier ×{doc['multiplier']}: start {doc['start_pps']} pps, high "
              f"{doc['high_pps']} pps, UP_TIME para {doc['up_time_para']} "
-             f"({doc['accel_ms_per_kpps']:g} ms/kpps = {doc['accel_pps2']:.6g} pps/s)"]
+             f"({doc['accel_ms_per_kpps']:g} ms/kpps = {doc['accel_pps2']:.6g} pps²)"]
     for key in ("predicted_time_s", "linear_time_s", "s_curve_time_s", "ratio_to_optimum"):
         if doc.get(key) is not None:
             lines.append(f"{key}: {doc[key]:.6g}")

@@ -25,6 +25,7 @@ from .fields import F32, Bit, Bits, Checksum, Frame, Reserved, SInt, UInt
 
 if TYPE_CHECKING:
     from .motor import Motor
+    from .progress import Progress
 
 PACKET_SIZE = 12
 MAGIC_DEFAULT = 0x0F0F0F0F  # position and current pages; the velocity page says F0F0F0F0
@@ -435,20 +436,27 @@ STREAM_FORMATS = ("hex", "bin", "json")
 
 
 def render_stream(packets: Sequence[HostPacket], fmt: str, *, period_us: float,
-                  duration_s: float, pulses: int) -> str | bytes:
+                  duration_s: float, pulses: int,
+                  progress: Progress | None = None) -> str | bytes:
     """A stream file: `bin` (packets back to back), `hex` (`render_hex`) or `json`
-    (the move's numbers and every packet as spaced hex)."""
+    (the move's numbers and every packet as spaced hex). Encoding a long move takes
+    seconds: `progress` hears (packets encoded, packets)."""
     import json
 
+    from .progress import chunks
+
+    if fmt not in STREAM_FORMATS:
+        raise FormatError(f"format: {fmt!r} is not one of {', '.join(STREAM_FORMATS)}")
+    encoded = [b"".join(p.encode() for p in packets[r.start:r.stop])
+               for r in chunks(len(packets), 20_000, progress)]
+    raw = b"".join(encoded)
     if fmt == "bin":
-        return encode_stream(packets)
+        return raw
+    rows = [raw[i:i + PACKET_SIZE].hex(" ").upper() for i in range(0, len(raw), PACKET_SIZE)]
     if fmt == "json":
         return json.dumps({"period_us": period_us, "duration_s": duration_s, "pulses": pulses,
-                           "packets": [p.encode().hex(" ").upper() for p in packets]},
-                          indent=1) + "\n"
-    if fmt != "hex":
-        raise FormatError(f"format: {fmt!r} is not one of {', '.join(STREAM_FORMATS)}")
-    return render_hex(packets)
+                           "packets": rows}, indent=1) + "\n"
+    return "".join(row + "\n" for row in rows)
 
 
 def decode_stream(data: bytes | str, direction: Direction = "host", *,

@@ -378,9 +378,16 @@ def _check_pulses(pulses: Any) -> None:
 
 # --- CSV files of a move (`stepramp simulate --pulse-times / --samples`) ---------
 
+PULSE_TIMES_CSV_MAX = 10_000_000  # one row per pulse: ~200 MB of text at this size
+
+
 def pulse_times_csv(execution: Execution) -> str:
-    """Every pulse's time as CSV `pulse,time_s` (pulse numbered from 1, ns resolution)."""
-    times = execution.pulse_times_s()
+    """Every pulse's time as CSV `pulse,time_s` (pulse numbered from 1, ns resolution);
+    refuses moves of more than PULSE_TIMES_CSV_MAX pulses (one row each)."""
+    if execution.pulses > PULSE_TIMES_CSV_MAX:
+        raise FieldRangeError("pulses (one CSV row per pulse)", execution.pulses, 1,
+                              PULSE_TIMES_CSV_MAX)
+    times = execution.pulse_times_s(limit=PULSE_TIMES_CSV_MAX)
     return "pulse,time_s\n" + "".join(f"{i},{t:.9f}\n" for i, t in enumerate(times, start=1))
 
 

@@ -20,11 +20,11 @@ from collections.abc import Sequence
 
 from profiles.errors import StepRampError
 
-from ._common import EXIT_OK, EXIT_UNUSABLE
+from ._common import EXIT_OK, EXIT_UNUSABLE, VersionAction
 
 # The order here is the order of `stepramp --help`.
 COMMANDS: tuple[str, ...] = (
-    "check", "export", "decode", "move", "expand",
+    "check", "show", "export", "decode", "move", "expand",
     "plan", "simulate", "compare",
     "alink", "mc200",
 )
@@ -32,6 +32,7 @@ COMMANDS: tuple[str, ...] = (
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="stepramp", description=__doc__.splitlines()[0])
+    p.add_argument("--version", action=VersionAction)
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in COMMANDS:
         importlib.import_module(f"{__name__}.{name}").add_subparser(sub)

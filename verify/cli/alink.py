@@ -13,24 +13,34 @@ def add_subparser(sub: Any) -> None:
     asub = alink.add_subparsers(dest="alink_command", required=True, metavar="COMMAND")
     s = asub.add_parser("settings", help="settings (and their command words) for a move")
     s.add_argument("--motor", metavar="M.json", help="plan the fastest stall-safe settings")
-    s.add_argument("--pulses", type=positive_int, help="with --motor: optimise for this move")
-    s.add_argument("--start-pps", type=number)
-    s.add_argument("--high-pps", type=number)
-    s.add_argument("--accel-ms-per-kpps", type=number)
-    s.add_argument("--max-pps", type=number, default=0.0, help="MAX_SPEED (0 = not set)")
-    s.add_argument("--s-curve", action="store_true")
-    s.add_argument("--address", type=positive_int, help="slave address (memory-map offsets)")
-    s.add_argument("--axis", type=int, choices=(0, 1), default=0)
-    s.add_argument("--duplex", choices=("full", "half"), default="full")
-    s.add_argument("--format", choices=("text", "json", "hex", "c"), default="text")
-    s.add_argument("-o", "--output", metavar="OUT")
+    s.add_argument("--pulses", type=positive_int,
+                   help="with --motor: optimise for a move of this many pulses [pulses]")
+    s.add_argument("--start-pps", type=number, help="start speed (L_SPEED) [pps]")
+    s.add_argument("--high-pps", type=number, help="high speed (H_SPEED) [pps]")
+    s.add_argument("--accel-ms-per-kpps", type=number,
+                   help="acceleration (UP_TIME) as time per 1000 pps of speed change [ms]")
+    s.add_argument("--max-pps", type=number, default=0.0,
+                   help="MAX_SPEED [pps] (0 = not set, the default)")
+    s.add_argument("--s-curve", action="store_true", help="S-curve ramps (default linear)")
+    s.add_argument("--address", type=positive_int,
+                   help="slave address: adds each command's memory-map offset")
+    s.add_argument("--axis", type=int, choices=(0, 1), default=0,
+                   help="axis of the 2-axis unit (default 0)")
+    s.add_argument("--duplex", choices=("full", "half"), default="full",
+                   help="link duplex, sets the memory map (default full)")
+    s.add_argument("--format", choices=("text", "json", "hex", "c"), default="text",
+                   help="output format (default text)")
+    s.add_argument("-o", "--output", metavar="OUT", help="write the output here (default stdout)")
     s.set_defaults(func=_do_settings)
 
     d = asub.add_parser("decode", help="decode a status/DATA1/DATA2 triple")
     d.add_argument("words", nargs=3, metavar="WORD", help="16-bit words, hex (0x…) or decimal")
-    d.add_argument("--read-back", action="store_true", help="read-back status layout")
-    d.add_argument("--pair", type=int, choices=(0, 1, 2, 3), help="the pair code sent")
-    d.add_argument("--format", choices=("text", "json"), default="text")
+    d.add_argument("--read-back", action="store_true",
+                   help="the triple answers a read-back command (its status layout)")
+    d.add_argument("--pair", type=int, choices=(0, 1, 2, 3),
+                   help="the pair code sent, to check the answer against")
+    d.add_argument("--format", choices=("text", "json"), default="text",
+                   help="output format (default text)")
     d.set_defaults(func=_do_decode)
 
 

@@ -10,10 +10,13 @@ from ._common import EXIT_FINDINGS, EXIT_OK, EXIT_UNUSABLE, load_motor, number
 
 def add_subparser(sub: Any) -> None:
     c = sub.add_parser("check", help="check table or upload files against the chip's rules")
-    c.add_argument("files", nargs="+", metavar="FILE")
-    c.add_argument("--format", choices=("text", "json", "junit"), default="text")
+    c.add_argument("files", nargs="+", metavar="FILE",
+                   help="table files (JSON) or upload files (hex, bin, json)")
+    c.add_argument("--format", choices=("text", "json", "junit"), default="text",
+                   help="report format (default text)")
     c.add_argument("--motor", metavar="M.json", help="also check stall-safety for this motor")
-    c.add_argument("--extck-hz", type=number, help="external clock frequency for EXTCK uploads")
+    c.add_argument("--extck-hz", type=number,
+                   help="external clock frequency of EXTCK uploads [Hz]")
     c.add_argument("-o", "--output", metavar="OUT", help="write the report here (default stdout)")
     c.set_defaults(func=_do_check)
 

@@ -11,10 +11,12 @@ from ._common import EXIT_OK, positive_int
 
 def add_subparser(sub: Any) -> None:
     c = sub.add_parser("compare", help="a table against the continuous time optimum")
-    c.add_argument("table", metavar="TABLE")
-    c.add_argument("--motor", required=True, metavar="M.json")
-    c.add_argument("--pulses", type=positive_int, required=True)
-    c.add_argument("--format", choices=("text", "json"), default="text")
+    c.add_argument("table", metavar="TABLE", help="a table file (free curve or init)")
+    c.add_argument("--motor", required=True, metavar="M.json", help="the motor file")
+    c.add_argument("--pulses", type=positive_int, required=True,
+                   help="move length [pulses]")
+    c.add_argument("--format", choices=("text", "json"), default="text",
+                   help="report format (default text; times in ms, JSON in s)")
     c.add_argument("--plot", metavar="OUT.png", help="write a figure (PNG or SVG by extension)")
     c.add_argument("--references", default="toppra,ruckig,casadi",
                    help="comma-separated references to compute (default: all three)")

@@ -11,8 +11,9 @@ from ._common import EXIT_OK
 def add_subparser(sub: Any) -> None:
     x = sub.add_parser("expand", help="the free curve equivalent to an init table (the "
                                       "modelled staircase the chip builds)")
-    x.add_argument("table", metavar="TABLE")
-    x.add_argument("-o", "--output", metavar="OUT")
+    x.add_argument("table", metavar="TABLE", help="an init table file")
+    x.add_argument("-o", "--output", metavar="OUT",
+                   help="write the free-curve table here (default stdout)")
     x.set_defaults(func=_do_expand)
 
 

@@ -11,14 +11,18 @@ from ._common import EXIT_FINDINGS, EXIT_OK, positive_int
 
 def add_subparser(sub: Any) -> None:
     e = sub.add_parser("export", help="encode a table into the bytes the device takes")
-    e.add_argument("table", metavar="TABLE")
-    e.add_argument("--to", choices=("parallel", "ascii"), default="parallel")
-    e.add_argument("--address", type=positive_int, default=0, help="ASCII slave address 0-15")
-    e.add_argument("--format", choices=("hex", "bin", "c", "json", "bus"), default="hex")
+    e.add_argument("table", metavar="TABLE", help="a table file (free curve or init)")
+    e.add_argument("--to", choices=("parallel", "ascii"), default="parallel",
+                   help="the chip's interface: parallel bus blocks or ASCII serial frames "
+                        "(default parallel)")
+    e.add_argument("--address", type=positive_int, default=0,
+                   help="ASCII slave address 0-15 (default 0)")
+    e.add_argument("--format", choices=("hex", "bin", "c", "json", "bus"), default="hex",
+                   help="file format (default hex: spaced hex text, one block a line)")
     e.add_argument("--max-block-data", type=positive_int, default=30,
-                   help="data bytes per parameter block (3-30, default 30)")
+                   help="data bytes per parameter block, 3-30 (default 30)")
     e.add_argument("--force", action="store_true", help="export even a table with errors")
-    e.add_argument("-o", "--output", metavar="OUT")
+    e.add_argument("-o", "--output", metavar="OUT", help="write the file here (default stdout)")
     e.set_defaults(func=_do_export)
 
 

@@ -5,28 +5,35 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ._common import EXIT_OK, number, positive_int
+from ._common import EXIT_OK, number, positive_int, progress_bar
 
 
 def add_subparser(sub: Any) -> None:
     mc = sub.add_parser("mc200", help="MC-200 SPI packet streams")
     msub = mc.add_subparsers(dest="mc200_command", required=True, metavar="COMMAND")
     st = msub.add_parser("stream", help="the packets that run a move")
-    st.add_argument("--motor", metavar="M.json", help="stream the stall-safe planned move")
-    st.add_argument("--vmax", type=number, help="ruckig: max speed [pps]")
-    st.add_argument("--amax", type=number, help="ruckig: max acceleration [pps/s]")
-    st.add_argument("--jmax", type=number, help="ruckig: max jerk [pps/s²]")
-    st.add_argument("--pulses", type=positive_int, required=True)
-    st.add_argument("--period-us", type=number, required=True)
-    st.add_argument("--driver-id", type=positive_int, default=0)
-    st.add_argument("--format", choices=("hex", "bin", "json"), default="hex")
-    st.add_argument("-o", "--output", metavar="OUT")
+    st.add_argument("--motor", metavar="M.json",
+                    help="stream the PPMC-312's stall-safe planned move for this motor")
+    st.add_argument("--vmax", type=number, help="ruckig profile: max speed [pps]")
+    st.add_argument("--amax", type=number, help="ruckig profile: max acceleration [pps²]")
+    st.add_argument("--jmax", type=number, help="ruckig profile: max jerk [pps³]")
+    st.add_argument("--pulses", type=positive_int, required=True,
+                    help="move length [pulses]")
+    st.add_argument("--period-us", type=number, required=True,
+                    help="SPI packet period [µs], 10..1000000")
+    st.add_argument("--driver-id", type=positive_int, default=0,
+                    help="driver ID 0-15 in every packet (default 0)")
+    st.add_argument("--format", choices=("hex", "bin", "json"), default="hex",
+                    help="file format (default hex: one packet a line)")
+    st.add_argument("-o", "--output", metavar="OUT", help="write the file here (default stdout)")
     st.set_defaults(func=_do_stream)
 
     md = msub.add_parser("decode", help="decode a packet file (hex or bin)")
-    md.add_argument("file", metavar="FILE")
-    md.add_argument("--direction", choices=("host", "driver"), default="host")
-    md.add_argument("--format", choices=("text", "json"), default="text")
+    md.add_argument("file", metavar="FILE", help="a packet file (hex text or binary)")
+    md.add_argument("--direction", choices=("host", "driver"), default="host",
+                    help="host → driver commands or driver → host replies (default host)")
+    md.add_argument("--format", choices=("text", "json"), default="text",
+                    help="output format (default text)")
     md.set_defaults(func=_do_decode)
 
 
@@ -49,9 +56,11 @@ def _do_stream(args: argparse.Namespace) -> int:
                                             driver_id=args.driver_id, motor=motor,
                                             v_max_pps=args.vmax, a_max_pps2=args.amax,
                                             j_max_pps3=args.jmax)
-    write_output(args.output, mc200.render_stream(packets, args.format,
-                                                  period_us=args.period_us,
-                                                  duration_s=duration_s, pulses=args.pulses))
+    with progress_bar("encode packets", unit="packet") as progress:
+        data = mc200.render_stream(packets, args.format, period_us=args.period_us,
+                                   duration_s=duration_s, pulses=args.pulses,
+                                   progress=progress)
+    write_output(args.output, data)
     return EXIT_OK
 
 

@@ -11,15 +11,20 @@ from ._common import EXIT_OK, positive_int
 
 def add_subparser(sub: Any) -> None:
     s = sub.add_parser("simulate", help="what the chip runs for an accel/decel move")
-    s.add_argument("table", metavar="TABLE")
-    s.add_argument("--pulses", type=positive_int, required=True)
-    s.add_argument("--high-rate", type=positive_int, default=0)
-    s.add_argument("--format", choices=("text", "json"), default="text")
-    s.add_argument("--csv", metavar="OUT", help="write the per-stage timeline as CSV")
+    s.add_argument("table", metavar="TABLE", help="a table file (free curve or init)")
+    s.add_argument("--pulses", type=positive_int, required=True,
+                   help="move length [pulses]")
+    s.add_argument("--high-rate", type=positive_int, default=0,
+                   help="high-rate override, a rate divisor (0 = the table's)")
+    s.add_argument("--format", choices=("text", "json"), default="text",
+                   help="summary format on stdout (default text)")
+    s.add_argument("--csv", metavar="OUT",
+                   help="write the per-stage timeline as CSV (ticks and s)")
     s.add_argument("--pulse-times", metavar="OUT",
-                   help="write every pulse's time [s] as CSV (pulse,time_s); ≤ 10 M pulses")
+                   help="write every pulse's time as CSV (pulse, time_s [s]); at most 10 M pulses")
     s.add_argument("--samples", metavar="OUT",
-                   help="write the staircase sampled at 1000 points as CSV (t_s,x,v_pps,a_pps2)")
+                   help="write the staircase sampled at 1000 points as CSV (t_s [s], x_pulses, "
+                        "v_pps [pps], a_pps2 [pps²])")
     s.set_defaults(func=_do_simulate)
 
 
