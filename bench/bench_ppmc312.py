@@ -96,7 +96,7 @@ def main() -> None:
           f"{'OK' if check <= 0.3 else 'MISSED'}")
     print(f"  reference `python -c pass`:     {bare:10.3f} s ratio {check / bare:.1f}")
     heavy = subprocess.run(
-        [sys.executable, "-c", "import sys, verify.cli as c; c._load_extra_commands(); "
+        [sys.executable, "-c", "import sys, verify.cli as c; c.build_parser(); "
          "import verify.checks, verify.report, profiles.ppmc312.upload; "
          "print(sorted(m for m in ('toppra','casadi','matplotlib','ruckig','scipy') "
          "if m in sys.modules))"], capture_output=True, text=True, cwd=ROOT)

@@ -20,13 +20,15 @@ class FormatError(StepRampError, ValueError):
 class FieldRangeError(StepRampError, ValueError):
     """A value that does not fit its field: names the field, the value and the range."""
 
-    def __init__(self, field: str, value: object, lo: float | int, hi: float | int) -> None:
+    def __init__(self, field: str, value: object, lo: float | int, hi: float | int, *,
+                 lo_excluded: bool = False) -> None:
         self.field = field
         self.value = value
         self.lo = lo
         self.hi = hi
-        super().__init__(f"{field}: {_show(value)} is outside the allowed range "
-                         f"{_show(lo)}..{_show(hi)}")
+        allowed = (f"above {_show(lo)} up to {_show(hi)}" if lo_excluded
+                   else f"{_show(lo)}..{_show(hi)}")
+        super().__init__(f"{field}: {_show(value)} is outside the allowed range {allowed}")
 
 
 class DecodeError(StepRampError, ValueError):

@@ -16,12 +16,16 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, replace
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
 from .errors import DecodeError, FieldRangeError, FormatError, StepRampError, require_int
 from .fields import F32, Bit, Bits, Checksum, Frame, Reserved, SInt, UInt
+
+if TYPE_CHECKING:
+    from .motor import Motor
+    from .progress import Progress
 
 PACKET_SIZE = 12
 MAGIC_DEFAULT = 0x0F0F0F0F  # position and current pages; the velocity page says F0F0F0F0
@@ -386,6 +390,34 @@ def ruckig_profile(pulses: int, v_max_pps: float, a_max_pps2: float,
     return position_at, total_n * t_ref
 
 
+def plan_stream(pulses: int, *, period_us: float, driver_id: int = 0,
+                motor: Motor | None = None, v_max_pps: float | None = None,
+                a_max_pps2: float | None = None,
+                j_max_pps3: float | None = None) -> tuple[list[HostPacket], float]:
+    """The packets that run a move of `pulses` and the move's duration [s].
+
+    With `motor`: the PPMC-312's stall-safe planned staircase for this move (the
+    profile a chip would run); otherwise ruckig's jerk-limited profile with the
+    three limits, which must then all be given.
+    """
+    position_at: PositionFn
+    if motor is not None:
+        from profiles.ppmc312.execution import simulate_move
+        from profiles.ppmc312.planner import plan_free_curve
+
+        plan = plan_free_curve(motor, pulses=pulses)
+        execution = simulate_move(plan.table, pulses)
+        position_at, duration_s = execution.position_at, execution.duration_s
+    else:
+        if v_max_pps is None or a_max_pps2 is None or j_max_pps3 is None:
+            raise FormatError("a stream needs a motor, or all of v_max_pps, a_max_pps2 and "
+                              "j_max_pps3")
+        position_at, duration_s = ruckig_profile(pulses, v_max_pps, a_max_pps2, j_max_pps3)
+    packets = stream_move(position_at, duration_s, pulses, period_us=period_us,
+                          driver_id=driver_id)
+    return packets, duration_s
+
+
 # --- byte streams ------------------------------------------------------------------------------
 
 Direction = Literal["host", "driver"]
@@ -398,6 +430,33 @@ def encode_stream(packets: Sequence[HostPacket | DriverPacket]) -> bytes:
 def render_hex(packets: Sequence[HostPacket | DriverPacket]) -> str:
     """One packet per line: 12 bytes as two uppercase hex digits separated by spaces."""
     return "".join(p.encode().hex(" ").upper() + "\n" for p in packets)
+
+
+STREAM_FORMATS = ("hex", "bin", "json")
+
+
+def render_stream(packets: Sequence[HostPacket], fmt: str, *, period_us: float,
+                  duration_s: float, pulses: int,
+                  progress: Progress | None = None) -> str | bytes:
+    """A stream file: `bin` (packets back to back), `hex` (`render_hex`) or `json`
+    (the move's numbers and every packet as spaced hex). Encoding a long move takes
+    seconds: `progress` hears (packets encoded, packets)."""
+    import json
+
+    from .progress import chunks
+
+    if fmt not in STREAM_FORMATS:
+        raise FormatError(f"format: {fmt!r} is not one of {', '.join(STREAM_FORMATS)}")
+    encoded = [b"".join(p.encode() for p in packets[r.start:r.stop])
+               for r in chunks(len(packets), 20_000, progress)]
+    raw = b"".join(encoded)
+    if fmt == "bin":
+        return raw
+    rows = [raw[i:i + PACKET_SIZE].hex(" ").upper() for i in range(0, len(raw), PACKET_SIZE)]
+    if fmt == "json":
+        return json.dumps({"period_us": period_us, "duration_s": duration_s, "pulses": pulses,
+                           "packets": rows}, indent=1) + "\n"
+    return "".join(row + "\n" for row in rows)
 
 
 def decode_stream(data: bytes | str, direction: Direction = "host", *,

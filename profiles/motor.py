@@ -68,7 +68,8 @@ class Motor:
         _positive("steps_per_rev", self.steps_per_rev, 1, 10_000_000)
         _positive("inertia_kgm2", self.inertia_kgm2, 1e-12, 1e3)
         if not 0 < self.safety_factor <= 1:
-            raise FieldRangeError("safety_factor (0 excluded)", self.safety_factor, 0, 1)
+            raise FieldRangeError("safety_factor", self.safety_factor, 0, 1,
+                                  lo_excluded=True)
         if not 0 <= self.friction_torque_nm < 1e4:
             raise FieldRangeError("friction_torque_nm", self.friction_torque_nm, 0, 1e4)
         _positive("start_pps", self.start_pps, 1e-9, self.top_curve_pps)

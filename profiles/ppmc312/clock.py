@@ -58,6 +58,17 @@ class Clock:
         return cls(_CODES[name], INTERNAL_HZ[name])
 
     @classmethod
+    def named(cls, text: str) -> Clock:
+        """An internal clock by name as a person types it: case and spaces are ignored
+        ("8mhz", "62.5 KHz"). Table files keep the exact spelling (`internal`)."""
+        key = text.replace(" ", "").lower() if isinstance(text, str) else None
+        for name in INTERNAL_HZ:
+            if name.lower() == key:
+                return cls.internal(name)
+        raise FormatError(f"clock: {text!r} is not one of {', '.join(INTERNAL_HZ)} "
+                          "(any case)")
+
+    @classmethod
     def extck(cls, hz: float, edge: str = "rising") -> Clock:
         if isinstance(hz, bool) or not isinstance(hz, int | float) or not 0 < hz <= 20e6:
             raise FieldRangeError("clock.extck_hz", hz, 1, 20_000_000)

@@ -480,3 +480,26 @@ def _check_pulses(pulses: Any) -> None:
     if isinstance(pulses, bool) or not isinstance(pulses, int | np.integer) or \
             not 1 <= pulses <= MOVE_PULSES_MAX:
         raise MoveParameterError("pulses", pulses, 1, MOVE_PULSES_MAX, CHIP_BAD_PULSE_COUNT)
+
+
+# --- CSV files of a move (`stepramp simulate --pulse-times / --samples`) ---------
+
+PULSE_TIMES_CSV_MAX = 10_000_000  # one row per pulse: ~200 MB of text at this size
+
+
+def pulse_times_csv(execution: Execution) -> str:
+    """Every pulse's time as CSV `pulse,time_s` (pulse numbered from 1, ns resolution);
+    refuses moves of more than PULSE_TIMES_CSV_MAX pulses (one row each)."""
+    if execution.pulses > PULSE_TIMES_CSV_MAX:
+        raise FieldRangeError("pulses (one CSV row per pulse)", execution.pulses, 1,
+                              PULSE_TIMES_CSV_MAX)
+    times = execution.pulse_times_s(limit=PULSE_TIMES_CSV_MAX)
+    return "pulse,time_s\n" + "".join(f"{i},{t:.9f}\n" for i, t in enumerate(times, start=1))
+
+
+def samples_csv(execution: Execution, n: int = 1000) -> str:
+    """The staircase sampled at `n` points as CSV `t_s,x_pulses,v_pps,a_pps2`."""
+    t, x, v, a = execution.sample(n)
+    return "t_s,x_pulses,v_pps,a_pps2\n" + "".join(
+        f"{ti:.9f},{xi:.6f},{vi:.6f},{ai:.6f}\n" for ti, xi, vi, ai in zip(t, x, v, a,
+                                                                           strict=True))

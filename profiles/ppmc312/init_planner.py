@@ -22,6 +22,7 @@ import numpy as np
 
 from ..errors import StepRampError
 from ..motor import Motor
+from ..progress import Progress, track
 from .clock import Clock
 from .init_model import (
     HIGH_RATE_MIN,
@@ -59,10 +60,12 @@ class InitPlanError(StepRampError, ValueError):
 
 
 def init_candidates(motor: Motor, shape: Shape, *, clock: Clock | None = None,
-                    separate_decel: bool = True, highs: int = 16) -> list[InitCandidate]:
+                    separate_decel: bool = True, highs: int = 16,
+                    progress: Progress | None = None) -> list[InitCandidate]:
     """For `highs` high speeds spread geometrically from just above the start speed to
     the motor's top, the init table with the fewest stall-safe pulses (LE=1 with the
-    decel counts minimised separately when `separate_decel`)."""
+    decel counts minimised separately when `separate_decel`). `progress` hears
+    (candidates searched, candidates)."""
     from .planner import choose_clock
 
     if shape not in ("linear", "s_curve"):
@@ -81,7 +84,7 @@ def init_candidates(motor: Motor, shape: Shape, *, clock: Clock | None = None,
     high_rates = sorted({min(slowest_high, max(top_rate, math.ceil(clock.hz / v)))
                          for v in speeds})
     out = []
-    for high in high_rates:
+    for high in track(high_rates, progress):
         cand = _smallest_safe(motor, clock, shape, start_rate, high, separate_decel)
         if cand is not None:
             out.append(cand)
@@ -93,12 +96,14 @@ def init_candidates(motor: Motor, shape: Shape, *, clock: Clock | None = None,
 
 def plan_init(motor: Motor, shape: Shape, pulses: int, *, clock: Clock | None = None,
               separate_decel: bool = True,
-              candidates: list[InitCandidate] | None = None) -> InitPlan:
-    """The stall-safe init table with the shortest modelled move of `pulses`."""
+              candidates: list[InitCandidate] | None = None,
+              progress: Progress | None = None) -> InitPlan:
+    """The stall-safe init table with the shortest modelled move of `pulses`;
+    `progress` hears the candidate search (see `init_candidates`)."""
     from profiles.ppmc312.execution import simulate_move
 
     cands = candidates if candidates is not None else init_candidates(
-        motor, shape, clock=clock, separate_decel=separate_decel)
+        motor, shape, clock=clock, separate_decel=separate_decel, progress=progress)
     best: tuple[float, InitCandidate, str] | None = None
     for cand in cands:
         run = simulate_move(cand.stages, pulses)

@@ -1,0 +1,86 @@
+"""verify.checking: one file judged as `stepramp check` does (library, no CLI)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from profiles.motor import load_motor
+from profiles.ppmc312.files import render
+from profiles.ppmc312.table import load_table
+from profiles.ppmc312.upload import encode_table
+from verify.checking import check_file, dedupe, load_checkable, looks_like_table_json
+from verify.findings import Finding
+
+ROOT = Path(__file__).resolve().parent.parent
+GOOD = ROOT / "examples" / "free-curve-nema17.json"
+BAD = ROOT / "examples" / "free-curve-bad.json"
+INIT = ROOT / "examples" / "init-linear.json"
+MOTOR = ROOT / "profiles" / "data" / "motor-nema17-1600.json"
+
+
+def _hex() -> str:
+    data = render(encode_table(load_table(GOOD)), "hex")
+    return data if isinstance(data, str) else data.decode("ascii")
+
+
+def test_good_and_bad_table_files() -> None:
+    good = check_file(str(GOOD))
+    assert good.ok and good.error is None and good.path == str(GOOD)
+    bad = check_file(str(BAD))
+    assert not bad.ok and bad.error is None
+    assert {f.chip_code for f in bad.findings if f.severity == "error"} >= {0x18, 0x19}
+
+
+def test_upload_file_is_decoded_and_judged(tmp_path: Path) -> None:
+    path = tmp_path / "good.hex"
+    path.write_text(_hex())
+    table, findings = load_checkable(str(path))
+    assert table == load_table(GOOD) and findings == []
+    assert check_file(str(path)).ok
+
+
+def test_upload_the_chip_refuses_is_one_finding_with_its_code(tmp_path: Path) -> None:
+    lines = _hex().splitlines()
+    first = lines[0].split()
+    first[4] = "01"  # one stage: the chip answers parameter error 0x11
+    path = tmp_path / "bad.hex"
+    path.write_text(" ".join(first) + "\n" + "\n".join(lines[1:]) + "\n")
+    table, findings = load_checkable(str(path))
+    assert table is None
+    assert [(f.rule, f.chip_code) for f in findings] == [("chip-rejects-upload", 0x11)]
+    result = check_file(str(path))
+    assert not result.ok and result.error is None
+
+
+def test_unusable_file_is_a_result_not_an_exception(tmp_path: Path) -> None:
+    path = tmp_path / "x.json"
+    path.write_text('{"format": "something/else"}')
+    result = check_file(str(path))
+    assert not result.ok and result.findings == [] and result.error
+
+
+def test_motor_adds_stall_findings_only_when_given() -> None:
+    motor = load_motor(MOTOR)
+    without = check_file(str(INIT))
+    with_motor = check_file(str(INIT), motor)
+    rules = {f.rule for f in with_motor.findings} - {f.rule for f in without.findings}
+    assert set(without.findings) <= set(with_motor.findings)
+    # the stall module's rules are the only new ones
+    import verify.stall as stall
+
+    source = Path(stall.__file__).read_text(encoding="utf-8")
+    assert all(r in source or r.split("-", 1)[1] in source for r in rules)
+
+
+def test_dedupe_keeps_first_of_equal_findings_in_order() -> None:
+    a = Finding("error", "a", "m", 0x18, 0)
+    b = Finding("warning", "b", "m")
+    assert dedupe([a, b, Finding("error", "a", "m", 0x18, 0), b]) == [a, b]
+
+
+def test_what_counts_as_a_table_file() -> None:
+    assert looks_like_table_json(b'  {"format": "stepramp.table/1", "blocks": []}')
+    assert looks_like_table_json(b'{"format": "wrong"}')  # reported as a bad table
+    assert not looks_like_table_json(json.dumps({"blocks": ["02 00"]}).encode())
+    assert not looks_like_table_json(b"02 00 01")

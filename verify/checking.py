@@ -1,0 +1,85 @@
+"""Judging one file as `stepramp check` does: a table file, or an upload file asked
+first what the chip would answer, then the chip rules and (with a motor) the
+stall criterion. One `FileResult` per file; a file that cannot be read as a
+table is a result with `error` set, never an exception."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from typing import TYPE_CHECKING
+
+from profiles.errors import StepRampError
+
+from .findings import Finding
+from .report import FileResult
+
+if TYPE_CHECKING:
+    from profiles.motor import Motor
+    from profiles.ppmc312.table import FreeCurveTable, InitTable
+
+
+def check_file(path: str, motor: Motor | None = None,
+               extck_hz: float | None = None) -> FileResult:
+    """The findings for the table or upload file at `path`.
+
+    `motor` adds the stall-safety findings; `extck_hz` is the external clock of
+    EXTCK uploads (a table file carries its own).
+    """
+    from verify.checks import check_table
+
+    try:
+        table, chip_findings = load_checkable(path, extck_hz)
+        findings = list(chip_findings)
+        if table is not None:
+            findings += check_table(table)
+        if motor is not None and table is not None:
+            from profiles.ppmc312.init_model import InitBuildError, as_free_curve
+            from verify.stall import check_stall
+
+            try:
+                findings += check_stall(as_free_curve(table), motor)
+            except InitBuildError:
+                pass  # no stages to judge: check_table has reported why, with the chip's code
+    except StepRampError as e:
+        return FileResult(path=path, ok=False, findings=[], error=str(e))
+    findings = dedupe(findings)
+    ok = not any(f.severity == "error" for f in findings)
+    return FileResult(path=path, ok=ok, findings=findings)
+
+
+def dedupe(findings: Iterable[Finding]) -> list[Finding]:
+    """`findings` in order, each equal finding once (two checks may report the same)."""
+    return list(dict.fromkeys(findings))
+
+
+def load_checkable(path: str, extck_hz: float | None = None
+                   ) -> tuple[FreeCurveTable | InitTable | None, list[Finding]]:
+    """A table file, or an upload file judged first by what the chip would answer:
+    (the table, []) or, for an upload the chip refuses, (None, [its finding])."""
+    from profiles.ppmc312.table import table_from_json
+    from profiles.reading import parse_json, read_bytes
+
+    raw = read_bytes(path)
+    if looks_like_table_json(raw):
+        return table_from_json(parse_json(raw, path)), []
+    from profiles.ppmc312.emulator import accept_upload
+    from profiles.ppmc312.files import parse_upload
+    from profiles.ppmc312.upload import decode_upload
+
+    blocks = parse_upload(raw)
+    if blocks and blocks[0][:1] in (b"\x02", b"\x03"):  # parallel blocks: ask the chip model
+        verdict = accept_upload(blocks)
+        if not verdict.ok:
+            # F0 carries a parameter-error code; F1/F6 (state, size) are the code themselves.
+            code = verdict.error_code if verdict.response_code == 0xF0 else verdict.response_code
+            return None, [Finding("error", "chip-rejects-upload", verdict.message,
+                                  chip_code=code, stage=None)]
+    return decode_upload(blocks, extck_hz=extck_hz), []
+
+
+def looks_like_table_json(raw: bytes) -> bool:
+    """A JSON object that is not a `{"blocks": …}` upload is judged as a table file, so
+    a wrong or missing "format" is reported as such."""
+    if raw.lstrip()[:1] != b"{":
+        return False
+    return b"stepramp.table/1" in raw or b'"blocks"' not in raw

@@ -1,0 +1,116 @@
+"""What every `stepramp` command module shares: exit codes, argument types and
+option helpers. Command modules import from here, never from each other.
+
+Units in help texts are spelled one way: pps, pps², pps³, s, ms, µs, Hz, in
+square brackets after the quantity.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from profiles.ppmc312.clock import Clock
+    from profiles.progress import Progress
+
+EXIT_OK, EXIT_FINDINGS, EXIT_UNUSABLE = 0, 1, 2
+
+CLOCK_NAMES = "8MHz, 1MHz, 500kHz, 250kHz, 62.5kHz or 15.625kHz (any case)"
+PROGRESS_DELAY_S = 1.0  # a bar appears only for work that has run this long
+
+
+def positive_int(text: str) -> int:
+    """A non-negative integer, decimal or with a 0x/0o/0b prefix."""
+    try:
+        value = int(text, 0)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"{text!r} is negative")
+    return value
+
+
+def number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+
+
+def internal_clock(text: str) -> Clock:
+    """An internal PPMC-312 clock by name, any case ("8mhz")."""
+    from profiles.errors import FormatError
+    from profiles.ppmc312.clock import Clock
+
+    try:
+        return Clock.named(text)
+    except FormatError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
+def clock_or_extck(text: str) -> str:
+    """An internal clock's exact name, or "EXTCK" (any case)."""
+    if text.strip().lower() == "extck":
+        return "EXTCK"
+    return internal_clock(text).name
+
+
+def load_motor(path: str) -> Any:
+    from profiles.motor import load_motor as load
+
+    return load(path)
+
+
+@contextmanager
+def progress_bar(desc: str, unit: str = "it") -> Iterator[Progress | None]:
+    """A progress callback drawing a tqdm bar on stderr, or None when stderr is not a
+    terminal (pipes, CI logs and tests stay clean). The bar shows up only once the
+    work has run PROGRESS_DELAY_S and is erased when it ends."""
+    if not sys.stderr.isatty():
+        yield None
+        return
+    from tqdm import tqdm
+
+    bar = tqdm(total=0, desc=desc, unit=unit, file=sys.stderr, leave=False,
+               delay=PROGRESS_DELAY_S, dynamic_ncols=True)
+
+    def update(done: int, total: int) -> None:
+        if bar.total != total:
+            bar.reset(total=total)
+        bar.update(done - bar.n)
+        if done >= total:  # tqdm throttles redraws; show the end before the bar is erased
+            bar.refresh()
+
+    try:
+        yield update
+    finally:
+        bar.close()
+
+
+class VersionAction(argparse.Action):
+    """`--version`: the installed package's version, looked up only when asked (the
+    metadata lookup would otherwise slow every start)."""
+
+    def __init__(self, option_strings: list[str], dest: str = argparse.SUPPRESS,
+                 **kwargs: Any) -> None:
+        super().__init__(option_strings, dest=dest, nargs=0,
+                         help="print stepramp's version and exit", **kwargs)
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                 values: Any, option_string: str | None = None) -> None:
+        print(f"stepramp {version()}")
+        parser.exit()
+
+
+def version() -> str:
+    from importlib.metadata import PackageNotFoundError
+    from importlib.metadata import version as installed
+
+    try:
+        return installed("stepramp")
+    except PackageNotFoundError:
+        return "unknown (not installed: pip install -e .)"

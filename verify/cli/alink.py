@@ -1,0 +1,114 @@
+"""`stepramp alink …`: A-Link ALUM settings, their command words, and responses."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from ._common import EXIT_OK, number, positive_int
+
+
+def add_subparser(sub: Any) -> None:
+    alink = sub.add_parser("alink", help="A-Link ALUM settings and command words")
+    asub = alink.add_subparsers(dest="alink_command", required=True, metavar="COMMAND")
+    s = asub.add_parser("settings", help="settings (and their command words) for a move")
+    s.add_argument("--motor", metavar="M.json", help="plan the fastest stall-safe settings")
+    s.add_argument("--pulses", type=positive_int,
+                   help="with --motor: optimise for a move of this many pulses [pulses]")
+    s.add_argument("--start-pps", type=number, help="start speed (L_SPEED) [pps]")
+    s.add_argument("--high-pps", type=number, help="high speed (H_SPEED) [pps]")
+    s.add_argument("--accel-ms-per-kpps", type=number,
+                   help="acceleration (UP_TIME) as time per 1000 pps of speed change [ms]")
+    s.add_argument("--max-pps", type=number, default=0.0,
+                   help="MAX_SPEED [pps] (0 = not set, the default)")
+    s.add_argument("--s-curve", action="store_true", help="S-curve ramps (default linear)")
+    s.add_argument("--address", type=positive_int,
+                   help="slave address: adds each command's memory-map offset")
+    s.add_argument("--axis", type=int, choices=(0, 1), default=0,
+                   help="axis of the 2-axis unit (default 0)")
+    s.add_argument("--duplex", choices=("full", "half"), default="full",
+                   help="link duplex, sets the memory map (default full)")
+    s.add_argument("--format", choices=("text", "json", "hex", "c"), default="text",
+                   help="output format (default text)")
+    s.add_argument("-o", "--output", metavar="OUT", help="write the output here (default stdout)")
+    s.set_defaults(func=_do_settings)
+
+    d = asub.add_parser("decode", help="decode a status/DATA1/DATA2 triple")
+    d.add_argument("words", nargs=3, metavar="WORD", help="16-bit words, hex (0x…) or decimal")
+    d.add_argument("--read-back", action="store_true",
+                   help="the triple answers a read-back command (its status layout)")
+    d.add_argument("--pair", type=int, choices=(0, 1, 2, 3),
+                   help="the pair code sent, to check the answer against")
+    d.add_argument("--format", choices=("text", "json"), default="text",
+                   help="output format (default text)")
+    d.set_defaults(func=_do_decode)
+
+
+def _do_settings(args: argparse.Namespace) -> int:
+    from profiles import alink
+    from profiles.errors import FormatError
+    from verify.output import write_output
+
+    explicit = (args.start_pps, args.high_pps, args.accel_ms_per_kpps)
+    if args.motor and any(v is not None for v in explicit):
+        raise FormatError("give either --motor or --start-pps/--high-pps/--accel-ms-per-kpps")
+    summary: dict[str, Any] = {}
+    if args.motor:
+        from profiles.motor import load_motor
+
+        plan = alink.plan_settings(load_motor(args.motor), pulses=args.pulses,
+                                   max_pps=args.max_pps, s_curve=args.s_curve)
+        settings = plan.settings
+        summary = {"predicted_time_s": plan.predicted_time_s, "shape": plan.shape,
+                   "ratio_to_optimum": plan.ratio_to_optimum,
+                   "accel_limit_pps2": plan.accel_limit_pps2}
+        if args.pulses is not None:
+            other = alink.move_time_s(
+                alink.AlinkSettings(settings.start_pps, settings.high_pps, settings.accel_para,
+                                    settings.max_pps, not settings.s_curve), args.pulses)
+            summary["s_curve_time_s" if not settings.s_curve else "linear_time_s"] = \
+                other.duration_s
+        warnings = list(plan.warnings)
+    else:
+        if any(v is None for v in explicit):
+            raise FormatError("give --motor, or all of --start-pps, --high-pps and "
+                              "--accel-ms-per-kpps")
+        settings = alink.quantise_settings(args.start_pps, args.high_pps,
+                                           args.accel_ms_per_kpps, args.max_pps,
+                                           s_curve=args.s_curve)
+        warnings = list(settings.warnings)
+    commands = alink.settings_commands(settings, slave_address=args.address, axis=args.axis,
+                                       duplex=args.duplex)
+    doc = alink.settings_document(settings, commands, summary=summary, warnings=warnings)
+    write_output(args.output, alink.render_settings(doc, args.format))
+    return EXIT_OK
+
+
+def _do_decode(args: argparse.Namespace) -> int:
+    import json
+    from dataclasses import asdict
+
+    from profiles import alink
+    from profiles.errors import FieldRangeError, FormatError
+    from verify.output import write_output
+
+    words = []
+    for i, text in enumerate(args.words):
+        try:
+            words.append(int(text, 0))
+        except ValueError:
+            raise FormatError(f"word {i}: {text!r} is not an integer (hex 0x… or decimal)"
+                              ) from None
+    for i, w in enumerate(words):
+        if not 0 <= w <= 0xFFFF:
+            raise FieldRangeError(f"word {i}", w, 0, 0xFFFF)
+    resp = alink.decode_response(*words, expected_pair=args.pair, read_back=args.read_back)
+    doc = asdict(resp)
+    if args.format == "json":
+        write_output(None, json.dumps(doc, indent=1) + "\n")
+    else:
+        flags = [k for k, v in doc.items() if v is True and k not in ("ack", "valid", "read_back")]
+        write_output(None, f"{'Ack' if resp.ack else 'Nak'}, value {resp.value}, pair codes "
+                           f"{resp.pair_codes} ({'valid' if resp.valid else resp.mismatch})"
+                           + (f", flags: {', '.join(flags)}" if flags else "") + "\n")
+    return EXIT_OK

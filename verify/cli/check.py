@@ -1,0 +1,34 @@
+"""`stepramp check`: table or upload files against the chip's rules."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from ._common import EXIT_FINDINGS, EXIT_OK, EXIT_UNUSABLE, load_motor, number
+
+
+def add_subparser(sub: Any) -> None:
+    c = sub.add_parser("check", help="check table or upload files against the chip's rules")
+    c.add_argument("files", nargs="+", metavar="FILE",
+                   help="table files (JSON) or upload files (hex, bin, json)")
+    c.add_argument("--format", choices=("text", "json", "junit"), default="text",
+                   help="report format (default text)")
+    c.add_argument("--motor", metavar="M.json", help="also check stall-safety for this motor")
+    c.add_argument("--extck-hz", type=number,
+                   help="external clock frequency of EXTCK uploads [Hz]")
+    c.add_argument("-o", "--output", metavar="OUT", help="write the report here (default stdout)")
+    c.set_defaults(func=_do_check)
+
+
+def _do_check(args: argparse.Namespace) -> int:
+    from verify.checking import check_file
+    from verify.output import write_output
+    from verify.report import render
+
+    motor = load_motor(args.motor) if args.motor else None
+    results = [check_file(path, motor, args.extck_hz) for path in args.files]
+    write_output(args.output, render(results, args.format))
+    if any(r.error for r in results):
+        return EXIT_UNUSABLE
+    return EXIT_OK if all(r.ok for r in results) else EXIT_FINDINGS

@@ -1,0 +1,51 @@
+"""`stepramp compare`: a table against the continuous time optimum."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+from ._common import EXIT_OK, positive_int
+
+
+def add_subparser(sub: Any) -> None:
+    c = sub.add_parser("compare", help="a table against the continuous time optimum")
+    c.add_argument("table", metavar="TABLE", help="a table file (free curve or init)")
+    c.add_argument("--motor", required=True, metavar="M.json", help="the motor file")
+    c.add_argument("--pulses", type=positive_int, required=True,
+                   help="move length [pulses]")
+    c.add_argument("--format", choices=("text", "json"), default="text",
+                   help="report format (default text; times in ms, JSON in s)")
+    c.add_argument("--plot", metavar="OUT.png", help="write a figure (PNG or SVG by extension)")
+    c.add_argument("--references", default="toppra,ruckig,casadi",
+                   help="comma-separated references to compute (default: all three)")
+    c.add_argument("--physics", action="store_true", help="also run the load-angle simulation")
+    c.set_defaults(func=_do_compare)
+
+
+def _do_compare(args: argparse.Namespace) -> int:
+    from profiles.errors import FormatError
+    from profiles.motor import load_motor
+    from profiles.ppmc312.table import load_table
+    from verify.compare import compare_table
+    from verify.output import write_output
+    from verify.references import SOLVERS
+
+    if args.plot and not args.plot.lower().endswith((".png", ".svg")):
+        raise FormatError(f"--plot {args.plot}: the figure format is taken from the "
+                          "extension: .png or .svg")
+    names = tuple(n.strip() for n in args.references.split(",") if n.strip())
+    unknown = set(names) - set(SOLVERS)
+    if unknown:  # refused before any table is read or solver run
+        raise FormatError(f"--references: unknown {', '.join(sorted(unknown))} "
+                          f"(choose from {', '.join(SOLVERS)})")
+    result = compare_table(load_table(args.table), load_motor(args.motor), args.pulses,
+                           include=names, physics=args.physics)
+    if args.plot:
+        result.plot(args.plot)
+    if args.format == "json":
+        write_output(None, json.dumps(result.to_json(), indent=1) + "\n")
+    else:
+        write_output(None, result.to_text())
+    return EXIT_OK

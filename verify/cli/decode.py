@@ -1,0 +1,51 @@
+"""`stepramp decode`: an upload file (or a table-read response) back into a table."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from ._common import CLOCK_NAMES, EXIT_OK, clock_or_extck, number
+
+
+def add_subparser(sub: Any) -> None:
+    d = sub.add_parser("decode", help="decode an upload file (hex or bin) back into a table")
+    d.add_argument("upload", metavar="UPLOAD", help="an upload file (hex, bin or json)")
+    d.add_argument("--extck-hz", type=number,
+                   help="external clock frequency of an EXTCK upload [Hz]")
+    d.add_argument("--table-read", action="store_true",
+                   help="the file is the chip's table-read response (41), not an upload")
+    d.add_argument("--clock", type=clock_or_extck,
+                   help=f"with --table-read: the table's clock, {CLOCK_NAMES}, or EXTCK with "
+                        "--extck-hz")
+    d.add_argument("-o", "--output", metavar="TABLE",
+                   help="write the table file here (default stdout)")
+    d.set_defaults(func=_do_decode)
+
+
+def _do_decode(args: argparse.Namespace) -> int:
+    from profiles.errors import FormatError
+    from profiles.ppmc312.clock import Clock
+    from profiles.ppmc312.files import parse_upload
+    from profiles.ppmc312.table import Table, dump_table
+    from profiles.ppmc312.upload import decode_table_read, decode_upload
+    from profiles.reading import read_bytes
+    from verify.output import write_output
+
+    blocks = parse_upload(read_bytes(args.upload))
+    table: Table
+    if args.table_read:
+        # The table-read response (41) carries stages, not the CLK field: the user says.
+        if not args.clock:
+            raise FormatError("--table-read needs --clock (the response does not carry it)")
+        if args.clock == "EXTCK":
+            if args.extck_hz is None:
+                raise FormatError("--clock EXTCK needs --extck-hz (the external frequency)")
+            clock = Clock.extck(args.extck_hz)
+        else:
+            clock = Clock.internal(args.clock)
+        table = decode_table_read(blocks, clock=clock)
+    else:
+        table = decode_upload(blocks, extck_hz=args.extck_hz)
+    write_output(args.output, dump_table(table))
+    return EXIT_OK

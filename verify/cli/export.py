@@ -1,0 +1,48 @@
+"""`stepramp export`: a table encoded into the bytes the device takes."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from ._common import EXIT_FINDINGS, EXIT_OK, positive_int
+
+
+def add_subparser(sub: Any) -> None:
+    e = sub.add_parser("export", help="encode a table into the bytes the device takes")
+    e.add_argument("table", metavar="TABLE", help="a table file (free curve or init)")
+    e.add_argument("--to", choices=("parallel", "ascii"), default="parallel",
+                   help="the chip's interface: parallel bus blocks or ASCII serial frames "
+                        "(default parallel)")
+    e.add_argument("--address", type=positive_int, default=0,
+                   help="ASCII slave address 0-15 (default 0)")
+    e.add_argument("--format", choices=("hex", "bin", "c", "json", "bus"), default="hex",
+                   help="file format (default hex: spaced hex text, one block a line)")
+    e.add_argument("--max-block-data", type=positive_int, default=30,
+                   help="data bytes per parameter block, 3-30 (default 30)")
+    e.add_argument("--force", action="store_true", help="export even a table with errors")
+    e.add_argument("-o", "--output", metavar="OUT", help="write the file here (default stdout)")
+    e.set_defaults(func=_do_export)
+
+
+def _do_export(args: argparse.Namespace) -> int:
+    from profiles.ppmc312.files import render
+    from profiles.ppmc312.table import load_table
+    from profiles.ppmc312.upload import encode_table
+    from verify.checks import check_table
+    from verify.output import write_output
+
+    table = load_table(args.table)
+    errors = [f for f in check_table(table) if f.severity == "error"]
+    if errors and not args.force:
+        for f in errors:
+            stage = "" if f.stage is None else f" stage {f.stage}"
+            code = "" if f.chip_code is None else f" (chip {f.chip_code_hex})"
+            print(f"{args.table}: error [{f.rule}]{stage}{code}: {f.message}", file=sys.stderr)
+        print(f"{args.table}: refused: {len(errors)} error(s); fix them or pass --force",
+              file=sys.stderr)
+        return EXIT_FINDINGS
+    blocks = encode_table(table, to=args.to, address=args.address, max_data=args.max_block_data)
+    write_output(args.output, render(blocks, args.format))
+    return EXIT_OK

@@ -1,0 +1,84 @@
+"""`stepramp mc200 …`: MC-200 SPI packet streams."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from ._common import EXIT_OK, number, positive_int, progress_bar
+
+
+def add_subparser(sub: Any) -> None:
+    mc = sub.add_parser("mc200", help="MC-200 SPI packet streams")
+    msub = mc.add_subparsers(dest="mc200_command", required=True, metavar="COMMAND")
+    st = msub.add_parser("stream", help="the packets that run a move")
+    st.add_argument("--motor", metavar="M.json",
+                    help="stream the PPMC-312's stall-safe planned move for this motor")
+    st.add_argument("--vmax", type=number, help="ruckig profile: max speed [pps]")
+    st.add_argument("--amax", type=number, help="ruckig profile: max acceleration [pps²]")
+    st.add_argument("--jmax", type=number, help="ruckig profile: max jerk [pps³]")
+    st.add_argument("--pulses", type=positive_int, required=True,
+                    help="move length [pulses]")
+    st.add_argument("--period-us", type=number, required=True,
+                    help="SPI packet period [µs], 10..1000000")
+    st.add_argument("--driver-id", type=positive_int, default=0,
+                    help="driver ID 0-15 in every packet (default 0)")
+    st.add_argument("--format", choices=("hex", "bin", "json"), default="hex",
+                    help="file format (default hex: one packet a line)")
+    st.add_argument("-o", "--output", metavar="OUT", help="write the file here (default stdout)")
+    st.set_defaults(func=_do_stream)
+
+    md = msub.add_parser("decode", help="decode a packet file (hex or bin)")
+    md.add_argument("file", metavar="FILE", help="a packet file (hex text or binary)")
+    md.add_argument("--direction", choices=("host", "driver"), default="host",
+                    help="host → driver commands or driver → host replies (default host)")
+    md.add_argument("--format", choices=("text", "json"), default="text",
+                    help="output format (default text)")
+    md.set_defaults(func=_do_decode)
+
+
+def _do_stream(args: argparse.Namespace) -> int:
+    from profiles import mc200
+    from profiles.errors import FormatError
+    from verify.output import write_output
+
+    limits = (args.vmax, args.amax, args.jmax)
+    motor = None
+    if args.motor:
+        if any(v is not None for v in limits):
+            raise FormatError("give either --motor or --vmax/--amax/--jmax")
+        from profiles.motor import load_motor
+
+        motor = load_motor(args.motor)
+    elif any(v is None for v in limits):
+        raise FormatError("give --motor, or all of --vmax, --amax and --jmax")
+    packets, duration_s = mc200.plan_stream(args.pulses, period_us=args.period_us,
+                                            driver_id=args.driver_id, motor=motor,
+                                            v_max_pps=args.vmax, a_max_pps2=args.amax,
+                                            j_max_pps3=args.jmax)
+    with progress_bar("encode packets", unit="packet") as progress:
+        data = mc200.render_stream(packets, args.format, period_us=args.period_us,
+                                   duration_s=duration_s, pulses=args.pulses,
+                                   progress=progress)
+    write_output(args.output, data)
+    return EXIT_OK
+
+
+def _do_decode(args: argparse.Namespace) -> int:
+    import json
+    from dataclasses import asdict
+
+    from profiles import mc200
+    from profiles.reading import read_bytes
+    from verify.output import write_output
+
+    packets = mc200.decode_stream(read_bytes(args.file), args.direction)
+    rows = [asdict(p) for p in packets]
+    if args.format == "json":
+        write_output(None, json.dumps({"direction": args.direction, "packets": rows},
+                                      indent=1) + "\n")
+    else:
+        write_output(None, "".join(
+            f"{i:6d}  " + " ".join(f"{k}={v}" for k, v in row.items()) + "\n"
+            for i, row in enumerate(rows)))
+    return EXIT_OK

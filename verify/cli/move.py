@@ -1,0 +1,47 @@
+"""`stepramp move`: the bytes of the accel/decel move command (82)."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from ._common import EXIT_OK, positive_int
+
+
+def add_subparser(sub: Any) -> None:
+    m = sub.add_parser("move", help="the accel/decel move command (82) bytes")
+    m.add_argument("--pulses", type=positive_int, required=True,
+                   help="move length [pulses], 1..0xFFFFFFFF")
+    m.add_argument("--ccw", action="store_true", help="direction CCW (default CW)")
+    m.add_argument("--high-rate", type=positive_int, default=0,
+                   help="high-rate override, a rate divisor (0 = the table's)")
+    m.add_argument("--override", type=int, choices=(1, 3), metavar="TRG",
+                   help="register as an override with trigger TRG (1 or 3), parallel only")
+    m.add_argument("--to", choices=("parallel", "ascii"), default="parallel",
+                   help="parallel bus block or ASCII serial frame (default parallel)")
+    m.add_argument("--address", type=positive_int, default=0,
+                   help="ASCII slave address 0-15 (default 0)")
+    m.add_argument("--format", choices=("hex", "bin", "c", "json", "bus"), default="hex",
+                   help="file format (default hex)")
+    m.add_argument("-o", "--output", metavar="OUT", help="write the file here (default stdout)")
+    m.set_defaults(func=_do_move)
+
+
+def _do_move(args: argparse.Namespace) -> int:
+    from profiles.errors import FormatError
+    from profiles.ppmc312.ascii import encode_serial_move
+    from profiles.ppmc312.files import render
+    from profiles.ppmc312.upload import encode_move
+    from verify.output import write_output
+
+    if args.to == "ascii":
+        if args.override:
+            raise FormatError("--override has no serial form (parallel bus only)")
+        blocks = [encode_serial_move(args.address, args.pulses, ccw=args.ccw,
+                                     high_rate=args.high_rate)]
+    else:
+        blocks = [encode_move(args.pulses, ccw=args.ccw, high_rate=args.high_rate,
+                              override=args.override is not None,
+                              trigger=args.override or 0)]
+    write_output(args.output, render(blocks, args.format))
+    return EXIT_OK

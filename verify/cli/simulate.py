@@ -1,0 +1,53 @@
+"""`stepramp simulate`: what the chip runs for an accel/decel move."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+from ._common import EXIT_OK, positive_int
+
+
+def add_subparser(sub: Any) -> None:
+    s = sub.add_parser("simulate", help="what the chip runs for an accel/decel move")
+    s.add_argument("table", metavar="TABLE", help="a table file (free curve or init)")
+    s.add_argument("--pulses", type=positive_int, required=True,
+                   help="move length [pulses]")
+    s.add_argument("--high-rate", type=positive_int, default=0,
+                   help="high-rate override, a rate divisor (0 = the table's)")
+    s.add_argument("--format", choices=("text", "json"), default="text",
+                   help="summary format on stdout (default text)")
+    s.add_argument("--csv", metavar="OUT",
+                   help="write the per-stage timeline as CSV (ticks and s)")
+    s.add_argument("--pulse-times", metavar="OUT",
+                   help="write every pulse's time as CSV (pulse, time_s [s]); at most 10 M pulses")
+    s.add_argument("--samples", metavar="OUT",
+                   help="write the staircase sampled at 1000 points as CSV (t_s [s], x_pulses, "
+                        "v_pps [pps], a_pps2 [pps²])")
+    s.set_defaults(func=_do_simulate)
+
+
+def _do_simulate(args: argparse.Namespace) -> int:
+    from profiles.ppmc312.execution import pulse_times_csv, samples_csv, simulate_move, to_csv
+    from profiles.ppmc312.table import load_table
+    from verify.output import write_output
+
+    execution = simulate_move(load_table(args.table), args.pulses, high_rate=args.high_rate)
+    if args.csv:
+        write_output(args.csv, to_csv(execution))
+    if args.pulse_times:
+        write_output(args.pulse_times, pulse_times_csv(execution))
+    if args.samples:
+        write_output(args.samples, samples_csv(execution, 1000))
+    if args.format == "json":
+        write_output(None, json.dumps(execution.to_json(), indent=1) + "\n")
+    else:
+        lines = [f"shape: {execution.shape} (status 0x{execution.status:02X})",
+                 f"pulses: {execution.pulses}",
+                 f"ticks: {execution.ticks}",
+                 f"duration: {execution.duration_s:.6f} s "
+                 f"(+ {execution.first_pulse_latency_s * 1e6:.0f} µs to the first pulse)",
+                 f"segments: {len(execution.segments)}"]
+        write_output(None, "\n".join(lines) + "\n")
+    return EXIT_OK
