@@ -18,11 +18,13 @@ if TYPE_CHECKING:
     from profiles.ppmc312.table import FreeCurveTable, InitTable
 
 
-def check_file(path: str, motor: Motor | None = None,
-               extck_hz: float | None = None) -> FileResult:
+def check_file(path: str, motor: Motor | None = None, extck_hz: float | None = None, *,
+               pulses: Iterable[int] | None = None, physics: bool = True) -> FileResult:
     """The findings for the table or upload file at `path`.
 
-    `motor` adds the stall-safety findings; `extck_hz` is the external clock of
+    `motor` adds the stall-safety findings of both judges, over every execution the
+    chip can run with the table (`pulses`: only the moves of those lengths): the
+    criterion, and (`physics`) the load angle; `extck_hz` is the external clock of
     EXTCK uploads (a table file carries its own).
     """
     from verify.checks import check_table
@@ -34,17 +36,43 @@ def check_file(path: str, motor: Motor | None = None,
             findings += check_table(table)
         if motor is not None and table is not None:
             from profiles.ppmc312.init_model import InitBuildError, as_free_curve
-            from verify.stall import check_stall
 
             try:
-                findings += check_stall(as_free_curve(table), motor)
+                stages = as_free_curve(table)
             except InitBuildError:
-                pass  # no stages to judge: check_table has reported why, with the chip's code
+                stages = None  # no stages to judge: check_table has said why, with the code
+            if stages is not None:
+                findings += stall_findings(stages, motor, pulses=pulses, physics=physics)
     except StepRampError as e:
         return FileResult(path=path, ok=False, findings=[], error=str(e))
     findings = dedupe(findings)
     ok = not any(f.severity == "error" for f in findings)
     return FileResult(path=path, ok=ok, findings=findings)
+
+
+def stall_findings(table: FreeCurveTable, motor: Motor, *, pulses: Iterable[int] | None = None,
+                   physics: bool = True) -> list[Finding]:
+    """Both judges as findings: the criterion's (verify.stall), and the load angle's:
+    `load-angle` (error) past the 90° peak, `load-angle-margin` (warning) past the
+    75° the planner aims at. The load angle is judged only on stages in order (the
+    criterion reports a table out of order and nothing else)."""
+    from verify.physics import PEAK_DEG, TARGET_DEG, judge_executions
+    from verify.stall import check_stall
+
+    lengths = None if pulses is None else sorted(set(pulses))
+    out = check_stall(table, motor, pulses=lengths)
+    if not physics or any(f.rule == "stall-order" for f in out):
+        return out
+    verdict = judge_executions(table, motor, pulses=lengths)
+    if verdict.worst_angle_deg >= PEAK_DEG:
+        out.append(Finding("error", "load-angle", verdict.describe() + (
+            "; the criterion passes: the rotor rings after a step at this damping (raise the "
+            "counts around the steps, or lower the safety factor and plan again)"
+            if not out else "")))
+    elif verdict.worst_angle_deg > TARGET_DEG:
+        out.append(Finding("warning", "load-angle-margin",
+                           verdict.describe() + f" (stepramp plan aims at ≤ {TARGET_DEG:g}°)"))
+    return out
 
 
 def dedupe(findings: Iterable[Finding]) -> list[Finding]:

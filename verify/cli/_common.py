@@ -34,6 +34,18 @@ def positive_int(text: str) -> int:
     return value
 
 
+def pulse_list(text: str) -> list[int]:
+    """Move lengths "N[,M…]", each 1..0xFFFFFFFF."""
+    out = []
+    for part in text.split(","):
+        value = positive_int(part.strip())
+        if not 1 <= value <= 0xFFFFFFFF:
+            raise argparse.ArgumentTypeError(f"{part.strip()!r} is not a move length "
+                                             "(1..4294967295 pulses)")
+        out.append(value)
+    return out
+
+
 def number(text: str) -> float:
     try:
         return float(text)

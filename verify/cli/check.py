@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ._common import EXIT_FINDINGS, EXIT_OK, EXIT_UNUSABLE, load_motor, number
+from ._common import EXIT_FINDINGS, EXIT_OK, EXIT_UNUSABLE, load_motor, number, pulse_list
 
 
 def add_subparser(sub: Any) -> None:
@@ -14,7 +14,14 @@ def add_subparser(sub: Any) -> None:
                    help="table files (JSON) or upload files (hex, bin, json)")
     c.add_argument("--format", choices=("text", "json", "junit"), default="text",
                    help="report format (default text)")
-    c.add_argument("--motor", metavar="M.json", help="also check stall-safety for this motor")
+    c.add_argument("--motor", metavar="M.json",
+                   help="also judge stall-safety for this motor: the criterion and the load "
+                        "angle, over every move length the chip can run with the table")
+    c.add_argument("--pulses", type=pulse_list, metavar="N[,M…]",
+                   help="with --motor: judge only the moves of these lengths [pulses] "
+                        "(default: every length 1..0xFFFFFFFF)")
+    c.add_argument("--no-physics", dest="physics", action="store_false",
+                   help="with --motor: skip the load-angle judge (the criterion only)")
     c.add_argument("--extck-hz", type=number,
                    help="external clock frequency of EXTCK uploads [Hz]")
     c.add_argument("-o", "--output", metavar="OUT", help="write the report here (default stdout)")
@@ -26,8 +33,13 @@ def _do_check(args: argparse.Namespace) -> int:
     from verify.output import write_output
     from verify.report import render
 
+    from profiles.errors import FormatError
+
+    if args.pulses is not None and not args.motor:
+        raise FormatError("--pulses limits the stall verdict: it needs --motor")
     motor = load_motor(args.motor) if args.motor else None
-    results = [check_file(path, motor, args.extck_hz) for path in args.files]
+    results = [check_file(path, motor, args.extck_hz, pulses=args.pulses, physics=args.physics)
+               for path in args.files]
     write_output(args.output, render(results, args.format))
     if any(r.error for r in results):
         return EXIT_UNUSABLE

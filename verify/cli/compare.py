@@ -6,7 +6,7 @@ import argparse
 import json
 from typing import Any
 
-from ._common import EXIT_OK, positive_int
+from ._common import EXIT_FINDINGS, EXIT_OK, positive_int
 
 
 def add_subparser(sub: Any) -> None:
@@ -20,7 +20,9 @@ def add_subparser(sub: Any) -> None:
     c.add_argument("--plot", metavar="OUT.png", help="write a figure (PNG or SVG by extension)")
     c.add_argument("--references", default="toppra,ruckig,casadi",
                    help="comma-separated references to compute (default: all three)")
-    c.add_argument("--physics", action="store_true", help="also run the load-angle simulation")
+    c.add_argument("--no-physics", dest="physics", action="store_false",
+                   help="skip the load-angle judge (the criterion only); the move is judged "
+                        "by both by default, and an unsafe move exits 1")
     c.set_defaults(func=_do_compare)
 
 
@@ -48,4 +50,4 @@ def _do_compare(args: argparse.Namespace) -> int:
         write_output(None, json.dumps(result.to_json(), indent=1) + "\n")
     else:
         write_output(None, result.to_text())
-    return EXIT_OK
+    return EXIT_OK if result.safe else EXIT_FINDINGS
