@@ -22,8 +22,8 @@ tighten). In pulses (one pulse = one commanded step of the driver):
   pulse instant); the per-pulse ripple of a real step train is not modelled.
 
 Numerics: fixed-step RK4 with steps landing exactly on segment boundaries (the
-command speed is constant within a step), step ≤ 1/50 of the natural period at rest
-and ≤ 1/10 of the electrical period at the top speed. Within a constant segment
+command speed is constant within a step), step 1/50 of the natural period at rest
+(the stiffest: torque only falls with speed). Within a constant segment
 the system is autonomous: once the oscillation has settled (range over a natural
 period below `SETTLE_TOL_DEG`) the rest of the segment is skipped with that state.
 """
@@ -41,9 +41,9 @@ from .motor import Motor
 
 SLIP_DEG = 180.0                  # the rotor slips a pole
 PEAK_DEG = 90.0                   # the restoring torque peaks: the stable side ends
+TARGET_DEG = 75.0                 # what planners aim at: 15° of margin to the peak
 SETTLE_TOL_DEG = 0.05             # oscillation range that counts as settled
 STEPS_PER_NATURAL_PERIOD = 50
-STEPS_PER_ELECTRICAL_PERIOD = 10
 MAX_SETTLE_PERIODS = 400          # give up waiting for an undamped rotor to settle
 MAX_RK4_STEPS = 20_000_000
 
@@ -77,11 +77,10 @@ class Rotor:
         stiffness = self.k * self.c_e * self.t_peak(speed_pps)
         return 2 * math.pi / math.sqrt(stiffness) if stiffness > 0 else math.inf
 
-    def step_s(self, top_pps: float) -> float:
-        """The RK4 step for a command that reaches `top_pps`."""
+    def step_s(self) -> float:
+        """The RK4 step: 1/50 of the natural period at rest (the command is constant within
+        a step, so no other time scale enters the model)."""
         step = self.natural_period_s(0.0) / STEPS_PER_NATURAL_PERIOD
-        if top_pps > 0:
-            step = min(step, 2 * math.pi / self.c_e / top_pps / STEPS_PER_ELECTRICAL_PERIOD)
         return step if math.isfinite(step) else 1e-4
 
 

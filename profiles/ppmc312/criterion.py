@@ -131,13 +131,52 @@ def execution_problems(execution: Execution, motor: Motor, rates: tuple[int, ...
 
 
 def all_length_problems(table: FreeCurveTable | InitTable, motor: Motor, *,
-                        high_rate: int = 0) -> list[StepProblem]:
-    """The criterion over every move length 1..0xFFFFFFFF (each family's shortest move)."""
+                        high_rate: int = 0, exhaustive: bool = False) -> list[StepProblem]:
+    """The criterion over every move length 1..0xFFFFFFFF (each family's shortest move).
+
+    A table whose sides have the same stages and whose triangles never switch down
+    (`switch_safe`: every symmetric table, and stepramp's LE=1 plans) runs in every
+    triangle only steps its trapezoid runs too, with no less dwell, and starts and stops
+    on its slowest stage: when its trapezoid passes, every move does (`exhaustive`
+    judges every family anyway; the tests hold the two equal)."""
     free = as_free_curve(table)
+    families = move_families(free, high_rate=high_rate)
+    if not exhaustive and high_rate == 0 and _same_stages_switch_safe(free):
+        trapezoids = families[-1]
+        if not execution_problems(trapezoids.execution(), motor, free.rates):
+            return jerk_problems(free, motor)
+        # unsafe: every family is judged, so each problem names its shortest move
     out: list[StepProblem] = []
-    for fam in move_families(free, high_rate=high_rate):
+    for fam in families:
         out += execution_problems(fam.execution(), motor, free.rates, (fam.lo, fam.hi))
     return out + jerk_problems(free, motor)
+
+
+def _same_stages_switch_safe(table: FreeCurveTable) -> bool:
+    if len(table.accel_pulses) != len(table.decel):
+        return False
+    if table.decel_pulses is None or table.accel_pulses == table.decel_pulses:
+        return True
+    return switch_safe(np.asarray(table.accel_pulses[::-1]), np.asarray(table.decel[::-1]))
+
+
+def switch_safe(n: np.ndarray, d: np.ndarray) -> bool:
+    """Whether every triangle of an LE=1 table with accel counts `n` and decel counts `d`
+    (slowest first, both sides on the same stages) starts its decel on a stage at least
+    as fast as the one its accel reached, and never starts a decel-only move above the
+    slowest stage (the move model of profiles.ppmc312.execution: shares
+    q_a = ⌊rest·a/(a+d)⌋ and q_d = rest − q_a, each from its side's slow end)."""
+    n = np.asarray(n, dtype=np.int64)
+    d = np.asarray(d, dtype=np.int64)
+    a, dd = int(n.sum()), int(d.sum())
+    if a == 0 or dd == 0:
+        return False
+    cn, cd = np.cumsum(n)[:-1], np.cumsum(d)[:-1]
+    rest = -(-(cn + 1) * (a + dd) // a)        # first rest whose accel enters stage j + 1
+    q_dec = -(-(rest * dd) // (a + dd))
+    decel_only = -(-(a + dd) // a) - 1          # longest rest with no accel pulse
+    return bool(np.all(q_dec >= cd + 1)) and decel_only <= d[0]
+
 
 
 def length_problems(table: FreeCurveTable | InitTable, motor: Motor, pulses: Iterable[int], *,

@@ -4,7 +4,8 @@ What the free curve buys is only visible against the best the chip's own init
 tables can do, so this searches them honestly: for each candidate high rate
 the smallest accel (and, LE=1, decel) pulse counts whose modelled staircase
 (`profiles.ppmc312.init_model.expand_init`, a documented model of the chip's table
-builder) passes the stall-safety criterion (`verify.stall.check_stall`), then
+builder) passes the stall-safety criterion over every move length the chip can run
+(`profiles.ppmc312.criterion`), then
 the candidate with the shortest simulated move wins.
 
 The smallest stall-safe counts per high rate do not depend on the move length,
@@ -24,6 +25,7 @@ from ..errors import StepRampError
 from ..motor import Motor
 from ..progress import Progress, track
 from .clock import Clock
+from .criterion import all_length_safe
 from .init_model import (
     HIGH_RATE_MIN,
     INIT_PULSES_FIELD_MAX,
@@ -125,25 +127,21 @@ def _smallest_safe(motor: Motor, clock: Clock, shape: Shape, start: int, high: i
         return InitTable(clock, shape, start, high, accel,
                          start if decel is not None else None, decel)
 
-    def side_ok(t: InitTable, rules: tuple[str, ...]) -> bool:
-        from verify.stall import check_stall
-
+    def safe(t: InitTable) -> bool:
         try:
             stages = expand_init(t)
         except InitBuildError:
             return False
-        return not any(f.rule in rules for f in check_stall(stages, motor))
+        return all_length_safe(stages, motor)
 
-    every_rule = ("stall-accel", "stall-decel", "stall-jump", "stall-start-speed",
-                  "stall-top-speed", "stall-jerk", "stall-order")
-    accel = _bisect(lambda p: side_ok(table(p, None), every_rule))
+    accel = _bisect(lambda p: safe(table(p, None)))
     if accel is None:
         return None
     decel = None
     if separate:
         # The sides share the model's rate grid (fewer decel pulses can mean fewer,
-        # coarser stages on both sides), so every rule is checked, not just the decel's.
-        decel = _bisect(lambda d: side_ok(table(accel, d), every_rule), hi=accel)
+        # coarser stages on both sides), so the whole table is judged, not just the decel.
+        decel = _bisect(lambda d: safe(table(accel, d)), hi=accel)
     final = table(accel, decel)
     return InitCandidate(final, expand_init(final))
 

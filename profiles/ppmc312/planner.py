@@ -30,14 +30,16 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
-from ..errors import StepRampError, require_int
+from ..errors import FieldRangeError, StepRampError, require_int
 from ..motor import Motor
 from .clock import INTERNAL_HZ, MAX_OUTPUT_PPS, Clock
+from .criterion import switch_safe
 from .limits import (
     MIN_STAGE_TICKS,
     RATE_MAX,
@@ -557,24 +559,6 @@ def _plan_variant(motor: Motor, clock: Clock, max_stages: int, budget: int, sepa
     return jerked
 
 
-def switch_safe(n: np.ndarray, d: np.ndarray) -> bool:
-    """Whether every triangle of an LE=1 table with accel counts `n` and decel counts `d`
-    (slowest first, both sides on the same stages) starts its decel on a stage at least
-    as fast as the one its accel reached, and never starts a decel-only move above the
-    slowest stage (the move model of profiles.ppmc312.execution: shares
-    q_a = ⌊rest·a/(a+d)⌋ and q_d = rest − q_a, each from its side's slow end)."""
-    n = np.asarray(n, dtype=np.int64)
-    d = np.asarray(d, dtype=np.int64)
-    a, dd = int(n.sum()), int(d.sum())
-    if a == 0 or dd == 0:
-        return False
-    cn, cd = np.cumsum(n)[:-1], np.cumsum(d)[:-1]
-    rest = -(-(cn + 1) * (a + dd) // a)        # first rest whose accel enters stage j + 1
-    q_dec = -(-(rest * dd) // (a + dd))
-    decel_only = -(-(a + dd) // a) - 1          # longest rest with no accel pulse
-    return bool(np.all(q_dec >= cd + 1)) and decel_only <= d[0]
-
-
 def _switch_safe_decel(pb: _Problem, ev: _Eval, budget: int) -> _Eval | None:
     """The fastest switch-safe decel counts for `ev`'s stages (None: none fits the budget).
 
@@ -664,12 +648,116 @@ def _plan(motor: Motor, clock: Clock | None, max_stages: int, pulses: int | None
 
 
 def plan_free_curve(motor: Motor, *, clock: Clock | None = None, max_stages: int = 127,
-                    pulses: int | None = None, separate_decel: bool | None = None) -> Plan:
+                    pulses: int | None = None, separate_decel: bool | None = None,
+                    load_angle_deg: float | None = None) -> Plan:
     """The stall-safe free curve that minimises the move time of `pulses` (None: the
     reference move of `reference_pulses(motor)`); separate_decel None picks LE=1 only
-    when it is faster."""
-    return _plan(motor, clock, max_stages, pulses, separate_decel, grid="adaptive", refine=True,
-                 label="planner")
+    when it is faster. The table passes the criterion for every move length the chip
+    can run with it. With `load_angle_deg` (e.g. 75) the plan is also judged by the
+    load-angle model on every execution and tightened until its worst angle is within
+    that (see `tighten`)."""
+    def make(m: Motor) -> Plan:
+        return _plan(m, clock, max_stages, pulses, separate_decel, grid="adaptive",
+                     refine=True, label="planner")
+
+    return make(motor) if load_angle_deg is None else tighten(motor, make, load_angle_deg)
+
+
+TIGHTEN_STEP = 0.85
+TIGHTEN_ROUNDS = 8
+TIGHTEN_BISECT = 2
+
+
+def tighten(motor: Motor, make: Callable[[Motor], Plan], load_angle_deg: float) -> Plan:
+    """Plan with `make`, judge the table on the nominal motor by the load-angle model
+    over every execution, and while its worst angle exceeds `load_angle_deg`, plan again
+    with a tighter motor: the safety factor, the largest jump and the start speed scaled
+    by 0.85 each round (smaller steps, gentler slopes, a softer start: what ringing after
+    a step feeds on). Refuses when no round gets below the 90° peak."""
+    from ..rotor import PEAK_DEG
+    from .load_angle import worst_load_angle
+
+    if not 1.0 <= load_angle_deg <= PEAK_DEG:
+        raise FieldRangeError("load angle target [°]", load_angle_deg, 1, PEAK_DEG)
+    t0 = time.perf_counter()
+    best: tuple[float, Plan] | None = None
+
+    def attempt(scale: float) -> tuple[float, Plan]:
+        nonlocal best
+        tight = motor if scale == 1.0 else replace(
+            motor, safety_factor=motor.safety_factor * scale,
+            max_jump_pps=motor.jump_pps * scale, start_pps=motor.start_pps * scale)
+        plan = make(tight)
+        worst = worst_load_angle(plan.table, motor).worst_angle_deg
+        note = (f"; worst load angle {worst:.1f}° electrical over every move length"
+                + (f" (tightened ×{scale:.3g}: safety factor, jump and start speed)"
+                   if scale < 1 else ""))
+        plan = replace(plan, info=plan.info + note, solve_s=time.perf_counter() - t0)
+        if best is None or worst < best[0]:
+            best = (worst, plan)
+        return worst, plan
+
+    scale, failed = 1.0, None
+    for _ in range(TIGHTEN_ROUNDS):
+        worst, plan = attempt(scale)
+        if worst <= load_angle_deg:
+            # the largest scale that passes, between this one and the last that failed
+            for _ in range(TIGHTEN_BISECT if failed is not None else 0):
+                mid = (scale + failed) / 2  # type: ignore[operator]
+                w_mid, p_mid = attempt(mid)
+                if w_mid <= load_angle_deg:
+                    scale, plan = mid, p_mid
+                else:
+                    failed = mid
+            return plan
+        failed, scale = scale, scale * TIGHTEN_STEP
+    assert best is not None
+    if best[0] >= PEAK_DEG:
+        raise PlanError(f"no table keeps the load angle below {PEAK_DEG:g}° for every move "
+                        f"length (best {best[0]:.1f}°): raise the motor's damping_ratio if the "
+                        "drive damps more, or lower safety_factor and start_pps")
+    return replace(best[1], info=best[1].info + f" (aim ≤ {load_angle_deg:g}° not reached)")
+
+
+def plan_duty_cycle(motor: Motor, mix: list[tuple[int, float]], *, clock: Clock | None = None,
+                    max_stages: int = 127, separate_decel: bool | None = None,
+                    load_angle_deg: float | None = None,
+                    candidates: int = 8) -> tuple[Plan, dict[int, float]]:
+    """One table for a machine's mix of moves: `mix` is (pulses, weight) per move length.
+    Minimises Σ weight × move time (as the chip runs each length) over tables planned for
+    each length of the mix and for `candidates` lengths spread geometrically between the
+    shortest and the longest: never worse on the mix than the plan for any single length
+    of it. Returns the plan (its `move_time_s` is the weighted time) and each length's
+    time."""
+    from .execution import simulate_move
+
+    if not mix:
+        raise PlanError("the move mix is empty: give at least one pulses,weight row")
+    for n, w in mix:
+        check_plan_args(max_stages, n)
+        if not 0.0 <= w <= 1e12:
+            raise FieldRangeError(f"weight of the {n}-pulse move", w, 0, 10**12)
+    if sum(w for _, w in mix) <= 0:
+        raise PlanError("the move mix's weights sum to 0: give at least one positive weight")
+    lengths = sorted({n for n, _ in mix})
+    spread = np.geomspace(lengths[0], lengths[-1], candidates) if len(lengths) > 1 else ()
+    targets = sorted(set(lengths) | {round(float(x)) for x in spread})
+    best: tuple[float, Plan, dict[int, float]] | None = None
+    for target in targets:
+        try:
+            plan = plan_free_curve(motor, clock=clock, max_stages=max_stages, pulses=target,
+                                   separate_decel=separate_decel, load_angle_deg=load_angle_deg)
+        except PlanError:
+            continue  # e.g. too short a move for a table: the other candidates remain
+        times = {n: simulate_move(plan.table, n).duration_s for n in lengths}
+        total = sum(w * times[n] for n, w in mix)
+        if best is None or total < best[0]:
+            best = (total, plan, times)
+    if best is None:
+        raise PlanError("no table could be planned for any length of the mix")
+    total, plan, times = best
+    info = plan.info + f"; duty cycle of {len(mix)} move lengths: weighted time {total:.6g} s"
+    return replace(plan, move_time_s=total, pulses=None, info=info), times
 
 
 def plan_baseline(motor: Motor, *, clock: Clock | None = None, max_stages: int = 127,

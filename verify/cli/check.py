@@ -29,11 +29,10 @@ def add_subparser(sub: Any) -> None:
 
 
 def _do_check(args: argparse.Namespace) -> int:
+    from profiles.errors import FormatError
     from verify.checking import check_file
     from verify.output import write_output
     from verify.report import render
-
-    from profiles.errors import FormatError
 
     if args.pulses is not None and not args.motor:
         raise FormatError("--pulses limits the stall verdict: it needs --motor")
