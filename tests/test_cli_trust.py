@@ -62,7 +62,7 @@ def test_every_option_and_argument_has_help() -> None:
     assert len(_arguments()) > 60  # the walk found the sub-commands' options
 
 
-UNIT = re.compile(r"\[(pps|pps²|pps³|s|ms|µs|Hz|pulses)\]")
+UNIT = re.compile(r"\[(pps|pps²|pps³|s|ms|µs|Hz|pulses|°)\]")
 
 
 def test_every_quantity_option_names_its_unit() -> None:

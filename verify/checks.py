@@ -208,9 +208,12 @@ def _short_stages(side: str, field: str, ticks: list[int], rates: tuple[int, ...
     neighbour_mean = np.empty(n)
     neighbour_mean[0], neighbour_mean[-1] = t[1], t[-2]
     neighbour_mean[1:-1] = (t[:-2] + t[2:]) / 2.0
+    if n > 2:  # stage 0 is cruise-like (below): stage 1's only neighbour is stage 2
+        neighbour_mean[1] = t[2]
     out = []
     # Stage 0 (the fastest) runs straight on into the cruise at the same rate, so its
-    # own length does not matter: planners give it the minimum on purpose.
+    # own length does not matter: planners give it the minimum on purpose, or (LE=1
+    # decel) extra pulses that keep every triangle's switch safe.
     for i in np.flatnonzero(t < SHORT_STAGE_FRACTION * neighbour_mean).tolist():
         if i == 0:
             continue

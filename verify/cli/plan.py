@@ -8,7 +8,17 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
-from ._common import CLOCK_NAMES, EXIT_OK, internal_clock, positive_int, progress_bar
+from ._common import (
+    CLOCK_NAMES,
+    EXIT_FINDINGS,
+    EXIT_OK,
+    internal_clock,
+    number,
+    positive_int,
+    progress_bar,
+)
+
+TARGET_DEG = 75.0  # profiles.rotor.TARGET_DEG, kept here so --help needs no import
 
 KINDS = ("free", "linear", "s-curve")
 MAX_STAGES_DEFAULT = 127
@@ -33,6 +43,14 @@ def add_subparser(sub: Any) -> None:
     p.add_argument("--from", dest="source", choices=("ruckig", "toppra"),
                    help="free curve: quantise this continuous reference instead of optimising "
                         "the staircase (needs --pulses)")
+    p.add_argument("--moves", metavar="MIX.csv",
+                   help="free curve: plan one table for a duty cycle: a CSV with header "
+                        "pulses,weight, a row per move length the machine runs; minimises "
+                        "the weighted sum of move times [s] (instead of --pulses)")
+    p.add_argument("--load-angle", type=number, default=TARGET_DEG, metavar="DEG",
+                   help="free curve: tighten the table until its worst load angle over every "
+                        f"move length is at most this [°] (electrical degrees; default "
+                        f"{TARGET_DEG:g}; 90 is the torque peak)")
     p.add_argument("--format", choices=("text", "json"), default="text",
                    help="the summary's format (the table itself is always JSON)")
     p.add_argument("-o", "--output", metavar="TABLE", help="write the table here (default stdout)")
@@ -45,8 +63,12 @@ def _do_plan(args: argparse.Namespace) -> int:
     from profiles.ppmc312.table import dump_table
     from verify.output import write_output
 
+    if args.moves is not None and (args.pulses is not None or args.source):
+        raise FormatError("--moves plans for a mix of lengths: give it without --pulses "
+                          "and --from")
     if args.kind != "free":
-        for given, option in ((args.source, "--from"), (args.max_stages, "--max-stages")):
+        for given, option in ((args.source, "--from"), (args.max_stages, "--max-stages"),
+                              (args.moves, "--moves")):
             if given is not None:
                 raise FormatError(f"{option} plans free curves only, not --kind {args.kind}")
         if args.pulses is None:
@@ -57,8 +79,17 @@ def _do_plan(args: argparse.Namespace) -> int:
         table, summary = _init(args, motor)
     elif args.source:
         table, summary = _from_reference(args, motor)
+    elif args.moves:
+        table, summary = _duty_cycle(args, motor)
     else:
         table, summary = _free(args, motor)
+    verdict = _judge(table, motor)
+    summary.update(verdict)
+    if not verdict["safe"]:
+        # never write a table that is unsafe for some move length the chip can run
+        print(f"stepramp plan: refused: the table is not stall-safe for every move length: "
+              f"{verdict['why']}", file=sys.stderr)
+        return EXIT_FINDINGS
     write_output(args.output, dump_table(table))
     # The table owns stdout when no -o is given; the summary then goes to stderr.
     stream = sys.stdout if args.output else sys.stderr
@@ -70,15 +101,86 @@ def _do_plan(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _judge(table: Any, motor: Any) -> dict[str, Any]:
+    """Both judges over every move length the chip can run with `table`."""
+    from profiles.ppmc312.init_model import as_free_curve
+    from verify.physics import judge_executions
+    from verify.stall import check_stall
+
+    stages = as_free_curve(table)
+    findings = check_stall(stages, motor)
+    physics = judge_executions(stages, motor)
+    reasons = [f"[{f.rule}] {f.message}" for f in findings[:3]]
+    if len(findings) > 3:
+        reasons.append(f"and {len(findings) - 3} more criterion findings "
+                       "(stepramp check --motor lists them)")
+    why = "; ".join(reasons + ([physics.describe()] if not physics.safe else []))
+    return {"safe": not findings and physics.safe,
+            "worst_load_angle_deg": round(physics.worst_angle_deg, 2),
+            "why": why or None}
+
+
 def _free(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, Any]]:
     from profiles.ppmc312.planner import plan_free_curve
 
     plan = plan_free_curve(motor, clock=args.clock, max_stages=_max_stages(args),
-                           pulses=args.pulses, separate_decel=args.separate_decel)
+                           pulses=args.pulses, separate_decel=args.separate_decel,
+                           load_angle_deg=args.load_angle)
     table = plan.table
     return table, {"stages": len(table.rates), "clock": table.clock.name,
                    "separate_decel": table.separate, "pulses": plan.pulses,
                    "move_time_s": plan.move_time_s, "solve_s": plan.solve_s, "info": plan.info}
+
+
+def _duty_cycle(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, Any]]:
+    from profiles.ppmc312.planner import plan_duty_cycle
+
+    mix = read_mix(args.moves)
+    plan, times = plan_duty_cycle(motor, mix, clock=args.clock, max_stages=_max_stages(args),
+                                  separate_decel=args.separate_decel,
+                                  load_angle_deg=args.load_angle)
+    table = plan.table
+    return table, {"stages": len(table.rates), "clock": table.clock.name,
+                   "separate_decel": table.separate, "weighted_time_s": plan.move_time_s,
+                   "move_times_s": {str(n): t for n, t in times.items()},
+                   "solve_s": plan.solve_s, "info": plan.info}
+
+
+def read_mix(path: str) -> list[tuple[int, float]]:
+    """A duty-cycle CSV: header `pulses,weight`, one row per move length."""
+    import csv
+    import io
+
+    from profiles.errors import FormatError
+    from profiles.reading import read_bytes
+
+    try:
+        text = read_bytes(path).decode("utf-8")
+    except UnicodeDecodeError:
+        raise FormatError(f"{path}: not a UTF-8 text file") from None
+    rows = list(csv.reader(io.StringIO(text)))
+    header = [c.strip().lower() for c in rows[0]] if rows else []
+    if header != ["pulses", "weight"]:
+        raise FormatError(f"{path}: the first line must be the header pulses,weight "
+                          f"(got {','.join(rows[0]) if rows else 'nothing'})")
+    mix: list[tuple[int, float]] = []
+    for line, row in enumerate(rows[1:], start=2):
+        if not any(c.strip() for c in row):
+            continue
+        if len(row) != 2:
+            raise FormatError(f"{path}, line {line}: expected pulses,weight, got {row!r}")
+        try:
+            n, w = int(row[0].strip()), float(row[1].strip())
+        except ValueError:
+            raise FormatError(f"{path}, line {line}: pulses must be an integer and weight a "
+                              f"number, got {row!r}") from None
+        if not 1 <= n <= 0xFFFFFFFF or not 0 <= w < float("inf"):
+            raise FormatError(f"{path}, line {line}: pulses 1..4294967295 and a weight ≥ 0 "
+                              f"(got {n}, {w})")
+        mix.append((n, w))
+    if not mix:
+        raise FormatError(f"{path}: no move lengths after the header")
+    return mix
 
 
 def _from_reference(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, Any]]:
