@@ -292,3 +292,27 @@ def test_mc200_stream_draws_a_bar_on_a_terminal(monkeypatch: pytest.MonkeyPatch,
                      "--pulses", "3200", "--period-us", "1000", "-o", str(out)]) == 0
     lines = out.read_text().splitlines()
     assert "encode packets" in tty.getvalue() and f"{len(lines)}/{len(lines)}" in tty.getvalue()
+
+
+# --- the package: one module per command, registered once; notebooks openable ----------------
+
+def test_every_command_module_is_registered_and_imports_no_sibling() -> None:
+    package = ROOT / "verify" / "cli"
+    modules = {f.stem for f in package.glob("*.py") if not f.stem.startswith("_")}
+    assert set(cli.COMMANDS) == modules
+    for name in modules:
+        source = (package / f"{name}.py").read_text(encoding="utf-8")
+        siblings = re.findall(r"from (?:verify\.cli)?\.(\w+) import|from verify\.cli import",
+                              source)
+        assert all(s == "_common" for s in siblings), (name, siblings)
+        assert "def add_subparser(sub" in source
+
+
+def test_dev_install_opens_notebooks() -> None:
+    import tomllib
+
+    dev = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"][
+        "optional-dependencies"]["dev"]
+    assert any(d.startswith(("jupyterlab", "notebook")) for d in dev)
+    assert "jupyter lab notebooks/" in (ROOT / "README.md").read_text(encoding="utf-8")
+    import jupyterlab  # noqa: F401  (installed by the [dev] extra)

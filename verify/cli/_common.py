@@ -60,8 +60,8 @@ def internal_clock(text: str) -> Clock:
 
     try:
         return Clock.named(text)
-    except FormatError as e:
-        raise argparse.ArgumentTypeError(str(e)) from None
+    except FormatError as e:  # argparse already names the option: drop the field prefix
+        raise argparse.ArgumentTypeError(str(e).removeprefix("clock: ")) from None
 
 
 def clock_or_extck(text: str) -> str:
