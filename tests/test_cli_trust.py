@@ -239,6 +239,38 @@ def test_plan_kind_refusals_name_the_options(capsys: pytest.CaptureFixture[str])
 
 # --- messages in option/field terms -----------------------------------------------------------
 
+T = str(ROOT / "examples" / "free-curve-nema17.json")
+READ = str(ROOT / "examples" / "free-curve-nema17.read.hex")
+
+
+@pytest.mark.parametrize(("argv", "option"), [
+    (["mc200", "stream", "--vmax", "-1", "--amax", "1", "--jmax", "1", "--pulses", "100",
+      "--period-us", "1000"], "--vmax"),
+    (["mc200", "stream", "--vmax", "1e3", "--amax", "1e4", "--jmax", "1e5", "--pulses", "100",
+      "--period-us", "1"], "--period-us"),
+    (["mc200", "stream", "--vmax", "1e3", "--amax", "1e4", "--jmax", "1e5", "--pulses", "100",
+      "--period-us", "1000", "--driver-id", "99"], "--driver-id"),
+    (["move", "--pulses", "0"], "--pulses"),
+    (["move", "--pulses", "5", "--to", "ascii", "--address", "99"], "--address"),
+    (["export", T, "--max-block-data", "99"], "--max-block-data"),
+    (["simulate", T, "--pulses", "100", "--high-rate", "3"], "--high-rate"),
+    (["simulate", T, "--pulses", "0"], "--pulses"),
+    (["plan", "--motor", str(MOTOR), "--max-stages", "1"], "--max-stages"),
+    (["alink", "settings", "--start-pps", "0", "--high-pps", "100",
+      "--accel-ms-per-kpps", "1"], "--start-pps"),
+    (["alink", "settings", "--start-pps", "100", "--high-pps", "1000",
+      "--accel-ms-per-kpps", "-1"], "--accel-ms-per-kpps"),
+    (["alink", "settings", "--motor", str(MOTOR), "--address", "99"], "--address"),
+    (["decode", READ, "--table-read", "--clock", "EXTCK", "--extck-hz", "-5"], "--extck-hz"),
+])
+def test_range_errors_name_the_option_typed(capsys: pytest.CaptureFixture[str],
+                                            argv: list[str], option: str) -> None:
+    code, _, err = run(capsys, *argv)
+    assert code == 2
+    [line] = err.strip().splitlines()
+    assert line.startswith(f"stepramp {argv[0]}: {option}") and "allowed range" in line
+
+
 def test_too_many_pulse_times_speaks_of_pulses(capsys: pytest.CaptureFixture[str],
                                                tmp_path: Path) -> None:
     code, _, err = run(capsys, "simulate", ROOT / "examples" / "free-curve-nema17.json",

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from typing import TYPE_CHECKING, Any
 
@@ -69,6 +69,25 @@ def clock_or_extck(text: str) -> str:
     if text.strip().lower() == "extck":
         return "EXTCK"
     return internal_clock(text).name
+
+
+@contextmanager
+def fields_as_options(options: Mapping[str, str]) -> Iterator[None]:
+    """Name the option a user typed, not the library's field: a FieldRangeError for a
+    field in `options` (exactly, or as the last dotted part of a frame field such as
+    `mc200.host.position.header.driver_id`) is re-raised with the option in its place,
+    keeping the value, the range and any chip code."""
+    from profiles.errors import FieldRangeError
+
+    try:
+        yield
+    except FieldRangeError as e:
+        option = options.get(e.field) or options.get(e.field.rpartition(".")[2])
+        if option is None or not str(e).startswith(e.field):
+            raise
+        e.args = (option + str(e)[len(e.field):],)
+        e.field = option
+        raise
 
 
 def load_motor(path: str) -> Any:

@@ -8,7 +8,16 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
-from ._common import CLOCK_NAMES, EXIT_OK, internal_clock, positive_int, progress_bar
+from ._common import (
+    CLOCK_NAMES,
+    EXIT_OK,
+    fields_as_options,
+    internal_clock,
+    positive_int,
+    progress_bar,
+)
+
+OPTIONS = {"pulses": "--pulses", "max_stages": "--max-stages"}
 
 KINDS = ("free", "linear", "s-curve")
 MAX_STAGES_DEFAULT = 127
@@ -53,12 +62,13 @@ def _do_plan(args: argparse.Namespace) -> int:
             raise FormatError(f"--kind {args.kind} needs --pulses: an init table is chosen "
                               "for the move it runs")
     motor = load_motor(args.motor)
-    if args.kind != "free":
-        table, summary = _init(args, motor)
-    elif args.source:
-        table, summary = _from_reference(args, motor)
-    else:
-        table, summary = _free(args, motor)
+    with fields_as_options(OPTIONS):
+        if args.kind != "free":
+            table, summary = _init(args, motor)
+        elif args.source:
+            table, summary = _from_reference(args, motor)
+        else:
+            table, summary = _free(args, motor)
     write_output(args.output, dump_table(table))
     # The table owns stdout when no -o is given; the summary then goes to stderr.
     stream = sys.stdout if args.output else sys.stderr
