@@ -74,15 +74,18 @@ def clock_or_extck(text: str) -> str:
 @contextmanager
 def fields_as_options(options: Mapping[str, str]) -> Iterator[None]:
     """Name the option a user typed, not the library's field: a FieldRangeError for a
-    field in `options` (exactly, or as the last dotted part of a frame field such as
-    `mc200.host.position.header.driver_id`) is re-raised with the option in its place,
-    keeping the value, the range and any chip code."""
+    field in `options` is re-raised with the option in its place, keeping the value,
+    the range and any chip code. A field matches exactly, by the last dotted part of
+    a frame field (`mc200.host.position.header.driver_id`), or by its name before any
+    parenthesised note with spaces as underscores (`high rate (0 = the table's)`)."""
     from profiles.errors import FieldRangeError
 
     try:
         yield
     except FieldRangeError as e:
-        option = options.get(e.field) or options.get(e.field.rpartition(".")[2])
+        last = e.field.rpartition(".")[2]
+        base = last.split(" (")[0].strip().replace(" ", "_")
+        option = options.get(e.field) or options.get(last) or options.get(base)
         if option is None or not str(e).startswith(e.field):
             raise
         e.args = (option + str(e)[len(e.field):],)

@@ -35,7 +35,7 @@ def _do_simulate(args: argparse.Namespace) -> int:
 
     table = load_table(args.table)
     with fields_as_options({"pulses": "--pulses",
-                            "high_rate (0 = the table's)": "--high-rate (0: the table's)"}):
+                            "high_rate": "--high-rate (0: the table's)"}):
         execution = simulate_move(table, args.pulses, high_rate=args.high_rate)
     if args.csv:
         write_output(args.csv, to_csv(execution))
