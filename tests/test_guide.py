@@ -73,6 +73,8 @@ class Command:
     def name(self) -> str:
         """The sub-command, e.g. `check` or `alink settings`."""
         words = [a for a in self.argv if not a.startswith("-")]
+        if not words:  # `stepramp --version`
+            return ""
         return " ".join(words[:2]) if words[0] in ("alink", "mc200") else words[0]
 
 
@@ -276,8 +278,8 @@ def test_every_command_has_an_example() -> None:
     for name, sub in top.choices.items():  # type: ignore[union-attr]
         nested = [a for a in sub._actions if a.__class__.__name__ == "_SubParsersAction"]
         names |= {f"{name} {n}" for n in nested[0].choices} if nested else {name}
-    expected = {"check", "export", "decode", "move", "expand", "plan", "simulate", "compare",
-                "alink settings", "alink decode", "mc200 stream", "mc200 decode"}
+    expected = {"check", "show", "export", "decode", "move", "expand", "plan", "simulate",
+                "compare", "alink settings", "alink decode", "mc200 stream", "mc200 decode"}
     assert names >= expected
     documented = {c.name for c in guide_commands()}
     assert names - documented == set(), "commands without an example in the guide"

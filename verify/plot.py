@@ -112,7 +112,7 @@ def motor_figure(motor: Any) -> Any:
     ax_a.plot(v, motor.a_acc_pps2(v), label="a_acc (speeding up)")
     ax_a.plot(v, motor.a_dec_pps2(v), label="a_dec (slowing down)")
     ax_a.axhline(0, color="k", lw=0.8)
-    ax_a.set(xlabel="speed [pps]", ylabel="acceleration [pps/s]", title="capability")
+    ax_a.set(xlabel="speed [pps]", ylabel="acceleration [pps²]", title="capability")
     for ax in (ax_t, ax_a):
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)

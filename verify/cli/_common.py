@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from typing import TYPE_CHECKING, Any
 
@@ -60,8 +60,8 @@ def internal_clock(text: str) -> Clock:
 
     try:
         return Clock.named(text)
-    except FormatError as e:
-        raise argparse.ArgumentTypeError(str(e)) from None
+    except FormatError as e:  # argparse already names the option: drop the field prefix
+        raise argparse.ArgumentTypeError(str(e).removeprefix("clock: ")) from None
 
 
 def clock_or_extck(text: str) -> str:
@@ -69,6 +69,28 @@ def clock_or_extck(text: str) -> str:
     if text.strip().lower() == "extck":
         return "EXTCK"
     return internal_clock(text).name
+
+
+@contextmanager
+def fields_as_options(options: Mapping[str, str]) -> Iterator[None]:
+    """Name the option a user typed, not the library's field: a FieldRangeError for a
+    field in `options` is re-raised with the option in its place, keeping the value,
+    the range and any chip code. A field matches exactly, by the last dotted part of
+    a frame field (`mc200.host.position.header.driver_id`), or by its name before any
+    parenthesised note with spaces as underscores (`high rate (0 = the table's)`)."""
+    from profiles.errors import FieldRangeError
+
+    try:
+        yield
+    except FieldRangeError as e:
+        last = e.field.rpartition(".")[2]
+        base = last.split(" (")[0].strip().replace(" ", "_")
+        option = options.get(e.field) or options.get(last) or options.get(base)
+        if option is None or not str(e).startswith(e.field):
+            raise
+        e.args = (option + str(e)[len(e.field):],)
+        e.field = option
+        raise
 
 
 def load_motor(path: str) -> Any:

@@ -5,7 +5,12 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ._common import EXIT_OK, number, positive_int
+from ._common import EXIT_OK, fields_as_options, number, positive_int
+
+# Settings given by hand are checked field by field: the user typed these options.
+EXPLICIT = {"start_pps": "--start-pps", "high_pps": "--high-pps",
+            "accel_ms_per_kpps": "--accel-ms-per-kpps", "max_pps": "--max-pps"}
+ADDRESSING = {"slave_address": "--address", "axis": "--axis", "pulses": "--pulses"}
 
 
 def add_subparser(sub: Any) -> None:
@@ -56,8 +61,10 @@ def _do_settings(args: argparse.Namespace) -> int:
     if args.motor:
         from profiles.motor import load_motor
 
-        plan = alink.plan_settings(load_motor(args.motor), pulses=args.pulses,
-                                   max_pps=args.max_pps, s_curve=args.s_curve)
+        motor = load_motor(args.motor)
+        with fields_as_options({"pulses": "--pulses", "max_pps": "--max-pps"}):
+            plan = alink.plan_settings(motor, pulses=args.pulses, max_pps=args.max_pps,
+                                       s_curve=args.s_curve)
         settings = plan.settings
         summary = {"predicted_time_s": plan.predicted_time_s, "shape": plan.shape,
                    "ratio_to_optimum": plan.ratio_to_optimum,
@@ -73,12 +80,14 @@ def _do_settings(args: argparse.Namespace) -> int:
         if any(v is None for v in explicit):
             raise FormatError("give --motor, or all of --start-pps, --high-pps and "
                               "--accel-ms-per-kpps")
-        settings = alink.quantise_settings(args.start_pps, args.high_pps,
-                                           args.accel_ms_per_kpps, args.max_pps,
-                                           s_curve=args.s_curve)
+        with fields_as_options(EXPLICIT):
+            settings = alink.quantise_settings(args.start_pps, args.high_pps,
+                                               args.accel_ms_per_kpps, args.max_pps,
+                                               s_curve=args.s_curve)
         warnings = list(settings.warnings)
-    commands = alink.settings_commands(settings, slave_address=args.address, axis=args.axis,
-                                       duplex=args.duplex)
+    with fields_as_options(ADDRESSING):
+        commands = alink.settings_commands(settings, slave_address=args.address,
+                                           axis=args.axis, duplex=args.duplex)
     doc = alink.settings_document(settings, commands, summary=summary, warnings=warnings)
     write_output(args.output, alink.render_settings(doc, args.format))
     return EXIT_OK

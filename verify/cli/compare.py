@@ -6,7 +6,7 @@ import argparse
 import json
 from typing import Any
 
-from ._common import EXIT_FINDINGS, EXIT_OK, positive_int
+from ._common import EXIT_FINDINGS, EXIT_OK, fields_as_options, positive_int
 
 
 def add_subparser(sub: Any) -> None:
@@ -42,8 +42,9 @@ def _do_compare(args: argparse.Namespace) -> int:
     if unknown:  # refused before any table is read or solver run
         raise FormatError(f"--references: unknown {', '.join(sorted(unknown))} "
                           f"(choose from {', '.join(SOLVERS)})")
-    result = compare_table(load_table(args.table), load_motor(args.motor), args.pulses,
-                           include=names, physics=args.physics)
+    table, motor = load_table(args.table), load_motor(args.motor)
+    with fields_as_options({"pulses": "--pulses"}):
+        result = compare_table(table, motor, args.pulses, include=names, physics=args.physics)
     if args.plot:
         result.plot(args.plot)
     if args.format == "json":

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ._common import CLOCK_NAMES, EXIT_OK, clock_or_extck, number
+from ._common import CLOCK_NAMES, EXIT_OK, clock_or_extck, fields_as_options, number
 
 
 def add_subparser(sub: Any) -> None:
@@ -24,16 +24,24 @@ def add_subparser(sub: Any) -> None:
 
 
 def _do_decode(args: argparse.Namespace) -> int:
-    from profiles.errors import FormatError
-    from profiles.ppmc312.clock import Clock
     from profiles.ppmc312.files import parse_upload
     from profiles.ppmc312.table import Table, dump_table
-    from profiles.ppmc312.upload import decode_table_read, decode_upload
     from profiles.reading import read_bytes
     from verify.output import write_output
 
     blocks = parse_upload(read_bytes(args.upload))
     table: Table
+    with fields_as_options({"extck_hz": "--extck-hz"}):
+        table = _decode(args, blocks)
+    write_output(args.output, dump_table(table))
+    return EXIT_OK
+
+
+def _decode(args: argparse.Namespace, blocks: Any) -> Any:
+    from profiles.errors import FormatError
+    from profiles.ppmc312.clock import Clock
+    from profiles.ppmc312.upload import decode_table_read, decode_upload
+
     if args.table_read:
         # The table-read response (41) carries stages, not the CLK field: the user says.
         if not args.clock:
@@ -44,8 +52,5 @@ def _do_decode(args: argparse.Namespace) -> int:
             clock = Clock.extck(args.extck_hz)
         else:
             clock = Clock.internal(args.clock)
-        table = decode_table_read(blocks, clock=clock)
-    else:
-        table = decode_upload(blocks, extck_hz=args.extck_hz)
-    write_output(args.output, dump_table(table))
-    return EXIT_OK
+        return decode_table_read(blocks, clock=clock)
+    return decode_upload(blocks, extck_hz=args.extck_hz)

@@ -6,7 +6,7 @@ import argparse
 import sys
 from typing import Any
 
-from ._common import EXIT_FINDINGS, EXIT_OK, positive_int
+from ._common import EXIT_FINDINGS, EXIT_OK, fields_as_options, positive_int
 
 
 def add_subparser(sub: Any) -> None:
@@ -43,6 +43,8 @@ def _do_export(args: argparse.Namespace) -> int:
         print(f"{args.table}: refused: {len(errors)} error(s); fix them or pass --force",
               file=sys.stderr)
         return EXIT_FINDINGS
-    blocks = encode_table(table, to=args.to, address=args.address, max_data=args.max_block_data)
+    with fields_as_options({"address": "--address", "max_data": "--max-block-data"}):
+        blocks = encode_table(table, to=args.to, address=args.address,
+                              max_data=args.max_block_data)
     write_output(args.output, render(blocks, args.format))
     return EXIT_OK

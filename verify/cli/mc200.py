@@ -5,7 +5,11 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ._common import EXIT_OK, number, positive_int, progress_bar
+from ._common import EXIT_OK, fields_as_options, number, positive_int, progress_bar
+
+OPTIONS = {"v_max_pps": "--vmax", "a_max_pps2": "--amax", "j_max_pps3": "--jmax",
+           "pulses": "--pulses", "period_us": "--period-us", "driver_id": "--driver-id",
+           "duration_s / period": "packets (move duration / --period-us)"}
 
 
 def add_subparser(sub: Any) -> None:
@@ -52,10 +56,11 @@ def _do_stream(args: argparse.Namespace) -> int:
         motor = load_motor(args.motor)
     elif any(v is None for v in limits):
         raise FormatError("give --motor, or all of --vmax, --amax and --jmax")
-    packets, duration_s = mc200.plan_stream(args.pulses, period_us=args.period_us,
-                                            driver_id=args.driver_id, motor=motor,
-                                            v_max_pps=args.vmax, a_max_pps2=args.amax,
-                                            j_max_pps3=args.jmax)
+    with fields_as_options(OPTIONS):
+        packets, duration_s = mc200.plan_stream(args.pulses, period_us=args.period_us,
+                                                driver_id=args.driver_id, motor=motor,
+                                                v_max_pps=args.vmax, a_max_pps2=args.amax,
+                                                j_max_pps3=args.jmax)
     with progress_bar("encode packets", unit="packet") as progress:
         data = mc200.render_stream(packets, args.format, period_us=args.period_us,
                                    duration_s=duration_s, pulses=args.pulses,

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ._common import EXIT_OK, positive_int
+from ._common import EXIT_OK, fields_as_options, positive_int
 
 
 def add_subparser(sub: Any) -> None:
@@ -34,14 +34,16 @@ def _do_move(args: argparse.Namespace) -> int:
     from profiles.ppmc312.upload import encode_move
     from verify.output import write_output
 
-    if args.to == "ascii":
-        if args.override:
-            raise FormatError("--override has no serial form (parallel bus only)")
-        blocks = [encode_serial_move(args.address, args.pulses, ccw=args.ccw,
-                                     high_rate=args.high_rate)]
-    else:
-        blocks = [encode_move(args.pulses, ccw=args.ccw, high_rate=args.high_rate,
-                              override=args.override is not None,
-                              trigger=args.override or 0)]
+    if args.to == "ascii" and args.override:
+        raise FormatError("--override has no serial form (parallel bus only)")
+    with fields_as_options({"pulses": "--pulses", "address": "--address",
+                            "high_rate": "--high-rate"}):
+        if args.to == "ascii":
+            blocks = [encode_serial_move(args.address, args.pulses, ccw=args.ccw,
+                                         high_rate=args.high_rate)]
+        else:
+            blocks = [encode_move(args.pulses, ccw=args.ccw, high_rate=args.high_rate,
+                                  override=args.override is not None,
+                                  trigger=args.override or 0)]
     write_output(args.output, render(blocks, args.format))
     return EXIT_OK

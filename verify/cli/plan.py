@@ -12,6 +12,7 @@ from ._common import (
     CLOCK_NAMES,
     EXIT_FINDINGS,
     EXIT_OK,
+    fields_as_options,
     internal_clock,
     number,
     positive_int,
@@ -19,6 +20,8 @@ from ._common import (
 )
 
 TARGET_DEG = 75.0  # profiles.rotor.TARGET_DEG, kept here so --help needs no import
+OPTIONS = {"pulses": "--pulses", "max_stages": "--max-stages",
+           "load angle target [°]": "--load-angle"}
 
 KINDS = ("free", "linear", "s-curve")
 MAX_STAGES_DEFAULT = 127
@@ -75,14 +78,15 @@ def _do_plan(args: argparse.Namespace) -> int:
             raise FormatError(f"--kind {args.kind} needs --pulses: an init table is chosen "
                               "for the move it runs")
     motor = load_motor(args.motor)
-    if args.kind != "free":
-        table, summary = _init(args, motor)
-    elif args.source:
-        table, summary = _from_reference(args, motor)
-    elif args.moves:
-        table, summary = _duty_cycle(args, motor)
-    else:
-        table, summary = _free(args, motor)
+    with fields_as_options(OPTIONS):
+        if args.kind != "free":
+            table, summary = _init(args, motor)
+        elif args.source:
+            table, summary = _from_reference(args, motor)
+        elif args.moves:
+            table, summary = _duty_cycle(args, motor)
+        else:
+            table, summary = _free(args, motor)
     verdict = _judge(table, motor)
     summary.update(verdict)
     if not verdict["safe"]:

@@ -6,7 +6,7 @@ import argparse
 import json
 from typing import Any
 
-from ._common import EXIT_OK, positive_int
+from ._common import EXIT_OK, fields_as_options, positive_int
 
 
 def add_subparser(sub: Any) -> None:
@@ -33,7 +33,10 @@ def _do_simulate(args: argparse.Namespace) -> int:
     from profiles.ppmc312.table import load_table
     from verify.output import write_output
 
-    execution = simulate_move(load_table(args.table), args.pulses, high_rate=args.high_rate)
+    table = load_table(args.table)
+    with fields_as_options({"pulses": "--pulses",
+                            "high_rate": "--high-rate (0: the table's)"}):
+        execution = simulate_move(table, args.pulses, high_rate=args.high_rate)
     if args.csv:
         write_output(args.csv, to_csv(execution))
     if args.pulse_times:

@@ -7,6 +7,7 @@ from typing import Any
 
 from profiles.errors import FormatError
 from profiles.motor import Motor
+from profiles.progress import Progress, track
 
 from ._common import Reference, ReferenceSolveError, capability_violation, move_limits
 from .exact import exact_optimum
@@ -32,14 +33,15 @@ def _solver(name: str) -> Callable[[Motor, float], Reference]:
     return casadi_reference
 
 
-def references(motor: Motor, pulses: Any, *, include: Iterable[str] = SOLVERS
-               ) -> dict[str, Reference]:
+def references(motor: Motor, pulses: Any, *, include: Iterable[str] = SOLVERS,
+               progress: Progress | None = None) -> dict[str, Reference]:
     """The exact optimum plus each included solver on the same move, keyed by name
     ("exact", "toppra", "ruckig" (the feasible bound), "casadi").
 
     Every result is re-checked on its samples (speed ≤ v_lim·(1+1e-6), −a_dec(v) − tol ≤
     a ≤ a_acc(v) + tol, ends at v0, covers 0…N); problems go into its `info` after
     VIOLATION_MARK. A solver that fails is left out and named in the exact one's info.
+    The solvers take seconds: `progress` hears (solvers run, solvers included).
     """
     wanted = list(include)
     for name in wanted:
@@ -49,7 +51,7 @@ def references(motor: Motor, pulses: Any, *, include: Iterable[str] = SOLVERS
     lim = move_limits(motor, pulses)
     out = {"exact": exact_optimum(motor, lim.pulses)}
     failures: list[str] = []
-    for name in wanted:
+    for name in track(wanted, progress):
         try:
             out[name] = _solver(name)(motor, lim.pulses)
         except ReferenceSolveError as exc:
