@@ -176,14 +176,14 @@ def _finding(table: FreeCurveTable, motor: Motor, group: list[StepProblem]) -> F
         slow_v = min(p.v_from_pps, p.v_to_pps)
         delta = abs(p.jump_pps)
         head = (f"{side}_pulses[{_idx(k)}] = {p.dwell_pulses} at {slow_v:.6g} pps then "
-                f"{'+' if side == 'accel' else '−'}{delta:.6g} pps needs {p.need_pps2:.6g} pps/s")
+                f"{'+' if side == 'accel' else '−'}{delta:.6g} pps needs {p.need_pps2:.6g} pps²")
         if p.cap_pps2 <= 0:
             msg = (f"{head}, but the motor cannot {side}erate between {slow_v:.6g} and "
                    f"{max(p.v_from_pps, p.v_to_pps):.6g} pps at all: lower the top speed below "
                    f"{slow_v:.6g} pps")
         else:
             want = math.ceil(delta * slow_v / p.cap_pps2)
-            msg = (f"{head}, the motor gives {p.cap_pps2:.6g} pps/s: raise {side}_pulses[{_idx(k)}]"
+            msg = (f"{head}, the motor gives {p.cap_pps2:.6g} pps²: raise {side}_pulses[{_idx(k)}]"
                    f" from {p.dwell_pulses} to ≥ {want}")
         return Finding("error", f"stall-{side}", msg + shortest, stage=k)
     if p.rule == "switch":
@@ -196,7 +196,7 @@ def _finding(table: FreeCurveTable, motor: Motor, group: list[StepProblem]) -> F
             why.append(f"above the largest jump {motor.jump_pps:.6g} pps")
         if p.need_pps2 > p.cap_pps2 * (1 + REL_TOL):
             why.append(f"with {p.dwell_pulses} pulse(s) at {p.v_to_pps:.6g} pps it needs "
-                       f"{p.need_pps2:.6g} pps/s, the motor gives {p.cap_pps2:.6g}")
+                       f"{p.need_pps2:.6g} pps², the motor gives {p.cap_pps2:.6g} pps²")
         msg = (f"triangle moves of {span}{more} pulses switch from accel stage "
                f"{_idx(p.stage_from)} ({p.v_from_pps:.6g} pps) to decel stage {_idx(p.stage_to)} "
                f"({p.v_to_pps:.6g} pps), {p.jump_pps:+.6g} pps, {'; '.join(why)}: the chip keeps "
@@ -208,7 +208,7 @@ def _finding(table: FreeCurveTable, motor: Motor, group: list[StepProblem]) -> F
     # jerk
     return Finding("error", "stall-jerk",
                    f"{p.dwell_side} slope changes from {p.v_from_pps:.6g} to {p.v_to_pps:.6g} "
-                   f"pps/s over stage {p.stage_from}: {p.need_pps2:.6g} pps/s² exceeds "
+                   f"pps² over stage {p.stage_from}: {p.need_pps2:.6g} pps³ exceeds "
                    f"max_jerk_pps3 {p.cap_pps2:.6g}: raise {p.dwell_side}_pulses[{p.stage_from}] "
                    "(and the counts around it)", stage=p.stage_from)
 

@@ -208,7 +208,7 @@ class Execution:
         """The instant of every pulse (end of its period), built with repeat/cumsum.
         Refuses moves of more than `limit` pulses rather than exhausting memory."""
         if self.pulses > limit:
-            raise FieldRangeError("pulse_times_s: move pulses (raise limit= to allow)",
+            raise FieldRangeError("move pulses with every pulse time listed",
                                   self.pulses, 0, limit)
         period = np.repeat(self._rate, self._count)
         return np.cumsum(period) / self.clock.hz

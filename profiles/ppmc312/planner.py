@@ -640,7 +640,7 @@ def _plan(motor: Motor, clock: Clock | None, max_stages: int, pulses: int | None
     time_s = ev.time_s
     table = _table(clock, ev, sep)
     objective = (f"move of {pulses} pulses" if pulses is not None
-                 else f"reference move of {budget} pulses (pulses=None)")
+                 else f"reference move of {budget} pulses (no move length given)")
     info = (f"{label}: {len(ev.rates)} stages, LE={int(sep)}, top {clock.hz / ev.rates[-1]:.6g} pps"
             f", accel {int(ev.n.sum())} + decel {int(ev.d.sum())} pulses, {objective} "
             f"{time_s * 1e3:.6g} ms")
