@@ -106,7 +106,7 @@ def main() -> None:
 
     print(f"\nduty cycle: mix {MIX} (pulses, weight)")
     for name, motor in motors:
-        plan, times = planner.plan_duty_cycle(motor, MIX, load_angle_deg=TARGET_DEG)
+        plan, _ = planner.plan_duty_cycle(motor, MIX, load_angle_deg=TARGET_DEG)
         singles = {}
         for n, _ in MIX:
             table = planner.plan_free_curve(motor, pulses=n, load_angle_deg=TARGET_DEG).table

@@ -30,14 +30,14 @@ Planners use it to prove their own tables (profiles never imports verify).
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 
 from ..motor import Motor
-from .execution import Execution, move_families, simulate_move
+from .execution import MOVE_PULSES_MAX, Execution, move_families, simulate_move
 from .init_model import as_free_curve
 from .table import FreeCurveTable, InitTable
 
@@ -79,17 +79,24 @@ class StepProblem:
 def execution_problems(execution: Execution, motor: Motor, rates: tuple[int, ...],
                        family: tuple[int, int] | None = None) -> list[StepProblem]:
     """Every speed change of `execution` that breaks the criterion (vectorised)."""
-    segs = execution.segments
-    if not segs:
+    runs = [(s.phase, s.rate, s.pulses) for s in execution.segments]
+    return runs_problems(runs, execution.clock.hz, execution.pulses, motor, rates, family)
+
+
+def runs_problems(runs: Sequence[tuple[str, int, int]], hz: float, pulses: int, motor: Motor,
+                  rates: tuple[int, ...], family: tuple[int, int] | None = None
+                  ) -> list[StepProblem]:
+    """`execution_problems` on a move's segments given as (phase, rate, pulses)."""
+    if not runs:
         return []
-    fam = family or (execution.pulses, execution.pulses)
-    n = execution.pulses
+    fam = family or (pulses, pulses)
+    n = pulses
     index = {r: i for i, r in enumerate(rates)}
-    r = np.array([s.rate for s in segs], dtype=float)
-    p = np.array([s.pulses for s in segs], dtype=float)
-    v = execution.clock.hz / r
+    r = np.array([x[1] for x in runs], dtype=float)
+    p = np.array([x[2] for x in runs], dtype=float)
+    v = hz / r
     t = p / v
-    stage = [index.get(s.rate) for s in segs]
+    stage = [index.get(x[1]) for x in runs]
     out: list[StepProblem] = []
     tol = 1 + REL_TOL
 
@@ -112,7 +119,7 @@ def execution_problems(execution: Execution, motor: Motor, rates: tuple[int, ...
     dwell = np.where(up, np.arange(len(dv)), np.arange(1, len(dv) + 1))  # the slower segment
     with np.errstate(divide="ignore"):
         need = np.abs(dv) / t[dwell]
-    phases = [s.phase for s in segs]
+    phases = [x[0] for x in runs]
     bad_jump = np.abs(dv) > motor.jump_pps * tol
     bad_cap = (dv != 0) & (need > cap * tol)
     for i in np.flatnonzero(bad_jump | bad_cap).tolist():
@@ -140,15 +147,16 @@ def all_length_problems(table: FreeCurveTable | InitTable, motor: Motor, *,
     on its slowest stage: when its trapezoid passes, every move does (`exhaustive`
     judges every family anyway; the tests hold the two equal)."""
     free = as_free_curve(table)
-    families = move_families(free, high_rate=high_rate)
     if not exhaustive and high_rate == 0 and _same_stages_switch_safe(free):
-        trapezoids = families[-1]
-        if not execution_problems(trapezoids.execution(), motor, free.rates):
+        longest = simulate_move(free, min(free.accel_total + free.decel_total + 1,
+                                          MOVE_PULSES_MAX))
+        if not execution_problems(longest, motor, free.rates):
             return jerk_problems(free, motor)
         # unsafe: every family is judged, so each problem names its shortest move
     out: list[StepProblem] = []
-    for fam in families:
-        out += execution_problems(fam.execution(), motor, free.rates, (fam.lo, fam.hi))
+    hz = free.clock.hz
+    for fam in move_families(free, high_rate=high_rate):
+        out += runs_problems(fam.runs(), hz, fam.lo, motor, free.rates, (fam.lo, fam.hi))
     return out + jerk_problems(free, motor)
 
 

@@ -32,9 +32,8 @@ lands exactly at `duration_s`. The first-pulse latency is reported apart.
 from __future__ import annotations
 
 import io
-from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
-from typing import Any, Literal
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 
@@ -208,7 +207,7 @@ class Execution:
         """The instant of every pulse (end of its period), built with repeat/cumsum.
         Refuses moves of more than `limit` pulses rather than exhausting memory."""
         if self.pulses > limit:
-            raise FieldRangeError("move pulses with every pulse time listed",
+            raise FieldRangeError("move pulses with every pulse time listed (the limit)",
                                   self.pulses, 0, limit)
         period = np.repeat(self._rate, self._count)
         return np.cumsum(period) / self.clock.hz
@@ -255,11 +254,30 @@ class _Sides:
     given: bool
     no_accel: bool   # a high rate slower than the accel side's 2nd stage: no acceleration
     shared: int      # stages with index ≥ shared belong to one side only
+    split: _Split = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "split", _split(self.acc, self.dec, self.shared))
 
     def plan(self, pulses: int) -> tuple[Shape, Plan]:
         if self.no_accel:
             return _no_accel(self.acc, self.dec, pulses, self.cruise_rate)
-        return _shape(self.acc, self.dec, pulses, self.cruise_rate, self.shared)
+        return _shape(self.acc, self.dec, pulses, self.cruise_rate, self.split)
+
+    def runs(self, pulses: int) -> tuple[Shape, Plan]:
+        """The segments of the move as (phase, rate, pulses): empty parts dropped, and a
+        part at the same phase and rate as the one before joined to it (e.g. clamped
+        decel pulses at the peak rate)."""
+        shape, plan = self.plan(pulses)
+        out: Plan = []
+        for phase, rate, count in plan:
+            if count <= 0:
+                continue
+            if out and out[-1][0] == phase and out[-1][1] == rate:
+                out[-1] = (phase, rate, out[-1][2] + count)
+            else:
+                out.append((phase, rate, count))
+        return shape, out
 
     def breakpoints(self) -> list[int]:
         """Every move length at which the sequence of segment rates may change (the first
@@ -271,22 +289,17 @@ class _Sides:
             out.update((total, total + 1))  # the cruise appears one pulse past the tail
             out.update(c + 1 for c in _slow_end_cumsum(tail))
             return sorted(b for b in out if 1 <= b <= MOVE_PULSES_MAX)
-        acc, dec, shared = self.acc, self.dec, self.shared
-        acc_extra = [s for s in acc if s[0] >= shared]
-        dec_extra = [s for s in dec if s[0] >= shared]
-        acc_shared = [s for s in acc if s[0] < shared]
-        dec_shared = [s for s in dec if s[0] < shared]
-        rate_diff = sum(p for _, _, p in acc_extra) + sum(p for _, _, p in dec_extra)
-        a_total = sum(p for _, _, p in acc)
-        d_total = sum(p for _, _, p in dec)
+        sp = self.split
+        acc_extra, dec_extra, acc_shared, dec_shared = (sp.acc_extra, sp.dec_extra,
+                                                        sp.acc_shared, sp.dec_shared)
+        rate_diff, a_total, d_total = sp.rate_diff, sp.a_total, sp.d_total
         out.update((rate_diff, a_total + d_total, a_total + d_total + 1))  # +1: a cruise
         # straight triangles: the stage reached changes one pulse past each stage boundary
         out.update(c + 1 for c in _slow_end_cumsum(acc_extra) + _slow_end_cumsum(dec_extra)
                    if c + 1 < rate_diff)
         # triangles: the accel share q_a = ⌊rest·a/(a+d)⌋ and decel share q_d = rest − q_a
         # enter a new stage one pulse past each boundary (and leave 0)
-        a = sum(p for _, _, p in acc_shared)
-        d = sum(p for _, _, p in dec_shared)
+        a, d = sp.a_sh, sp.d_sh
         if a + d:
             for c in [0, *_slow_end_cumsum(acc_shared)]:
                 if a:  # smallest rest with q_a ≥ c + 1
@@ -346,17 +359,11 @@ def simulate_move(table: FreeCurveTable | InitTable, pulses: int, *, high_rate: 
 
 def _execute(table: FreeCurveTable, sides: _Sides, pulses: int,
              held_by_run: bool = False) -> Execution:
-    shape, plan = sides.plan(pulses)
+    shape, runs = sides.runs(pulses)
     segments: list[Segment] = []
     tick = 0
-    for phase, rate, count in plan:
-        if count <= 0:
-            continue
-        if segments and segments[-1].phase == phase and segments[-1].rate == rate:
-            last = segments.pop()  # e.g. clamped decel pulses at the peak rate: one segment
-            segments.append(Segment(phase, rate, last.pulses + count, last.start_tick))
-        else:
-            segments.append(Segment(phase, rate, count, tick))
+    for phase, rate, count in runs:
+        segments.append(Segment(phase, rate, count, tick))
         tick += rate * count
     status = STATUS[shape] + (HELD_BY_RUN if held_by_run else 0)
     return Execution(shape=shape, status=status, segments=segments, pulses=pulses,
@@ -376,6 +383,7 @@ class MoveFamily:
     hi: int
     shape: str
     _sides: _Sides = field(repr=False, compare=False)
+    _first: Plan = field(repr=False, compare=False, default_factory=list)
 
     def execution(self, pulses: int | None = None) -> Execution:
         """The move of `pulses` (default: the shortest of the family)."""
@@ -383,6 +391,13 @@ class MoveFamily:
         if not self.lo <= n <= self.hi:
             raise FieldRangeError("move pulses of this family", n, self.lo, self.hi)
         return _execute(self.table, self._sides, n)
+
+    def runs(self, pulses: int | None = None) -> Plan:
+        """The segments of a move of the family as (phase, rate, pulses), without building
+        an `Execution` (what the criterion needs)."""
+        if pulses is None or int(pulses) == self.lo:
+            return self._first
+        return self._sides.runs(int(pulses))[1]
 
     def __contains__(self, pulses: object) -> bool:
         return isinstance(pulses, int) and self.lo <= pulses <= self.hi
@@ -397,48 +412,68 @@ def move_families(table: FreeCurveTable | InitTable, *, high_rate: int = 0) -> l
     out: list[MoveFamily] = []
     last: list[tuple[Phase, int]] = []
     for lo, nxt in zip(starts, [*starts[1:], MOVE_PULSES_MAX + 1], strict=True):
-        run = _execute(free, sides, lo)
-        key = [(s.phase, s.rate) for s in run.segments]
-        if out and key == last and run.shape == out[-1].shape:  # a boundary of no effect
+        shape, runs = sides.runs(lo)
+        key = [(phase, rate) for phase, rate, _ in runs]
+        if out and key == last and shape == out[-1].shape:  # a boundary of no effect
             out[-1] = replace(out[-1], hi=nxt - 1)
         else:
-            out.append(MoveFamily(free, high_rate, lo, nxt - 1, run.shape, sides))
+            out.append(MoveFamily(free, high_rate, lo, nxt - 1, shape, sides, runs))
         last = key
     return out
 
 
-def _shape(acc: list[Stage], dec: list[Stage], pulses: int, cruise_rate: int,
-           shared: int) -> tuple[Shape, Plan]:
-    """Trapezoid / triangle / straight triangle for sides listed fastest first; stages
-    with index ≥ `shared` belong to one side only (the rate-difference stages)."""
-    a_total = sum(p for _, _, p in acc)
-    d_total = sum(p for _, _, p in dec)
+class _Split(NamedTuple):
+    """A pair of sides cut into the stages both have and the rate-difference stages one
+    side has beyond the other, with their pulse totals (computed once per move model)."""
+
+    acc_extra: list[Stage]
+    dec_extra: list[Stage]
+    acc_shared: list[Stage]
+    dec_shared: list[Stage]
+    rate_diff: int      # pulses of the rate-difference stages
+    a_total: int
+    d_total: int
+    a_sh: int           # pulses of the shared stages, accel side
+    d_sh: int
+
+
+def _split(acc: list[Stage], dec: list[Stage], shared: int) -> _Split:
     acc_extra = [s for s in acc if s[0] >= shared]
     dec_extra = [s for s in dec if s[0] >= shared]
     acc_shared = [s for s in acc if s[0] < shared]
     dec_shared = [s for s in dec if s[0] < shared]
-    rate_diff = sum(p for _, _, p in acc_extra) + sum(p for _, _, p in dec_extra)
-    if pulses >= a_total + d_total:
-        cruise: Plan = [("cruise", cruise_rate, pulses - a_total - d_total)]
-        return "trapezoid", _up(acc, a_total) + cruise + _down(dec, d_total)
-    if pulses >= rate_diff:
-        rest = pulses - rate_diff
-        a_sh = sum(p for _, _, p in acc_shared)
-        d_sh = sum(p for _, _, p in dec_shared)
+    return _Split(acc_extra, dec_extra, acc_shared, dec_shared,
+                  sum(p for _, _, p in acc_extra) + sum(p for _, _, p in dec_extra),
+                  sum(p for _, _, p in acc), sum(p for _, _, p in dec),
+                  sum(p for _, _, p in acc_shared), sum(p for _, _, p in dec_shared))
+
+
+def _shape(acc: list[Stage], dec: list[Stage], pulses: int, cruise_rate: int,
+           sp: _Split) -> tuple[Shape, Plan]:
+    """Trapezoid / triangle / straight triangle for sides listed fastest first, cut by
+    `sp` into shared and rate-difference stages."""
+    if pulses >= sp.a_total + sp.d_total:
+        cruise: Plan = [("cruise", cruise_rate, pulses - sp.a_total - sp.d_total)]
+        return "trapezoid", _up(acc, sp.a_total) + cruise + _down(dec, sp.d_total)
+    if pulses >= sp.rate_diff:
+        rest = pulses - sp.rate_diff
+        a_sh, d_sh = sp.a_sh, sp.d_sh
         # The chip keeps the table's accel:decel ratio; the accel share rounds down.
         q_acc = rest * a_sh // (a_sh + d_sh) if a_sh + d_sh else 0
         q_dec = rest - q_acc
-        up = _up(acc_extra, rate_diff if acc_extra else 0) + _up(acc_shared, q_acc)
-        down = _down(dec_shared, q_dec) + _down(dec_extra, rate_diff if dec_extra else 0)
+        up = (_up(sp.acc_extra, sp.rate_diff if sp.acc_extra else 0)
+              + _up(sp.acc_shared, q_acc))
+        down = (_down(sp.dec_shared, q_dec)
+                + _down(sp.dec_extra, sp.rate_diff if sp.dec_extra else 0))
         if up:
             # With LE=1 the split can end the accel below the stage the decel share starts
             # on; decelerating never speeds up, so those decel pulses run at the peak rate.
             peak = min(rate for _, rate, _ in up)
             down = [(phase, max(rate, peak), n) for phase, rate, n in down]
         return "triangle", up + down
-    if any(p for _, _, p in acc_extra):
-        return "straight_triangle_accel", _up(acc_extra, pulses)
-    return "straight_triangle_decel", _down(dec_extra, pulses)
+    if any(p for _, _, p in sp.acc_extra):
+        return "straight_triangle_accel", _up(sp.acc_extra, pulses)
+    return "straight_triangle_decel", _down(sp.dec_extra, pulses)
 
 
 def _no_accel(acc: list[Stage], dec: list[Stage], pulses: int,
@@ -453,25 +488,25 @@ def _no_accel(acc: list[Stage], dec: list[Stage], pulses: int,
     return "straight_triangle_decel", _down(tail, pulses)
 
 
-def _from_slow_end(side: Iterable[Stage], count: int, phase: Phase) -> Plan:
+def _from_slow_end(side: list[Stage], count: int, phase: Phase) -> Plan:
     """`count` pulses of a side taken from its slow end, slowest stage first."""
     out: Plan = []
-    for _, rate, p in reversed(list(side)):
+    for _, rate, p in reversed(side):
         if count <= 0:
             break
-        take = min(p, count)
+        take = p if p < count else count  # (a hot loop: every move family runs it)
         if take:
             out.append((phase, rate, take))
         count -= take
     return out
 
 
-def _up(side: Iterable[Stage], count: int) -> Plan:
+def _up(side: list[Stage], count: int) -> Plan:
     """The first `count` pulses of a side run slowest → fastest (accelerating)."""
     return _from_slow_end(side, count, "accel")
 
 
-def _down(side: Iterable[Stage], count: int) -> Plan:
+def _down(side: list[Stage], count: int) -> Plan:
     """The last `count` pulses of a side run fastest → slowest (decelerating)."""
     return _from_slow_end(side, count, "decel")[::-1]
 
