@@ -51,8 +51,9 @@ class PhysicsResult:
         return self.angle_deg / self.full_step_deg
 
     def to_json(self) -> dict[str, object]:
-        return {"worst_load_angle_deg": self.worst_angle_deg, "margin_deg": self.margin_deg,
-                "stable": self.stable, "slipped": self.slipped,
+        return {"worst_load_angle_deg": abs(self.worst_angle_deg),
+                "rotor": "behind the field" if self.worst_angle_deg >= 0 else "ahead of the field",
+                "margin_deg": self.margin_deg, "stable": self.stable, "slipped": self.slipped,
                 "worst_time_s": self.worst_time_s, "slip_time_s": self.slip_time_s}
 
 
