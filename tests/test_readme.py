@@ -32,5 +32,6 @@ def test_python_example_runs(monkeypatch: pytest.MonkeyPatch,
     monkeypatch.setenv("MPLBACKEND", os.environ.get("MPLBACKEND", "Agg"))
     [code] = fenced("python")
     exec(compile(code, "README.md", "exec"), {})  # the README's own example
-    out = capsys.readouterr().out
-    assert out.startswith("02 ")  # the upload's command block comes first
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("worst load angle ")  # the load angle over every move
+    assert out[1].startswith("02 ")  # then the upload, its command block first
