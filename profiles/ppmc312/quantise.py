@@ -141,7 +141,8 @@ def _quantised_plan(q: _Quantised, clock: Clock, total: int) -> QuantisedPlan:
             f"LE={int(sep)}), accel {sum(acc)} + cruise {q.cruise} + decel {sum(dec)} pulses; "
             f"never ahead of the reference; worst step {worst * 1e6:.4g} µs late (pulse "
             f"{int(late_s.argmax()) + 1}), mean {mean * 1e6:.4g} µs, behind the reference by "
-            f"{end * 1e3:.4g} ms at the end (accel lateness target {q.target_ticks / clock.hz * 1e6:.4g} µs)")
+            f"{end * 1e3:.4g} ms at the end (accel lateness target "
+            f"{q.target_ticks / clock.hz * 1e6:.4g} µs)")
     return QuantisedPlan(table, worst * 1e6, mean * 1e6, info, end * 1e6)
 
 
