@@ -16,17 +16,15 @@
 
 from __future__ import annotations
 
-import argparse
-import math
 import random
 import sys
-import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from profiles.motor import bundled_motor_paths, load_motor  # noqa: E402
+from bench_planner import best_of, setup  # noqa: E402
+
 from profiles.ppmc312 import planner  # noqa: E402
 from profiles.ppmc312.clock import Clock  # noqa: E402
 from profiles.ppmc312.criterion import all_length_problems  # noqa: E402
@@ -34,18 +32,7 @@ from profiles.ppmc312.execution import move_families, simulate_move  # noqa: E40
 from profiles.ppmc312.table import FreeCurveTable  # noqa: E402
 from verify.physics import TARGET_DEG, judge_executions  # noqa: E402
 
-MOVES = (300, 2_000, 10_000, 100_000)
 MIX = [(200, 10.0), (1_000, 5.0), (5_000, 2.0), (50_000, 1.0)]
-
-
-def best_of(n: int, fn: object) -> tuple[float, object]:
-    assert callable(fn)
-    best, out = math.inf, None
-    for _ in range(n):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
 
 
 def random_le1(rng: random.Random, stages: int = 127) -> FreeCurveTable:
@@ -65,12 +52,7 @@ def old_plan_s(motor: object, pulses: int) -> tuple[float, FreeCurveTable]:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--quick", action="store_true", help="one timing repeat, fewer moves")
-    args = ap.parse_args()
-    repeats = 1 if args.quick else 3
-    moves = MOVES[1:3] if args.quick else MOVES
-    motors = [(p.stem.removeprefix("motor-"), load_motor(p)) for p in bundled_motor_paths()]
+    repeats, moves, motors = setup()
 
     print("judge time over every move length (127 stages)")
     rng = random.Random(7)

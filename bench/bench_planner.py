@@ -77,13 +77,19 @@ def best_of(n: int, fn: object) -> tuple[float, object]:
     return best, out
 
 
-def main() -> None:
+def setup() -> tuple[int, tuple[int, ...], list[tuple[str, Motor]]]:
+    """The command line every planner bench takes: (timing repeats, moves, motors)."""
     ap = argparse.ArgumentParser()
     ap.add_argument("--quick", action="store_true", help="one timing repeat, fewer moves")
     args = ap.parse_args()
     repeats = 1 if args.quick else 3
     moves = MOVES[1:3] if args.quick else MOVES
     motors = [(p.stem.removeprefix("motor-"), load_motor(p)) for p in bundled_motor_paths()]
+    return repeats, moves, motors
+
+
+def main() -> None:
+    repeats, moves, motors = setup()
 
     print("quality: move time ratios (lower is better)")
     print(f"{'motor':22s} {'pulses':>7s} {'stages':>6s} {'table/opt':>9s} "
