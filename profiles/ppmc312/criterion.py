@@ -186,7 +186,6 @@ def switch_safe(n: np.ndarray, d: np.ndarray) -> bool:
     return bool(np.all(q_dec >= cd + 1)) and decel_only <= d[0]
 
 
-
 def length_problems(table: FreeCurveTable | InitTable, motor: Motor, pulses: Iterable[int], *,
                     high_rate: int = 0) -> list[StepProblem]:
     """The criterion over the moves of the given lengths only (the jerk rule when one of
