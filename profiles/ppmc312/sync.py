@@ -1,0 +1,561 @@
+"""Several PPMC-312 axes, one move: synchronised free-curve tables (issue 11).
+
+Each axis is its own chip with its own table; the move commands carry the
+trigger bits so every chip starts on one event input (`move_command`).
+
+time mode — every axis finishes together. Each axis gets its fastest table
+(`plan_free_curve`); the slowest keeps it. Every other axis is slowed as little
+as needed, in two steps:
+1. top-speed cap: the fastest table for the motor capped at speed v
+   (`Motor.max_pps`; below the start speed the start speed is lowered with it),
+   v found by bisection as the smallest cap whose move is not slower than the
+   target (planning stays optimal for the lower top, so the axis runs at lower
+   speeds rather than dwelling at low ones);
+2. padding: pulses move from the cruise into the stages next to the top (each
+   adds `rate_k − rate_top` clock ticks), alternately on the accel and decel
+   side, until the duration is within one tick step of the target.
+More pulses in a stage only lowers the acceleration it asks of the motor; the
+jump, start and top speeds are unchanged. The high-rate override is not used:
+it would change the chip's first-pulse latency (900 µs against 100 µs, manual
+§8-3) and so the finish on the trigger (docs/manual-notes.md).
+
+line mode — positions stay proportional (a straight joint path). The axis with
+the most pulses (L) leads. Its table is planned for an envelope motor: in L's
+pulses, the weakest of every axis's capability scaled by its pulse ratio c_i =
+N_i / N_L (a_i(c_i·v) / c_i, start, jump, top and jerk likewise), shrunk by a
+margin that absorbs rate rounding. Every other axis follows L stage by stage:
+at each of L's stage boundaries it picks the floor or ceiling of the ideal
+rate (or stays in its previous stage) so that its position at L's boundary is
+closest to the line, carrying the error forward (sigma-delta: rounding never
+accumulates); the decel side is matched backwards from the end with the same
+(shared) rates. Cruise speeds are one integer rate per chip, so L's top rate is
+searched (up to `top_slack` slower) for the top-rate pair whose ratio matches
+the pulse ratio best; a residual mismatch is cancelled by padding (split
+between the two sides so the cruise drift is centred on the line). Each
+candidate is scored by the exact deviation of the executed joint path
+(`line_deviation`), the best kept.
+
+Stall safety is judged in `verify` (profiles never imports it): planners take
+an `accept(table, motor)` callable; verify.sync passes `verify.stall`'s check.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+from typing import Literal
+
+import numpy as np
+
+from ..errors import StepRampError
+from ..motor import Motor
+from .clock import INTERNAL_HZ, Clock
+from .execution import Execution, simulate_move
+from .limits import MIN_STAGE_TICKS, RATE_MAX, RATE_MIN, SIDE_TOTAL_MAX, STAGE_PULSES_MAX
+from .planner import PlanError, _problem, plan_free_curve
+from .table import FreeCurveTable
+from .upload import encode_move
+
+Mode = Literal["time", "line"]
+Accept = Callable[[FreeCurveTable, Motor], bool]
+
+SPREAD_REL = 1e-3          # finish spread allowed: 0.1 % of the move …
+SPREAD_ABS_S = 200e-6      # … or 200 µs, whichever is larger
+CAP_BISECTIONS = 30        # top-speed cap search: at most this many plans …
+CAP_REL_TOL = 1e-3         # … until the cap is known to 0.1 % (padding does the rest)
+START_FRACTION = 0.9       # a cap below the start speed lowers the start speed to 0.9 × cap
+TOP_SLACK = 0.03           # line mode: L's top may be up to 3 % slower to match the ratio
+LINE_MARGINS = (0.97, 0.9, 0.75, 0.5)  # envelope shrink tried in turn until accepted
+LINE_STAGES = (127, 24, 6, 2)  # fewer leader stages when short axes cannot follow them all
+NEAR_BEST_PULSES = 0.25    # line candidates this close to the best deviation: take the fastest
+TRIGGER_EVENT1 = 0b01      # move command TRG 01: start when event input 1 goes low
+
+
+class SyncError(StepRampError, ValueError):
+    """Axes that cannot be synchronised as asked."""
+
+
+def spread_tolerance_s(duration_s: float) -> float:
+    """The finish spread allowed for a move of `duration_s`."""
+    return max(SPREAD_REL * duration_s, SPREAD_ABS_S)
+
+
+@dataclass(frozen=True)
+class AxisMove:
+    """One axis of a synchronised move: its table and what the chip runs."""
+
+    name: str
+    pulses: int              # signed (negative: CCW)
+    motor: Motor
+    table: FreeCurveTable
+    execution: Execution
+    fastest_s: float         # its own fastest table's duration (unsynchronised)
+    how: str                 # what was done to it, one line
+
+    @property
+    def duration_s(self) -> float:
+        return self.execution.duration_s
+
+
+@dataclass(frozen=True)
+class SyncPlan:
+    mode: Mode
+    axes: tuple[AxisMove, ...]
+    info: str
+
+    @property
+    def duration_s(self) -> float:
+        return max(a.duration_s for a in self.axes)
+
+    @property
+    def spread_s(self) -> float:
+        d = [a.duration_s for a in self.axes]
+        return max(d) - min(d)
+
+    @property
+    def unsynchronised_s(self) -> float:
+        """The slowest axis's fastest move: no synchronised move can be shorter."""
+        return max(a.fastest_s for a in self.axes)
+
+
+def move_command(axis: AxisMove, trigger: int = TRIGGER_EVENT1) -> bytes:
+    """The accel/decel move (82) of one axis, held in the command buffer until the trigger
+    (OV = 1, TRG 01: event input 1 low), so every chip wired to that input starts at once."""
+    return encode_move(abs(axis.pulses), ccw=axis.pulses < 0, override=True, trigger=trigger)
+
+
+# --------------------------------------------------------------------------- padding
+def pad_to_ticks(table: FreeCurveTable, pulses: int, target_ticks: int, *,
+                 accel_first: bool = True) -> FreeCurveTable:
+    """`table` with pulses moved from the cruise into the stages next to the top until the
+    move of `pulses` lasts as close to `target_ticks` clock ticks as possible from below.
+
+    Stage k (fastest first) gains `rates[k] − rates[0]` ticks a pulse; stages are filled
+    from the top down, each amount split between the accel and decel side (accel first:
+    ceil half). The move stays a trapezoid (accel + decel ≤ pulses) and every count and side
+    total stays in the chip's range. Counts only grow: no stage asks more of the motor.
+    """
+    acc = list(table.accel_pulses)
+    dec = list(table.decel)
+    rates = table.rates
+    cruise = pulses - sum(acc) - sum(dec)
+    gap = target_ticks - simulate_move(table, pulses).ticks
+    if cruise < 0:
+        raise SyncError(f"the table's accel + decel pulses exceed the {pulses}-pulse move")
+    sides = [acc, dec] if accel_first else [dec, acc]
+    for k in range(1, len(rates)):
+        d = rates[k] - rates[0]
+        if gap < d or cruise <= 0:
+            continue
+        want = min(gap // d, cruise)
+        first = (want + 1) // 2
+        for side, share in ((sides[0], first), (sides[1], want - first)):
+            if k >= len(side):
+                continue
+            q = min(share, STAGE_PULSES_MAX - side[k], SIDE_TOTAL_MAX - sum(side), cruise,
+                    gap // d)
+            q = max(q, 0)
+            side[k] += q
+            cruise -= q
+            gap -= q * d
+        # the other side may have had no room: give the rest to whichever has
+        for side in sides:
+            if k < len(side) and gap >= d and cruise > 0:
+                q = max(min(gap // d, cruise, STAGE_PULSES_MAX - side[k],
+                            SIDE_TOTAL_MAX - sum(side)), 0)
+                side[k] += q
+                cruise -= q
+                gap -= q * d
+    return _table(table.clock, rates, acc, dec)
+
+
+def _table(clock: Clock, rates: Sequence[int], acc: Sequence[int],
+           dec: Sequence[int]) -> FreeCurveTable:
+    """LE=0 when both sides count alike, else LE=1."""
+    same = list(acc) == list(dec)
+    return FreeCurveTable(clock, tuple(int(r) for r in rates), tuple(int(a) for a in acc),
+                          None if same else tuple(int(d) for d in dec))
+
+
+# --------------------------------------------------------------------------- time mode
+def _capped(motor: Motor, v_pps: float) -> Motor:
+    """The motor limited to top speed v (start speed lowered to START_FRACTION·v if needed,
+    the jump limit kept): any table safe for it is safe for `motor`."""
+    start = min(motor.start_pps, START_FRACTION * v_pps)
+    return replace(motor, max_pps=v_pps, start_pps=start, max_jump_pps=motor.jump_pps)
+
+
+def _fastest(motor: Motor, pulses: int) -> tuple[FreeCurveTable, Execution]:
+    table = plan_free_curve(motor, pulses=pulses).table
+    return table, simulate_move(table, pulses)
+
+
+def slow_to(motor: Motor, pulses: int, target_s: float, *,
+            accept: Accept | None = None) -> tuple[FreeCurveTable, str]:
+    """The table whose move of `pulses` lasts `target_s` (to a tick step): capped top speed,
+    then padding (see the module docstring)."""
+    fast, exe = _fastest(motor, pulses)
+    if exe.duration_s >= target_s:
+        return fast, "fastest table"
+    hi = fast.clock.hz / fast.rates[0]           # the uncapped table's top: fast enough
+    lo = max(pulses / target_s / 2, 1e-3)        # cruising at it alone takes 2 × target
+    best: tuple[FreeCurveTable, float] = (fast, hi)
+
+    def attempt(v: float) -> FreeCurveTable | None:
+        try:
+            table = plan_free_curve(_capped(motor, v), pulses=pulses).table
+        except PlanError:
+            return None
+        if accept is not None and not accept(table, motor):
+            return None
+        return table
+
+    for _ in range(CAP_BISECTIONS):
+        if hi / lo < 1 + CAP_REL_TOL:
+            break
+        v = math.sqrt(lo * hi)
+        table = attempt(v)
+        if table is not None and simulate_move(table, pulses).duration_s <= target_s:
+            hi, best = v, (table, v)
+        else:
+            lo = v
+    table, v = best
+    target_ticks = math.floor(target_s * table.clock.hz + 1e-6)
+    before = table
+    padded = pad_to_ticks(table, pulses, target_ticks)
+    if accept is not None and not accept(padded, motor):
+        padded = before  # keep the capped table: its spread is reported as is
+    added = padded.accel_total + padded.decel_total - (before.accel_total + before.decel_total)
+    how = (f"top capped at {padded.clock.hz / padded.rates[0]:.6g} pps "
+           f"(fastest {fast.clock.hz / fast.rates[0]:.6g} pps), {added} pulses padded")
+    return padded, how
+
+
+def plan_time_sync(axes: Sequence[tuple[str, Motor, int]], *,
+                   accept: Accept | None = None) -> SyncPlan:
+    """Every axis finishes with the slowest one (see the module docstring).
+
+    `axes`: (name, motor, signed pulses). `accept(table, motor)` vets a slowed table
+    (verify passes the stall check); None accepts every table the planner makes.
+    """
+    fastest = []
+    for name, motor, pulses in axes:
+        n = _distance(name, pulses)
+        table, exe = _fastest(motor, n)
+        fastest.append((table, exe))
+    target = max(exe.duration_s for _, exe in fastest)
+    out = []
+    for (name, motor, pulses), (table, exe) in zip(axes, fastest, strict=True):
+        n = abs(pulses)
+        how = "slowest axis: fastest table"
+        if exe.duration_s < target:
+            table, how = slow_to(motor, n, target, accept=accept)
+        out.append(AxisMove(name, pulses, motor, table, simulate_move(table, n),
+                            exe.duration_s, how))
+    plan = SyncPlan("time", tuple(out), f"time: every axis ends at {target * 1e3:.6g} ms")
+    return plan
+
+
+def _distance(name: str, pulses: int) -> int:
+    n = abs(int(pulses))
+    if n < 8:
+        raise SyncError(f"axis {name}: {pulses} pulses; a free-curve move needs at least 8 "
+                        "(2 stages × 2 pulses × 2 sides)")
+    return n
+
+
+# --------------------------------------------------------------------------- line mode
+def envelope_motor(motors: Sequence[Motor], scales: Sequence[float], *,
+                   margin: float = 1.0) -> Motor:
+    """A motor in the leading axis's pulses that every axis i can follow at c_i × its speed:
+    capability min_i a_i(c_i·v)/c_i (times `margin`), start, jump, top, jerk likewise.
+
+    Between the sample speeds (every curve point of every axis, plus a uniform grid) the
+    true minimum is concave on each piece, so the linear interpolation lies below it: safe.
+    """
+    c = np.asarray(scales, dtype=float)
+    top = min(m.top_pps / ci for m, ci in zip(motors, c, strict=True))
+    pts = [np.linspace(0.0, top, 401)]
+    pts += [m.curve_speed_pps / ci for m, ci in zip(motors, c, strict=True)]
+    v = np.unique(np.concatenate(pts))
+    v = v[v <= top]
+    a_acc = np.min([m.a_acc_pps2(ci * v) / ci for m, ci in zip(motors, c, strict=True)], axis=0)
+    a_dec = np.min([m.a_dec_pps2(ci * v) / ci for m, ci in zip(motors, c, strict=True)], axis=0)
+    a_acc, a_dec = margin * a_acc, margin * a_dec
+    dead = np.flatnonzero(a_acc <= 0)
+    if len(dead):
+        if dead[0] == 0:
+            raise SyncError("the axes' motors cannot accelerate together from rest")
+        v, a_acc, a_dec = v[: dead[0] + 1], a_acc[: dead[0] + 1], a_dec[: dead[0] + 1]
+        top = float(v[-1])
+    friction = max(0.0, float(np.min(a_dec - a_acc)) / 2)
+    torque = np.maximum(a_acc + friction, 0.0)
+    lead = motors[int(np.argmax(c))]
+    # torque units chosen so the largest is 10 (Motor's fields have sane ranges):
+    # acceleration = torque × k, k = steps_per_rev / (2π·inertia)
+    k = max(float(np.max(torque)), 1e-9) / 10
+    jerks = [m.max_jerk_pps3 / ci for m, ci in zip(motors, c, strict=True)
+             if m.max_jerk_pps3 is not None]
+    return Motor(steps_per_rev=lead.steps_per_rev, curve_speed_pps=v, curve_torque_nm=torque / k,
+                 inertia_kgm2=lead.steps_per_rev / (2 * math.pi * k), safety_factor=1.0,
+                 start_pps=min(m.start_pps / ci for m, ci in zip(motors, c, strict=True)),
+                 friction_torque_nm=friction / k,
+                 max_jump_pps=min(m.jump_pps / ci for m, ci in zip(motors, c, strict=True)),
+                 max_pps=top, max_jerk_pps3=min(jerks) if jerks else None,
+                 name="envelope of " + ", ".join(m.name or "motor" for m in motors))
+
+
+def _clock_for(slowest_pps: float) -> Clock:
+    """The fastest internal clock whose rate for the slowest speed fits 16 bits."""
+    for name, hz in INTERNAL_HZ.items():
+        if math.ceil(hz / slowest_pps) <= RATE_MAX:
+            return Clock.internal(name)
+    raise SyncError(f"a following axis would run at {slowest_pps:.4g} pps, slower than any "
+                    "internal clock allows")
+
+
+def cap_top(table: FreeCurveTable, rate: int) -> FreeCurveTable:
+    """`table` with its top at `rate` (≥ the current top rate): faster stages dropped, a
+    minimal top stage added if `rate` is not a stage rate. Every step is at most the old one,
+    every count unchanged: the capability asked never grows."""
+    if rate <= table.rates[0]:
+        return table
+    keep = [k for k, r in enumerate(table.rates) if r > rate]
+    top_n = max(2, math.ceil(MIN_STAGE_TICKS / rate))
+    rates = [rate] + [table.rates[k] for k in keep]
+    acc = [top_n] + [table.accel_pulses[k] for k in keep if k < len(table.accel_pulses)]
+    dec = [top_n] + [table.decel[k] for k in keep if k < len(table.decel)]
+    if rate in table.rates:
+        k = table.rates.index(rate)
+        acc[0] = table.accel_pulses[k] if k < len(table.accel_pulses) else top_n
+        dec[0] = table.decel[k] if k < len(table.decel) else top_n
+    return _table(table.clock, rates, acc, dec)
+
+
+def _least_counts(motor: Motor, clock: Clock) -> Callable[[int, int], tuple[int, int]] | None:
+    """(accel, decel) least stage counts the motor needs to step from rate r_slow up to
+    r_fast (r_fast 0: the top stage), with the chip's 2-pulse and 256-tick minima: the
+    planner's own count rule."""
+    try:
+        counts = _problem(motor, clock, True).counts
+    except PlanError:
+        return None
+
+    def least(r_slow: int, r_fast: int) -> tuple[int, int]:
+        base = max(2, math.ceil(MIN_STAGE_TICKS / r_slow))
+        if r_fast <= 0:
+            return base, base
+        n, d, _ = counts(np.array([r_slow]), np.array([r_fast]))
+        big = STAGE_PULSES_MAX + 1
+        return (int(min(max(n[0], base), big)), int(min(max(d[0], base), big)))
+    return least
+
+
+def joint_tables(lead: FreeCurveTable, dist: Sequence[int], lead_i: int,
+                 motors: Sequence[Motor]) -> list[FreeCurveTable] | None:
+    """Tables for every axis that follow `lead`'s speed profile scaled by N_i / N_lead, on
+    common stage boundaries (see the module docstring). None if some axis has no legal one.
+
+    Each stage lasts the longest any axis needs (its least counts at its own rates); at each
+    boundary every axis picks the floor or ceiling of its ideal rate whichever leaves its
+    position closest to the line (errors carried, not accumulated); the decel side is
+    matched backwards from the end with the same rates. The top rate of each axis is the
+    one whose cruise lasts closest to the leader's."""
+    n_l = len(lead.rates)
+    if len(lead.accel_pulses) != n_l or len(lead.decel) != n_l:
+        return None
+    hz_l = lead.clock.hz
+    m = len(dist)
+    scale = [d / dist[lead_i] for d in dist]
+    clocks = [lead.clock if i == lead_i else _clock_for(hz_l / lead.rates[-1] * scale[i])
+              for i in range(m)]
+    leasts = [_least_counts(mo, c) for mo, c in zip(motors, clocks, strict=True)]
+    if any(x is None for x in leasts):
+        return None
+    ideal = [[r * clocks[i].hz / (hz_l * scale[i]) for r in lead.rates] for i in range(m)]
+    guess = [[max(RATE_MIN, round(x)) for x in row] for row in ideal]
+    v_lead = [hz_l / r for r in lead.rates]          # fastest first
+
+    def durations(side: Sequence[int], which: int) -> list[float]:
+        out = []
+        for f in range(n_l):
+            t = side[f] * lead.rates[f] / hz_l
+            for i in range(m):
+                lst = leasts[i]
+                assert lst is not None
+                nxt = guess[i][f - 1] if f > 0 else 0
+                if nxt >= guess[i][f]:
+                    nxt = guess[i][f] - 1
+                t = max(t, lst(guess[i][f], nxt)[which] * guess[i][f] / clocks[i].hz)
+            out.append(t)
+        return out
+
+    t_acc = durations(lead.accel_pulses, 0)
+    t_dec = durations(lead.decel, 1)
+    s_acc = sum(t * v for t, v in zip(t_acc, v_lead, strict=True)) / dist[lead_i]
+    s_dec = sum(t * v for t, v in zip(t_dec, v_lead, strict=True)) / dist[lead_i]
+    if s_acc + s_dec > 1:
+        return None
+    t_cruise = (1 - s_acc - s_dec) * dist[lead_i] / v_lead[0]
+    tables = []
+    for i in range(m):
+        lst = leasts[i]
+        assert lst is not None
+        hz = clocks[i].hz
+        rates: list[int] = []   # slowest first
+        acc: list[int] = []
+        tau = 0.0
+        pos = 0
+        t_end = 0.0
+        p_end = 0.0
+        for f in range(n_l - 1, -1, -1):
+            t_end += t_acc[f]
+            p_end += t_acc[f] * v_lead[f] * scale[i]
+            prev = rates[-1] if rates else RATE_MAX + 1
+            if f == 0:   # the top: the rate whose cruise lasts closest to the leader's
+                c_i = dist[i] * (1 - s_acc - s_dec)
+                opts = {math.floor(ideal[i][0]), math.ceil(ideal[i][0])}
+                opts = {r for r in opts if RATE_MIN <= r < prev} or {prev - 1}
+                rr = min(opts, key=lambda r: abs(c_i * r / hz - t_cruise))
+            else:
+                opts = {r for r in (math.floor(ideal[i][f]), math.ceil(ideal[i][f]))
+                        if RATE_MIN <= r < prev} or {prev - 1}
+                rr = min(opts, key=lambda r: abs(pos + (t_end - tau) * hz / r - p_end))
+            if rr < RATE_MIN:
+                return None
+            if rates:  # the step up to rr within the motor's capability
+                low = lst(rates[-1], rr)[0]
+                if acc[-1] < low:
+                    tau += (low - acc[-1]) * rates[-1] / hz
+                    pos += low - acc[-1]
+                    acc[-1] = low
+            nn = max(round((t_end - tau) * hz / rr), lst(rr, 0)[0])
+            rates.append(rr)
+            acc.append(nn)
+            tau += nn * rr / hz
+            pos += nn
+        dec: list[int] = []
+        u = 0.0
+        u_end = 0.0
+        for j in range(n_l):          # slowest first = last in time first
+            f = n_l - 1 - j
+            u_end += t_dec[f]
+            nxt = rates[j + 1] if j + 1 < n_l else 0
+            nn = max(round((u_end - u) * hz / rates[j]), lst(rates[j], nxt)[1])
+            dec.append(nn)
+            u += nn * rates[j] / hz
+        rates_f, acc_f, dec_f = rates[::-1], acc[::-1], dec[::-1]
+        if (sum(acc_f) + sum(dec_f) > dist[i] or max(acc_f + dec_f) > STAGE_PULSES_MAX
+                or max(sum(acc_f), sum(dec_f)) > SIDE_TOTAL_MAX):
+            return None
+        tables.append(_table(clocks[i], rates_f, acc_f, dec_f))
+    return tables
+
+
+def joint_path(executions: Sequence[Execution]) -> tuple[np.ndarray, np.ndarray]:
+    """Every instant any axis emits a pulse (and t = 0), and every axis's pulses emitted by
+    then (pulses at that instant included): the joint path as the chips emit it. Between two
+    such instants nothing moves, so these states are all the path's states."""
+    times = [e.pulse_times_s() for e in executions]
+    t = np.unique(np.concatenate([[0.0], *times]))
+    x = np.stack([np.searchsorted(ti, t, side="right") for ti in times], axis=1)
+    return t, x
+
+
+def line_deviation(executions: Sequence[Execution]) -> tuple[float, np.ndarray, np.ndarray]:
+    """(largest distance, instants, distance at each instant) between the joint path and the
+    straight line from the start to the end, in pulses (every axis's pulse one unit)."""
+    t, x = joint_path(executions)
+    end = np.array([e.pulses for e in executions], dtype=float)
+    u = end / np.linalg.norm(end)
+    xf = x.astype(float)
+    resid = xf - np.outer(xf @ u, u)
+    d = np.sqrt(np.sum(resid * resid, axis=1))
+    return float(d.max()), t, d
+
+
+def plan_line_sync(axes: Sequence[tuple[str, Motor, int]], *, top_slack: float = TOP_SLACK,
+                   accept: Accept | None = None) -> SyncPlan:
+    """Positions stay proportional (see the module docstring). `axes`: (name, motor, signed
+    pulses); `accept(table, motor)` vets every table (verify passes the stall check)."""
+    dist = [_distance(name, p) for name, _, p in axes]
+    lead_i = int(np.argmax(dist))
+    scales = [d / dist[lead_i] for d in dist]
+    motors = [m for _, m, _ in axes]
+    fastest_s = [_fastest(m, d)[1].duration_s for m, d in zip(motors, dist, strict=True)]
+    for stages in LINE_STAGES:
+        for margin in LINE_MARGINS:
+            plan = _line_attempt(axes, dist, lead_i, scales, motors, fastest_s, margin,
+                                 top_slack, accept, stages)
+            if plan is not None:
+                return plan
+    raise SyncError("no set of line-synchronised tables passed the stall check; the axes' "
+                    "pulse ratio may need speeds below what the clocks can run")
+
+
+def finish_together(tables: Sequence[FreeCurveTable], dist: Sequence[int]
+                    ) -> list[FreeCurveTable] | None:
+    """Every table padded to end with the slowest (None if one cannot be)."""
+    exes = [simulate_move(t, n) for t, n in zip(tables, dist, strict=True)]
+    end = max(e.duration_s for e in exes)
+    out = []
+    for t, n, e in zip(tables, dist, exes, strict=True):
+        if e.duration_s == end:
+            out.append(t)
+            continue
+        try:
+            out.append(pad_to_ticks(t, n, math.floor(end * t.clock.hz + 1e-6)))
+        except SyncError:
+            return None
+    return out
+
+
+def _line_attempt(axes: Sequence[tuple[str, Motor, int]], dist: list[int], lead_i: int,
+                  scales: list[float], motors: list[Motor], fastest_s: list[float],
+                  margin: float, top_slack: float, accept: Accept | None,
+                  max_stages: int) -> SyncPlan | None:
+    env = envelope_motor(motors, scales, margin=margin)
+    try:
+        base = plan_free_curve(env, pulses=dist[lead_i], max_stages=max_stages).table
+    except PlanError:
+        return None
+    r0 = base.rates[0]
+    tops = list(range(r0, max(r0, math.floor(r0 * (1 + top_slack))) + 1))[:64]
+    candidates = []
+    for r_top in tops:
+        tables = joint_tables(cap_top(base, r_top), dist, lead_i, motors)
+        if tables is None:
+            continue
+        tables = finish_together(tables, dist)
+        if tables is None:
+            continue
+        if accept is not None and not all(accept(t, mo) for t, mo in
+                                          zip(tables, motors, strict=True)):
+            continue
+        exes = [simulate_move(t, n) for t, n in zip(tables, dist, strict=True)]
+        dev = line_deviation(exes)[0]
+        candidates.append((dev, max(e.duration_s for e in exes), r_top, tables, exes))
+    if not candidates:
+        return None
+    best_dev = min(c[0] for c in candidates)
+    near = [c for c in candidates if c[0] <= best_dev + NEAR_BEST_PULSES]
+    dev, _, r_top, tables, exes = min(near, key=lambda c: (c[1], c[0]))
+    out = []
+    for i, (name, motor, pulses) in enumerate(axes):
+        how = (f"leads (envelope of all axes × {margin:g}, top rate {r_top})" if i == lead_i
+               else f"follows at {scales[i]:.6g} × the leader's speed, top rate "
+                    f"{tables[i].rates[0]}")
+        out.append(AxisMove(name, pulses, motor, tables[i], exes[i], fastest_s[i], how))
+    return SyncPlan("line", tuple(out),
+                    f"line: leader {axes[lead_i][0]}, {len(candidates)} top rates tried, "
+                    f"deviation {dev:.4g} pulses")
+
+
+def plan_sync(axes: Sequence[tuple[str, Motor, int]], mode: Mode, *,
+              accept: Accept | None = None) -> SyncPlan:
+    if mode == "time":
+        return plan_time_sync(axes, accept=accept)
+    if mode == "line":
+        return plan_line_sync(axes, accept=accept)
+    raise SyncError(f"mode: {mode!r} is not 'time' or 'line'")
