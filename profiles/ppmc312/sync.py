@@ -68,6 +68,7 @@ START_FRACTION = 0.9       # a cap below the start speed lowers the start speed 
 TOP_SLACK = 0.03           # line mode: L's top may be up to 3 % slower to match the ratio
 LINE_MARGINS = (0.97, 0.9, 0.75, 0.5)  # envelope shrink tried in turn until accepted
 LINE_STAGES = (127, 24, 6, 2)  # fewer leader stages when short axes cannot follow them all
+LINE_TOPS = 24             # top rates tried at most (the fastest ones)
 NEAR_BEST_PULSES = 0.25    # line candidates this close to the best deviation: take the fastest
 TRIGGER_EVENT1 = 0b01      # move command TRG 01: start when event input 1 goes low
 
@@ -453,26 +454,33 @@ def joint_tables(lead: FreeCurveTable, dist: Sequence[int], lead_i: int,
     return tables
 
 
-def joint_path(executions: Sequence[Execution]) -> tuple[np.ndarray, np.ndarray]:
+def joint_path(pulse_times: Sequence[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """Every instant any axis emits a pulse (and t = 0), and every axis's pulses emitted by
-    then (pulses at that instant included): the joint path as the chips emit it. Between two
-    such instants nothing moves, so these states are all the path's states."""
-    times = [e.pulse_times_s() for e in executions]
-    t = np.unique(np.concatenate([[0.0], *times]))
-    x = np.stack([np.searchsorted(ti, t, side="right") for ti in times], axis=1)
+    then (pulses at that instant included), from each axis's sorted pulse instants: the
+    joint path as the chips emit it. Between two such instants nothing moves, so these
+    states are all the states the path passes through."""
+    t = np.unique(np.concatenate([np.zeros(1), *pulse_times]))
+    x = np.stack([np.searchsorted(ti, t, side="right") for ti in pulse_times], axis=1)
     return t, x
 
 
-def line_deviation(executions: Sequence[Execution]) -> tuple[float, np.ndarray, np.ndarray]:
+def line_deviation_times(pulse_times: Sequence[np.ndarray]
+                         ) -> tuple[float, np.ndarray, np.ndarray]:
     """(largest distance, instants, distance at each instant) between the joint path and the
-    straight line from the start to the end, in pulses (every axis's pulse one unit)."""
-    t, x = joint_path(executions)
-    end = np.array([e.pulses for e in executions], dtype=float)
+    straight line from the start to the end point, in pulses (each axis's pulse one unit),
+    from each axis's pulse instants (its length is its pulse count)."""
+    t, x = joint_path(pulse_times)
+    end = np.array([len(ti) for ti in pulse_times], dtype=float)
     u = end / np.linalg.norm(end)
     xf = x.astype(float)
-    resid = xf - np.outer(xf @ u, u)
-    d = np.sqrt(np.sum(resid * resid, axis=1))
+    resid = xf - np.outer(xf @ u, u)   # the component off the line, never a difference of
+    d = np.sqrt(np.sum(resid * resid, axis=1))  # squares (that cancels at 1e6 pulses)
     return float(d.max()), t, d
+
+
+def line_deviation(executions: Sequence[Execution]) -> tuple[float, np.ndarray, np.ndarray]:
+    """`line_deviation_times` of the chips' executions (moves up to 10 M pulses an axis)."""
+    return line_deviation_times([e.pulse_times_s() for e in executions])
 
 
 def plan_line_sync(axes: Sequence[tuple[str, Motor, int]], *, top_slack: float = TOP_SLACK,
@@ -521,7 +529,7 @@ def _line_attempt(axes: Sequence[tuple[str, Motor, int]], dist: list[int], lead_
     except PlanError:
         return None
     r0 = base.rates[0]
-    tops = list(range(r0, max(r0, math.floor(r0 * (1 + top_slack))) + 1))[:64]
+    tops = list(range(r0, max(r0, math.floor(r0 * (1 + top_slack))) + 1))[:LINE_TOPS]
     candidates = []
     for r_top in tops:
         tables = joint_tables(cap_top(base, r_top), dist, lead_i, motors)
