@@ -35,8 +35,9 @@ between the two sides so the cruise drift is centred on the line). Each
 candidate is scored by the exact deviation of the executed joint path
 (`line_deviation`), the best kept.
 
-Stall safety is judged in `verify` (profiles never imports it): planners take
-an `accept(table, motor)` callable; verify.sync passes `verify.stall`'s check.
+Stall safety: every table made here is vetted by `accept(table, motor)`, by
+default `criterion.all_length_safe` (the criterion over every move length the
+chip can run with the table, the one `verify.stall.check_stall` reports).
 """
 
 from __future__ import annotations
@@ -51,6 +52,7 @@ import numpy as np
 from ..errors import StepRampError
 from ..motor import Motor
 from .clock import INTERNAL_HZ, Clock
+from .criterion import all_length_safe
 from .execution import Execution, simulate_move
 from .limits import MIN_STAGE_TICKS, RATE_MAX, RATE_MIN, SIDE_TOTAL_MAX, STAGE_PULSES_MAX
 from .planner import PlanError, _problem, plan_free_curve
@@ -67,7 +69,7 @@ CAP_REL_TOL = 1e-3         # … until the cap is known to 0.1 % (padding does t
 START_FRACTION = 0.9       # a cap below the start speed lowers the start speed to 0.9 × cap
 TOP_SLACK = 0.03           # line mode: L's top may be up to 3 % slower to match the ratio
 LINE_MARGINS = (0.97, 0.9, 0.75, 0.5)  # envelope shrink tried in turn until accepted
-LINE_STAGES = (127, 24, 6, 2)  # fewer leader stages when short axes cannot follow them all
+LINE_STAGES = (24, 6, 2)   # fallbacks: fewer leader stages when short axes cannot follow
 LINE_TOPS = 24             # top rates tried at most (the fastest ones)
 NEAR_BEST_PULSES = 0.25    # line candidates this close to the best deviation: take the fastest
 TRIGGER_EVENT1 = 0b01      # move command TRG 01: start when event input 1 goes low
@@ -128,14 +130,16 @@ def move_command(axis: AxisMove, trigger: int = TRIGGER_EVENT1) -> bytes:
 
 # --------------------------------------------------------------------------- padding
 def pad_to_ticks(table: FreeCurveTable, pulses: int, target_ticks: int, *,
-                 accel_first: bool = True) -> FreeCurveTable:
+                 accel_first: bool = True, symmetric: bool = False) -> FreeCurveTable:
     """`table` with pulses moved from the cruise into the stages next to the top until the
     move of `pulses` lasts as close to `target_ticks` clock ticks as possible from below.
 
     Stage k (fastest first) gains `rates[k] − rates[0]` ticks a pulse; stages are filled
     from the top down, each amount split between the accel and decel side (accel first:
-    ceil half). The move stays a trapezoid (accel + decel ≤ pulses) and every count and side
-    total stays in the chip's range. Counts only grow: no stage asks more of the motor.
+    ceil half). `symmetric`: both sides always gain alike (an LE=0 table stays LE=0; the
+    step is then two pulses). The move stays a trapezoid (accel + decel ≤ pulses) and every
+    count and side total stays in the chip's range. Counts only grow: no stage asks more
+    of the motor.
     """
     acc = list(table.accel_pulses)
     dec = list(table.decel)
@@ -145,29 +149,33 @@ def pad_to_ticks(table: FreeCurveTable, pulses: int, target_ticks: int, *,
     if cruise < 0:
         raise SyncError(f"the table's accel + decel pulses exceed the {pulses}-pulse move")
     sides = [acc, dec] if accel_first else [dec, acc]
+
+    def room(side: list[int], k: int) -> int:
+        return max(min(STAGE_PULSES_MAX - side[k], SIDE_TOTAL_MAX - sum(side)), 0) \
+            if k < len(side) else 0
+
     for k in range(1, len(rates)):
         d = rates[k] - rates[0]
+        if symmetric:
+            if k >= len(acc) or k >= len(dec):
+                continue
+            q = max(min(gap // (2 * d), cruise // 2, room(acc, k), room(dec, k)), 0)
+            acc[k] += q
+            dec[k] += q
+            cruise -= 2 * q
+            gap -= 2 * q * d
+            continue
         if gap < d or cruise <= 0:
             continue
-        want = min(gap // d, cruise)
-        first = (want + 1) // 2
-        for side, share in ((sides[0], first), (sides[1], want - first)):
-            if k >= len(side):
-                continue
-            q = min(share, STAGE_PULSES_MAX - side[k], SIDE_TOTAL_MAX - sum(side), cruise,
-                    gap // d)
-            q = max(q, 0)
+        # half (rounded up) to the first side, the rest to the other, then any rest the
+        # other side had no room for back to the first
+        for side, cap in ((sides[0], (min(gap // d, cruise) + 1) // 2), (sides[1], None),
+                          (sides[0], None)):
+            q = max(min(gap // d, cruise, room(side, k),
+                        cap if cap is not None else cruise), 0)
             side[k] += q
             cruise -= q
             gap -= q * d
-        # the other side may have had no room: give the rest to whichever has
-        for side in sides:
-            if k < len(side) and gap >= d and cruise > 0:
-                q = max(min(gap // d, cruise, STAGE_PULSES_MAX - side[k],
-                            SIDE_TOTAL_MAX - sum(side)), 0)
-                side[k] += q
-                cruise -= q
-                gap -= q * d
     return _table(table.clock, rates, acc, dec)
 
 
@@ -193,7 +201,7 @@ def _fastest(motor: Motor, pulses: int) -> tuple[FreeCurveTable, Execution]:
 
 
 def slow_to(motor: Motor, pulses: int, target_s: float, *,
-            accept: Accept | None = None) -> tuple[FreeCurveTable, str]:
+            accept: Accept | None = all_length_safe) -> tuple[FreeCurveTable, str]:
     """The table whose move of `pulses` lasts `target_s` (to a tick step): capped top speed,
     then padding (see the module docstring)."""
     fast, exe = _fastest(motor, pulses)
@@ -223,10 +231,13 @@ def slow_to(motor: Motor, pulses: int, target_s: float, *,
             lo = v
     table, v = best
     target_ticks = math.floor(target_s * table.clock.hz + 1e-6)
-    before = table
-    padded = pad_to_ticks(table, pulses, target_ticks)
-    if accept is not None and not accept(padded, motor):
-        padded = before  # keep the capped table: its spread is reported as is
+    before = padded = table
+    # the closest padding the criterion accepts (LE=1 padding can make a short move's
+    # triangle switch too steep; symmetric padding keeps the sides alike)
+    options = sorted((pad_to_ticks(table, pulses, target_ticks, symmetric=sym)
+                      for sym in (False, True)),
+                     key=lambda t: target_ticks - simulate_move(t, pulses).ticks)
+    padded = next((t for t in options if accept is None or accept(t, motor)), before)
     added = padded.accel_total + padded.decel_total - (before.accel_total + before.decel_total)
     how = (f"top capped at {padded.clock.hz / padded.rates[0]:.6g} pps "
            f"(fastest {fast.clock.hz / fast.rates[0]:.6g} pps), {added} pulses padded")
@@ -234,11 +245,11 @@ def slow_to(motor: Motor, pulses: int, target_s: float, *,
 
 
 def plan_time_sync(axes: Sequence[tuple[str, Motor, int]], *,
-                   accept: Accept | None = None) -> SyncPlan:
+                   accept: Accept | None = all_length_safe) -> SyncPlan:
     """Every axis finishes with the slowest one (see the module docstring).
 
-    `axes`: (name, motor, signed pulses). `accept(table, motor)` vets a slowed table
-    (verify passes the stall check); None accepts every table the planner makes.
+    `axes`: (name, motor, signed pulses). `accept(table, motor)` vets a slowed table;
+    None accepts every table the planner makes.
     """
     fastest = []
     for name, motor, pulses in axes:
@@ -354,7 +365,8 @@ def _least_counts(motor: Motor, clock: Clock) -> Callable[[int, int], tuple[int,
 
 
 def joint_tables(lead: FreeCurveTable, dist: Sequence[int], lead_i: int,
-                 motors: Sequence[Motor]) -> list[FreeCurveTable] | None:
+                 motors: Sequence[Motor], *, common: bool = False
+                 ) -> list[FreeCurveTable] | None:
     """Tables for every axis that follow `lead`'s speed profile scaled by N_i / N_lead, on
     common stage boundaries (see the module docstring). None if some axis has no legal one.
 
@@ -362,7 +374,8 @@ def joint_tables(lead: FreeCurveTable, dist: Sequence[int], lead_i: int,
     boundary every axis picks the floor or ceiling of its ideal rate whichever leaves its
     position closest to the line (errors carried, not accumulated); the decel side is
     matched backwards from the end with the same rates. The top rate of each axis is the
-    one whose cruise lasts closest to the leader's."""
+    one whose cruise lasts closest to the leader's. `common`: both sides count alike (LE=0
+    tables; each stage lasts the longer of its accel and decel durations)."""
     n_l = len(lead.rates)
     if len(lead.accel_pulses) != n_l or len(lead.decel) != n_l:
         return None
@@ -394,6 +407,9 @@ def joint_tables(lead: FreeCurveTable, dist: Sequence[int], lead_i: int,
 
     t_acc = durations(lead.accel_pulses, 0)
     t_dec = durations(lead.decel, 1)
+    if common:
+        t_acc = t_dec = [max(a, d) for a, d in zip(t_acc, t_dec, strict=True)]
+    side_least = (lambda pair: max(pair)) if common else (lambda pair: pair[0])
     s_acc = sum(t * v for t, v in zip(t_acc, v_lead, strict=True)) / dist[lead_i]
     s_dec = sum(t * v for t, v in zip(t_dec, v_lead, strict=True)) / dist[lead_i]
     if s_acc + s_dec > 1:
@@ -426,20 +442,22 @@ def joint_tables(lead: FreeCurveTable, dist: Sequence[int], lead_i: int,
             if rr < RATE_MIN:
                 return None
             if rates:  # the step up to rr within the motor's capability
-                low = lst(rates[-1], rr)[0]
+                low = side_least(lst(rates[-1], rr))
                 if acc[-1] < low:
                     tau += (low - acc[-1]) * rates[-1] / hz
                     pos += low - acc[-1]
                     acc[-1] = low
             nn = max(round((t_end - tau) * hz / rr), lst(rr, 0)[0])
+            if common and rates and acc[-1] < max(lst(rates[-1], rr)):
+                acc[-1] = max(lst(rates[-1], rr))
             rates.append(rr)
             acc.append(nn)
             tau += nn * rr / hz
             pos += nn
-        dec: list[int] = []
+        dec: list[int] = list(acc) if common else []
         u = 0.0
         u_end = 0.0
-        for j in range(n_l):          # slowest first = last in time first
+        for j in range(0 if common else n_l):          # slowest first = last in time first
             f = n_l - 1 - j
             u_end += t_dec[f]
             nxt = rates[j + 1] if j + 1 < n_l else 0
@@ -484,26 +502,47 @@ def line_deviation(executions: Sequence[Execution]) -> tuple[float, np.ndarray, 
 
 
 def plan_line_sync(axes: Sequence[tuple[str, Motor, int]], *, top_slack: float = TOP_SLACK,
-                   accept: Accept | None = None) -> SyncPlan:
+                   accept: Accept | None = all_length_safe) -> SyncPlan:
     """Positions stay proportional (see the module docstring). `axes`: (name, motor, signed
-    pulses); `accept(table, motor)` vets every table (verify passes the stall check)."""
+    pulses); `accept(table, motor)` vets every table."""
     dist = [_distance(name, p) for name, _, p in axes]
     lead_i = int(np.argmax(dist))
     scales = [d / dist[lead_i] for d in dist]
     motors = [m for _, m, _ in axes]
     fastest_s = [_fastest(m, d)[1].duration_s for m, d in zip(motors, dist, strict=True)]
+    # Every leader stage must last at least 2 pulses of every follower: many short stages
+    # slow a far shorter axis down, so a leader of fewer stages is planned too (about a
+    # third of the shortest follower's ramp pulses) and the better plan kept.
+    env = envelope_motor(motors, scales)
+    try:
+        ramp = plan_free_curve(env, pulses=dist[lead_i]).table.accel_total
+    except PlanError:
+        ramp = 0
+    few = max(2, min(127, int(min([s * ramp for s in scales]) / 3)))
+    plans: list[tuple[float, SyncPlan]] = []
+    for stages in sorted({127, few}, reverse=True):
+        for margin in LINE_MARGINS:
+            found = _line_attempt(axes, dist, lead_i, scales, motors, fastest_s, margin,
+                                  top_slack, accept, stages)
+            if found is not None:
+                plans.append(found)
+                break
+    if plans:
+        best = min(p[0] for p in plans)
+        return min((p for p in plans if p[0] <= best + NEAR_BEST_PULSES),
+                   key=lambda p: p[1].duration_s)[1]
     for stages in LINE_STAGES:
         for margin in LINE_MARGINS:
-            plan = _line_attempt(axes, dist, lead_i, scales, motors, fastest_s, margin,
-                                 top_slack, accept, stages)
-            if plan is not None:
-                return plan
+            found = _line_attempt(axes, dist, lead_i, scales, motors, fastest_s, margin,
+                                  top_slack, accept, stages)
+            if found is not None:
+                return found[1]
     raise SyncError("no set of line-synchronised tables passed the stall check; the axes' "
                     "pulse ratio may need speeds below what the clocks can run")
 
 
-def finish_together(tables: Sequence[FreeCurveTable], dist: Sequence[int]
-                    ) -> list[FreeCurveTable] | None:
+def finish_together(tables: Sequence[FreeCurveTable], dist: Sequence[int], *,
+                    symmetric: bool = False) -> list[FreeCurveTable] | None:
     """Every table padded to end with the slowest (None if one cannot be)."""
     exes = [simulate_move(t, n) for t, n in zip(tables, dist, strict=True)]
     end = max(e.duration_s for e in exes)
@@ -513,7 +552,8 @@ def finish_together(tables: Sequence[FreeCurveTable], dist: Sequence[int]
             out.append(t)
             continue
         try:
-            out.append(pad_to_ticks(t, n, math.floor(end * t.clock.hz + 1e-6)))
+            out.append(pad_to_ticks(t, n, math.floor(end * t.clock.hz + 1e-6),
+                                    symmetric=symmetric))
         except SyncError:
             return None
     return out
@@ -522,7 +562,7 @@ def finish_together(tables: Sequence[FreeCurveTable], dist: Sequence[int]
 def _line_attempt(axes: Sequence[tuple[str, Motor, int]], dist: list[int], lead_i: int,
                   scales: list[float], motors: list[Motor], fastest_s: list[float],
                   margin: float, top_slack: float, accept: Accept | None,
-                  max_stages: int) -> SyncPlan | None:
+                  max_stages: int) -> tuple[float, SyncPlan] | None:
     env = envelope_motor(motors, scales, margin=margin)
     try:
         base = plan_free_curve(env, pulses=dist[lead_i], max_stages=max_stages).table
@@ -532,36 +572,43 @@ def _line_attempt(axes: Sequence[tuple[str, Motor, int]], dist: list[int], lead_
     tops = list(range(r0, max(r0, math.floor(r0 * (1 + top_slack))) + 1))[:LINE_TOPS]
     candidates = []
     for r_top in tops:
-        tables = joint_tables(cap_top(base, r_top), dist, lead_i, motors)
-        if tables is None:
-            continue
-        tables = finish_together(tables, dist)
-        if tables is None:
-            continue
-        if accept is not None and not all(accept(t, mo) for t, mo in
-                                          zip(tables, motors, strict=True)):
-            continue
-        exes = [simulate_move(t, n) for t, n in zip(tables, dist, strict=True)]
-        dev = line_deviation(exes)[0]
-        candidates.append((dev, max(e.duration_s for e in exes), r_top, tables, exes))
-    if not candidates:
+        for common in (False, True):   # LE=1 tables, and LE=0 ones (symmetric triangles)
+            joint = joint_tables(cap_top(base, r_top), dist, lead_i, motors, common=common)
+            if joint is None:
+                continue
+            tables = finish_together(joint, dist, symmetric=common)
+            if tables is None:
+                continue
+            exes = [simulate_move(t, n) for t, n in zip(tables, dist, strict=True)]
+            dev = line_deviation(exes)[0]
+            candidates.append((dev, max(e.duration_s for e in exes), r_top, tables, exes))
+
+    # The stall criterion over every move length is the costly part: judge candidates in
+    # order of deviation, then only faster ones within NEAR_BEST_PULSES of the first passed.
+    def passes(c: tuple[float, float, int, list[FreeCurveTable], list[Execution]]) -> bool:
+        return accept is None or all(accept(t, mo) for t, mo in zip(c[3], motors, strict=True))
+
+    candidates.sort(key=lambda c: (c[0], c[1]))
+    first = next((c for c in candidates if passes(c)), None)
+    if first is None:
         return None
-    best_dev = min(c[0] for c in candidates)
-    near = [c for c in candidates if c[0] <= best_dev + NEAR_BEST_PULSES]
-    dev, _, r_top, tables, exes = min(near, key=lambda c: (c[1], c[0]))
+    near = sorted((c for c in candidates if c[0] <= first[0] + NEAR_BEST_PULSES
+                   and c[1] < first[1]), key=lambda c: c[1])
+    chosen = next((c for c in near if passes(c)), first)
+    dev, _, r_top, tables, exes = chosen
     out = []
     for i, (name, motor, pulses) in enumerate(axes):
         how = (f"leads (envelope of all axes × {margin:g}, top rate {r_top})" if i == lead_i
                else f"follows at {scales[i]:.6g} × the leader's speed, top rate "
                     f"{tables[i].rates[0]}")
         out.append(AxisMove(name, pulses, motor, tables[i], exes[i], fastest_s[i], how))
-    return SyncPlan("line", tuple(out),
-                    f"line: leader {axes[lead_i][0]}, {len(candidates)} top rates tried, "
-                    f"deviation {dev:.4g} pulses")
+    return dev, SyncPlan("line", tuple(out),
+                         f"line: leader {axes[lead_i][0]} ({len(tables[lead_i].rates)} stages), "
+                         f"{len(candidates)} candidates, deviation {dev:.4g} pulses")
 
 
 def plan_sync(axes: Sequence[tuple[str, Motor, int]], mode: Mode, *,
-              accept: Accept | None = None) -> SyncPlan:
+              accept: Accept | None = all_length_safe) -> SyncPlan:
     if mode == "time":
         return plan_time_sync(axes, accept=accept)
     if mode == "line":
