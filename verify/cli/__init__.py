@@ -25,7 +25,7 @@ from ._common import EXIT_OK, EXIT_UNUSABLE, VersionAction
 # The order here is the order of `stepramp --help`.
 COMMANDS: tuple[str, ...] = (
     "check", "show", "export", "decode", "move", "expand",
-    "plan", "simulate", "compare",
+    "plan", "simulate", "compare", "sync",
     "alink", "mc200",
 )
 

@@ -11,9 +11,13 @@ from ._common import EXIT_OK, fields_as_options, positive_int
 
 def add_subparser(sub: Any) -> None:
     s = sub.add_parser("simulate", help="what the chip runs for an accel/decel move")
-    s.add_argument("table", metavar="TABLE", help="a table file (free curve or init)")
-    s.add_argument("--pulses", type=positive_int, required=True,
-                   help="move length [pulses]")
+    s.add_argument("table", metavar="TABLE", nargs="?",
+                   help="a table file (free curve or init); or give --axes")
+    s.add_argument("--pulses", type=positive_int, help="move length [pulses] (with TABLE)")
+    s.add_argument("--axes", metavar="AXES.json",
+                   help="a stepramp.axes/1 file whose axes give tables (\"table\": …): every "
+                        "axis's move from one trigger, the joint timeline [ms], finish spread "
+                        "[µs] and line deviation [pulses]")
     s.add_argument("--high-rate", type=positive_int, default=0,
                    help="high-rate override, a rate divisor (0 = the table's)")
     s.add_argument("--format", choices=("text", "json"), default="text",
@@ -29,10 +33,18 @@ def add_subparser(sub: Any) -> None:
 
 
 def _do_simulate(args: argparse.Namespace) -> int:
+    from profiles.errors import FormatError
     from profiles.ppmc312.execution import pulse_times_csv, samples_csv, simulate_move, to_csv
     from profiles.ppmc312.table import load_table
     from verify.output import write_output
 
+    if args.axes is not None:
+        if args.table is not None or args.pulses is not None or args.high_rate:
+            raise FormatError("--axes takes the tables and pulses from the axes file: give no "
+                              "TABLE, --pulses or --high-rate with it")
+        return _simulate_axes(args)
+    if args.table is None or args.pulses is None:
+        raise FormatError("give TABLE and --pulses, or --axes AXES.json")
     table = load_table(args.table)
     with fields_as_options({"pulses": "--pulses",
                             "high_rate": "--high-rate (0: the table's)"}):
@@ -53,4 +65,35 @@ def _do_simulate(args: argparse.Namespace) -> int:
                  f"(+ {execution.first_pulse_latency_s * 1e6:.0f} µs to the first pulse)",
                  f"segments: {len(execution.segments)}"]
         write_output(None, "\n".join(lines) + "\n")
+    return EXIT_OK
+
+
+def _simulate_axes(args: argparse.Namespace) -> int:
+    from profiles.axes import load_axes
+    from profiles.errors import FormatError
+    from profiles.ppmc312.execution import simulate_move
+    from profiles.ppmc312.sync import line_deviation
+    from profiles.ppmc312.table import load_table
+    from verify.output import write_output
+    from verify.sync import joint_timeline
+
+    axes = load_axes(args.axes, load_motors=False)
+    if axes.device != "ppmc312":
+        raise FormatError(f"{args.axes}: simulate --axes runs PPMC-312 tables, not {axes.device}")
+    runs = []
+    for a in axes.axes:
+        if a.table_path is None:
+            raise FormatError(f"{args.axes}: axis {a.name} gives a motor; simulate --axes runs "
+                              "tables (\"table\": \"NAME.table.json\"; stepramp sync writes them)")
+        runs.append(simulate_move(load_table(a.table_path), a.distance))
+    names = [a.name for a in axes.axes]
+    if args.format == "json":
+        d = [e.duration_s for e in runs]
+        doc = {"axes": [{"name": n, "pulses": a.pulses, **e.to_json()}
+                        for n, a, e in zip(names, axes.axes, runs, strict=True)],
+               "finish_spread_s": max(d) - min(d),
+               "max_line_deviation_pulses": line_deviation(runs)[0]}
+        write_output(None, json.dumps(doc, indent=1) + "\n")
+    else:
+        write_output(None, joint_timeline(names, runs))
     return EXIT_OK

@@ -1,0 +1,94 @@
+"""`stepramp sync`: several axes, one move — synchronised tables (or A-Link settings)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from ._common import EXIT_FINDINGS, EXIT_OK
+
+
+def add_subparser(sub: Any) -> None:
+    s = sub.add_parser("sync", help="tables for several axes that finish together or keep "
+                                    "a straight line")
+    s.add_argument("axes", metavar="AXES.json",
+                   help="a stepramp.axes/1 file (mode time|line, device ppmc312|alink, axes "
+                        "with motor files and signed pulses)")
+    s.add_argument("-o", "--output", metavar="DIR", required=True,
+                   help="folder for the per-axis tables, upload files, move commands, the "
+                        "C header axes.h and report.json (created if missing)")
+    s.add_argument("--plot", metavar="OUT.png",
+                   help="write the figure (joint path, deviation [pulses], speeds [pps] "
+                        "against time [ms]); PNG or SVG by extension")
+    s.add_argument("--no-ruckig", action="store_true",
+                   help="skip ruckig's time/phase-synchronised durations [s]")
+    s.add_argument("--format", choices=("text", "json"), default="text",
+                   help="summary on stdout (default text; times in ms, JSON in s)")
+    s.set_defaults(func=_do_sync)
+
+
+def _do_sync(args: argparse.Namespace) -> int:
+    from profiles.alink_sync import AlinkSyncPlan
+    from profiles.axes import load_axes
+    from profiles.errors import FormatError
+    from profiles.ppmc312 import sync as ppmc_sync
+    from verify import sync
+    from verify.output import write_output
+
+    if args.plot and not args.plot.lower().endswith((".png", ".svg")):
+        raise FormatError(f"--plot {args.plot}: the figure format is taken from the "
+                          "extension: .png or .svg")
+    out_dir = Path(args.output)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise FormatError(f"-o {out_dir}: exists and is not a folder")
+    axes = load_axes(args.axes)
+    plan = sync.plan_axes(axes)
+    ruckig = None
+    if not args.no_ruckig:
+        ruckig = sync.ruckig_sync([a.motor for a in plan.axes], [a.pulses for a in plan.axes])
+    files: dict[str, bytes]
+    commands: list[Any]
+    if isinstance(plan, AlinkSyncPlan):
+        commands = sync.alink_commands(plan)
+        files = sync.alink_files(plan, commands)
+    else:
+        commands = [ppmc_sync.move_command(a) for a in plan.axes]
+        files = sync.ppmc_files(plan)
+    report = sync.sync_report(plan, device=axes.device, ruckig=ruckig, commands=commands)
+    files["report.json"] = (json.dumps(report, indent=1) + "\n").encode()
+    # everything is built before the first file is written: bad input leaves no files
+    out_dir.mkdir(parents=True, exist_ok=True)
+    for name, data in files.items():
+        write_output(str(out_dir / name), data)
+    if args.plot:
+        from verify.plot import save_figure
+
+        save_figure(sync.sync_figure(plan, ruckig), args.plot)
+    if args.format == "json":
+        write_output(None, json.dumps(report, indent=1) + "\n")
+    else:
+        write_output(None, _text(report))
+    bad = (report["finish_spread_s"] > report["finish_spread_tolerance_s"]
+           or any(a.get("stall_findings", 0) or a.get("stall_safe") is False
+                  for a in report["axes"]))
+    return EXIT_FINDINGS if bad else EXIT_OK
+
+
+def _text(r: dict[str, Any]) -> str:
+    lines = [f"{r['device']} {r['mode']} mode: {r['duration_s'] * 1e3:.6g} ms "
+             f"(fastest slowest axis alone {r['unsynchronised_s'] * 1e3:.6g} ms), finish spread "
+             f"{r['finish_spread_s'] * 1e6:.3f} µs (allowed {r['finish_spread_tolerance_s'] * 1e6:.0f}"
+             f" µs), line deviation {r['max_line_deviation_pulses']:.4g} pulses"]
+    for a in r["axes"]:
+        lines.append(f"  {a['name']}: {a['pulses']} pulses, {a['duration_s'] * 1e3:.6g} ms "
+                     f"(alone {a['fastest_s'] * 1e3:.6g} ms): {a['how']}")
+    if "ruckig" in r:
+        k = r["ruckig"]
+        lines.append(f"ruckig (constant limits): time-synchronised "
+                     f"{k['time_synchronised_s'] * 1e3:.6g} ms, phase-synchronised "
+                     f"{k['phase_synchronised_s'] * 1e3:.6g} ms (optimistic bounds "
+                     f"{k['time_synchronised_optimistic_s'] * 1e3:.6g} / "
+                     f"{k['phase_synchronised_optimistic_s'] * 1e3:.6g} ms)")
+    return "\n".join(lines) + "\n"
