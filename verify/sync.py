@@ -254,7 +254,9 @@ def _c_symbols(text: str, prefix: str) -> str:
 def ppmc_files(plan: ppmc_sync.SyncPlan, *, trigger: int = ppmc_sync.TRIGGER_EVENT1
                ) -> dict[str, bytes]:
     """Every output file of a PPMC-312 plan, by name: NAME.table.json, NAME.upload.hex,
-    NAME.upload.bin, NAME.move.hex (the move command, trigger bits set) and axes.h."""
+    NAME.upload.bin, NAME.move.hex (the move command, trigger bits set), axes.h (every
+    axis's blocks and move command, symbols prefixed NAME_) and axes.json (the tables as an
+    axes file, for `stepramp simulate --axes`)."""
     from profiles.ppmc312 import encode_table
     from profiles.ppmc312.files import hex_line, render
     from profiles.ppmc312.table import dump_table
@@ -279,6 +281,11 @@ def ppmc_files(plan: ppmc_sync.SyncPlan, *, trigger: int = ppmc_sync.TRIGGER_EVE
         header.append("")
     header += ["#endif /* STEPRAMP_SYNC_H */", ""]
     files["axes.h"] = "\n".join(header).encode()
+    # the same move as a set of tables: `stepramp simulate --axes DIR/axes.json`
+    files["axes.json"] = (json.dumps(
+        {"format": "stepramp.axes/1", "mode": plan.mode, "device": "ppmc312",
+         "axes": [{"name": a.name, "table": f"{a.name}.table.json", "pulses": a.pulses}
+                  for a in plan.axes]}, indent=1) + "\n").encode()
     return files
 
 

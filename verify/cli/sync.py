@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -19,6 +20,9 @@ def add_subparser(sub: Any) -> None:
     s.add_argument("-o", "--output", metavar="DIR", required=True,
                    help="folder for the per-axis tables, upload files, move commands, the "
                         "C header axes.h and report.json (created if missing)")
+    s.add_argument("--mode", choices=("time", "line"),
+                   help="override the file's mode: time (finish together) or line (straight "
+                        "joint path)")
     s.add_argument("--plot", metavar="OUT.png",
                    help="write the figure (joint path, deviation [pulses], speeds [pps] "
                         "against time [ms]); PNG or SVG by extension")
@@ -44,6 +48,8 @@ def _do_sync(args: argparse.Namespace) -> int:
     if out_dir.exists() and not out_dir.is_dir():
         raise FormatError(f"-o {out_dir}: exists and is not a folder")
     axes = load_axes(args.axes)
+    if args.mode is not None:
+        axes = replace(axes, mode=args.mode)
     plan = sync.plan_axes(axes)
     ruckig = None
     if not args.no_ruckig:
