@@ -9,8 +9,9 @@ For pairs of bundled motors and pulse ratios, one line each:
   feasible bound, verify.sync.ruckig_sync); the finish spread;
 - line mode: the same duration ratios against ruckig's phase-synchronised duration, the
   line deviation achieved [pulses] and that of naive rate rounding measured in the same
-  run (the follower's rates = the leader's scaled by the pulse ratio and rounded, counts
-  scaled and rounded, same leader table), and their ratio.
+  run (the leader's fastest table for the axes' envelope motor, the follower's rates =
+  the leader's divided by the pulse ratio and rounded, counts scaled and rounded), and
+  their ratio.
 """
 
 from __future__ import annotations
@@ -26,7 +27,10 @@ sys.path.insert(0, str(ROOT))
 
 from profiles.motor import bundled_motor_paths, load_motor  # noqa: E402
 from profiles.ppmc312.execution import simulate_move  # noqa: E402
+from profiles.ppmc312.planner import plan_free_curve  # noqa: E402
 from profiles.ppmc312.sync import (  # noqa: E402
+    _clock_for,
+    envelope_motor,
     line_deviation,
     plan_line_sync,
     plan_time_sync,
@@ -41,11 +45,12 @@ CASES = ((0, 0, 12_000, 7_001), (0, 2, 12_000, 5_000), (2, 2, 20_000, 19_003),
 def naive_follower(lead: FreeCurveTable, scale: float) -> FreeCurveTable:
     """The plain way: the leader's rates divided by the pulse ratio and rounded, counts
     multiplied by it and rounded (≥ 2); stages whose rounded rates collide are merged."""
+    clock = _clock_for(lead.clock.hz / lead.rates[-1] * scale)
     rates: list[int] = []
     acc: list[int] = []
     dec: list[int] = []
     for r, a, d in zip(lead.rates, lead.accel_pulses, lead.decel, strict=True):
-        rr = max(2, round(r / scale))
+        rr = max(2, round(r * clock.hz / (lead.clock.hz * scale)))
         na, nd = max(2, round(a * scale)), max(2, round(d * scale))
         if rates and rr <= rates[-1]:
             acc[-1] += na
@@ -54,7 +59,7 @@ def naive_follower(lead: FreeCurveTable, scale: float) -> FreeCurveTable:
         rates.append(rr)
         acc.append(na)
         dec.append(nd)
-    return FreeCurveTable(lead.clock, tuple(rates), tuple(acc), tuple(dec))
+    return FreeCurveTable(clock, tuple(rates), tuple(acc), tuple(dec))
 
 
 def main() -> None:
@@ -74,10 +79,12 @@ def main() -> None:
         lp = plan_line_sync(axes)
         solve = time.perf_counter() - t0
         rk = ruckig_sync([motors[i], motors[j]], [nx, ny])
-        lead = lp.axes[0].table
+        # naive: the leader's fastest table for both motors' envelope, the follower rounded
+        lead = plan_free_curve(envelope_motor([motors[i], motors[j]], [1.0, ny / nx]),
+                               pulses=nx).table
         naive = naive_follower(lead, ny / nx)
         ours = line_deviation([a.execution for a in lp.axes])[0]
-        plain = line_deviation([lp.axes[0].execution, simulate_move(naive, ny)])[0]
+        plain = line_deviation([simulate_move(lead, nx), simulate_move(naive, ny)])[0]
         row = {"t_alone": tp.duration_s / tp.unsynchronised_s,
                "t_ruckig": tp.duration_s / rk.time_feasible_s,
                "l_alone": lp.duration_s / lp.unsynchronised_s,

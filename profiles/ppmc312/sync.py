@@ -134,9 +134,9 @@ def pad_to_ticks(table: FreeCurveTable, pulses: int, target_ticks: int, *,
     """`table` with pulses moved from the cruise into the stages next to the top until the
     move of `pulses` lasts as close to `target_ticks` clock ticks as possible from below.
 
-    Stage k (fastest first) gains `rates[k] − rates[0]` ticks a pulse; stages are filled
-    from the top down, each amount split between the accel and decel side (accel first:
-    ceil half). `symmetric`: both sides always gain alike (an LE=0 table stays LE=0; the
+    Stage k (fastest first) gains `rates[k] − rates[0]` ticks a pulse; the bulk goes to the
+    stage nearest the top that can take it, faster stages refine the rest; each amount is
+    split between the accel and decel side (accel first: ceil half). `symmetric`: both sides always gain alike (an LE=0 table stays LE=0; the
     step is then two pulses). The move stays a trapezoid (accel + decel ≤ pulses) and every
     count and side total stays in the chip's range. Counts only grow: no stage asks more
     of the motor.
@@ -154,8 +154,14 @@ def pad_to_ticks(table: FreeCurveTable, pulses: int, target_ticks: int, *,
         return max(min(STAGE_PULSES_MAX - side[k], SIDE_TOTAL_MAX - sum(side)), 0) \
             if k < len(side) else 0
 
-    for k in range(1, len(rates)):
-        d = rates[k] - rates[0]
+    # The bulk goes to the stage nearest the top whose extra ticks a pulse, times the
+    # cruise pulses there are, can cover the gap; faster stages then refine the rest
+    # (finer steps), slower ones only take what is still left.
+    d_all = [r - rates[0] for r in rates]
+    bulk = next((k for k in range(1, len(rates)) if d_all[k] * cruise >= gap), len(rates) - 1)
+    order = [*range(bulk, 0, -1), *range(bulk + 1, len(rates))]
+    for k in order:
+        d = d_all[k]
         if symmetric:
             if k >= len(acc) or k >= len(dec):
                 continue
