@@ -90,7 +90,8 @@ def ruckig_sync(motors: Sequence[Motor], pulses: Sequence[int], *, samples: int 
     position / its pulses, time / the longest axis's t_ref): see REFERENCES.md.
 
     Per axis: v0 = min(start, jump) (phase: the boundary speeds are made proportional,
-    each at most its own, or ruckig falls back to time synchronisation); the feasible
+    each at most its own, and every limit in the line's normalised coordinate is the least
+    of the axes', or ruckig falls back to time synchronisation); the feasible
     bound takes each axis's speed cap that makes its own move fastest (as
     `ruckig_reference` does) and min a_acc / min a_dec over [v0, cap]; the optimistic
     one v_lim and the largest a_acc / a_dec over [0, v_lim]; jerk: max_jerk_pps3 or none.
@@ -110,16 +111,30 @@ def ruckig_sync(motors: Sequence[Motor], pulses: Sequence[int], *, samples: int 
         inp = InputParameter(n)
         inp.current_position = [0.0] * n
         inp.target_position = [1.0] * n
-        inp.current_velocity = [v0[i] * t_ref / dist[i] for i in range(n)]
+        # phase: ruckig checks collinearity to machine epsilon, so proportional boundary
+        # speeds must be the very same normalised float on every axis
+        vn = [v0[i] * t_ref / dist[i] for i in range(n)]
+        if sync == Synchronization.Phase:
+            vn = [min(vn)] * n
+        inp.current_velocity = vn
         inp.target_velocity = list(inp.current_velocity)
         inp.current_acceleration = [0.0] * n
         inp.target_acceleration = [0.0] * n
-        inp.max_velocity = [vmax[i] * t_ref / dist[i] for i in range(n)]
-        inp.max_acceleration = [acc[i] * t_ref**2 / dist[i] for i in range(n)]
-        inp.min_acceleration = [-dec[i] * t_ref**2 / dist[i] for i in range(n)]
-        inp.max_jerk = [math.inf if m.max_jerk_pps3 is None
-                        else m.max_jerk_pps3 * t_ref**3 / dist[i]
-                        for i, m in enumerate(motors)]
+        vm = [vmax[i] * t_ref / dist[i] for i in range(n)]
+        am = [acc[i] * t_ref**2 / dist[i] for i in range(n)]
+        dm = [dec[i] * t_ref**2 / dist[i] for i in range(n)]
+        jm = [math.inf if m.max_jerk_pps3 is None else m.max_jerk_pps3 * t_ref**3 / dist[i]
+              for i, m in enumerate(motors)]
+        if sync == Synchronization.Phase:
+            # On the line every axis runs the same normalised profile, so each limit is the
+            # least of the axes'. (Given per-axis limits, ruckig only scales the limiting
+            # axis's profile and falls back to time synchronisation when that breaks another
+            # axis's limit: no straight line at all.)
+            vm, am, dm, jm = ([min(x)] * n for x in (vm, am, dm, jm))
+        inp.max_velocity = vm
+        inp.max_acceleration = am
+        inp.min_acceleration = [-x for x in dm]
+        inp.max_jerk = jm
         inp.synchronization = sync
         traj = Trajectory(n)
         try:
