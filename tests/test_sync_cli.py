@@ -1,0 +1,200 @@
+"""`stepramp sync` and `stepramp simulate --axes`: files, report, exit codes; the A-Link."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from profiles import alink
+from profiles.alink_sync import (
+    MODE_SIG_STA,
+    is_stall_safe,
+    plan_line_sync,
+    plan_time_sync,
+    pulse_times_s,
+)
+from profiles.motor import bundled_motor_paths, load_motor
+from profiles.ppmc312 import decode_upload
+from profiles.ppmc312.execution import simulate_move
+from profiles.ppmc312.files import parse_upload
+from profiles.ppmc312.sync import spread_tolerance_s
+from profiles.ppmc312.table import load_table
+from profiles.ppmc312.upload import decode_move
+from verify.cli import main
+from verify.stall import check_stall
+
+ROOT = Path(__file__).resolve().parents[1]
+MOTORS = [load_motor(p) for p in bundled_motor_paths()]
+NEMA17, NEMA23, PK566 = MOTORS
+
+
+@pytest.fixture(scope="module")
+def written(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, int, str]:
+    root = tmp_path_factory.mktemp("sync")
+    shutil.copytree(ROOT / "examples", root / "examples")
+    (root / "profiles" / "data").mkdir(parents=True)
+    for p in bundled_motor_paths():
+        shutil.copy(p, root / "profiles" / "data" / p.name)
+    code = main(["sync", str(root / "examples" / "axes-xy.json"), "-o", str(root / "out"),
+                 "--mode", "line", "--plot", str(root / "xy.png")])
+    return root, code, "line"
+
+
+def test_sync_writes_every_file(written: tuple[Path, int, str]) -> None:
+    root, code, _ = written
+    assert code == 0
+    out = root / "out"
+    names = {p.name for p in out.iterdir()}
+    for axis in ("x", "y"):
+        assert {f"{axis}.table.json", f"{axis}.upload.hex", f"{axis}.upload.bin",
+                f"{axis}.move.hex"} <= names
+    assert {"axes.h", "axes.json", "report.json"} <= names
+    assert (root / "xy.png").stat().st_size > 10_000
+
+
+def test_report_matches_the_written_tables(written: tuple[Path, int, str]) -> None:
+    root, _, mode = written
+    out = root / "out"
+    report = json.loads((out / "report.json").read_text())
+    assert report["mode"] == mode and report["device"] == "ppmc312"
+    durations = []
+    for item in report["axes"]:
+        table = load_table(out / f"{item['name']}.table.json")
+        run = simulate_move(table, abs(item["pulses"]))
+        assert item["duration_s"] == run.duration_s   # as simulate computes it
+        durations.append(run.duration_s)
+        # the upload files decode back to the table
+        for ext in ("hex", "bin"):
+            assert decode_upload(parse_upload((out / f"{item['name']}.upload.{ext}")
+                                              .read_bytes())) == table
+        move = decode_move(parse_upload((out / f"{item['name']}.move.hex").read_bytes())[0])
+        assert move == {"pulses": abs(item["pulses"]), "ccw": item["pulses"] < 0,
+                        "high_rate": 0, "override": True, "trigger": 1}
+        assert not check_stall(table, NEMA17 if item["name"] == "x" else PK566)
+    assert report["finish_spread_s"] == pytest.approx(max(durations) - min(durations), abs=1e-12)
+    assert report["finish_spread_s"] <= spread_tolerance_s(max(durations))
+    assert report["max_line_deviation_pulses"] < 3
+    assert report["ruckig"]["phase_synchronised_s"] >= report["ruckig"]["time_synchronised_s"]
+
+
+def test_c_header_compiles_with_distinct_prefixes(written: tuple[Path, int, str],
+                                                   tmp_path: Path) -> None:
+    root, _, _ = written
+    text = (root / "out" / "axes.h").read_text()
+    assert "x_block_0" in text and "y_block_0" in text and "x_move" in text
+    assert "stepramp_block" not in text
+    cc = shutil.which("cc") or shutil.which("gcc")
+    if cc is None:
+        pytest.skip("no C compiler")
+    main_c = tmp_path / "main.c"
+    main_c.write_text('#include "axes.h"\n#include "axes.h"\nint main(void) { return '
+                      '(int)(X_BLOCK_COUNT + Y_BLOCK_COUNT + x_move[0] + y_move[0] + '
+                      'x_block_lengths[0] + y_blocks[0][0]) > 0 ? 0 : 1; }\n')
+    done = subprocess.run([cc, "-std=c99", "-Wall", "-Werror", "-Wno-unused-const-variable",
+                           "-I", str(root / "out"), str(main_c), "-o", str(tmp_path / "a.out")],
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert subprocess.run([str(tmp_path / "a.out")]).returncode == 0
+
+
+def test_simulate_axes_prints_the_joint_timeline(written: tuple[Path, int, str],
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    root, _, _ = written
+    report = json.loads((root / "out" / "report.json").read_text())
+    assert main(["simulate", "--axes", str(root / "out" / "axes.json")]) == 0
+    text = capsys.readouterr().out
+    assert "x  accel" in text and "y  done: 5000 pulses" in text
+    assert text.splitlines()[-1] == (
+        f"finish spread {report['finish_spread_s'] * 1e6:.3f} µs, line deviation "
+        f"{report['max_line_deviation_pulses']:.4g} pulses")
+    assert main(["simulate", "--axes", str(root / "out" / "axes.json"), "--format",
+                 "json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["max_line_deviation_pulses"] == pytest.approx(
+        report["max_line_deviation_pulses"], rel=1e-12)
+
+
+@pytest.mark.parametrize("argv", [
+    ["simulate", "--axes", "examples/axes-xy.json"],          # motors, not tables
+    ["simulate", "--axes", "missing.json"],
+    ["simulate", "examples/free-curve-nema17.json"],           # no --pulses
+    ["sync", "missing.json", "-o", "out"],
+    ["sync", "examples/free-curve-nema17.json", "-o", "out"],  # not an axes file
+    ["sync", "examples/axes-xy.json", "-o", "out", "--plot", "x.pdf"],
+])
+def test_unusable_input_exits_2_with_one_line_and_no_files(
+        argv: list[str], written: tuple[Path, int, str], tmp_path: Path,
+        capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch) -> None:
+    root, _, _ = written
+    shutil.copytree(root / "examples", tmp_path / "examples")
+    shutil.copytree(root / "profiles", tmp_path / "profiles")
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "out").exists()
+
+
+# --------------------------------------------------------------------------- A-Link
+def test_alink_time_sync_ends_together_with_quantised_safe_settings() -> None:
+    plan = plan_time_sync([("a", NEMA17, 12_000), ("b", PK566, -3_000)])
+    times = [pulse_times_s(a.settings, abs(a.pulses)) for a in plan.axes]
+    ends = [float(t[-1]) for t in times]
+    assert max(ends) - min(ends) == pytest.approx(plan.spread_s, abs=1e-9)
+    assert plan.spread_s <= spread_tolerance_s(plan.duration_s)
+    for a in plan.axes:
+        s = a.settings
+        m = s.multiplier
+        assert s.start_pps % m == 0 and s.high_pps % m == 0 and s.accel_para % m == 0
+        assert is_stall_safe(s, a.motor)
+        # the unit runs them unchanged
+        run = alink.unit_applies(s.start_pps, s.high_pps, s.accel_para)
+        assert not run.corrections and run.nak is None
+
+
+def test_alink_line_sync_keeps_the_line() -> None:
+    plan = plan_line_sync([("a", NEMA17, 8_000), ("b", NEMA17, 3_000)])
+    a, b = (pulse_times_s(x.settings, abs(x.pulses)) for x in plan.axes)
+    # independent: positions counted by bisection per instant, 2-D cross product
+    import numpy as np
+
+    t = np.union1d(a, b)
+    xa = np.array([np.count_nonzero(a <= ti) for ti in t], dtype=float)
+    xb = np.array([np.count_nonzero(b <= ti) for ti in t], dtype=float)
+    dev = float(np.max(np.abs(xa * 3_000 - xb * 8_000)) / np.hypot(8_000, 3_000))
+    from profiles.ppmc312.sync import line_deviation_times
+
+    assert line_deviation_times([a, b])[0] == pytest.approx(dev, rel=1e-9)
+    assert dev < 3
+    assert all(is_stall_safe(x.settings, x.motor) for x in plan.axes)
+
+
+def test_alink_pulse_times_end_at_the_modelled_duration() -> None:
+    s = alink.AlinkSettings(800, 20_000, 200)
+    for n in (50, 3_000, 40_000):   # a triangle and trapezoids
+        t = pulse_times_s(s, n)
+        assert len(t) == n and (t[1:] > t[:-1]).all()
+        assert t[-1] == pytest.approx(alink.move_time_s(s, n).duration_s, rel=1e-9)
+
+
+def test_alink_sync_cli_writes_commands_with_sta(tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    shutil.copytree(ROOT / "examples", tmp_path / "examples")
+    (tmp_path / "profiles" / "data").mkdir(parents=True)
+    for p in bundled_motor_paths():
+        shutil.copy(p, tmp_path / "profiles" / "data" / p.name)
+    assert main(["sync", str(tmp_path / "examples" / "axes-alink.json"), "-o",
+                 str(tmp_path / "ab"), "--no-ruckig"]) == 0
+    report = json.loads((tmp_path / "ab" / "report.json").read_text())
+    assert report["device"] == "alink" and "ruckig" not in report
+    for item in report["axes"]:
+        words = [tuple(int(w, 16) for w in line.split()) for line in
+                 (tmp_path / "ab" / f"{item['name']}.commands.hex").read_text().splitlines()]
+        decoded = [alink.parse_command(*w) for w in words]
+        cmds = [d[0] for d in decoded]
+        assert cmds[-2:] == [alink.Cmd.MODE_SIG, alink.Cmd.MOVE_R]
+        assert decoded[-2][2] == MODE_SIG_STA and decoded[-1][2] == item["pulses"]
