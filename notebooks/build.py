@@ -1,7 +1,7 @@
 """Generate the notebooks (outputs stripped) and the README figure.
 
     python notebooks/build.py              # notebooks and docs/img/compare-nema17.png
-    python notebooks/build.py notebooks    # the three .ipynb only
+    python notebooks/build.py notebooks    # the .ipynb only
     python notebooks/build.py figures      # the PNG only
     python notebooks/build.py notebooks --out DIR   # write the notebooks elsewhere
 
@@ -460,10 +460,22 @@ for path in sorted(out.iterdir()):
 workdir.cleanup()  # skip this cell to keep the files"""),
 ]
 
+def cells_from(name: str) -> list[Cell]:
+    """CELLS of notebooks/NAME.py: notebooks kept in a file of their own (eases merging)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(f"notebook_cells_{name}", HERE / f"{name}.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return list(module.CELLS)
+
+
 NOTEBOOKS: dict[str, list[Cell]] = {
     "design-free-curve": DESIGN,
     "linear-vs-free-curve": LINEAR_VS_FREE,
     "upload-files": UPLOAD,
+    "two-axis-move": cells_from("two_axis_move"),
 }
 
 
