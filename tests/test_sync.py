@@ -285,7 +285,7 @@ def test_ruckig_synchronised_durations_bracket_and_order() -> None:
     assert rk.time_feasible_s >= max(alone) * (1 - 1e-6)
     assert rk.phase_feasible_s >= rk.time_feasible_s * (1 - 1e-6)
     assert rk.time_optimistic_s <= rk.time_feasible_s
-    t, x, v = rk.trajectories["phase"]
+    _, x, _ = rk.trajectories["phase"]
     # phase synchronisation keeps the axes proportional: a straight line
     assert np.allclose(x[:, 1] / 5_000, x[:, 0] / 12_000, atol=1e-6)
 

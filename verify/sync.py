@@ -31,6 +31,12 @@ from profiles.ppmc312.execution import Execution
 from profiles.ppmc312.sync import line_deviation_times, spread_tolerance_s
 
 Plan = ppmc_sync.SyncPlan | alink_sync.AlinkSyncPlan
+AxisPlan = ppmc_sync.AxisMove | alink_sync.AlinkAxisMove
+
+
+def plan_axes_list(plan: Plan) -> list[AxisPlan]:
+    """The plan's axes, typed for either device."""
+    return list(plan.axes)
 
 
 def _triples(axes: AxesFile) -> list[tuple[str, Motor, int]]:
@@ -59,7 +65,7 @@ def pulse_times(plan: Plan) -> list[np.ndarray]:
 
 
 def durations(plan: Plan) -> list[float]:
-    return [a.duration_s for a in plan.axes]
+    return [a.duration_s for a in plan_axes_list(plan)]
 
 
 # --------------------------------------------------------------------------- ruckig
@@ -224,7 +230,7 @@ def sync_report(plan: Plan, *, device: str, ruckig: RuckigSync | None = None,
     dev, _, _ = line_deviation_times(times)
     d = durations(plan)
     axes = []
-    for i, a in enumerate(plan.axes):
+    for i, a in enumerate(plan_axes_list(plan)):
         item: dict[str, Any] = {"name": a.name, "pulses": a.pulses, "duration_s": d[i],
                                 "fastest_s": a.fastest_s, "how": a.how}
         if isinstance(a, ppmc_sync.AxisMove):
@@ -389,7 +395,7 @@ def sync_figure(plan: Plan, ruckig: RuckigSync | None = None) -> Any:
     ax_p.legend(fontsize=8)
     ax_d.step(t * 1e3, d, where="post", color="tab:red", lw=1.0)
     ax_d.set(xlabel="time [ms]", ylabel="distance to the line [pulses]")
-    for i, a in enumerate(plan.axes):
+    for i, a in enumerate(plan_axes_list(plan)):
         if isinstance(a, ppmc_sync.AxisMove):
             te, _, v = a.execution.edges()
             ax_v.step(te * 1e3, v, where="post", lw=1.4,

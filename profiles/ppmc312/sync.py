@@ -136,10 +136,10 @@ def pad_to_ticks(table: FreeCurveTable, pulses: int, target_ticks: int, *,
 
     Stage k (fastest first) gains `rates[k] − rates[0]` ticks a pulse; the bulk goes to the
     stage nearest the top that can take it, faster stages refine the rest; each amount is
-    split between the accel and decel side (accel first: ceil half). `symmetric`: both sides always gain alike (an LE=0 table stays LE=0; the
-    step is then two pulses). The move stays a trapezoid (accel + decel ≤ pulses) and every
-    count and side total stays in the chip's range. Counts only grow: no stage asks more
-    of the motor.
+    split between the accel and decel side (accel first: ceil half). `symmetric`: both
+    sides always gain alike (an LE=0 table stays LE=0; the step is then two pulses). The
+    move stays a trapezoid (accel + decel ≤ pulses) and every count and side total stays
+    in the chip's range. Counts only grow: no stage asks more of the motor.
     """
     acc = list(table.accel_pulses)
     dec = list(table.decel)

@@ -83,10 +83,12 @@ def _do_sync(args: argparse.Namespace) -> int:
 
 
 def _text(r: dict[str, Any]) -> str:
+    spread_us = r["finish_spread_s"] * 1e6
+    allowed_us = r["finish_spread_tolerance_s"] * 1e6
     lines = [f"{r['device']} {r['mode']} mode: {r['duration_s'] * 1e3:.6g} ms "
              f"(fastest slowest axis alone {r['unsynchronised_s'] * 1e3:.6g} ms), finish spread "
-             f"{r['finish_spread_s'] * 1e6:.3f} µs (allowed {r['finish_spread_tolerance_s'] * 1e6:.0f}"
-             f" µs), line deviation {r['max_line_deviation_pulses']:.4g} pulses"]
+             f"{spread_us:.3f} µs (allowed {allowed_us:.0f} µs), line deviation "
+             f"{r['max_line_deviation_pulses']:.4g} pulses"]
     for a in r["axes"]:
         lines.append(f"  {a['name']}: {a['pulses']} pulses, {a['duration_s'] * 1e3:.6g} ms "
                      f"(alone {a['fastest_s'] * 1e3:.6g} ms): {a['how']}")
