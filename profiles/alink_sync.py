@@ -45,7 +45,7 @@ from .alink import (
 )
 from .errors import StepRampError
 from .motor import Motor
-from .ppmc312.sync import envelope_motor, line_deviation_times
+from .ppmc312.sync import SyncTimes, envelope_motor, line_deviation_times
 
 Mode = Literal["time", "line"]
 LINE_HIGH_CANDIDATES = 24   # leader high speeds tried (the fastest multiples)
@@ -75,23 +75,10 @@ class AlinkAxisMove:
 
 
 @dataclass(frozen=True)
-class AlinkSyncPlan:
+class AlinkSyncPlan(SyncTimes):
     mode: Mode
     axes: tuple[AlinkAxisMove, ...]
     info: str
-
-    @property
-    def duration_s(self) -> float:
-        return max(a.duration_s for a in self.axes)
-
-    @property
-    def spread_s(self) -> float:
-        d = [a.duration_s for a in self.axes]
-        return max(d) - min(d)
-
-    @property
-    def unsynchronised_s(self) -> float:
-        return max(a.fastest_s for a in self.axes)
 
 
 def pulse_times_s(settings: AlinkSettings, pulses: int) -> np.ndarray:

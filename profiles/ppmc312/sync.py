@@ -45,7 +45,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -101,11 +101,11 @@ class AxisMove:
         return self.execution.duration_s
 
 
-@dataclass(frozen=True)
-class SyncPlan:
-    mode: Mode
-    axes: tuple[AxisMove, ...]
-    info: str
+class SyncTimes:
+    """The times of a plan whose axes each have `duration_s` and `fastest_s` (PPMC-312
+    tables here, A-Link settings in profiles.alink_sync)."""
+
+    axes: tuple[Any, ...]
 
     @property
     def duration_s(self) -> float:
@@ -120,6 +120,13 @@ class SyncPlan:
     def unsynchronised_s(self) -> float:
         """The slowest axis's fastest move: no synchronised move can be shorter."""
         return max(a.fastest_s for a in self.axes)
+
+
+@dataclass(frozen=True)
+class SyncPlan(SyncTimes):
+    mode: Mode
+    axes: tuple[AxisMove, ...]
+    info: str
 
 
 def move_command(axis: AxisMove, trigger: int = TRIGGER_EVENT1) -> bytes:
