@@ -70,6 +70,7 @@ START_FRACTION = 0.9       # a cap below the start speed lowers the start speed 
 TOP_SLACK = 0.03           # line mode: L's top may be up to 3 % slower to match the ratio
 LINE_MARGINS = (0.97, 0.9, 0.75, 0.5)  # envelope shrink tried in turn until accepted
 LINE_STAGES = (24, 6, 2)   # fallbacks: fewer leader stages when short axes cannot follow
+ENVELOPE_GRID = 49         # uniform speeds sampled (plus every curve point) for the envelope
 LINE_TOPS = 24             # top rates tried at most (the fastest ones)
 NEAR_BEST_PULSES = 0.25    # line candidates this close to the best deviation: take the fastest
 TRIGGER_EVENT1 = 0b01      # move command TRG 01: start when event input 1 goes low
@@ -301,7 +302,7 @@ def envelope_motor(motors: Sequence[Motor], scales: Sequence[float], *,
     """
     c = np.asarray(scales, dtype=float)
     top = min(m.top_pps / ci for m, ci in zip(motors, c, strict=True))
-    pts = [np.linspace(0.0, top, 401)]
+    pts = [np.linspace(0.0, top, ENVELOPE_GRID)]
     pts += [m.curve_speed_pps / ci for m, ci in zip(motors, c, strict=True)]
     v = np.unique(np.concatenate(pts))
     v = v[v <= top]
@@ -367,19 +368,26 @@ def _least_counts(motor: Motor, clock: Clock) -> Callable[[int, int], tuple[int,
     except PlanError:
         return None
 
+    memo: dict[tuple[int, int], tuple[int, int]] = {}
+
     def least(r_slow: int, r_fast: int) -> tuple[int, int]:
-        base = max(2, math.ceil(MIN_STAGE_TICKS / r_slow))
-        if r_fast <= 0:
-            return base, base
-        n, d, _ = counts(np.array([r_slow]), np.array([r_fast]))
-        big = STAGE_PULSES_MAX + 1
-        return (int(min(max(n[0], base), big)), int(min(max(d[0], base), big)))
+        key = (r_slow, r_fast)
+        if key not in memo:   # every candidate top asks the same pairs again
+            base = max(2, math.ceil(MIN_STAGE_TICKS / r_slow))
+            if r_fast <= 0:
+                memo[key] = (base, base)
+            else:
+                n, d, _ = counts(np.array([r_slow]), np.array([r_fast]))
+                big = STAGE_PULSES_MAX + 1
+                memo[key] = (int(min(max(n[0], base), big)), int(min(max(d[0], base), big)))
+        return memo[key]
     return least
 
 
 def joint_tables(lead: FreeCurveTable, dist: Sequence[int], lead_i: int,
-                 motors: Sequence[Motor], *, common: bool = False
-                 ) -> list[FreeCurveTable] | None:
+                 motors: Sequence[Motor], *, common: bool = False,
+                 memo: dict[tuple[int, str], Callable[[int, int], tuple[int, int]] | None]
+                 | None = None) -> list[FreeCurveTable] | None:
     """Tables for every axis that follow `lead`'s speed profile scaled by N_i / N_lead, on
     common stage boundaries (see the module docstring). None if some axis has no legal one.
 
@@ -388,7 +396,8 @@ def joint_tables(lead: FreeCurveTable, dist: Sequence[int], lead_i: int,
     position closest to the line (errors carried, not accumulated); the decel side is
     matched backwards from the end with the same rates. The top rate of each axis is the
     one whose cruise lasts closest to the leader's. `common`: both sides count alike (LE=0
-    tables; each stage lasts the longer of its accel and decel durations)."""
+    tables; each stage lasts the longer of its accel and decel durations). `memo` keeps
+    each axis's least-count rule between calls (by axis and clock)."""
     n_l = len(lead.rates)
     if len(lead.accel_pulses) != n_l or len(lead.decel) != n_l:
         return None
@@ -397,7 +406,11 @@ def joint_tables(lead: FreeCurveTable, dist: Sequence[int], lead_i: int,
     scale = [d / dist[lead_i] for d in dist]
     clocks = [lead.clock if i == lead_i else _clock_for(hz_l / lead.rates[-1] * scale[i])
               for i in range(m)]
-    leasts = [_least_counts(mo, c) for mo, c in zip(motors, clocks, strict=True)]
+    memo = {} if memo is None else memo
+    for i, (mo, c) in enumerate(zip(motors, clocks, strict=True)):
+        if (i, c.name) not in memo:
+            memo[(i, c.name)] = _least_counts(mo, c)
+    leasts = [memo[(i, c.name)] for i, c in enumerate(clocks)]
     if any(x is None for x in leasts):
         return None
     ideal = [[r * clocks[i].hz / (hz_l * scale[i]) for r in lead.rates] for i in range(m)]
@@ -584,9 +597,11 @@ def _line_attempt(axes: Sequence[tuple[str, Motor, int]], dist: list[int], lead_
     r0 = base.rates[0]
     tops = list(range(r0, max(r0, math.floor(r0 * (1 + top_slack))) + 1))[:LINE_TOPS]
     candidates = []
+    memo: dict[tuple[int, str], Callable[[int, int], tuple[int, int]] | None] = {}
     for r_top in tops:
         for common in (False, True):   # LE=1 tables, and LE=0 ones (symmetric triangles)
-            joint = joint_tables(cap_top(base, r_top), dist, lead_i, motors, common=common)
+            joint = joint_tables(cap_top(base, r_top), dist, lead_i, motors, common=common,
+                                 memo=memo)
             if joint is None:
                 continue
             tables = finish_together(joint, dist, symmetric=common)
