@@ -384,8 +384,38 @@ def _least_counts(motor: Motor, clock: Clock) -> Callable[[int, int], tuple[int,
     return least
 
 
+def _groups(lead: FreeCurveTable, scale: float, hz: float, jump_pps: float,
+            grouped: bool) -> list[list[int]]:
+    """The leader's stages (fastest-first indices) each stage of a follower spans, slowest
+    first. Ungrouped: one each. Grouped: a follower of few pulses stays in a stage through
+    the leader's next ones until that stage would last its chip's least (2 pulses, 256
+    ticks) — many short stages would each be stretched to it, slowing the whole move —
+    or its speeds would span a third of its jump limit. The top stage is always its own."""
+    n_l = len(lead.rates)
+    if not grouped:
+        return [[f] for f in range(n_l - 1, -1, -1)]
+    hz_l = lead.clock.hz
+    out: list[list[int]] = []
+    cur: list[int] = []
+    span = 0.0
+    for f in range(n_l - 1, 0, -1):
+        if cur and scale * (hz_l / lead.rates[f] - hz_l / lead.rates[cur[0]]) > jump_pps / 3:
+            out.append(cur)
+            cur, span = [], 0.0
+        cur.append(f)
+        span += lead.accel_pulses[f] * lead.rates[f] / hz_l
+        rho = lead.rates[f] * hz / (hz_l * scale)
+        if span >= max(2, math.ceil(MIN_STAGE_TICKS / rho)) * rho / hz:
+            out.append(cur)
+            cur, span = [], 0.0
+    if cur:
+        out.append(cur)
+    out.append([0])
+    return out
+
+
 def joint_tables(lead: FreeCurveTable, dist: Sequence[int], lead_i: int,
-                 motors: Sequence[Motor], *, common: bool = False,
+                 motors: Sequence[Motor], *, common: bool = False, grouped: bool = False,
                  memo: dict[tuple[int, str], Callable[[int, int], tuple[int, int]] | None]
                  | None = None) -> list[FreeCurveTable] | None:
     """Tables for every axis that follow `lead`'s speed profile scaled by N_i / N_lead, on
@@ -396,8 +426,9 @@ def joint_tables(lead: FreeCurveTable, dist: Sequence[int], lead_i: int,
     position closest to the line (errors carried, not accumulated); the decel side is
     matched backwards from the end with the same rates. The top rate of each axis is the
     one whose cruise lasts closest to the leader's. `common`: both sides count alike (LE=0
-    tables; each stage lasts the longer of its accel and decel durations). `memo` keeps
-    each axis's least-count rule between calls (by axis and clock)."""
+    tables; each stage lasts the longer of its accel and decel durations). `grouped`: a
+    follower may span several of the leader's stages with one of its own (`_groups`).
+    `memo` keeps each axis's least-count rule between calls (by axis and clock)."""
     n_l = len(lead.rates)
     if len(lead.accel_pulses) != n_l or len(lead.decel) != n_l:
         return None
@@ -413,26 +444,42 @@ def joint_tables(lead: FreeCurveTable, dist: Sequence[int], lead_i: int,
     leasts = [memo[(i, c.name)] for i, c in enumerate(clocks)]
     if any(x is None for x in leasts):
         return None
-    ideal = [[r * clocks[i].hz / (hz_l * scale[i]) for r in lead.rates] for i in range(m)]
-    guess = [[max(RATE_MIN, round(x)) for x in row] for row in ideal]
     v_lead = [hz_l / r for r in lead.rates]          # fastest first
+    groups = [_groups(lead, scale[i], clocks[i].hz, motors[i].jump_pps,
+                      grouped and i != lead_i) for i in range(m)]
 
-    def durations(side: Sequence[int], which: int) -> list[float]:
-        out = []
-        for f in range(n_l):
-            t = side[f] * lead.rates[f] / hz_l
+    def ideal(i: int, g: list[int], t: Sequence[float]) -> float:
+        """The rate that covers the line's distance over the group's time (one stage: the
+        leader's rate scaled, exactly — the leader's own rates stay integers)."""
+        if len(g) == 1:
+            return lead.rates[g[0]] * clocks[i].hz / (hz_l * scale[i])
+        time = sum(t[f] for f in g)
+        dist_g = sum(t[f] * v_lead[f] for f in g) * scale[i]
+        return time * clocks[i].hz / dist_g
+
+    own = [[lead.accel_pulses[f] * lead.rates[f] / hz_l for f in range(n_l)],
+           [lead.decel[f] * lead.rates[f] / hz_l for f in range(n_l)]]
+    guess = [[max(RATE_MIN, round(ideal(i, g, own[0]))) for g in groups[i]] for i in range(m)]
+
+    def durations(which: int) -> list[float]:
+        t = list(own[which])
+        for f in range(n_l - 1, -1, -1):          # slowest first
             for i in range(m):
                 lst = leasts[i]
                 assert lst is not None
-                nxt = guess[i][f - 1] if f > 0 else 0
-                if nxt >= guess[i][f]:
-                    nxt = guess[i][f] - 1
-                t = max(t, lst(guess[i][f], nxt)[which] * guess[i][f] / clocks[i].hz)
-            out.append(t)
-        return out
+                for k, g in enumerate(groups[i]):
+                    if g[-1] != f:
+                        continue                  # f does not end a stage of this axis
+                    r = guess[i][k]
+                    nxt = guess[i][k + 1] if k + 1 < len(groups[i]) else 0
+                    if nxt >= r:
+                        nxt = r - 1
+                    need = lst(r, nxt)[which] * r / clocks[i].hz
+                    t[f] = max(t[f], need - sum(t[x] for x in g[:-1]))
+        return t
 
-    t_acc = durations(lead.accel_pulses, 0)
-    t_dec = durations(lead.decel, 1)
+    t_acc = durations(0)
+    t_dec = durations(1)
     if common:
         t_acc = t_dec = [max(a, d) for a, d in zip(t_acc, t_dec, strict=True)]
     side_least = (lambda pair: max(pair)) if common else (lambda pair: pair[0])
@@ -452,17 +499,18 @@ def joint_tables(lead: FreeCurveTable, dist: Sequence[int], lead_i: int,
         pos = 0
         t_end = 0.0
         p_end = 0.0
-        for f in range(n_l - 1, -1, -1):
-            t_end += t_acc[f]
-            p_end += t_acc[f] * v_lead[f] * scale[i]
+        for g in groups[i]:
+            t_end += sum(t_acc[f] for f in g)
+            p_end += sum(t_acc[f] * v_lead[f] for f in g) * scale[i]
             prev = rates[-1] if rates else RATE_MAX + 1
-            if f == 0:   # the top: the rate whose cruise lasts closest to the leader's
+            rho = ideal(i, g, t_acc)
+            if g == [0]:   # the top: the rate whose cruise lasts closest to the leader's
                 c_i = dist[i] * (1 - s_acc - s_dec)
-                opts = {math.floor(ideal[i][0]), math.ceil(ideal[i][0])}
-                opts = {r for r in opts if RATE_MIN <= r < prev} or {prev - 1}
+                opts = {r for r in (math.floor(rho), math.ceil(rho))
+                        if RATE_MIN <= r < prev} or {prev - 1}
                 rr = min(opts, key=lambda r: abs(c_i * r / hz - t_cruise))
             else:
-                opts = {r for r in (math.floor(ideal[i][f]), math.ceil(ideal[i][f]))
+                opts = {r for r in (math.floor(rho), math.ceil(rho))
                         if RATE_MIN <= r < prev} or {prev - 1}
                 rr = min(opts, key=lambda r: abs(pos + (t_end - tau) * hz / r - p_end))
             if rr < RATE_MIN:
@@ -474,22 +522,22 @@ def joint_tables(lead: FreeCurveTable, dist: Sequence[int], lead_i: int,
                     pos += low - acc[-1]
                     acc[-1] = low
             nn = max(round((t_end - tau) * hz / rr), lst(rr, 0)[0])
-            if common and rates and acc[-1] < max(lst(rates[-1], rr)):
-                acc[-1] = max(lst(rates[-1], rr))
             rates.append(rr)
             acc.append(nn)
             tau += nn * rr / hz
             pos += nn
+        n_i = len(rates)
         dec: list[int] = list(acc) if common else []
         u = 0.0
         u_end = 0.0
-        for j in range(0 if common else n_l):          # slowest first = last in time first
-            f = n_l - 1 - j
-            u_end += t_dec[f]
-            nxt = rates[j + 1] if j + 1 < n_l else 0
+        for j in range(0 if common else n_i):          # slowest first = last in time first
+            u_end += sum(t_dec[f] for f in groups[i][j])
+            nxt = rates[j + 1] if j + 1 < n_i else 0
             nn = max(round((u_end - u) * hz / rates[j]), lst(rates[j], nxt)[1])
             dec.append(nn)
             u += nn * rates[j] / hz
+        if n_i < 2:
+            return None
         rates_f, acc_f, dec_f = rates[::-1], acc[::-1], dec[::-1]
         if (sum(acc_f) + sum(dec_f) > dist[i] or max(acc_f + dec_f) > STAGE_PULSES_MAX
                 or max(sum(acc_f), sum(dec_f)) > SIDE_TOTAL_MAX):
@@ -599,9 +647,11 @@ def _line_attempt(axes: Sequence[tuple[str, Motor, int]], dist: list[int], lead_
     candidates = []
     memo: dict[tuple[int, str], Callable[[int, int], tuple[int, int]] | None] = {}
     for r_top in tops:
-        for common in (False, True):   # LE=1 tables, and LE=0 ones (symmetric triangles)
+        # LE=1 tables and LE=0 ones (symmetric triangles); followers stage by stage or
+        # spanning several of the leader's short stages
+        for common, grouped in ((False, False), (True, False), (False, True), (True, True)):
             joint = joint_tables(cap_top(base, r_top), dist, lead_i, motors, common=common,
-                                 memo=memo)
+                                 grouped=grouped, memo=memo)
             if joint is None:
                 continue
             tables = finish_together(joint, dist, symmetric=common)
