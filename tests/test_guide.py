@@ -326,6 +326,13 @@ def test_json_examples_load() -> None:
             schema = json.loads((REPO / "profiles/data/table.schema.json").read_text())
             jsonschema.validate(obj, schema)
             assert table.kind == obj["kind"], line
+        elif obj["format"] == "stepramp.axes/1":
+            from profiles.axes import axes_from_json
+
+            jsonschema = pytest.importorskip("jsonschema")
+            schema = json.loads((REPO / "profiles/data/axes.schema.json").read_text())
+            jsonschema.validate(obj, schema)
+            assert axes_from_json(obj, None, load_motors=False).axes, line
         else:
             assert Motor.from_json(obj).to_json()["format"] == "stepramp.motor/1", line
 
