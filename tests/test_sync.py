@@ -207,10 +207,7 @@ def test_too_short_an_axis_is_refused() -> None:
         plan_time_sync([("x", NEMA17, 1000), ("y", NEMA17, 5)])
 
 
-@settings(max_examples=6, deadline=None, derandomize=True,
-          suppress_health_check=[HealthCheck.too_slow])
-@given(nx=st.integers(200, 20_000), ratio=st.floats(0.01, 1.0), sign=st.sampled_from([1, -1]))
-def test_time_mode_property_over_pulse_ratios(nx: int, ratio: float, sign: int) -> None:
+def _time_property(nx: int, ratio: float, sign: int) -> None:
     ny = max(8, round(nx * ratio))
     plan = plan_time_sync([("x", NEMA17, nx), ("y", PK566, sign * ny)])
     exes = [a.execution for a in plan.axes]
@@ -219,6 +216,21 @@ def test_time_mode_property_over_pulse_ratios(nx: int, ratio: float, sign: int) 
     assert plan.duration_s == pytest.approx(plan.unsynchronised_s, abs=1e-12)
     for a in plan.axes:
         assert not check_stall(a.table, a.motor)
+
+
+@settings(max_examples=3, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(nx=st.integers(200, 4_000), ratio=st.floats(0.02, 1.0), sign=st.sampled_from([1, -1]))
+def test_time_mode_property_over_pulse_ratios(nx: int, ratio: float, sign: int) -> None:
+    _time_property(nx, ratio, sign)
+
+
+@pytest.mark.slow
+@settings(max_examples=10, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(nx=st.integers(200, 40_000), ratio=st.floats(0.005, 1.0), sign=st.sampled_from([1, -1]))
+def test_time_mode_property_over_pulse_ratios_wide(nx: int, ratio: float, sign: int) -> None:
+    _time_property(nx, ratio, sign)
 
 
 # --------------------------------------------------------------------------- line mode
