@@ -23,17 +23,20 @@ line mode — positions stay proportional (a straight joint path). The axis with
 the most pulses (L) leads. Its table is planned for an envelope motor: in L's
 pulses, the weakest of every axis's capability scaled by its pulse ratio c_i =
 N_i / N_L (a_i(c_i·v) / c_i, start, jump, top and jerk likewise), shrunk by a
-margin that absorbs rate rounding. Every other axis follows L stage by stage:
-at each of L's stage boundaries it picks the floor or ceiling of the ideal
-rate (or stays in its previous stage) so that its position at L's boundary is
-closest to the line, carrying the error forward (sigma-delta: rounding never
-accumulates); the decel side is matched backwards from the end with the same
-(shared) rates. Cruise speeds are one integer rate per chip, so L's top rate is
-searched (up to `top_slack` slower) for the top-rate pair whose ratio matches
-the pulse ratio best; a residual mismatch is cancelled by padding (split
-between the two sides so the cruise drift is centred on the line). Each
-candidate is scored by the exact deviation of the executed joint path
-(`line_deviation`), the best kept.
+margin that absorbs rate rounding. The other axes follow on common stage
+boundaries (`joint_tables`): every stage lasts the longest any axis needs (its
+least counts at its own rates), and at each boundary every follower picks the
+floor or ceiling of its ideal rate so that its position there is closest to the
+line, carrying the error forward (sigma-delta: rounding never accumulates); the
+decel side is matched backwards from the end with the same (shared) rates. A
+follower of few pulses may span several of L's short stages with one of its own
+(grouped candidates). Cruise speeds are one integer rate per chip, so L's top
+rate is searched (up to `top_slack` slower) for the top-rate pair whose ratio
+matches the pulse ratio best; every table is then padded to end with the
+slowest (split between the sides, so a cruise drift is centred on the line).
+LE=1 and LE=0 sets are built; each candidate is scored by the exact deviation of
+the executed joint path (`line_deviation`): the least wins, the fastest among
+those within 0.25 pulse of it.
 
 Stall safety: every table made here is vetted by `accept(table, motor)`, by
 default `criterion.all_length_safe` (the criterion over every move length the
