@@ -1,0 +1,290 @@
+"""Loads reflected to the motor shaft: inertia, friction and load torque, with provenance.
+
+Every builder returns `Contribution`s (field, value, where it came from) in the motor's
+own terms (kg·m², N·m at the motor shaft); `combine` adds them up and keeps the list per
+field for the motor file's `"sources"` object. Formulas (g = 9.80665 m/s²):
+
+    disc / cylinder      J = m·(d² + d_i²)/8                      (d_i = 0: solid)
+    lead screw           J = J_screw + m·(lead/2π)²,  J_screw = ρ·π·len·d⁴/32 (steel)
+                         T_load = (m·g·sin θ + F)·lead/(2π·η)
+                         T_fric = μ·m·g·cos θ·lead/(2π·η)
+    belt and pulley      J = m·r² + J_pulleys,  T_load = (m·g·sin θ + F)·r/η,
+                         T_fric = μ·m·g·cos θ·r/η
+    gear (ratio n = motor revs per output rev, efficiency η): everything on its output side
+                         J/n², T/(n·η); its own inertia (motor side) adds as is.
+
+Sign of `load_torque_nm`: positive opposes motion in the positive direction (a weight
+lifted by positive moves, incline θ > 0) and helps negative moves; friction always opposes.
+The efficiency divides both directions (the lifting value, conservative when lowering).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+
+from .errors import FieldRangeError, FormatError
+from .units import G_MPS2
+
+STEEL_KG_M3 = 7850.0
+FIELDS = ("inertia_kgm2", "friction_torque_nm", "load_torque_nm")
+
+
+@dataclass(frozen=True)
+class Contribution:
+    field: str          # one of FIELDS
+    value: float        # in the field's unit, at the motor shaft
+    source: str         # where it came from, in words and numbers
+
+    def to_json(self) -> dict[str, object]:
+        return {"value": self.value, "from": self.source}
+
+
+@dataclass(frozen=True)
+class Totals:
+    inertia_kgm2: float
+    friction_torque_nm: float
+    load_torque_nm: float
+    sources: dict[str, list[dict[str, object]]]
+
+
+def combine(contributions: Iterable[Contribution]) -> Totals:
+    """Sum per field; `sources` lists every contribution of every field that has one."""
+    sums = dict.fromkeys(FIELDS, 0.0)
+    sources: dict[str, list[dict[str, object]]] = {}
+    for c in contributions:
+        sums[c.field] += c.value
+        sources.setdefault(c.field, []).append(c.to_json())
+    return Totals(sums["inertia_kgm2"], sums["friction_torque_nm"], sums["load_torque_nm"],
+                  sources)
+
+
+def _check(name: str, value: float, lo: float, hi: float, *, lo_open: bool = False) -> float:
+    if not math.isfinite(value) or value < lo or value > hi or (lo_open and value == lo):
+        raise FieldRangeError(name + (" (0 excluded)" if lo_open else ""), value, lo, hi)
+    return value
+
+
+def _g(x: float) -> str:
+    return f"{x:.4g}"
+
+
+# --- builders ----------------------------------------------------------------------------
+
+def direct(inertia_kgm2: float = 0.0, friction_torque_nm: float = 0.0,
+           load_torque_nm: float = 0.0, name: str = "direct") -> list[Contribution]:
+    """Values already at the motor shaft (from a CAD model, a measurement, a datasheet)."""
+    _check("inertia_kgm2", inertia_kgm2, 0, 1e3)
+    _check("friction_torque_nm", friction_torque_nm, 0, 1e4)
+    _check("load_torque_nm", load_torque_nm, -1e4, 1e4)
+    out = []
+    if inertia_kgm2:
+        out.append(Contribution("inertia_kgm2", inertia_kgm2, f"{name}: {_g(inertia_kgm2)}"))
+    if friction_torque_nm:
+        out.append(Contribution("friction_torque_nm", friction_torque_nm,
+                                f"{name}: {_g(friction_torque_nm)}"))
+    if load_torque_nm:
+        out.append(Contribution("load_torque_nm", load_torque_nm,
+                                f"{name}: {_g(load_torque_nm)}"))
+    return out
+
+
+def disc(mass_kg: float, diameter_m: float, inner_diameter_m: float = 0.0,
+         name: str = "disc") -> list[Contribution]:
+    """A disc, solid cylinder (inner diameter 0) or tube on the shaft: J = m·(d² + d_i²)/8."""
+    _check("mass_kg", mass_kg, 0, 1e4, lo_open=True)
+    _check("diameter_m", diameter_m, 0, 10, lo_open=True)
+    _check("inner_diameter_m", inner_diameter_m, 0, diameter_m)
+    j = mass_kg * (diameter_m ** 2 + inner_diameter_m ** 2) / 8
+    hole = f", bore {_g(inner_diameter_m * 1e3)} mm" if inner_diameter_m else ""
+    return [Contribution("inertia_kgm2", j, f"{name}: {_g(mass_kg)} kg, Ø{_g(diameter_m * 1e3)} "
+                         f"mm{hole}: m·(d²+d_i²)/8 = {_g(j)}")]
+
+
+def lead_screw(lead_m: float, mass_kg: float, *, screw_inertia_kgm2: float | None = None,
+               screw_diameter_m: float | None = None, screw_length_m: float | None = None,
+               efficiency: float = 0.9, incline_deg: float = 0.0, friction_coeff: float = 0.0,
+               force_n: float = 0.0, name: str = "lead screw") -> list[Contribution]:
+    """A carriage of `mass_kg` on a screw of `lead_m` per revolution; the screw's own inertia
+    given, or from its size (solid steel), or left out (neither given)."""
+    _check("lead_m", lead_m, 0, 1, lo_open=True)
+    _check("mass_kg", mass_kg, 0, 1e5)
+    _check("efficiency", efficiency, 0, 1, lo_open=True)
+    _check("incline_deg", incline_deg, -90, 90)
+    _check("friction_coeff", friction_coeff, 0, 2)
+    _check("force_n", force_n, -1e6, 1e6)
+    if screw_inertia_kgm2 is not None and (screw_diameter_m or screw_length_m):
+        raise FormatError(f"{name}: give the screw's inertia or its size, not both")
+    out: list[Contribution] = []
+    if screw_inertia_kgm2 is not None:
+        _check("screw_inertia_kgm2", screw_inertia_kgm2, 0, 1e3)
+        out.append(Contribution("inertia_kgm2", screw_inertia_kgm2,
+                                f"{name}: screw {_g(screw_inertia_kgm2)} (given)"))
+    elif screw_diameter_m is not None or screw_length_m is not None:
+        if screw_diameter_m is None or screw_length_m is None:
+            raise FormatError(f"{name}: the screw's size needs both diameter and length")
+        _check("screw_diameter_m", screw_diameter_m, 0, 1, lo_open=True)
+        _check("screw_length_m", screw_length_m, 0, 100, lo_open=True)
+        j = STEEL_KG_M3 * math.pi * screw_length_m * screw_diameter_m ** 4 / 32
+        out.append(Contribution("inertia_kgm2", j,
+                                f"{name}: steel screw Ø{_g(screw_diameter_m * 1e3)} × "
+                                f"{_g(screw_length_m * 1e3)} mm: ρ·π·len·d⁴/32 = {_g(j)}"))
+    r = lead_m / (2 * math.pi)   # travel per radian
+    return out + _linear(name, f"lead {_g(lead_m * 1e3)} mm", r, mass_kg, efficiency,
+                         incline_deg, friction_coeff, force_n, "lead/2π")
+
+
+def belt(pulley_diameter_m: float, mass_kg: float, *, pulley_inertia_kgm2: float = 0.0,
+         efficiency: float = 1.0, incline_deg: float = 0.0, friction_coeff: float = 0.0,
+         force_n: float = 0.0, name: str = "belt") -> list[Contribution]:
+    """A carriage (belt included in `mass_kg`) driven by a pulley of pitch diameter d."""
+    _check("pulley_diameter_m", pulley_diameter_m, 0, 10, lo_open=True)
+    _check("mass_kg", mass_kg, 0, 1e5)
+    _check("pulley_inertia_kgm2", pulley_inertia_kgm2, 0, 1e3)
+    _check("efficiency", efficiency, 0, 1, lo_open=True)
+    _check("incline_deg", incline_deg, -90, 90)
+    _check("friction_coeff", friction_coeff, 0, 2)
+    _check("force_n", force_n, -1e6, 1e6)
+    out: list[Contribution] = []
+    if pulley_inertia_kgm2:
+        out.append(Contribution("inertia_kgm2", pulley_inertia_kgm2,
+                                f"{name}: pulleys {_g(pulley_inertia_kgm2)} (given)"))
+    return out + _linear(name, f"pulley Ø{_g(pulley_diameter_m * 1e3)} mm",
+                         pulley_diameter_m / 2, mass_kg, efficiency, incline_deg,
+                         friction_coeff, force_n, "r")
+
+
+def _linear(name: str, what: str, r: float, mass_kg: float, efficiency: float,
+            incline_deg: float, friction_coeff: float, force_n: float,
+            r_name: str) -> list[Contribution]:
+    """A mass moving r metres per radian of the shaft: inertia, gravity, friction."""
+    out = []
+    if mass_kg:
+        j = mass_kg * r * r
+        out.append(Contribution("inertia_kgm2", j, f"{name}: {_g(mass_kg)} kg, {what}: "
+                                f"m·({r_name})² = {_g(j)}"))
+    theta = math.radians(incline_deg)
+    lift_n = mass_kg * G_MPS2 * math.sin(theta) + force_n
+    if lift_n:
+        t = lift_n * r / efficiency
+        parts = []
+        if mass_kg * math.sin(theta):
+            parts.append(f"m·g·sin({_g(incline_deg)}°)")
+        if force_n:
+            parts.append(f"{_g(force_n)} N")
+        out.append(Contribution("load_torque_nm", t, f"{name}: ({' + '.join(parts)})·{r_name}/η"
+                                f", η = {_g(efficiency)}: {_g(t)}"))
+    if friction_coeff and mass_kg:
+        t = friction_coeff * mass_kg * G_MPS2 * math.cos(theta) * r / efficiency
+        if t > 0:
+            out.append(Contribution("friction_torque_nm", t,
+                                    f"{name}: μ·m·g·cos θ·{r_name}/η, μ = "
+                                    f"{_g(friction_coeff)}: {_g(t)}"))
+    return out
+
+
+def through_gear(ratio: float, downstream: Sequence[Contribution], *, efficiency: float = 1.0,
+                 gear_inertia_kgm2: float = 0.0, name: str = "gear") -> list[Contribution]:
+    """Reflect the output-side contributions through a gear of `ratio` motor revs per output
+    rev: inertia / n², torques / (n·η); the gear's own (motor-side) inertia adds as is."""
+    _check("ratio", ratio, 0, 1e6, lo_open=True)
+    _check("efficiency", efficiency, 0, 1, lo_open=True)
+    _check("gear_inertia_kgm2", gear_inertia_kgm2, 0, 1e3)
+    out = []
+    if gear_inertia_kgm2:
+        out.append(Contribution("inertia_kgm2", gear_inertia_kgm2,
+                                f"{name}: own inertia {_g(gear_inertia_kgm2)}"))
+    for c in downstream:
+        if c.field == "inertia_kgm2":
+            value, how = c.value / ratio ** 2, f"/{_g(ratio)}²"
+        else:
+            value, how = c.value / (ratio * efficiency), f"/({_g(ratio)}·{_g(efficiency)})"
+        out.append(Contribution(c.field, value, f"{c.source} → {name} {how} = {_g(value)}"))
+    return out
+
+
+# --- the CLI's load specs ----------------------------------------------------------------
+
+# kind → {key: (builder argument, factor to SI)}
+_KEYS: dict[str, dict[str, tuple[str, float]]] = {
+    "inertia": {"j_kgm2": ("inertia_kgm2", 1.0), "friction_nm": ("friction_torque_nm", 1.0),
+                "load_torque_nm": ("load_torque_nm", 1.0)},
+    "disc": {"mass_kg": ("mass_kg", 1.0), "diameter_mm": ("diameter_m", 1e-3),
+             "inner_diameter_mm": ("inner_diameter_m", 1e-3)},
+    "screw": {"lead_mm": ("lead_m", 1e-3), "mass_kg": ("mass_kg", 1.0),
+              "screw_inertia_kgm2": ("screw_inertia_kgm2", 1.0),
+              "screw_diameter_mm": ("screw_diameter_m", 1e-3),
+              "screw_length_mm": ("screw_length_m", 1e-3), "efficiency": ("efficiency", 1.0),
+              "incline_deg": ("incline_deg", 1.0), "friction_coeff": ("friction_coeff", 1.0),
+              "force_n": ("force_n", 1.0)},
+    "belt": {"pulley_diameter_mm": ("pulley_diameter_m", 1e-3), "mass_kg": ("mass_kg", 1.0),
+             "pulley_inertia_kgm2": ("pulley_inertia_kgm2", 1.0),
+             "efficiency": ("efficiency", 1.0), "incline_deg": ("incline_deg", 1.0),
+             "friction_coeff": ("friction_coeff", 1.0), "force_n": ("force_n", 1.0)},
+    "gear": {"ratio": ("ratio", 1.0), "efficiency": ("efficiency", 1.0),
+             "inertia_kgm2": ("gear_inertia_kgm2", 1.0)},
+}
+_REQUIRED_KEYS = {"inertia": set(), "disc": {"mass_kg", "diameter_mm"},
+                  "screw": {"lead_mm", "mass_kg"}, "belt": {"pulley_diameter_mm", "mass_kg"},
+                  "gear": {"ratio"}}
+_ALIASES = {"cylinder": "disc", "leadscrew": "screw", "lead_screw": "screw", "pulley": "belt"}
+LOAD_HELP = ("KIND:key=value,…  KIND: inertia (j_kgm2, friction_nm, load_torque_nm); "
+             "disc|cylinder (mass_kg, diameter_mm, inner_diameter_mm); screw (lead_mm, mass_kg, "
+             "screw_inertia_kgm2 | screw_diameter_mm + screw_length_mm, efficiency, incline_deg "
+             "[90 = vertical, up is positive], friction_coeff, force_n); belt "
+             "(pulley_diameter_mm, mass_kg, pulley_inertia_kgm2, efficiency, incline_deg, "
+             "friction_coeff, force_n); gear (ratio = motor revs per output rev, efficiency, "
+             "inertia_kgm2): loads given after a gear sit on its output side")
+
+
+def parse_load(spec: str) -> tuple[str, dict[str, float]]:
+    """`KIND:key=value,…` → (kind, builder keyword arguments in SI)."""
+    kind, _, rest = spec.partition(":")
+    kind = _ALIASES.get(kind.strip().lower(), kind.strip().lower())
+    if kind not in _KEYS:
+        raise FormatError(f"load {spec!r}: unknown kind {kind!r} (expected one of "
+                          f"{', '.join(_KEYS)}, cylinder)")
+    args: dict[str, float] = {}
+    seen = set()
+    for item in filter(None, (s.strip() for s in rest.split(","))):
+        key, eq, text = item.partition("=")
+        key = key.strip()
+        if not eq or key not in _KEYS[kind]:
+            raise FormatError(f"load {spec!r}: {item!r} is not one of "
+                              f"{', '.join(k + '=…' for k in _KEYS[kind])}")
+        try:
+            value = float(text)
+        except ValueError:
+            raise FormatError(f"load {spec!r}: {key}: {text!r} is not a number") from None
+        arg, factor = _KEYS[kind][key]
+        args[arg] = value * factor
+        seen.add(key)
+    missing = _REQUIRED_KEYS[kind] - seen
+    if missing:
+        raise FormatError(f"load {spec!r}: missing {', '.join(sorted(missing))}")
+    return kind, args
+
+
+def loads_from_specs(specs: Sequence[str]) -> list[Contribution]:
+    """The contributions of CLI load specs, in order; a `gear` reflects every load given
+    after it (gears after gears multiply)."""
+    parsed = [parse_load(s) for s in specs]
+
+    def build(i: int) -> list[Contribution]:
+        out: list[Contribution] = []
+        for j in range(i, len(parsed)):
+            kind, args = parsed[j]
+            if kind == "gear":
+                return out + through_gear(args["ratio"], build(j + 1),
+                                          efficiency=args.get("efficiency", 1.0),
+                                          gear_inertia_kgm2=args.get("gear_inertia_kgm2", 0.0))
+            builder: Callable[..., list[Contribution]] = _BUILDERS[kind]
+            out += builder(**args)
+        return out
+
+    return build(0)
+
+
+_BUILDERS: dict[str, Callable[..., list[Contribution]]] = {
+    "inertia": direct, "disc": disc, "screw": lead_screw, "belt": belt}
