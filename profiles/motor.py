@@ -26,7 +26,8 @@ FORMAT = "stepramp.motor/1"
 _REQUIRED = {"format", "steps_per_rev", "pullout_torque", "inertia_kgm2", "safety_factor",
              "start_pps"}
 _OPTIONAL = {"friction_torque_nm", "max_jump_pps", "max_pps", "max_jerk_pps3", "name",
-             "holding_torque_nm", "rotor_teeth", "phases", "damping_ratio", "load_torque_nm"}
+             "holding_torque_nm", "rotor_teeth", "phases", "damping_ratio", "load_torque_nm",
+             "sources"}
 # Defaults where a motor file is silent (docs/manual-notes.md, "Load-angle model").
 DEFAULT_PHASES = 2
 DEFAULT_ROTOR_TEETH = 50        # the 1.8° (2-phase) and 0.72° (5-phase) hybrid rotor
@@ -51,6 +52,9 @@ class Motor:
     phases: int = DEFAULT_PHASES
     damping_ratio: float = DEFAULT_DAMPING_RATIO
     load_torque_nm: float = 0.0
+    # provenance: field → [{"value": number, "from": text}, …] (informative, never used)
+    sources: dict[str, list[dict[str, Any]]] | None = field(default=None, repr=False,
+                                                            compare=False)
 
     def __post_init__(self) -> None:
         v = np.asarray(self.curve_speed_pps, dtype=float)
@@ -177,6 +181,8 @@ class Motor:
             out["damping_ratio"] = self.damping_ratio
         if self.load_torque_nm:
             out["load_torque_nm"] = self.load_torque_nm
+        if self.sources is not None:
+            out["sources"] = self.sources
         return out
 
     @classmethod
@@ -195,7 +201,7 @@ class Motor:
         if not isinstance(curve, list) or not all(
                 isinstance(p, list) and len(p) == 2 and all(_is_num(x) for x in p) for p in curve):
             raise FormatError("pullout_torque: expected a list of [speed_pps, torque_nm] pairs")
-        for key in (_REQUIRED | _OPTIONAL) - {"format", "pullout_torque", "name"}:
+        for key in (_REQUIRED | _OPTIONAL) - {"format", "pullout_torque", "name", "sources"}:
             if key in obj and not _is_num(obj[key]):
                 raise FormatError(f"{key}: expected a number, got {obj[key]!r}")
         for key in ("steps_per_rev", "rotor_teeth", "phases"):
@@ -214,7 +220,9 @@ class Motor:
                    rotor_teeth=int(obj["rotor_teeth"]) if "rotor_teeth" in obj else None,
                    phases=int(obj.get("phases", DEFAULT_PHASES)),
                    damping_ratio=float(obj.get("damping_ratio", DEFAULT_DAMPING_RATIO)),
-                   load_torque_nm=float(obj.get("load_torque_nm", 0.0)))
+                   load_torque_nm=float(obj.get("load_torque_nm", 0.0)),
+
+                   sources=_sources(obj["sources"]) if "sources" in obj else None)
 
 
 def load_motor(path: str | Path) -> Motor:
@@ -228,6 +236,17 @@ def bundled_motor_paths() -> list[Path]:
 
 def _is_num(x: Any) -> bool:
     return not isinstance(x, bool) and isinstance(x, int | float) and math.isfinite(x)
+
+
+def _sources(obj: Any) -> dict[str, list[dict[str, Any]]]:
+    """The provenance object: field → list of {"value": number, "from": text}."""
+    def ok(c: Any) -> bool:
+        return (isinstance(c, dict) and set(c) == {"value", "from"} and _is_num(c["value"])
+                and isinstance(c["from"], str))
+    if not isinstance(obj, dict) or not all(
+            isinstance(v, list) and all(ok(c) for c in v) for v in obj.values()):
+        raise FormatError('sources: expected {field: [{"value": number, "from": text}, …]}')
+    return obj
 
 
 def _opt(obj: dict[str, Any], key: str) -> float | None:

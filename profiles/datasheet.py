@@ -1,0 +1,245 @@
+"""A motor file from a datasheet: the pull-out curve from an electrical model.
+
+The model (per phase, sinusoidal currents, m phases, Nr electrical periods per rev):
+
+    K_T = T_h / (√2·I_r)     torque per ampere of phase-current amplitude. The holding torque
+                              of a datasheet is measured with two phases on at the rated current,
+                              a current vector of amplitude √2·I_r (2-phase), so a microstepping
+                              drive at I_r RMS (amplitude √2·I_r) gives T_h at standstill.
+    k_e = 2·K_T/m            back-EMF amplitude per phase per rad/s (power balance:
+                              T·ω = (m/2)·e·I; for 2 phases k_e = K_T, the "√2 convention")
+    I_cmd = √2·I_set          the drive's current setting is RMS per phase
+    ω_e = Nr·ω                electrical angular speed, ω the shaft speed in rad/s
+
+At the pull-out the current is in phase with the back-EMF (load angle at the torque peak), and
+the drive can put at most the supply voltage V across a phase (amplitude), so the current it
+reaches is limited by the winding's L/R and by back-EMF:
+
+    (I·R + k_e·ω)² + (I·ω_e·L)² = V²      →  I_V(ω), the positive root
+    T(ω) = K_T · min(I_cmd, I_V(ω))        (0 once k_e·ω ≥ V)
+
+At standstill T = T_h·I_set/I_r. The model has no detent torque, saturation, chopper losses
+or mid-band resonance: docs/manual-notes.md compares it with printed vendor curves.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import motor as motor_format
+from .errors import FieldRangeError, FormatError
+from .loads import Contribution, combine
+from .motor import FORMAT
+
+SQRT2 = math.sqrt(2.0)
+
+
+@dataclass(frozen=True)
+class Datasheet:
+    """What a stepper motor's datasheet gives (SI units)."""
+    step_angle_deg: float
+    holding_torque_nm: float
+    rated_current_a: float           # per phase, RMS (the datasheet's "rated current")
+    resistance_ohm: float            # per phase
+    inductance_h: float              # per phase
+    rotor_inertia_kgm2: float
+    phases: int = 2
+    detent_torque_nm: float = 0.0
+    rotor_teeth: int | None = None   # electrical periods per rev; None: from step angle
+    name: str = ""
+
+    def __post_init__(self) -> None:
+        if self.phases not in (2, 3, 4, 5):
+            raise FieldRangeError("phases", self.phases, 2, 5)
+        _pos("step_angle_deg", self.step_angle_deg, 90)
+        _pos("holding_torque_nm", self.holding_torque_nm, 1e4)
+        _pos("rated_current_a", self.rated_current_a, 1e3)
+        _pos("resistance_ohm", self.resistance_ohm, 1e4)
+        _pos("inductance_h", self.inductance_h, 10)
+        _pos("rotor_inertia_kgm2", self.rotor_inertia_kgm2, 1e3)
+        if not 0 <= self.detent_torque_nm < self.holding_torque_nm:
+            raise FieldRangeError("detent_torque_nm", self.detent_torque_nm, 0,
+                                  self.holding_torque_nm)
+        fs = 360.0 / self.step_angle_deg
+        if abs(fs - round(fs)) > 1e-6:
+            raise FormatError(f"step_angle_deg: {self.step_angle_deg} does not divide 360°")
+        if self.rotor_teeth is not None:
+            _pos("rotor_teeth", self.rotor_teeth, 10_000)
+
+    @property
+    def full_steps_per_rev(self) -> int:
+        return round(360.0 / self.step_angle_deg)
+
+    @property
+    def electrical_periods_per_rev(self) -> int:
+        """Nr: an electrical period is 2·phases full steps (4 for 2-phase, 10 for 5-phase)."""
+        if self.rotor_teeth is not None:
+            return self.rotor_teeth
+        return max(1, round(self.full_steps_per_rev / (2 * self.phases)))
+
+    @property
+    def torque_constant_nm_per_a(self) -> float:
+        """K_T = T_h/(√2·I_r): N·m per ampere of phase-current amplitude."""
+        return self.holding_torque_nm / (SQRT2 * self.rated_current_a)
+
+    @property
+    def back_emf_v_s_per_rad(self) -> float:
+        """k_e = 2·K_T/m: peak back-EMF of one phase per rad/s of the shaft."""
+        return 2 * self.torque_constant_nm_per_a / self.phases
+
+
+@dataclass(frozen=True)
+class Drive:
+    """The driver's settings: supply voltage, current setting (RMS per phase), microsteps."""
+    supply_v: float
+    current_a: float
+    microstep: int = 1
+
+    def __post_init__(self) -> None:
+        _pos("supply_v", self.supply_v, 1e4)
+        _pos("current_a", self.current_a, 1e3)
+        if isinstance(self.microstep, bool) or not isinstance(self.microstep, int) or not (
+                1 <= self.microstep <= 1024):
+            raise FieldRangeError("microstep", self.microstep, 1, 1024)
+
+
+def _pos(name: str, value: float, hi: float) -> None:
+    if not (isinstance(value, int | float) and math.isfinite(value) and 0 < value <= hi):
+        raise FieldRangeError(name + " (0 excluded)", value, 0, hi)
+
+
+def pullout_torque_nm(ds: Datasheet, drive: Drive, speed_rad_s: np.ndarray | float) -> np.ndarray:
+    """The model's pull-out torque [N·m] at shaft speeds [rad/s] (see the module docstring)."""
+    w = np.abs(np.asarray(speed_rad_s, dtype=float))
+    r, v = ds.resistance_ohm, drive.supply_v
+    ke = ds.back_emf_v_s_per_rad
+    x = ds.electrical_periods_per_rev * w * ds.inductance_h      # ω_e·L
+    emf = ke * w
+    z2 = r * r + x * x
+    # (I·R + E)² + (I·X)² = V²  →  z2·I² + 2·R·E·I + E² − V² = 0
+    disc = (r * emf) ** 2 - z2 * (emf * emf - v * v)
+    i_v = (-r * emf + np.sqrt(np.maximum(disc, 0.0))) / z2
+    i = np.minimum(SQRT2 * drive.current_a, np.maximum(i_v, 0.0))
+    return np.asarray(ds.torque_constant_nm_per_a * i)
+
+
+def speed_rad_s(speed_pps: np.ndarray | float, steps_per_rev: int) -> np.ndarray:
+    return np.asarray(speed_pps, dtype=float) * (2 * math.pi / steps_per_rev)
+
+
+def pullout_curve(ds: Datasheet, drive: Drive, *, min_fraction: float = 0.05,
+                  tolerance: float = 0.002, dense: int = 4001) -> tuple[np.ndarray, np.ndarray]:
+    """(speeds [pps], torques [N·m]) of the model as a piecewise-linear curve that never lies
+    above the model: from 0 to the speed where the torque falls to `min_fraction` of its
+    standstill value (the curve's last point, the top usable speed), with as few points as
+    keep the gap below `tolerance` × T(0). Linear interpolation of a convex stretch lies above
+    the curve, so every segment is lowered by its largest excess."""
+    if not 0 < min_fraction < 1:
+        raise FieldRangeError("min_fraction (0, 1 excluded)", min_fraction, 0, 1)
+    spr = ds.full_steps_per_rev * drive.microstep
+    t0 = float(pullout_torque_nm(ds, drive, 0.0))
+    # the speed where E = V bounds the search: past it the torque is 0
+    w_max = drive.supply_v / ds.back_emf_v_s_per_rad
+    lo, hi = 0.0, w_max
+    for _ in range(100):   # bisection: T is non-increasing in speed
+        mid = 0.5 * (lo + hi)
+        if float(pullout_torque_nm(ds, drive, mid)) > min_fraction * t0:
+            lo = mid
+        else:
+            hi = mid
+    w_end = lo
+    w = np.linspace(0.0, w_end, dense)
+    t = pullout_torque_nm(ds, drive, w)
+    keep = _breakpoints(w, t, tolerance * t0)
+    wk, tk = w[keep], t[keep].copy()
+    for k in range(len(keep) - 1):   # lower each chord onto the curve
+        a, b = keep[k], keep[k + 1]
+        chord = np.interp(w[a:b + 1], [w[a], w[b]], [t[a], t[b]])
+        excess = float(np.max(chord - t[a:b + 1]))
+        if excess > 0:
+            tk[k] = min(tk[k], t[a] - excess)
+            tk[k + 1] = min(tk[k + 1], t[b] - excess)
+    speeds = wk * spr / (2 * math.pi)
+    return speeds, np.maximum(tk, 0.0)
+
+
+def _breakpoints(x: np.ndarray, y: np.ndarray, tol: float) -> list[int]:
+    """Greedy: from each breakpoint, the farthest next one (binary search) whose chord stays
+    within tol of the samples in between."""
+    def fits(i: int, j: int) -> bool:
+        chord = np.interp(x[i:j + 1], [x[i], x[j]], [y[i], y[j]])
+        return float(np.max(np.abs(chord - y[i:j + 1]))) <= tol
+
+    keep = [0]
+    i, n = 0, len(x)
+    while i < n - 1:
+        lo, hi = i + 1, n - 1
+        while lo < hi:
+            mid = (lo + hi + 1) // 2
+            if fits(i, mid):
+                lo = mid
+            else:
+                hi = mid - 1
+        keep.append(lo)
+        i = lo
+    return keep
+
+
+def start_pps_estimate(torque_nm: float, inertia_kgm2: float, opposing_nm: float,
+                       steps_per_rev: int, full_step_rad: float) -> float:
+    """The fastest jump from rest a rotor follows within half a full step of lag (the project's
+    stall criterion): accelerating at a = (T − opposing)/J, a lag of ω²/(2a) builds while it
+    catches up with ω, so ω ≤ √(2·a·½·full step)."""
+    a = (torque_nm - opposing_nm) / inertia_kgm2
+    if a <= 0:
+        raise FormatError("the motor cannot start: the usable torque at rest does not exceed "
+                          "friction plus load torque")
+    return math.sqrt(a * full_step_rad) * steps_per_rev / (2 * math.pi)
+
+
+def motor_from_datasheet(ds: Datasheet, drive: Drive, loads: Sequence[Contribution] = (), *,
+                         safety_factor: float = 0.6, start_pps: float | None = None,
+                         name: str = "") -> dict[str, object]:
+    """A `stepramp.motor/1` object: the model's pull-out curve at the drive's settings, the
+    rotor plus `loads` (reflected to the shaft), detent torque counted as friction (it brakes
+    a turning rotor; conservative), and where each number came from (`"sources"`)."""
+    speeds, torques = pullout_curve(ds, drive)
+    spr = ds.full_steps_per_rev * drive.microstep
+    contributions = [Contribution("inertia_kgm2", ds.rotor_inertia_kgm2,
+                                  f"rotor (datasheet): {ds.rotor_inertia_kgm2:.4g}")]
+    if ds.detent_torque_nm:
+        contributions.append(Contribution("friction_torque_nm", ds.detent_torque_nm,
+                                          f"detent torque (datasheet): {ds.detent_torque_nm:.4g}"))
+    totals = combine([*contributions, *loads])
+    if start_pps is None:
+        start_pps = start_pps_estimate(
+            safety_factor * float(torques[0]), totals.inertia_kgm2,
+            totals.friction_torque_nm + abs(totals.load_torque_nm), spr,
+            math.radians(ds.step_angle_deg))
+        start_pps = min(start_pps, float(speeds[-1]) / 2)
+    obj: dict[str, object] = {"format": FORMAT}
+    label = name or ds.name
+    if label:
+        obj["name"] = label
+    obj.update(steps_per_rev=spr,
+               pullout_torque=[[round(float(v), 3), round(float(t), 6)]
+                               for v, t in zip(speeds, torques, strict=True)],
+               inertia_kgm2=totals.inertia_kgm2, friction_torque_nm=totals.friction_torque_nm,
+               safety_factor=safety_factor, start_pps=round(start_pps, 3),
+               holding_torque_nm=ds.holding_torque_nm,
+               rotor_teeth=ds.electrical_periods_per_rev)
+    if "phases" in motor_format._OPTIONAL:   # the key lands with the lead's motor.py change
+        obj["phases"] = ds.phases
+    if totals.load_torque_nm:   # never dropped: a motor format without the key refuses the file
+        obj["load_torque_nm"] = totals.load_torque_nm
+    obj["sources"] = {**totals.sources, "pullout_torque": [{
+        "value": round(float(torques[0]), 6),
+        "from": (f"model (profiles/datasheet.py): T_h {ds.holding_torque_nm:.4g} N·m at "
+                 f"{ds.rated_current_a:.4g} A, R {ds.resistance_ohm:.4g} Ω, L "
+                 f"{ds.inductance_h * 1e3:.4g} mH, {ds.phases} phases; drive {drive.supply_v:.4g}"
+                 f" V, {drive.current_a:.4g} A RMS, 1/{drive.microstep} step")}]}
+    return obj
