@@ -11,15 +11,19 @@ The model (per phase, sinusoidal currents, m phases, Nr electrical periods per r
     I_cmd = √2·I_set          the drive's current setting is RMS per phase
     ω_e = Nr·ω                electrical angular speed, ω the shaft speed in rad/s
 
-At the pull-out the current is in phase with the back-EMF (load angle at the torque peak), and
-the drive can put at most the supply voltage V across a phase (amplitude), so the current it
-reaches is limited by the winding's L/R and by back-EMF:
+The drive puts at most the supply voltage V across a phase (amplitude). Against the winding's
+impedance Z = R + jω_e·L and the back-EMF E = k_e·ω, whatever the phase between them,
+|I·Z + E| ≤ |I|·|Z| + |E| (triangle inequality), so the drive always reaches at least
 
-    (I·R + k_e·ω)² + (I·ω_e·L)² = V²      →  I_V(ω), the positive root
-    T(ω) = K_T · min(I_cmd, I_V(ω))        (0 once k_e·ω ≥ V)
+    I_V(ω) = (V − k_e·ω) / √(R² + (ω_e·L)²)
+    T(ω)   = K_T · min(I_cmd, max(I_V(ω), 0))       (0 once k_e·ω ≥ V)
 
-At standstill T = T_h·I_set/I_r. The model has no detent torque, saturation, chopper losses
-or mid-band resonance: docs/manual-notes.md compares it with printed vendor curves.
+This is a LOWER BOUND of the ideal circuit's pull-out torque (the current actually reached
+depends on the load angle and is higher), the first-order formula of REFERENCES.md. Against
+printed vendor curves (docs/manual-notes.md, tests/test_datasheet.py) it lies below every
+point, by 8–100 %: safe, pessimistic at high speed. Use a vendor curve (`--curve`) when one
+exists. At standstill T = T_h·I_set/I_r. No detent torque, saturation, iron losses or
+mid-band resonance are modelled.
 """
 
 from __future__ import annotations
@@ -115,14 +119,8 @@ def _pos(name: str, value: float, hi: float) -> None:
 def pullout_torque_nm(ds: Datasheet, drive: Drive, speed_rad_s: np.ndarray | float) -> np.ndarray:
     """The model's pull-out torque [N·m] at shaft speeds [rad/s] (see the module docstring)."""
     w = np.abs(np.asarray(speed_rad_s, dtype=float))
-    r, v = ds.resistance_ohm, drive.supply_v
-    ke = ds.back_emf_v_s_per_rad
     x = ds.electrical_periods_per_rev * w * ds.inductance_h      # ω_e·L
-    emf = ke * w
-    z2 = r * r + x * x
-    # (I·R + E)² + (I·X)² = V²  →  z2·I² + 2·R·E·I + E² − V² = 0
-    disc = (r * emf) ** 2 - z2 * (emf * emf - v * v)
-    i_v = (-r * emf + np.sqrt(np.maximum(disc, 0.0))) / z2
+    i_v = (drive.supply_v - ds.back_emf_v_s_per_rad * w) / np.hypot(ds.resistance_ohm, x)
     i = np.minimum(SQRT2 * drive.current_a, np.maximum(i_v, 0.0))
     return np.asarray(ds.torque_constant_nm_per_a * i)
 
@@ -243,3 +241,47 @@ def motor_from_datasheet(ds: Datasheet, drive: Drive, loads: Sequence[Contributi
                  f"{ds.inductance_h * 1e3:.4g} mH, {ds.phases} phases; drive {drive.supply_v:.4g}"
                  f" V, {drive.current_a:.4g} A RMS, 1/{drive.microstep} step")}]}
     return obj
+
+
+def curve_from_csv(text: str, *, speed_unit: str, torque_unit: str, steps_per_rev: int,
+                   microstep: int, name: str = "curve") -> tuple[np.ndarray, np.ndarray]:
+    """A vendor pull-out curve from CSV text (two columns: speed, torque in the declared units;
+    a first line that is not numbers is a header; `#` starts a comment) as (pps, N·m), converted
+    once here. A curve that starts above 0 gets a point at 0 with its first torque (vendors
+    start their plots at a low speed; the motor file's curve starts at standstill)."""
+    from .units import curve_speed_to_pps, torque_to_nm
+    from .units import speed_unit as canon_speed
+    from .units import torque_unit as canon_torque
+    canon_speed(speed_unit)
+    canon_torque(torque_unit)
+    rows: list[tuple[float, float]] = []
+    for lineno, raw in enumerate(text.splitlines(), 1):
+        line = raw.split("#", 1)[0].strip()
+        if not line:
+            continue
+        cells = [c.strip() for c in line.replace(";", ",").replace("\t", ",").split(",")]
+        cells = [c for c in cells if c]
+        try:
+            values = [float(c) for c in cells]
+        except ValueError:
+            if not rows and lineno == next(i for i, r in enumerate(text.splitlines(), 1)
+                                           if r.split("#", 1)[0].strip()):
+                continue   # the header
+            raise FormatError(f"{name}: line {lineno}: expected two numbers, got {raw!r}") \
+                from None
+        if len(values) != 2 or not all(math.isfinite(v) for v in values):
+            raise FormatError(f"{name}: line {lineno}: expected two numbers, got {raw!r}")
+        rows.append((values[0], values[1]))
+    if len(rows) < 2:
+        raise FormatError(f"{name}: needs at least two (speed, torque) rows")
+    speeds = np.array([curve_speed_to_pps(s, speed_unit, steps_per_rev=steps_per_rev,
+                                          microstep=microstep) for s, _ in rows])
+    torques = np.array([torque_to_nm(t, torque_unit) for _, t in rows])
+    if speeds[0] < 0 or np.any(np.diff(speeds) <= 0):
+        raise FormatError(f"{name}: speeds must be ≥ 0 and strictly increase")
+    if np.any(torques < 0):
+        raise FormatError(f"{name}: torques must be ≥ 0")
+    if speeds[0] > 0:
+        speeds = np.concatenate([[0.0], speeds])
+        torques = np.concatenate([[torques[0]], torques])
+    return speeds, torques
