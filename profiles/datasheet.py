@@ -255,20 +255,21 @@ def curve_from_csv(text: str, *, speed_unit: str, torque_unit: str, steps_per_re
     canon_speed(speed_unit)
     canon_torque(torque_unit)
     rows: list[tuple[float, float]] = []
+    first = True
     for lineno, raw in enumerate(text.splitlines(), 1):
         line = raw.split("#", 1)[0].strip()
         if not line:
             continue
         cells = [c.strip() for c in line.replace(";", ",").replace("\t", ",").split(",")]
-        cells = [c for c in cells if c]
         try:
-            values = [float(c) for c in cells]
+            values = [float(c) for c in cells if c]
         except ValueError:
-            if not rows and lineno == next(i for i, r in enumerate(text.splitlines(), 1)
-                                           if r.split("#", 1)[0].strip()):
-                continue   # the header
+            if first:   # the header
+                first = False
+                continue
             raise FormatError(f"{name}: line {lineno}: expected two numbers, got {raw!r}") \
                 from None
+        first = False
         if len(values) != 2 or not all(math.isfinite(v) for v in values):
             raise FormatError(f"{name}: line {lineno}: expected two numbers, got {raw!r}")
         rows.append((values[0], values[1]))
