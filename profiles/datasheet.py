@@ -154,13 +154,15 @@ def pullout_curve(ds: Datasheet, drive: Drive, *, min_fraction: float = 0.05,
     t = pullout_torque_nm(ds, drive, w)
     keep = _breakpoints(w, t, tolerance * t0)
     wk, tk = w[keep], t[keep].copy()
-    for k in range(len(keep) - 1):   # lower each chord onto the curve
-        a, b = keep[k], keep[k + 1]
-        chord = np.interp(w[a:b + 1], [w[a], w[b]], [t[a], t[b]])
-        excess = float(np.max(chord - t[a:b + 1]))
-        if excess > 0:
-            tk[k] = min(tk[k], t[a] - excess)
-            tk[k + 1] = min(tk[k + 1], t[b] - excess)
+    for k in range(len(keep) - 1):   # lower each chord onto the curve, checked finely
+        wa, wb = w[keep[k]], w[keep[k + 1]]
+        fine = np.linspace(wa, wb, 4001)
+        chord = np.interp(fine, [wa, wb], [tk[k], tk[k + 1]])
+        excess = float(np.max(chord - pullout_torque_nm(ds, drive, fine)))
+        if excess > 0:   # + a hair for what lies between the fine samples
+            lower = excess + 1e-9 * t0
+            tk[k] -= lower
+            tk[k + 1] -= lower
     speeds = wk * spr / (2 * math.pi)
     return speeds, np.maximum(tk, 0.0)
 
