@@ -102,7 +102,8 @@ def _loads(obj: dict[str, Any]) -> bool:
     ("steps_per_rev", "1600"), ("inertia_kgm2", 0), ("inertia_kgm2", 2e3),
     ("safety_factor", 0), ("safety_factor", 1.0), ("friction_torque_nm", -0.01),
     ("friction_torque_nm", 1e4), ("start_pps", 0), ("max_pps", 0), ("max_jerk_pps3", 1e19),
-    ("holding_torque_nm", -1), ("format", "stepramp.motor/2"), ("rotor_teeth", 50), ("max_jump_pps", 400),
+    ("holding_torque_nm", -1), ("format", "stepramp.motor/2"), ("rotor_teeth", 50),
+    ("max_jump_pps", 400),
 ])
 def test_schema_agrees_with_the_loader(key: str, value: Any) -> None:
     for base in bundled():
