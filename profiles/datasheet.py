@@ -68,22 +68,18 @@ class Datasheet:
         if not 0 <= self.detent_torque_nm < self.holding_torque_nm:
             raise FieldRangeError("detent_torque_nm", self.detent_torque_nm, 0,
                                   self.holding_torque_nm)
-        fs = 360.0 / self.step_angle_deg
-        if abs(fs - round(fs)) > 1e-6:
-            raise FormatError(f"step_angle_deg: {self.step_angle_deg} does not divide 360°")
+        full_steps_per_rev(self.step_angle_deg)
         if self.rotor_teeth is not None:
             _pos("rotor_teeth", self.rotor_teeth, 10_000)
 
     @property
     def full_steps_per_rev(self) -> int:
-        return round(360.0 / self.step_angle_deg)
+        return full_steps_per_rev(self.step_angle_deg)
 
     @property
     def electrical_periods_per_rev(self) -> int:
         """Nr: an electrical period is 2·phases full steps (4 for 2-phase, 10 for 5-phase)."""
-        if self.rotor_teeth is not None:
-            return self.rotor_teeth
-        return max(1, round(self.full_steps_per_rev / (2 * self.phases)))
+        return electrical_periods(self.step_angle_deg, self.phases, self.rotor_teeth)
 
     @property
     def torque_constant_nm_per_a(self) -> float:
@@ -94,6 +90,20 @@ class Datasheet:
     def back_emf_v_s_per_rad(self) -> float:
         """k_e = 2·K_T/m: peak back-EMF of one phase per rad/s of the shaft."""
         return 2 * self.torque_constant_nm_per_a / self.phases
+
+
+def full_steps_per_rev(step_angle_deg: float) -> int:
+    _pos("step_angle_deg", step_angle_deg, 90)
+    fs = 360.0 / step_angle_deg
+    if abs(fs - round(fs)) > 1e-6:
+        raise FormatError(f"step_angle_deg: {step_angle_deg} does not divide 360°")
+    return round(fs)
+
+
+def electrical_periods(step_angle_deg: float, phases: int, rotor_teeth: int | None) -> int:
+    if rotor_teeth is not None:
+        return rotor_teeth
+    return max(1, round(full_steps_per_rev(step_angle_deg) / (2 * phases)))
 
 
 @dataclass(frozen=True)
@@ -204,44 +214,80 @@ def start_pps_estimate(torque_nm: float, inertia_kgm2: float, opposing_nm: float
 def motor_from_datasheet(ds: Datasheet, drive: Drive, loads: Sequence[Contribution] = (), *,
                          safety_factor: float = 0.6, start_pps: float | None = None,
                          name: str = "") -> dict[str, object]:
-    """A `stepramp.motor/1` object: the model's pull-out curve at the drive's settings, the
-    rotor plus `loads` (reflected to the shaft), detent torque counted as friction (it brakes
-    a turning rotor; conservative), and where each number came from (`"sources"`)."""
+    """A `stepramp.motor/1` object with the model's pull-out curve at the drive's settings
+    (see `motor_object` for the rest)."""
     speeds, torques = pullout_curve(ds, drive)
-    spr = ds.full_steps_per_rev * drive.microstep
-    contributions = [Contribution("inertia_kgm2", ds.rotor_inertia_kgm2,
-                                  f"rotor (datasheet): {ds.rotor_inertia_kgm2:.4g}")]
-    if ds.detent_torque_nm:
-        contributions.append(Contribution("friction_torque_nm", ds.detent_torque_nm,
-                                          f"detent torque (datasheet): {ds.detent_torque_nm:.4g}"))
+    obj = motor_object(
+        speeds, torques, Mechanics(ds.step_angle_deg, ds.rotor_inertia_kgm2, ds.phases,
+                                   ds.detent_torque_nm, ds.rotor_teeth),
+        drive.microstep, loads, safety_factor=safety_factor, start_pps=start_pps,
+        name=name or ds.name,
+        curve_from=(f"model (profiles/datasheet.py): T_h {ds.holding_torque_nm:.4g} N·m at "
+                    f"{ds.rated_current_a:.4g} A, R {ds.resistance_ohm:.4g} Ω, L "
+                    f"{ds.inductance_h * 1e3:.4g} mH, {ds.phases} phases; drive "
+                    f"{drive.supply_v:.4g} V, {drive.current_a:.4g} A RMS, "
+                    f"1/{drive.microstep} step"))
+    obj["holding_torque_nm"] = ds.holding_torque_nm
+    return obj
+
+
+@dataclass(frozen=True)
+class Mechanics:
+    """The mechanical half of a datasheet (all a vendor-curve motor needs besides its curve)."""
+    step_angle_deg: float
+    rotor_inertia_kgm2: float
+    phases: int = 2
+    detent_torque_nm: float = 0.0
+    rotor_teeth: int | None = None
+
+    def __post_init__(self) -> None:
+        full_steps_per_rev(self.step_angle_deg)
+        _pos("rotor_inertia_kgm2", self.rotor_inertia_kgm2, 1e3)
+        if self.phases not in (2, 3, 4, 5):
+            raise FieldRangeError("phases", self.phases, 2, 5)
+        if not 0 <= self.detent_torque_nm < 1e4:
+            raise FieldRangeError("detent_torque_nm", self.detent_torque_nm, 0, 1e4)
+
+
+def motor_object(speeds: np.ndarray, torques: np.ndarray, mech: Mechanics, microstep: int,
+                 loads: Sequence[Contribution] = (), *, safety_factor: float = 0.6,
+                 start_pps: float | None = None, name: str = "",
+                 curve_from: str = "") -> dict[str, object]:
+    """A `stepramp.motor/1` object from a pull-out curve (pps, N·m) and the motor's mechanics:
+    the rotor plus `loads` (reflected to the shaft), detent torque counted as friction (it
+    brakes a turning rotor; conservative), the self-start speed estimated when not given
+    (`start_pps_estimate`, at most half the curve's top), and where each number came from
+    (`"sources"`)."""
+    spr = full_steps_per_rev(mech.step_angle_deg) * microstep
+    contributions = [Contribution("inertia_kgm2", mech.rotor_inertia_kgm2,
+                                  f"rotor (datasheet): {mech.rotor_inertia_kgm2:.4g}")]
+    if mech.detent_torque_nm:
+        contributions.append(Contribution(
+            "friction_torque_nm", mech.detent_torque_nm,
+            f"detent torque (datasheet): {mech.detent_torque_nm:.4g}"))
     totals = combine([*contributions, *loads])
     if start_pps is None:
         start_pps = start_pps_estimate(
             safety_factor * float(torques[0]), totals.inertia_kgm2,
             totals.friction_torque_nm + abs(totals.load_torque_nm), spr,
-            math.radians(ds.step_angle_deg))
+            math.radians(mech.step_angle_deg))
         start_pps = min(start_pps, float(speeds[-1]) / 2)
     obj: dict[str, object] = {"format": FORMAT}
-    label = name or ds.name
-    if label:
-        obj["name"] = label
+    if name:
+        obj["name"] = name
     obj.update(steps_per_rev=spr,
                pullout_torque=[[round(float(v), 3), round(float(t), 6)]
                                for v, t in zip(speeds, torques, strict=True)],
                inertia_kgm2=totals.inertia_kgm2, friction_torque_nm=totals.friction_torque_nm,
                safety_factor=safety_factor, start_pps=round(start_pps, 3),
-               holding_torque_nm=ds.holding_torque_nm,
-               rotor_teeth=ds.electrical_periods_per_rev)
+               rotor_teeth=electrical_periods(mech.step_angle_deg, mech.phases,
+                                              mech.rotor_teeth))
     if "phases" in motor_format._OPTIONAL:   # the key lands with the lead's motor.py change
-        obj["phases"] = ds.phases
+        obj["phases"] = mech.phases
     if totals.load_torque_nm:   # never dropped: a motor format without the key refuses the file
         obj["load_torque_nm"] = totals.load_torque_nm
-    obj["sources"] = {**totals.sources, "pullout_torque": [{
-        "value": round(float(torques[0]), 6),
-        "from": (f"model (profiles/datasheet.py): T_h {ds.holding_torque_nm:.4g} N·m at "
-                 f"{ds.rated_current_a:.4g} A, R {ds.resistance_ohm:.4g} Ω, L "
-                 f"{ds.inductance_h * 1e3:.4g} mH, {ds.phases} phases; drive {drive.supply_v:.4g}"
-                 f" V, {drive.current_a:.4g} A RMS, 1/{drive.microstep} step")}]}
+    obj["sources"] = {**totals.sources, "pullout_torque": [
+        {"value": round(float(np.max(torques)), 6), "from": curve_from}]}
     return obj
 
 

@@ -26,7 +26,7 @@ from ._common import EXIT_OK, EXIT_UNUSABLE, VersionAction
 COMMANDS: tuple[str, ...] = (
     "check", "show", "export", "decode", "move", "expand",
     "plan", "simulate", "compare", "sync",
-    "alink", "mc200",
+    "alink", "mc200", "motor",
 )
 
 
