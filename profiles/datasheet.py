@@ -227,7 +227,8 @@ def motor_from_datasheet(ds: Datasheet, drive: Drive, loads: Sequence[Contributi
                     f"{ds.inductance_h * 1e3:.4g} mH, {ds.phases} phases; drive "
                     f"{drive.supply_v:.4g} V, {drive.current_a:.4g} A RMS, "
                     f"1/{drive.microstep} step"))
-    obj["holding_torque_nm"] = ds.holding_torque_nm
+    sources = obj.pop("sources")
+    obj.update(holding_torque_nm=ds.holding_torque_nm, sources=sources)
     return obj
 
 

@@ -75,7 +75,7 @@ class Command:
         words = [a for a in self.argv if not a.startswith("-")]
         if not words:  # `stepramp --version`
             return ""
-        return " ".join(words[:2]) if words[0] in ("alink", "mc200") else words[0]
+        return " ".join(words[:2]) if words[0] in ("alink", "mc200", "motor") else words[0]
 
 
 def guide_text() -> str:
