@@ -476,6 +476,7 @@ NOTEBOOKS: dict[str, list[Cell]] = {
     "linear-vs-free-curve": LINEAR_VS_FREE,
     "upload-files": UPLOAD,
     "two-axis-move": cells_from("two_axis_move"),
+    "machine-to-table": cells_from("machine_to_table"),
 }
 
 
