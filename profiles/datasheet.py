@@ -34,7 +34,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import motor as motor_format
 from .errors import FieldRangeError, FormatError
 from .loads import Contribution, combine
 from .motor import FORMAT
@@ -283,9 +282,8 @@ def motor_object(speeds: np.ndarray, torques: np.ndarray, mech: Mechanics, micro
                safety_factor=safety_factor, start_pps=round(start_pps, 3),
                rotor_teeth=electrical_periods(mech.step_angle_deg, mech.phases,
                                               mech.rotor_teeth))
-    if "phases" in motor_format._OPTIONAL:   # the key lands with the lead's motor.py change
-        obj["phases"] = mech.phases
-    if totals.load_torque_nm:   # never dropped: a motor format without the key refuses the file
+    obj["phases"] = mech.phases
+    if totals.load_torque_nm:
         obj["load_torque_nm"] = totals.load_torque_nm
     obj["sources"] = {**totals.sources, "pullout_torque": [
         {"value": round(float(np.max(torques)), 6), "from": curve_from}]}

@@ -221,7 +221,6 @@ class Motor:
                    phases=int(obj.get("phases", DEFAULT_PHASES)),
                    damping_ratio=float(obj.get("damping_ratio", DEFAULT_DAMPING_RATIO)),
                    load_torque_nm=float(obj.get("load_torque_nm", 0.0)),
-
                    sources=_sources(obj["sources"]) if "sources" in obj else None)
 
 

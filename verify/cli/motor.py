@@ -9,8 +9,6 @@ from typing import Any
 
 from ._common import EXIT_OK, EXIT_UNUSABLE, number, positive_int
 
-_float, _int = number, positive_int
-
 
 def add_subparser(sub: Any) -> None:
     from profiles.loads import LOAD_HELP
@@ -22,25 +20,26 @@ def add_subparser(sub: Any) -> None:
     n = msub.add_parser("new", help="a motor file from a datasheet (electrical model) or a "
                                     "vendor curve, plus loads")
     g = n.add_argument_group("motor")
-    g.add_argument("--phases", type=_int, default=2, help="motor phases, 2 or 5 (default 2)")
-    g.add_argument("--step-angle", type=_float, default=1.8, metavar="DEG",
+    g.add_argument("--phases", type=positive_int, default=2,
+                   help="motor phases, 2 or 5 (default 2)")
+    g.add_argument("--step-angle", type=number, default=1.8, metavar="DEG",
                    help="full-step angle in degrees (default 1.8)")
-    g.add_argument("--microstep", type=_int, default=1,
+    g.add_argument("--microstep", type=positive_int, default=1,
                    help="driver microsteps per full step (default 1): "
                         "steps_per_rev = 360/step angle × microstep")
-    g.add_argument("--rotor-inertia-gcm2", type=_float, required=True, metavar="G·CM²",
+    g.add_argument("--rotor-inertia-gcm2", type=number, required=True, metavar="G·CM²",
                    help="rotor inertia in g·cm² as datasheets print it (1 g·cm² = 1e-7 kg·m²)")
-    g.add_argument("--detent-torque-nm", type=_float, default=0.0, metavar="N·M",
+    g.add_argument("--detent-torque-nm", type=number, default=0.0, metavar="N·M",
                    help="detent torque in N·m, counted as friction (default 0)")
     d = n.add_argument_group("datasheet (the electrical model of profiles/datasheet.py)")
-    d.add_argument("--holding-torque-nm", type=_float, metavar="N·M",
+    d.add_argument("--holding-torque-nm", type=number, metavar="N·M",
                    help="holding torque in N·m, two phases on at the rated current")
-    d.add_argument("--rated-current-a", type=_float, metavar="A",
+    d.add_argument("--rated-current-a", type=number, metavar="A",
                    help="rated current per phase in A (RMS)")
-    d.add_argument("--resistance-ohm", type=_float, metavar="Ω", help="phase resistance in Ω")
-    d.add_argument("--inductance-mh", type=_float, metavar="MH", help="phase inductance in mH")
-    d.add_argument("--supply-v", type=_float, metavar="V", help="drive supply voltage in V")
-    d.add_argument("--current-a", type=_float, metavar="A",
+    d.add_argument("--resistance-ohm", type=number, metavar="Ω", help="phase resistance in Ω")
+    d.add_argument("--inductance-mh", type=number, metavar="MH", help="phase inductance in mH")
+    d.add_argument("--supply-v", type=number, metavar="V", help="drive supply voltage in V")
+    d.add_argument("--current-a", type=number, metavar="A",
                    help="drive current setting per phase in A RMS (default: the rated current)")
     c = n.add_argument_group("vendor curve (instead of the model)")
     c.add_argument("--curve", metavar="FILE.csv",
@@ -53,9 +52,9 @@ def add_subparser(sub: Any) -> None:
                         "kg-cm)")
     o = n.add_argument_group("load and use")
     o.add_argument("--load", action="append", default=[], metavar="SPEC", help=LOAD_HELP)
-    o.add_argument("--safety-factor", type=_float, default=0.6,
+    o.add_argument("--safety-factor", type=number, default=0.6,
                    help="share of the pull-out torque a plan may use, 0 < sf ≤ 1 (default 0.6)")
-    o.add_argument("--start-pps", type=_float, metavar="PPS",
+    o.add_argument("--start-pps", type=number, metavar="PPS",
                    help="self-start speed in pps (default: estimated, see the guide)")
     o.add_argument("--name", default="", help="the motor file's name")
     n.add_argument("-o", "--output", metavar="M.json", help="write here (default stdout)")
@@ -82,7 +81,7 @@ def cmd_motor_new(args: argparse.Namespace) -> int:
     )
     from profiles.errors import FormatError
     from profiles.loads import loads_from_specs
-    from profiles.motor import _OPTIONAL, _REQUIRED, Motor
+    from profiles.motor import Motor
     from profiles.reading import read_bytes
     from verify.output import write_output
 
@@ -120,8 +119,7 @@ def cmd_motor_new(args: argparse.Namespace) -> int:
                            safety_factor=args.safety_factor, start_pps=args.start_pps,
                            name=args.name, curve_from=(f"vendor curve {args.curve} "
                                                        f"({args.speed_unit}, {args.torque_unit})"))
-    if set(obj) <= _REQUIRED | _OPTIONAL:   # keys this stepramp loads (see the guide)
-        Motor.from_json(obj)   # refuse here what the planner would refuse later
+    Motor.from_json(obj)   # refuse here what the planner would refuse later
     text_out = dump_motor(obj)
     write_output(args.output, text_out)
     if args.output not in (None, "-"):
