@@ -23,45 +23,45 @@ def add_subparser(sub: Any) -> None:
     g.add_argument("--phases", type=positive_int, default=2,
                    help="motor phases, 2 or 5 (default 2)")
     g.add_argument("--step-angle", type=number, default=1.8, metavar="DEG",
-                   help="full-step angle in degrees (default 1.8)")
+                   help="full-step angle [°] (default 1.8)")
     g.add_argument("--microstep", type=positive_int, default=1,
                    help="driver microsteps per full step (default 1): "
                         "steps_per_rev = 360/step angle × microstep")
     g.add_argument("--rotor-inertia-gcm2", type=number, required=True, metavar="G·CM²",
-                   help="rotor inertia in g·cm² as datasheets print it (1 g·cm² = 1e-7 kg·m²)")
+                   help="rotor inertia [g·cm²] as datasheets print it (1 g·cm² = 1e-7 kg·m²)")
     g.add_argument("--detent-torque-nm", type=number, default=0.0, metavar="N·M",
-                   help="detent torque in N·m, counted as friction (default 0)")
+                   help="detent torque [N·m], counted as friction (default 0)")
     d = n.add_argument_group("datasheet (the electrical model of profiles/datasheet.py)")
     d.add_argument("--holding-torque-nm", type=number, metavar="N·M",
-                   help="holding torque in N·m, two phases on at the rated current")
+                   help="holding torque [N·m], two phases on at the rated current")
     d.add_argument("--rated-current-a", type=number, metavar="A",
-                   help="rated current per phase in A (RMS)")
-    d.add_argument("--resistance-ohm", type=number, metavar="Ω", help="phase resistance in Ω")
-    d.add_argument("--inductance-mh", type=number, metavar="MH", help="phase inductance in mH")
-    d.add_argument("--supply-v", type=number, metavar="V", help="drive supply voltage in V")
+                   help="rated current per phase [A] (RMS)")
+    d.add_argument("--resistance-ohm", type=number, metavar="Ω", help="phase resistance [Ω]")
+    d.add_argument("--inductance-mh", type=number, metavar="MH", help="phase inductance [mH]")
+    d.add_argument("--supply-v", type=number, metavar="V", help="drive supply voltage [V]")
     d.add_argument("--current-a", type=number, metavar="A",
-                   help="drive current setting per phase in A RMS (default: the rated current)")
+                   help="drive current setting per phase [A] RMS (default: the rated current)")
     c = n.add_argument_group("vendor curve (instead of the model)")
     c.add_argument("--curve", metavar="FILE.csv",
                    help="pull-out curve: two columns speed, torque (a header line is skipped)")
     c.add_argument("--speed-unit", metavar="|".join(SPEED_UNITS),
                    help="the curve's speed unit: pps (the driver's pulses at --microstep), Hz "
-                        "(FULL steps per second), rps or rpm")
+                        "(FULL steps/s), rps or rpm")
     c.add_argument("--torque-unit", metavar="|".join(TORQUE_UNITS),
                    help="the curve's torque unit (also spelled N.m, Nm, mNm, oz-in, kgf-cm, "
                         "kg-cm)")
     o = n.add_argument_group("load and use")
     o.add_argument("--load", action="append", default=[], metavar="SPEC", help=LOAD_HELP)
     o.add_argument("--safety-factor", type=number, default=0.6,
-                   help="share of the pull-out torque a plan may use, 0 < sf ≤ 1 (default 0.6)")
+                   help="share of the pull-out torque a plan may use [1], 0 < sf ≤ 1 (default 0.6)")
     o.add_argument("--start-pps", type=number, metavar="PPS",
-                   help="self-start speed in pps (default: estimated, see the guide)")
+                   help="self-start speed [pps] (default: estimated, see the guide)")
     o.add_argument("--name", default="", help="the motor file's name")
     n.add_argument("-o", "--output", metavar="M.json", help="write here (default stdout)")
     n.set_defaults(func=cmd_motor_new)
 
     k = msub.add_parser("check", help="check motor files against the schema and the loader")
-    k.add_argument("files", nargs="+", metavar="FILE")
+    k.add_argument("files", nargs="+", metavar="FILE", help="motor files (stepramp.motor/1)")
     k.set_defaults(func=cmd_motor_check)
 
 
