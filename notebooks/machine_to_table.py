@@ -6,11 +6,12 @@ CELLS: list[tuple[str, str]] = [
     ("md", """\
 # From a machine to a table
 
-A stepper motor known only from its datasheet, driving a carriage on a lead
-screw: the motor file (pull-out curve from the electrical model of
+A stepper motor known only from its datasheet, lifting a carriage on a
+vertical lead screw: the motor file (pull-out curve from the electrical model of
 `profiles/datasheet.py`, inertia and friction reflected from the screw, every
-number with its source), the fastest stall-safe PPMC-312 free curve for a
-100 mm move, and the upload file the chip takes."""),
+number with its source, the carriage's weight as a load torque), the fastest
+stall-safe PPMC-312 free curve for a 100 mm move, and the upload file the chip
+takes."""),
     ("code", """\
 import json
 import math
@@ -33,10 +34,11 @@ datasheet = Datasheet(step_angle_deg=1.8, holding_torque_nm=0.45, rated_current_
                       resistance_ohm=1.8, inductance_h=3.2e-3, rotor_inertia_kgm2=57e-7,
                       detent_torque_nm=0.02, name="NEMA17 0.45 N·m on an 8 mm lead screw")
 drive = Drive(supply_v=24, current_a=1.5, microstep=8)
-# The mechanism: 2 kg carriage on a horizontal Ø8 × 300 mm steel screw, 8 mm lead.
+# The mechanism: a 2 kg carriage lifted by a vertical Ø8 × 300 mm steel screw, 8 mm lead
+# (incline 90°: positive moves go up, the weight is a load torque).
 LEAD_MM = 8.0
 screw = lead_screw(LEAD_MM * 1e-3, 2.0, screw_diameter_m=0.008, screw_length_m=0.3,
-                   efficiency=0.9, friction_coeff=0.05)
+                   efficiency=0.9, incline_deg=90)
 
 obj = motor_from_datasheet(datasheet, drive, screw, safety_factor=0.6)
 motor = Motor.from_json(obj)
@@ -81,7 +83,9 @@ plt.show()"""),
 ## The table for a 100 mm move
 
 100 mm on an 8 mm lead at 1600 pulses per revolution is 20 000 pulses. The
-planner finds the fastest stall-safe staircase the chip runs for that move."""),
+planner finds the fastest stall-safe staircase the chip runs for that move; the
+chip runs one table both ways, so the weight counts against the motor in both
+(up it opposes the motor accelerating, down it opposes the motor braking)."""),
     ("code", """\
 MOVE_MM = 100.0
 pulses = round(MOVE_MM / LEAD_MM * spr)

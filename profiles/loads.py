@@ -173,7 +173,8 @@ def _linear(name: str, what: str, r: float, mass_kg: float, efficiency: float,
             parts.append(f"m·g·sin({_g(incline_deg)}°)")
         if force_n:
             parts.append(f"{_g(force_n)} N")
-        out.append(Contribution("load_torque_nm", t, f"{name}: ({' + '.join(parts)})·{r_name}/η"
+        force = parts[0] if len(parts) == 1 else f"({' + '.join(parts)})"
+        out.append(Contribution("load_torque_nm", t, f"{name}: {force}·{r_name}/η"
                                 f", η = {_g(efficiency)}: {_g(t)}"))
     if friction_coeff and mass_kg:
         t = friction_coeff * mass_kg * G_MPS2 * math.cos(theta) * r / efficiency

@@ -102,10 +102,15 @@ def test_check_unreadable_file(tmp_path: Path, capsys: pytest.CaptureFixture[str
     assert code == 2 and "not valid JSON" in out
 
 
-def test_vertical_axis_load_torque_is_written(capsys: pytest.CaptureFixture[str]) -> None:
-    code, out, _ = run(["motor", "new", *DATASHEET, "--load",
-                        "screw:lead_mm=10,mass_kg=3,efficiency=0.8,incline_deg=90"], capsys)
+def test_vertical_axis_load_torque_is_written(tmp_path: Path,
+                                              capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "lift.json"
+    code, _, _ = run(["motor", "new", *DATASHEET, "--load",
+                      "screw:lead_mm=10,mass_kg=3,efficiency=0.8,incline_deg=90", "-o",
+                      str(path)], capsys)
     assert code == 0
-    obj = json.loads(out)
+    obj = json.loads(path.read_text())
     assert obj["load_torque_nm"] == pytest.approx(3 * 9.80665 * 0.01 / (2 * math.pi * 0.8))
-    assert "m·g·sin(90°)" in obj["sources"]["load_torque_nm"][0]["from"]
+    assert "m·g·sin(90°)·lead/2π/η" in obj["sources"]["load_torque_nm"][0]["from"]
+    assert load_motor(path).load_torque_nm == obj["load_torque_nm"]
+    assert run(["motor", "check", str(path)], capsys)[:2] == (0, f"{path}: ok\n")
