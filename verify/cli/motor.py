@@ -58,18 +58,18 @@ def add_subparser(sub: Any) -> None:
                    help="self-start speed [pps] (default: estimated, see the guide)")
     o.add_argument("--name", default="", help="the motor file's name")
     n.add_argument("-o", "--output", metavar="M.json", help="write here (default stdout)")
-    n.set_defaults(func=cmd_motor_new)
+    n.set_defaults(func=_do_new)
 
     k = msub.add_parser("check", help="check motor files against the schema and the loader")
     k.add_argument("files", nargs="+", metavar="FILE", help="motor files (stepramp.motor/1)")
-    k.set_defaults(func=cmd_motor_check)
+    k.set_defaults(func=_do_check)
 
 
 _DATASHEET_OPTS = ("holding_torque_nm", "rated_current_a", "resistance_ohm", "inductance_mh",
                    "supply_v")
 
 
-def cmd_motor_new(args: argparse.Namespace) -> int:
+def _do_new(args: argparse.Namespace) -> int:
     from profiles.datasheet import (
         Datasheet,
         Drive,
@@ -138,7 +138,7 @@ def dump_motor(obj: dict[str, Any]) -> str:
     return "{\n" + ",\n".join(lines) + "\n}\n"
 
 
-def cmd_motor_check(args: argparse.Namespace) -> int:
+def _do_check(args: argparse.Namespace) -> int:
     from profiles.errors import StepRampError
     from profiles.motor_schema import problems
     from profiles.reading import read_json
