@@ -117,6 +117,13 @@ def test_planned_tables_are_safe_for_every_length_by_both_judges(name: str, puls
                            np.asarray(plan.table.decel[::-1]))
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("name", sorted(MOTORS))
+@pytest.mark.parametrize("pulses", [60, 150, 700, 5_000, 40_000, 250_000])
+def test_more_planned_lengths_are_safe_by_both_judges(name: str, pulses: int) -> None:
+    test_planned_tables_are_safe_for_every_length_by_both_judges(name, pulses)
+
+
 @pytest.mark.parametrize("name", sorted(MOTORS))
 def test_never_slower_than_the_symmetric_table(name: str) -> None:
     motor = MOTORS[name]
