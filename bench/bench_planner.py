@@ -103,8 +103,8 @@ def main() -> None:
             opt = exact_optimum(motor, pulses).duration_s
             base = plan_baseline(motor, pulses=pulses)
             base_s = simulate_move(base.table, pulses).duration_s
-            lin = plan_init(motor, "linear", pulses, candidates=cands["linear"]).move_time_s
-            s = plan_init(motor, "s_curve", pulses, candidates=cands["s_curve"]).move_time_s
+            lin = plan_init(motor, "linear", pulses, candidates=cands["linear"]).duration_s
+            s = plan_init(motor, "s_curve", pulses, candidates=cands["s_curve"]).duration_s
             base_ratios.append(table_s / base_s)
             print(f"{name:22s} {pulses:7d} {len(plan.table.rates):6d} {table_s / opt:9.3f} "
                   f"{table_s / base_s:8.4f} {lin / table_s:8.3f} {s / table_s:8.3f}  "

@@ -231,7 +231,7 @@ for m in motors:
         results.append((m, pulses, free, inits))
         for shape, ip in inits.items():
             # The free curve is optimal over every staircase, the init ones included.
-            assert free.move_time_s <= ip.move_time_s * (1 + 1e-9), (m.name, pulses, shape)
+            assert free.move_time_s <= ip.duration_s * (1 + 1e-9), (m.name, pulses, shape)
 print(f"{len(results)} cases planned")"""),
     ("code", """\
 def cell(value, bold=False):
@@ -245,13 +245,13 @@ head = ("<tr><th>motor</th><th>pulses</th><th>free curve ms</th><th>linear ms</t
 body = []
 for m, pulses, free, inits in results:
     lin, s = inits["linear"], inits["s_curve"]
-    best = min(inits.values(), key=lambda ip: ip.move_time_s)
+    best = min(inits.values(), key=lambda ip: ip.duration_s)
     body.append(
         f"<tr><td>{html.escape(m.name)}</td>{cell(f'{pulses:,}')}"
         + cell(f"{free.move_time_s * 1e3:.2f}", bold=True)
-        + cell(f"{lin.move_time_s * 1e3:.2f}") + cell(f"{s.move_time_s * 1e3:.2f}")
-        + cell(f"{lin.move_time_s / free.move_time_s:.3f}")
-        + cell(f"{s.move_time_s / free.move_time_s:.3f}")
+        + cell(f"{lin.duration_s * 1e3:.2f}") + cell(f"{s.duration_s * 1e3:.2f}")
+        + cell(f"{lin.duration_s / free.move_time_s:.3f}")
+        + cell(f"{s.duration_s / free.move_time_s:.3f}")
         + f"<td style='font-size:85%'>{html.escape(best.info)}</td></tr>")
 display(HTML("<table>" + head + "".join(body) + "</table>"))"""),
     ("md", """\
@@ -265,7 +265,7 @@ for ax, m in zip(np.atleast_1d(axes), motors, strict=True):
     xs = [r[1] for r in rows]
     for shape, style, label in (("linear", "o-", "best linear init"),
                                 ("s_curve", "s--", "best S-curve init")):
-        ax.plot(xs, [r[3][shape].move_time_s / r[2].move_time_s for r in rows], style,
+        ax.plot(xs, [r[3][shape].duration_s / r[2].move_time_s for r in rows], style,
                 label=label)
     ax.axhline(1.0, color="k", lw=1, label="free curve")
     ax.set_xscale("log")
@@ -277,7 +277,7 @@ np.atleast_1d(axes)[0].legend()
 plt.show()"""),
     ("code", """\
 for m in motors:
-    ratios = [r[3][shape].move_time_s / r[2].move_time_s
+    ratios = [r[3][shape].duration_s / r[2].move_time_s
               for r in results if r[0] is m for shape in SHAPES]
     gmean = math.exp(sum(math.log(x) for x in ratios) / len(ratios))
     print(f"{m.name}: init tables take {min(ratios):.2f}–{max(ratios):.2f}× the free curve "
@@ -321,6 +321,7 @@ from profiles.ppmc312 import decode_upload, encode_free_curve
 from profiles.ppmc312.ascii import decode_serial_init, encode_serial_init
 from profiles.ppmc312.files import parse_upload, render
 from profiles.ppmc312.execution import simulate_move
+from verify.references import exact_optimum
 
 PULSES = 10_000
 motor = load_motor(next(p for p in bundled_motor_paths() if "nema17" in p.name))
@@ -388,7 +389,7 @@ sent to slave address 1."""),
     ("code", """\
 init = plan_init(motor, "linear", PULSES, separate_decel=False)
 print(init.info)
-print(f"move of {PULSES} pulses: {init.move_time_s * 1e3:.2f} ms "
+print(f"move of {PULSES} pulses: {init.duration_s * 1e3:.2f} ms "
       f"(free curve {plan.move_time_s * 1e3:.2f} ms)")
 frame = encode_serial_init(init.table, address=1)
 print("frame:", frame)
@@ -407,10 +408,11 @@ The fastest stall-safe start speed, high speed and acceleration for this move
 (the unit ramps linearly), as command words with pair codes."""),
     ("code", """\
 alink = plan_settings(motor, pulses=PULSES)
-settings = alink.settings
+settings = alink.table
 print(settings)
-print(f"predicted move {alink.predicted_time_s * 1e3:.2f} ms ({alink.shape}), "
-      f"{alink.ratio_to_optimum:.3f}× the exact optimum")
+ratio = alink.duration_s / exact_optimum(motor, PULSES).duration_s
+print(f"predicted move {alink.duration_s * 1e3:.2f} ms ({alink.extras['shape']}), "
+      f"{ratio:.3f}× the exact optimum; bound by {alink.binds}")
 commands = settings_commands(settings)
 words_path = out / "alink-settings.txt"
 words_path.write_text("".join(f"{c.name:10s} " + " ".join(f"{w:04X}" for w in c.words) + "\\n"

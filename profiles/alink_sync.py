@@ -160,18 +160,18 @@ def slow_to(motor: Motor, pulses: int, target_s: float, fastest: AlinkSettings
 
 def plan_time_sync(axes: Sequence[tuple[str, Motor, int]]) -> AlinkSyncPlan:
     """Both axes end together: the slower keeps its fastest settings."""
-    plans = [plan_settings(m, pulses=abs(p), compare=False) for _, m, p in axes]
-    times = [move_time_s(pl.settings, abs(p)).duration_s
+    plans = [plan_settings(m, pulses=abs(p)) for _, m, p in axes]
+    times = [move_time_s(pl.table, abs(p)).duration_s
              for pl, (_, _, p) in zip(plans, axes, strict=True)]
     target = max(times)
     out = []
     for (name, motor, p), pl, t in zip(axes, plans, times, strict=True):
         if t < target:
-            s = slow_to(motor, abs(p), target, pl.settings)
-            how = (f"high {s.high_pps} pps (fastest {pl.settings.high_pps}), para "
-                   f"{s.accel_para} (fastest {pl.settings.accel_para})")
+            s = slow_to(motor, abs(p), target, pl.table)
+            how = (f"high {s.high_pps} pps (fastest {pl.table.high_pps}), para "
+                   f"{s.accel_para} (fastest {pl.table.accel_para})")
         else:
-            s, how = pl.settings, "slowest axis: fastest settings"
+            s, how = pl.table, "slowest axis: fastest settings"
         out.append(AlinkAxisMove(name, p, motor, s, t, how))
     return AlinkSyncPlan("time", tuple(out), f"time: both axes end at {target * 1e3:.6g} ms")
 
@@ -199,10 +199,10 @@ def plan_line_sync(axes: Sequence[tuple[str, Motor, int]]) -> AlinkSyncPlan:
     lead_i = int(np.argmax(dist))
     scales = [d / dist[lead_i] for d in dist]
     motors = [m for _, m, _ in axes]
-    fastest = [move_time_s(plan_settings(m, pulses=d, compare=False).settings, d).duration_s
+    fastest = [move_time_s(plan_settings(m, pulses=d).table, d).duration_s
                for m, d in zip(motors, dist, strict=True)]
     env = envelope_motor(motors, scales)
-    base = plan_settings(env, pulses=dist[lead_i], compare=False).settings
+    base = plan_settings(env, pulses=dist[lead_i]).table
     m_l = base.multiplier
     best = None
     for vh in range(base.high_pps, max(m_l, base.high_pps - LINE_HIGH_CANDIDATES * m_l), -m_l):

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from .errors import FieldRangeError, FormatError
+from .errors import FieldRangeError, FormatError, require_int
 from .motor import Motor, load_motor
 from .reading import read_json
 
@@ -121,10 +121,11 @@ def _axis(item: Any, i: int, device: str, base: Path | None, load_motors: bool) 
     if not isinstance(name, str) or not NAME_RE.match(name):
         raise FormatError(f"{where}.name: {name!r} is not a name of 1-32 letters, digits or _ "
                           "starting with a letter or _ (it names files and C symbols)")
-    pulses = item.get("pulses")
     hi = PULSES_MAX[device]
-    if isinstance(pulses, bool) or not isinstance(pulses, int) or not 1 <= abs(pulses) <= hi:
-        raise FieldRangeError(f"{where}.pulses (signed, 0 excluded)", pulses, -hi, hi)
+    label = f"{where}.pulses (signed, 0 excluded)"
+    pulses = require_int(label, item.get("pulses"), -hi, hi)
+    if pulses == 0:
+        raise FieldRangeError(label, pulses, -hi, hi)
     has_motor, has_table = "motor" in item, "table" in item
     if has_motor == has_table:
         raise FormatError(f"{where}: give exactly one of motor (to plan) or table (to simulate)")

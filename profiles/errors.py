@@ -1,12 +1,17 @@
-"""The errors stepramp raises for input a user can fix.
+"""The errors stepramp raises for input a user can fix, and the one number validator.
 
-Every one of them renders as a single line that says what is wrong and where;
-the CLI prints that line and exits 2. Anything else escaping is a bug.
+Every error renders as a single line that says what is wrong and where; the CLI
+prints that line and exits 2. Anything else escaping is a bug. All of stepramp's
+error classes live here, so a caller catches them without knowing which module
+raised them.
 """
 
 from __future__ import annotations
 
 import numbers
+from typing import Any
+
+_INF = float("inf")
 
 
 class StepRampError(Exception):
@@ -46,13 +51,90 @@ class DecodeError(StepRampError, ValueError):
         super().__init__(prefix + message)
 
 
+class UnsupportedError(StepRampError, ValueError):
+    """A request the device cannot express at all (e.g. a free curve over serial)."""
+
+
+class FieldChoiceError(FieldRangeError):
+    """A field whose legal values are not one contiguous range (TRG with override)."""
+
+    def __init__(self, field: str, value: object, allowed: tuple[int, ...]) -> None:
+        super().__init__(field, value, min(allowed), max(allowed))
+        shown = ", ".join(str(a) for a in allowed)
+        self.args = (f"{field}: {value!r} is not one of the allowed values {shown}",)
+
+
+class MoveParameterError(FieldRangeError):
+    """A move parameter the chip would refuse with parameter error `chip_code` (response F0)."""
+
+    def __init__(self, field_name: str, value: object, lo: int, hi: int, chip_code: int) -> None:
+        super().__init__(field_name, value, lo, hi)
+        self.chip_code = chip_code
+        self.args = (f"{self.args[0]} (the chip answers F0 {chip_code:02X})",)
+
+
+class InitBuildError(StepRampError, ValueError):
+    """The chip would refuse these init parameters with parameter-error `chip_code`."""
+
+    def __init__(self, chip_code: int, reason: str) -> None:
+        self.chip_code = chip_code
+        self.reason = reason
+        super().__init__(f"init table (chip code 0x{chip_code:02X}): {reason}")
+
+
+class PlanError(StepRampError, ValueError):
+    """A request no stall-safe, chip-legal table can satisfy."""
+
+
+class InitPlanError(StepRampError, ValueError):
+    """No stall-safe init table exists for this motor, clock and shape."""
+
+
+class UnknownCommandError(StepRampError, ValueError):
+    """A command code the A-Link ALUM manual does not define."""
+
+
+class ReferenceSolveError(StepRampError, RuntimeError):
+    """A reference solver failed or gave a result outside its trust bracket."""
+
+
+# --- the number validator ----------------------------------------------------------------------
+# bool is an int subclass, so `isinstance(True, int)` holds: every numeric field would take
+# True as 1. One predicate excludes it, once, for every caller.
+
+def is_number(value: object, *, integral: bool = False, finite: bool = False) -> bool:
+    """True for a real number (numpy's included), never for bool; with `integral` only
+    whole-number types (an integral float such as 3.0 is not one), with `finite` neither
+    NaN nor ±inf (compared, never converted: a 400-digit int is finite, not an overflow)."""
+    kind = numbers.Integral if integral else numbers.Real
+    if isinstance(value, bool) or not isinstance(value, kind):
+        return False
+    v: Any = value
+    return not finite or bool(v == v and -_INF < v < _INF)
+
+
+def require_number(name: str, value: object, lo: float, hi: float, *, integral: bool = False,
+                   lo_open: bool = False, hi_open: bool = False) -> float:
+    """`value` unchanged if it is a number (see `is_number`) in lo..hi (bounds excluded when
+    `lo_open`/`hi_open`; NaN never passes); else the FieldRangeError naming `name`, the value
+    and the range."""
+    if not is_number(value, integral=integral):
+        raise FieldRangeError(name, value, lo, hi)
+    v: Any = value  # a Real, checked above; compared as given (a huge int never overflows)
+    above = v > lo if lo_open else v >= lo
+    below = v < hi if hi_open else v <= hi
+    if not (above and below):  # NaN fails both comparisons
+        err = FieldRangeError(name, value, lo, hi, lo_excluded=lo_open)
+        if hi_open:
+            err.args = (f"{err.args[0]} ({_show(hi)} excluded)",)
+        raise err
+    return v
+
+
 def require_int(name: str, value: object, lo: int, hi: int) -> int:
     """`value` as an int if it is a whole number (numpy's included, bool not) in lo..hi;
     else the FieldRangeError naming `name`, the value and the range."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not (
-            lo <= int(value) <= hi):
-        raise FieldRangeError(name, value, lo, hi)
-    return int(value)
+    return int(require_number(name, value, lo, hi, integral=True))
 
 
 def _show(value: object) -> str:

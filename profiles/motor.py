@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import FieldRangeError, FormatError
+from .errors import FieldRangeError, FormatError, is_number, require_int
 from .reading import read_json
 
 FORMAT = "stepramp.motor/1"
@@ -81,13 +81,9 @@ class Motor:
             value = getattr(self, name)
             if value is not None:
                 _positive(name, value, 1e-12, 1e18)
-        if isinstance(self.phases, bool) or not isinstance(self.phases, int) or \
-                not 2 <= self.phases <= 10:
-            raise FieldRangeError("phases", self.phases, 2, 10)
-        if self.rotor_teeth is not None and (
-                isinstance(self.rotor_teeth, bool) or not isinstance(self.rotor_teeth, int)
-                or not 1 <= self.rotor_teeth <= self.steps_per_rev):
-            raise FieldRangeError("rotor_teeth", self.rotor_teeth, 1, self.steps_per_rev)
+        require_int("phases", self.phases, 2, 10)
+        if self.rotor_teeth is not None:
+            require_int("rotor_teeth", self.rotor_teeth, 1, self.steps_per_rev)
         if not 0 <= self.damping_ratio <= 10:
             raise FieldRangeError("damping_ratio", self.damping_ratio, 0, 10)
         if not abs(self.load_torque_nm) < 1e4:
@@ -234,7 +230,7 @@ def bundled_motor_paths() -> list[Path]:
 
 
 def _is_num(x: Any) -> bool:
-    return not isinstance(x, bool) and isinstance(x, int | float) and math.isfinite(x)
+    return is_number(x, finite=True)
 
 
 def _sources(obj: Any) -> dict[str, list[dict[str, Any]]]:

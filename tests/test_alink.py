@@ -159,8 +159,8 @@ def test_move_time_trapezoid_triangle_and_avoidance() -> None:
 @pytest.mark.parametrize("pulses", [None, 300, 5000, 100000])
 @pytest.mark.parametrize("s_curve", [False, True])
 def test_plan_is_stall_safe(motor, pulses: int | None, s_curve: bool) -> None:
-    plan = A.plan_settings(motor, pulses=pulses, s_curve=s_curve, compare=False)
-    s = plan.settings
+    plan = A.plan_settings(motor, pulses=pulses, s_curve=s_curve)
+    s = plan.table
     peak = s.accel_pps2 * (math.pi / 2 if s_curve else 1)
     assert peak <= motor.min_a_acc_pps2(s.start_pps, s.high_pps) * (1 + 1e-12)
     assert peak <= motor.min_a_dec_pps2(s.start_pps, s.high_pps) * (1 + 1e-12)
@@ -177,9 +177,9 @@ def test_plan_is_stall_safe(motor, pulses: int | None, s_curve: bool) -> None:
 @pytest.mark.parametrize("motor", MOTORS, ids=MOTOR_IDS)
 def test_plan_minimises_time_over_high_speeds(motor) -> None:
     pulses = 20000
-    plan = A.plan_settings(motor, pulses=pulses, compare=False)
-    s = plan.settings
-    assert plan.predicted_time_s == pytest.approx(A.move_time_s(s, pulses).duration_s)
+    plan = A.plan_settings(motor, pulses=pulses)
+    s = plan.table
+    assert plan.duration_s == pytest.approx(A.move_time_s(s, pulses).duration_s)
     # every other stall-safe setting on a coarse grid of high speeds is no faster
     for vh in np.linspace(s.start_pps + 100, motor.top_pps, 40):
         m = A.multiplier(int(vh))
@@ -192,36 +192,53 @@ def test_plan_minimises_time_over_high_speeds(motor) -> None:
         if para > 8000 * m:
             continue
         other = A.move_time_s(A.AlinkSettings(start, high, max(para, m)), pulses)
-        assert plan.predicted_time_s <= other.duration_s * (1 + 1e-9)
+        assert plan.duration_s <= other.duration_s * (1 + 1e-9)
 
 
 def test_plan_long_move_respects_ramp_limit_and_s_curve_is_slower() -> None:
     motor = MOTORS[0]
     long = A.plan_settings(motor, ramp_limit_s=0.1)
-    assert long.predicted_time_s is None and long.ramp_time_s <= 0.1
+    assert long.duration_s is None and long.extras["ramp_time_s"] <= 0.1
     longer = A.plan_settings(motor, ramp_limit_s=1.0)
-    assert longer.settings.high_pps >= long.settings.high_pps
-    lin = A.plan_settings(motor, pulses=20000, compare=False)
-    s = A.plan_settings(motor, pulses=20000, s_curve=True, compare=False)
-    assert s.predicted_time_s > lin.predicted_time_s and s.settings.s_curve
+    assert longer.table.high_pps >= long.table.high_pps
+    lin = A.plan_settings(motor, pulses=20000)
+    s = A.plan_settings(motor, pulses=20000, s_curve=True)
+    assert s.duration_s > lin.duration_s and s.table.s_curve
 
 
 def test_plan_with_max_speed_uses_one_multiplier() -> None:
-    plan = A.plan_settings(MOTORS[1], pulses=5000, max_pps=8000, compare=False)
-    assert plan.settings.multiplier == 1 and plan.settings.high_pps <= 8000
+    plan = A.plan_settings(MOTORS[1], pulses=5000, max_pps=8000)
+    assert plan.table.multiplier == 1 and plan.table.high_pps <= 8000
     with pytest.raises(FieldRangeError, match="pulses"):
         A.plan_settings(MOTORS[0], pulses=0)
 
 
 def test_plan_ratio_to_optimum() -> None:
-    refs = pytest.importorskip("verify.references")
-    if not hasattr(refs, "exact_optimum"):
-        pytest.skip("verify.references.exact_optimum not written yet")
+    from verify.references import exact_optimum
+
     for motor in MOTORS:
         plan = A.plan_settings(motor, pulses=20000)
+        assert plan.duration_s is not None
+        ratio = plan.duration_s / exact_optimum(motor, 20000).duration_s
         # a constant-acceleration unit cannot beat the torque-curve optimum
-        assert plan.ratio_to_optimum is not None and plan.ratio_to_optimum >= 1.0 - 1e-3
-        assert plan.ratio_to_optimum < 3
+        assert 1.0 - 1e-3 <= ratio < 3
+
+
+def test_plan_says_what_binds() -> None:
+    motor = MOTORS[0]
+    # a move too short to reach any high speed: the ramps meet
+    short = A.plan_settings(motor, pulses=2)
+    assert short.extras["shape"] == "triangle" and short.binds.startswith("move length")
+    # MAX_SPEED below every speed the torque would allow: it is the limit
+    capped = A.plan_settings(motor, pulses=100000, max_pps=1000)
+    assert capped.table.high_pps == 1000 and capped.binds == "top speed (MAX_SPEED, 1000 pps)"
+    # a tight ramp limit holds the long-move setting below the top speed
+    long = A.plan_settings(motor, ramp_limit_s=0.01)
+    assert long.binds == "ramp time limit (0.01 s)" and long.duration_s is None
+    assert long.table.high_pps < A.plan_settings(motor, ramp_limit_s=100).table.high_pps
+    # in between, the torque: a higher speed would need a slower ramp
+    assert A.plan_settings(motor, pulses=5000).binds.startswith("motor torque")
+    assert long.info.startswith(f"×{long.table.multiplier}: start {long.table.start_pps} pps")
 
 
 # --- command words -----------------------------------------------------------------------------

@@ -9,10 +9,9 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from profiles.errors import FieldRangeError, StepRampError
+from profiles.errors import FieldRangeError, InitBuildError, StepRampError
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.init_model import (
-    InitBuildError,
     expand_init,
     init_parameter_problem,
     init_stage_problem,

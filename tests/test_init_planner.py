@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import pytest
 
+from profiles.errors import InitPlanError
 from profiles.motor import Motor, bundled_motor_paths, load_motor
 from profiles.ppmc312.execution import simulate_move
-from profiles.ppmc312.init_planner import InitPlanError, init_candidates, plan_init
+from profiles.ppmc312.init_planner import init_candidates, plan_init
 from profiles.ppmc312.planner import plan_free_curve
 from verify.checks import check_table
 from verify.stall import check_stall
@@ -24,11 +25,11 @@ def test_init_plans_are_stall_safe_legal_and_best_of_their_candidates(
         assert check_stall(c.stages, motor) == []
     for pulses in (2_000, 20_000):
         plan = plan_init(motor, shape, pulses, candidates=cands)
-        assert plan.move_time_s == min(simulate_move(c.stages, pulses).duration_s
+        assert plan.duration_s == min(simulate_move(c.stages, pulses).duration_s
                                        for c in cands)
-        assert plan.move_time_s == simulate_move(plan.stages, pulses).duration_s
+        assert plan.duration_s == simulate_move(plan.extras["stages"], pulses).duration_s
         # The free curve can run any stall-safe staircase, so it is never slower.
-        assert plan_free_curve(motor, pulses=pulses).move_time_s <= plan.move_time_s * 1.0001
+        assert plan_free_curve(motor, pulses=pulses).move_time_s <= plan.duration_s * 1.0001
 
 
 def test_counts_are_near_minimal() -> None:
@@ -36,7 +37,8 @@ def test_counts_are_near_minimal() -> None:
     cand = init_candidates(motor, "linear", highs=3, separate_decel=False)[0]  # fastest high
     smaller = type(cand.table)(cand.table.clock, "linear", cand.table.start_rate,
                                cand.table.high_rate, int(cand.table.accel_pulses * 0.97))
-    from profiles.ppmc312.init_model import InitBuildError, expand_init
+    from profiles.errors import InitBuildError
+    from profiles.ppmc312.init_model import expand_init
 
     try:
         stages = expand_init(smaller)

@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from profiles import mc200 as M
-from profiles.errors import DecodeError, FieldRangeError, FormatError
+from profiles.errors import DecodeError, FieldRangeError, FormatError, StepRampError
 
 EXAMPLE = bytes([0x08, 0x00, 0x00, 0x80, 0x00, 0x80, 0x3F, 0x00, 0x00, 0x00])
 
@@ -281,3 +281,98 @@ def test_decode_stream_errors_name_packet_and_byte() -> None:
         M.decode_stream(text)
     with pytest.raises(FormatError, match="direction"):
         M.decode_stream(b"", "both")  # type: ignore[arg-type]
+
+
+# --- lazy streaming (issue 13: memory independent of the move length) -------------------------
+
+def reference_positions(position_at: M.PositionFn, duration: float, pulses: int,
+                        period_s: float) -> np.ndarray:
+    """The commands computed at once, straight from their definition."""
+    count = max(1, math.ceil(duration / period_s - 1e-9))
+    t = np.minimum(np.arange(count + 1) * period_s, duration)
+    q = np.maximum.accumulate(np.floor(np.clip(position_at(t), 0, pulses))).astype(np.int64)
+    q[0], q[-1] = 0, pulses
+    return q
+
+
+@pytest.mark.parametrize("chunk", [1, 2, 7, 1000, 1 << 16])
+def test_chunked_positions_equal_the_whole(chunk: int) -> None:
+    position_at, duration = M.ruckig_profile(3000, 20000.0, 2e5, 2e7)
+    whole = reference_positions(position_at, duration, 3000, 250e-6)
+    parts = list(M.iter_positions(position_at, duration, 3000, 250e-6, chunk=chunk))
+    assert all(len(p) <= chunk for p in parts)
+    assert np.array_equal(np.concatenate(parts), whole)
+    assert np.array_equal(M.sample_positions(position_at, duration, 3000, 250e-6), whole)
+
+
+@pytest.mark.parametrize("chunk", [1, 3, 64, 1 << 16])
+def test_stream_chunks_equal_the_frame_encoded_packets(chunk: int) -> None:
+    position_at, duration = M.ruckig_profile(4000, 25000.0, 3e5, 5e7)
+    kw = dict(period_us=500, driver_id=5, start_position=-1234, hold_packets=6)
+    packets = M.stream_move(position_at, duration, 4000, **kw)
+    chunks = list(M.stream_chunks(position_at, duration, 4000, chunk_packets=chunk, **kw))
+    assert all(0 < len(c) <= max(chunk, 5) * M.PACKET_SIZE for c in chunks)
+    data = b"".join(chunks)
+    assert data == M.encode_stream(packets)  # vectorised encoder = the Frame's, per packet
+    assert data == M.stream_bytes(position_at, duration, 4000, **kw)
+    assert len(packets) == M.packet_count(duration, 500, 6)
+    assert M.decode_stream(data) == packets
+
+
+def test_render_chunks_match_the_whole_file_formats() -> None:
+    position_at, duration = M.ruckig_profile(1500, 20000.0, 2e5, 2e7)
+    packets = M.stream_move(position_at, duration, 1500, period_us=1000)
+
+    def render(fmt: str) -> bytes:
+        chunks = M.stream_chunks(position_at, duration, 1500, period_us=1000, chunk_packets=4)
+        return b"".join(M.render_chunks(chunks, fmt, period_us=1000, duration_s=duration,
+                                        pulses=1500))
+
+    assert render("bin") == M.encode_stream(packets)
+    assert render("hex").decode() == M.render_hex(packets)
+    import json
+
+    want = json.dumps({"period_us": 1000, "duration_s": duration, "pulses": 1500,
+                       "packets": [p.encode().hex(" ").upper() for p in packets]}, indent=1)
+    assert render("json").decode() == want + "\n"
+    with pytest.raises(FormatError, match="format"):
+        list(M.render_chunks([], "csv", period_us=1000, duration_s=1.0, pulses=1))
+
+
+@settings(max_examples=200, deadline=None)
+@given(driver_id=st.integers(0, 15), servo=st.booleans(), din=st.integers(0, 15),
+       reset=st.booleans(),
+       values=st.lists(st.integers(-(1 << 31), (1 << 31) - 1), max_size=20))
+def test_encode_positions_equals_frame_encoding(driver_id: int, servo: bool, din: int,
+                                                reset: bool, values: list[int]) -> None:
+    template = M.HostPacket(driver_id, servo, 0, 0, "position", reset, din)
+    got = M.encode_positions(template, np.array(values, dtype=np.int64))
+    want = b"".join(M.HostPacket(driver_id, servo, 0, v, "position", reset, din).encode()
+                    for v in values)
+    assert got == want
+
+
+def test_encode_positions_refuses_what_the_frame_refuses() -> None:
+    template = M.HostPacket(0, True, 0, 0, "position")
+    with pytest.raises(FieldRangeError, match="value"):
+        M.encode_positions(template, np.array([0, 1 << 31]))
+    with pytest.raises(FormatError, match="integers"):
+        M.encode_positions(template, np.array([0.5]))
+    with pytest.raises(FormatError, match="position command"):
+        M.encode_positions(M.HostPacket(0, True, 0, 1.0, "velocity"), np.array([1]))
+
+
+def test_stream_chunks_check_everything_before_the_first_chunk() -> None:
+    position_at, duration = M.ruckig_profile(2000, 20000.0, 2e5, 2e7)
+    with pytest.raises(FormatError, match="position_at"):  # no iteration needed
+        M.stream_chunks(lambda t: np.zeros(3), duration, 2000, period_us=500)
+    with pytest.raises(FieldRangeError, match="period_us"):
+        M.stream_chunks(position_at, duration, 2000, period_us=5)
+    with pytest.raises(FieldRangeError, match="duration_s / period"):
+        M.stream_chunks(position_at, 1e4, 2000, period_us=10)
+
+
+def test_ruckig_refusal_is_one_line() -> None:
+    with pytest.raises(StepRampError, match="ruckig: no profile") as err:
+        M.ruckig_profile(3200, 1e-9, 200000, 5e6)
+    assert "\n" not in str(err.value)

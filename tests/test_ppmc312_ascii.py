@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from profiles.errors import DecodeError, FieldRangeError, FormatError
+from profiles.errors import DecodeError, FieldRangeError, FormatError, UnsupportedError
 from profiles.ppmc312.ascii import (
     KINDS,
     AsciiFrame,
@@ -20,7 +20,6 @@ from profiles.ppmc312.ascii import (
     encode_serial_move,
 )
 from profiles.ppmc312.clock import Clock
-from profiles.ppmc312.frames import UnsupportedError
 from profiles.ppmc312.table import InitTable
 
 SETTINGS = settings(max_examples=150, deadline=None)

@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from profiles.errors import DecodeError, FieldRangeError
+from profiles.errors import DecodeError, FieldChoiceError, FieldRangeError
 from profiles.fields import Const, Frame
 from profiles.ppmc312 import frames as F
 
@@ -107,6 +107,6 @@ def test_check_length_byte_and_choice_error() -> None:
     assert (err.value.block, err.value.byte) == (4, 1)
     with pytest.raises(DecodeError, match="no length byte"):
         F.check_length_byte(b"\x00", 0)
-    err2 = F.FieldChoiceError("trigger", 2, (1, 3))
+    err2 = FieldChoiceError("trigger", 2, (1, 3))
     assert str(err2) == "trigger: 2 is not one of the allowed values 1, 3"
     assert isinstance(err2, FieldRangeError)

@@ -6,10 +6,15 @@ import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-from profiles.errors import DecodeError, FieldRangeError, FormatError, StepRampError
+from profiles.errors import (
+    DecodeError,
+    FieldRangeError,
+    FormatError,
+    StepRampError,
+    UnsupportedError,
+)
 from profiles.ppmc312 import ascii as serial
 from profiles.ppmc312.clock import INTERNAL_HZ, Clock
-from profiles.ppmc312.frames import UnsupportedError
 from profiles.ppmc312.table import FreeCurveTable, InitTable
 from profiles.ppmc312.upload import (
     bus_writes,

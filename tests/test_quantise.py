@@ -11,8 +11,9 @@ from profiles.motor import Motor, bundled_motor_paths, load_motor
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.planner import choose_clock
-from profiles.ppmc312.quantise import QuantisedPlan, quantise_reference
+from profiles.ppmc312.quantise import quantise_reference
 from profiles.ppmc312.table import FreeCurveTable
+from profiles.result import PlanResult
 from verify.checks import check_table
 from verify.references import Reference, ruckig_reference, toppra_reference
 
@@ -31,7 +32,7 @@ def first_reach_s(ref_t: np.ndarray, ref_x: np.ndarray, pulses: int) -> np.ndarr
     return np.interp(np.arange(1, pulses + 1, dtype=float), ref_x, ref_t)
 
 
-def check_quantised(q: QuantisedPlan, ref_t: np.ndarray, ref_x: np.ndarray, pulses: int
+def check_quantised(q: PlanResult[FreeCurveTable], ref_t: np.ndarray, ref_x: np.ndarray, pulses: int
                     ) -> np.ndarray:
     """Independent checks of a result; returns every pulse's lateness in seconds."""
     table = q.table
@@ -47,9 +48,9 @@ def check_quantised(q: QuantisedPlan, ref_t: np.ndarray, ref_x: np.ndarray, puls
     assert late.min() >= -1e-9, f"pulse {int(late.argmin()) + 1} runs ahead"
     # the same in the position domain: the reference has reached pulse i by its time
     assert np.all(np.interp(times, ref_t, ref_x) >= np.arange(1, pulses + 1) - 1e-6)
-    assert q.max_step_error_us == pytest.approx(late.max() * 1e6, rel=1e-9, abs=1e-3)
-    assert q.mean_step_error_us == pytest.approx(late.mean() * 1e6, rel=1e-9, abs=1e-3)
-    assert q.end_lag_us == pytest.approx(late[-1] * 1e6, rel=1e-9, abs=1e-3)
+    assert q.extras["max_step_error_us"] == pytest.approx(late.max() * 1e6, rel=1e-9, abs=1e-3)
+    assert q.extras["mean_step_error_us"] == pytest.approx(late.mean() * 1e6, rel=1e-9, abs=1e-3)
+    assert q.extras["end_lag_us"] == pytest.approx(late[-1] * 1e6, rel=1e-9, abs=1e-3)
     return late
 
 

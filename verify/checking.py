@@ -35,7 +35,8 @@ def check_file(path: str, motor: Motor | None = None, extck_hz: float | None = N
         if table is not None:
             findings += check_table(table)
         if motor is not None and table is not None:
-            from profiles.ppmc312.init_model import InitBuildError, as_free_curve
+            from profiles.errors import InitBuildError
+            from profiles.ppmc312.init_model import as_free_curve
 
             try:
                 stages = as_free_curve(table)

@@ -52,6 +52,7 @@ from profiles.ppmc312.limits import (
     MIN_STAGE_TICKS,
     SIDE_TOTAL_MAX,
     STAGE_PULSES_MAX,
+    STAGE_PULSES_MIN,
     STAGES_MAX,
     STAGES_MIN,
 )
@@ -146,9 +147,9 @@ def _check_free_curve(t: FreeCurveTable) -> list[Finding]:
     for side, field, pulses in sides:
         if not pulses:
             continue
-        if min(pulses) <= 1:
+        if min(pulses) < STAGE_PULSES_MIN:
             for i, p in enumerate(pulses):
-                if p <= 1:
+                if p < STAGE_PULSES_MIN:
                     need = _pulses_needed(rates, i)
                     out.append(Finding("error", "pulses-min",
                                        f"{field}[{i}] = {p} is ≤ 1: raise it to ≥ {need}",
@@ -192,7 +193,7 @@ def _check_free_curve(t: FreeCurveTable) -> list[Finding]:
 
 def _pulses_needed(rates: tuple[int, ...], i: int) -> int:
     r = rates[i] if i < len(rates) else 0
-    return max(2, math.ceil(MIN_STAGE_TICKS / r)) if r > 0 else 2
+    return max(STAGE_PULSES_MIN, math.ceil(MIN_STAGE_TICKS / r)) if r > 0 else STAGE_PULSES_MIN
 
 
 def _short_stages(side: str, field: str, ticks: list[int], rates: tuple[int, ...]

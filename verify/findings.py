@@ -31,7 +31,3 @@ class Finding:
     def to_json(self) -> dict[str, Any]:
         return {"severity": self.severity, "rule": self.rule, "chip_code": self.chip_code_hex,
                 "stage": self.stage, "message": self.message}
-
-
-def has_errors(findings: list[Finding]) -> bool:
-    return any(f.severity == "error" for f in findings)

@@ -19,13 +19,11 @@ import re
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Literal
 
 from profiles.errors import FormatError
 
 from .findings import Finding
 
-Fmt = Literal["text", "json", "junit"]
 FORMATS: tuple[str, ...] = ("text", "json", "junit")
 SUITE_NAME = "stepramp check"
 

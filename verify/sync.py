@@ -104,7 +104,8 @@ def ruckig_sync(motors: Sequence[Motor], pulses: Sequence[int], *, samples: int 
     """
     from ruckig import InputParameter, Result, Ruckig, Synchronization, Trajectory
 
-    from verify.references._common import ReferenceSolveError, move_limits
+    from profiles.errors import ReferenceSolveError
+    from verify.references._common import move_limits
     from verify.references.ruckig_ref import _max_over, _v_max_candidates
 
     n = len(motors)

@@ -16,10 +16,10 @@ import string
 from dataclasses import dataclass
 from typing import Any
 
-from ..errors import DecodeError, FieldRangeError, FormatError
+from ..errors import DecodeError, FormatError, UnsupportedError, require_int
 from ..fields import Bit, Bits, Frame, UInt
 from .clock import EXTCK_FALLING, Clock
-from .frames import UnsupportedError, block_bytes
+from .frames import block_bytes
 from .table import InitTable
 
 # type field (bits 5-4) by direction; data/special only ever come from a slave.
@@ -73,10 +73,7 @@ class AsciiFrame:
 def control_byte(kind: str, address: int) -> int:
     if kind not in KINDS:
         raise FormatError(f"ASCII frame kind: {kind!r} is not one of {', '.join(KINDS)}")
-    if isinstance(address, bool) or not isinstance(address, int):
-        raise FieldRangeError("address", address, 0, MAX_ADDRESS)
-    if not 0 <= address <= MAX_ADDRESS:
-        raise FieldRangeError("address", address, 0, MAX_ADDRESS)
+    address = require_int("address", address, 0, MAX_ADDRESS)
     return CONTROL.encode(type=KINDS[kind], address=address)[0]
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from ..errors import FieldRangeError, FormatError
+from ..errors import FieldRangeError, FormatError, require_number
 
 INTERNAL_HZ: dict[str, float] = {
     "8MHz": 8_000_000.0,
@@ -70,8 +70,7 @@ class Clock:
 
     @classmethod
     def extck(cls, hz: float, edge: str = "rising") -> Clock:
-        if isinstance(hz, bool) or not isinstance(hz, int | float) or not 0 < hz <= 20e6:
-            raise FieldRangeError("clock.extck_hz", hz, 1, 20_000_000)
+        require_number("clock.extck_hz", hz, 0, 20_000_000, lo_open=True)
         if edge not in ("rising", "falling"):
             raise FormatError(f"clock.edge: {edge!r} is not 'rising' or 'falling'")
         return cls(EXTCK_RISING if edge == "rising" else EXTCK_FALLING, float(hz))

@@ -49,7 +49,7 @@ from .frames import (
     block_list,
 )
 from .init_model import init_parameter_problem
-from .limits import SIDE_TOTAL_MAX, STAGES_MAX, STAGES_MIN
+from .limits import SIDE_TOTAL_MAX, STAGE_PULSES_MIN, STAGES_MAX, STAGES_MIN
 from .table import InitTable
 
 STATE_INI, STATE_NOR = 0x01, 0x02  # F1 state bits: INI initial, NOR normal (a table)
@@ -210,7 +210,7 @@ class ChipEmulator:
                 if section == 0 and value <= 1:
                     raise self._param(0x18, CODE_FREE_CURVE, f"rate {value} at stage {stage}")
                 if section > 0:
-                    if value <= 1:
+                    if value < STAGE_PULSES_MIN:
                         raise self._param(0x19, CODE_FREE_CURVE, f"{_NAMES[section]} pulses "
                                           f"{value} at stage {stage}")
                     up.totals[section - 1] += value

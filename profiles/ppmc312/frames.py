@@ -14,12 +14,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..errors import DecodeError, FieldRangeError, StepRampError
+from ..errors import DecodeError
 from ..fields import Array, Bit, Bits, Const, Frame, UInt
 
 # Command headers (manual §5-5.1).
-HDR_PARAMS_MORE = 0x00
-HDR_PARAMS_LAST = 0x01
 HDR_CODE_MORE = 0x02
 HDR_CODE_EXEC = 0x03
 
@@ -41,19 +39,6 @@ STATUS_RATES, STATUS_ACCEL, STATUS_DECEL, STATUS_DONE = 0x00, 0x01, 0x02, 0x0F
 
 RATE_SIZE = 2
 PULSES_SIZE = 3
-
-
-class UnsupportedError(StepRampError, ValueError):
-    """A request the device cannot express at all (e.g. a free curve over serial)."""
-
-
-class FieldChoiceError(FieldRangeError):
-    """A field whose legal values are not one contiguous range (TRG with override)."""
-
-    def __init__(self, field: str, value: object, allowed: tuple[int, ...]) -> None:
-        super().__init__(field, value, min(allowed), max(allowed))
-        shown = ", ".join(str(a) for a in allowed)
-        self.args = (f"{field}: {value!r} is not one of the allowed values {shown}",)
 
 
 def _clk() -> Bit:

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import FieldRangeError, StepRampError
+from ..errors import FieldRangeError, InitBuildError, StepRampError, require_int
 from .limits import MIN_STAGE_TICKS
 from .limits import STAGES_MAX as MAX_STAGES
 from .table import FreeCurveTable, InitTable
@@ -48,14 +48,6 @@ INIT_PULSES_MIN = 0x100
 MIN_GAP = 0x80                # start/stop ≥ high + 0x80
 MIN_BUILT_STAGE_PULSES = 3    # a built stage of ≤ 2 pulses is error 0x05
 
-
-class InitBuildError(StepRampError, ValueError):
-    """The chip would refuse these init parameters with parameter-error `chip_code`."""
-
-    def __init__(self, chip_code: int, reason: str) -> None:
-        self.chip_code = chip_code
-        self.reason = reason
-        super().__init__(f"init table (chip code 0x{chip_code:02X}): {reason}")
 
 
 def init_rate_problems(table: InitTable) -> list[tuple[int, str, str]]:
@@ -158,9 +150,7 @@ def as_free_curve(table: FreeCurveTable | InitTable) -> FreeCurveTable:
 def _build(table: InitTable, max_stages: int
            ) -> tuple[np.ndarray, list[np.ndarray], tuple[int, str] | None]:
     """Rates (slowest first), per-side pulses (slowest first), and a 0x05 problem or None."""
-    if isinstance(max_stages, bool) or not isinstance(max_stages, int) or \
-            not 2 <= max_stages <= MAX_STAGES:
-        raise FieldRangeError("max_stages", max_stages, 2, MAX_STAGES)
+    require_int("max_stages", max_stages, 2, MAX_STAGES)
     start, stop, high = table.start_rate, table.effective_stop_rate, table.high_rate
     if start != stop and max_stages < 3:
         raise FieldRangeError("max_stages (start_rate ≠ stop_rate needs 3)", max_stages, 3,

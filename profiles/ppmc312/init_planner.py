@@ -16,14 +16,16 @@ only simulates moves over them.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 
-from ..errors import StepRampError
+from ..errors import InitBuildError, InitPlanError
 from ..motor import Motor
 from ..progress import Progress, track
+from ..result import PlanResult
 from .clock import Clock
 from .criterion import all_length_safe
 from .init_model import (
@@ -33,7 +35,6 @@ from .init_model import (
     MIN_GAP,
     START_RATE_MAX,
     START_RATE_MIN,
-    InitBuildError,
     expand_init,
 )
 from .table import FreeCurveTable, InitTable
@@ -45,20 +46,6 @@ Shape = Literal["linear", "s_curve"]
 class InitCandidate:
     table: InitTable
     stages: FreeCurveTable  # the modelled staircase the chip would build
-
-
-@dataclass(frozen=True)
-class InitPlan:
-    table: InitTable
-    stages: FreeCurveTable
-    move_time_s: float
-    pulses: int
-    shape_run: str  # the move shape the chip runs (trapezoid / triangle …)
-    info: str
-
-
-class InitPlanError(StepRampError, ValueError):
-    """No stall-safe init table exists for this motor, clock and shape."""
 
 
 def init_candidates(motor: Motor, shape: Shape, *, clock: Clock | None = None,
@@ -99,11 +86,16 @@ def init_candidates(motor: Motor, shape: Shape, *, clock: Clock | None = None,
 def plan_init(motor: Motor, shape: Shape, pulses: int, *, clock: Clock | None = None,
               separate_decel: bool = True,
               candidates: list[InitCandidate] | None = None,
-              progress: Progress | None = None) -> InitPlan:
+              progress: Progress | None = None) -> PlanResult[InitTable]:
     """The stall-safe init table with the shortest modelled move of `pulses`;
-    `progress` hears the candidate search (see `init_candidates`)."""
+    `progress` hears the candidate search (see `init_candidates`).
+
+    `extras`: `stages` (the modelled staircase, a FreeCurveTable) and `shape_run`
+    (the move shape the chip runs: trapezoid, triangle …).
+    """
     from profiles.ppmc312.execution import simulate_move
 
+    started = time.perf_counter()
     cands = candidates if candidates is not None else init_candidates(
         motor, shape, clock=clock, separate_decel=separate_decel, progress=progress)
     best: tuple[float, InitCandidate, str] | None = None
@@ -118,7 +110,16 @@ def plan_init(motor: Motor, shape: Shape, pulses: int, *, clock: Clock | None = 
             f"({t.clock.hz / t.high_rate:.6g} pps), accel {t.accel_pulses}"
             + (f" + decel {t.decel_pulses}" if t.separate else "")
             + f" pulses, {len(cand.stages.rates)} modelled stages, {run_shape}")
-    return InitPlan(t, cand.stages, duration, pulses, run_shape, info)
+    top_rate = max(HIGH_RATE_MIN, math.ceil(t.clock.hz / motor.top_pps))
+    if run_shape != "trapezoid":
+        binds = "move length (the ramps meet before the high speed)"
+    elif t.high_rate <= top_rate:
+        binds = "top speed"
+    else:  # a faster high rate needs ramps so long the move is slower overall
+        binds = f"stall criterion ({t.shape} ramp)"
+    return PlanResult(t, duration, binds, info, pulses, t.clock,
+                      time.perf_counter() - started,
+                      extras={"stages": cand.stages, "shape_run": run_shape})
 
 
 def _smallest_safe(motor: Motor, clock: Clock, shape: Shape, start: int, high: int,

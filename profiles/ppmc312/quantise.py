@@ -11,34 +11,27 @@ docs/manual-notes.md (planner section).
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from ..errors import FieldRangeError
+from ..result import PlanResult
 from .clock import MAX_OUTPUT_PPS, Clock
+from .execution import simulate_move
 from .limits import (
     MIN_STAGE_TICKS,
     RATE_MAX,
     RATE_MIN,
     SIDE_TOTAL_MAX,
     STAGE_PULSES_MAX,
+    STAGE_PULSES_MIN,
     STAGES_MIN,
 )
 from .planner import PlanError, check_plan_args
 from .table import FreeCurveTable
-
-
-@dataclass(frozen=True)
-class QuantisedPlan:
-    table: FreeCurveTable
-    max_step_error_us: float
-    mean_step_error_us: float
-    info: str
-    end_lag_us: float = 0.0  # how late the last pulse lands
-
-
 
 QUANTISE_MAX_PULSES = 10_000_000  # the quantiser keeps a few float arrays of one entry per pulse
 _EPS_TICKS = 1e-6      # float slack of the internal "never early" test, in clock ticks
@@ -71,7 +64,7 @@ class _Quantised:
 
 
 def quantise_reference(t_s: Any, x_pulses: Any, v_pps: Any, *, clock: Clock,
-                       max_stages: int = 127) -> QuantisedPlan:
+                       max_stages: int = 127) -> PlanResult[FreeCurveTable]:
     """A staircase table that never runs ahead of a sampled rest-to-rest reference.
 
     The reference is its samples with linear position between them (as
@@ -84,7 +77,11 @@ def quantise_reference(t_s: Any, x_pulses: Any, v_pps: Any, *, clock: Clock,
     as the slowest legal completion (every lower stage at its chip minimum) still never
     runs ahead. The target is searched for the smallest worst-step lateness. v_pps is
     only checked for shape: positions define the reference.
+
+    `extras`: `max_step_error_us` and `mean_step_error_us` (how late the steps land),
+    `end_lag_us` (how late the last pulse lands).
     """
+    started = time.perf_counter()
     check_plan_args(max_stages, None)
     t, x, v = (np.asarray(a, dtype=float) for a in (t_s, x_pulses, v_pps))
     for name, arr in (("t_s", t), ("x_pulses", x), ("v_pps", v)):
@@ -124,10 +121,12 @@ def quantise_reference(t_s: Any, x_pulses: Any, v_pps: Any, *, clock: Clock,
         q = _quantise_for(tau, float(lt), max_stages, r_fast)
         if q is not None and _score(q) < _score(best):
             best = q
-    return _quantised_plan(best, clock, total)
+    return _quantised_plan(best, clock, total, max_stages, started)
 
 
-def _quantised_plan(q: _Quantised, clock: Clock, total: int) -> QuantisedPlan:
+def _quantised_plan(q: _Quantised, clock: Clock, total: int, max_stages: int,
+                    started: float) -> PlanResult[FreeCurveTable]:
+
     late_s = q.late_ticks / clock.hz
     if late_s.min() < -1e-9:  # the construction guarantees it; refuse rather than run ahead
         raise PlanError(f"internal: pulse {int(late_s.argmin()) + 1} would run "
@@ -143,7 +142,12 @@ def _quantised_plan(q: _Quantised, clock: Clock, total: int) -> QuantisedPlan:
             f"{int(late_s.argmax()) + 1}), mean {mean * 1e6:.4g} µs, behind the reference by "
             f"{end * 1e3:.4g} ms at the end (accel lateness target "
             f"{q.target_ticks / clock.hz * 1e6:.4g} µs)")
-    return QuantisedPlan(table, worst * 1e6, mean * 1e6, info, end * 1e6)
+    binds = "the reference (never ahead of it)" + (
+        f", and the stage budget ({max_stages})" if len(acc) >= max_stages else "")
+    return PlanResult(table, simulate_move(table, total).duration_s, binds, info, total, clock,
+                      time.perf_counter() - started,
+                      extras={"max_step_error_us": worst * 1e6,
+                              "mean_step_error_us": mean * 1e6, "end_lag_us": end * 1e6})
 
 
 def _first_reach(t: np.ndarray, xm: np.ndarray, total: int) -> np.ndarray:
@@ -162,7 +166,7 @@ def _first_reach(t: np.ndarray, xm: np.ndarray, total: int) -> np.ndarray:
 
 def _stage_base(rate: int) -> int:
     """Chip minimum of a stage: 2 pulses and 256 clock ticks."""
-    return max(2, -(-MIN_STAGE_TICKS // int(rate)))
+    return max(STAGE_PULSES_MIN, -(-MIN_STAGE_TICKS // int(rate)))
 
 
 def _accel_window(tau: np.ndarray, i: int, t0: int, target: float, r_fast: int,
@@ -198,7 +202,7 @@ def _accel_window(tau: np.ndarray, i: int, t0: int, target: float, r_fast: int,
                 n_tan = int(m[caught[0]])
         need_hi, room_lo, done, size = float(need[-1]), float(room[-1]), int(m[-1]), size * 4
     n_ok = left if n_ok < 0 else n_ok
-    n = min(max(n_ok, n_tan, 2), left, STAGE_PULSES_MAX)
+    n = min(max(n_ok, n_tan, STAGE_PULSES_MIN), left, STAGE_PULSES_MAX)
     top = False
     for _ in range(3):  # the chip minimum depends on the rate, the rate on the window
         m = np.arange(1, n + 1)

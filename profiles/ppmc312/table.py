@@ -20,7 +20,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from ..errors import FieldRangeError, FormatError
+from ..errors import FieldRangeError, FormatError, is_number
 from ..reading import read_json
 from .clock import Clock
 
@@ -201,20 +201,20 @@ def _list(obj: dict[str, Any], key: str) -> list[int]:
     if not isinstance(value, list):
         raise FormatError(f"{key}: expected a list of integers, got {type(value).__name__}")
     for i, v in enumerate(value):
-        if isinstance(v, bool) or not isinstance(v, int):
+        if not is_number(v, integral=True):
             raise FormatError(f"{key}[{i}]: expected an integer, got {v!r}")
     return value
 
 
 def _int(obj: dict[str, Any], key: str) -> int:
     v = obj[key]
-    if isinstance(v, bool) or not isinstance(v, int):
+    if not is_number(v, integral=True):
         raise FormatError(f"{key}: expected an integer, got {v!r}")
     return v
 
 
 def _int_field(label: str, v: Any, hi: int) -> int:
-    if isinstance(v, bool) or not isinstance(v, int | np.integer):
+    if not is_number(v, integral=True):
         raise FormatError(f"{label}: expected an integer, got {v!r}")
     if not 0 <= v <= hi:
         raise FieldRangeError(label, int(v), 0, hi)

@@ -18,7 +18,14 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from ..errors import DecodeError, FieldRangeError, FormatError
+from ..errors import (
+    DecodeError,
+    FieldChoiceError,
+    FieldRangeError,
+    FormatError,
+    UnsupportedError,
+    require_int,
+)
 from ..fields import Array, Frame
 from . import ascii as serial
 from .clock import Clock
@@ -48,8 +55,6 @@ from .frames import (
     READ_DECEL,
     READ_RATES,
     TABLE_READ_FIRST,
-    FieldChoiceError,
-    UnsupportedError,
     block_bytes,
     block_list,
     check_length_byte,
@@ -78,9 +83,7 @@ def encode_free_curve(table: FreeCurveTable, *, max_data: int = MAX_BLOCK_DATA) 
     if not isinstance(table, FreeCurveTable):
         raise FormatError(f"encode_free_curve needs a free-curve table, got "
                           f"{type(table).__name__}")
-    if isinstance(max_data, bool) or not isinstance(max_data, int) or not (
-            MIN_MAX_DATA <= max_data <= MAX_BLOCK_DATA):
-        raise FieldRangeError("max_data", max_data, MIN_MAX_DATA, MAX_BLOCK_DATA)
+    max_data = require_int("max_data", max_data, MIN_MAX_DATA, MAX_BLOCK_DATA)
     mode = {"clk": table.clock.code}
     if table.separate:
         command = FC_COMMAND_SEPARATE.encode(mode, accel_stages=len(table.accel_pulses),

@@ -60,15 +60,19 @@ def _do_settings(args: argparse.Namespace) -> int:
     summary: dict[str, Any] = {}
     if args.motor:
         from profiles.motor import load_motor
+        from verify.references import exact_optimum
 
         motor = load_motor(args.motor)
         with fields_as_options({"pulses": "--pulses", "max_pps": "--max-pps"}):
             plan = alink.plan_settings(motor, pulses=args.pulses, max_pps=args.max_pps,
                                        s_curve=args.s_curve)
-        settings = plan.settings
-        summary = {"predicted_time_s": plan.predicted_time_s, "shape": plan.shape,
-                   "ratio_to_optimum": plan.ratio_to_optimum,
-                   "accel_limit_pps2": plan.accel_limit_pps2}
+        settings = plan.table
+        # verify judges the plan: its time against the continuous optimum
+        ratio = (None if plan.duration_s is None or args.pulses is None
+                 else plan.duration_s / exact_optimum(motor, args.pulses).duration_s)
+        summary = {"predicted_time_s": plan.duration_s, "shape": plan.extras["shape"],
+                   "ratio_to_optimum": ratio,
+                   "accel_limit_pps2": plan.extras["accel_limit_pps2"]}
         if args.pulses is not None:
             other = alink.move_time_s(
                 alink.AlinkSettings(settings.start_pps, settings.high_pps, settings.accel_para,

@@ -56,16 +56,19 @@ def _do_stream(args: argparse.Namespace) -> int:
         motor = load_motor(args.motor)
     elif any(v is None for v in limits):
         raise FormatError("give --motor, or all of --vmax, --amax and --jmax")
-    with fields_as_options(OPTIONS):
-        packets, duration_s = mc200.plan_stream(args.pulses, period_us=args.period_us,
-                                                driver_id=args.driver_id, motor=motor,
-                                                v_max_pps=args.vmax, a_max_pps2=args.amax,
-                                                j_max_pps3=args.jmax)
     with progress_bar("encode packets", unit="packet") as progress:
-        data = mc200.render_stream(packets, args.format, period_us=args.period_us,
-                                   duration_s=duration_s, pulses=args.pulses,
-                                   progress=progress)
-    write_output(args.output, data)
+        with fields_as_options(OPTIONS):  # everything is checked before the first byte
+            position_at, duration_s = mc200.stream_profile(
+                args.pulses, motor=motor, v_max_pps=args.vmax, a_max_pps2=args.amax,
+                j_max_pps3=args.jmax)
+            chunks = mc200.stream_chunks(position_at, duration_s, args.pulses,
+                                         period_us=args.period_us, driver_id=args.driver_id,
+                                         progress=progress)
+        # chunk by chunk: memory stays one chunk however long the move (issue 13)
+        write_output(args.output, mc200.render_chunks(chunks, args.format,
+                                                      period_us=args.period_us,
+                                                      duration_s=duration_s,
+                                                      pulses=args.pulses))
     return EXIT_OK
 
 

@@ -204,8 +204,8 @@ def _from_reference(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str
     table = q.table
     return table, {"source": args.source, "reference_s": ref.duration_s,
                    "stages": len(table.rates), "clock": table.clock.name,
-                   "max_step_error_us": q.max_step_error_us,
-                   "mean_step_error_us": q.mean_step_error_us, "info": q.info}
+                   "max_step_error_us": q.extras["max_step_error_us"],
+                   "mean_step_error_us": q.extras["mean_step_error_us"], "info": q.info}
 
 
 def _init(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, Any]]:
@@ -218,10 +218,10 @@ def _init(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, Any]]:
         plan = plan_init(motor, shape, args.pulses, clock=args.clock,
                          separate_decel=separate, progress=progress)
     table = plan.table
-    return table, {"kind": args.kind, "modelled_stages": len(plan.stages.rates),
+    return table, {"kind": args.kind, "modelled_stages": len(plan.extras["stages"].rates),
                    "clock": table.clock.name, "separate_decel": table.separate,
-                   "pulses": plan.pulses, "move_time_s": plan.move_time_s,
-                   "run": plan.shape_run, "info": plan.info}
+                   "pulses": plan.pulses, "move_time_s": plan.duration_s,
+                   "run": plan.extras["shape_run"], "info": plan.info}
 
 
 def _max_stages(args: argparse.Namespace) -> int:

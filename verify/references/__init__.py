@@ -1,7 +1,9 @@
 """Continuous time-optimal references for a rest-to-rest move: exact oracle, toppra,
 ruckig and casadi (toppra, casadi and ruckig are imported lazily, inside the solvers)."""
 
-from ._common import MoveLimits, Reference, ReferenceSolveError, move_limits
+from profiles.errors import ReferenceSolveError
+
+from ._common import MoveLimits, Reference, move_limits
 from ._suite import SOLVERS, best_reference, is_feasible, references
 from .casadi_ref import casadi_reference
 from .exact import exact_optimum

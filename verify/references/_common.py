@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from profiles.errors import FieldRangeError, FormatError, StepRampError
+from profiles.errors import FieldRangeError, FormatError, is_number
 from profiles.motor import Motor
 
 #: Pulses accepted for a move: at least one, at most ten billion (beyond that the
@@ -24,10 +24,6 @@ MAX_PULSES = 10_000_000_000
 #: Relative margin below the speed where a_acc reaches 0 (see notes): the approach
 #: to that speed is logarithmically slow and the solvers need a_acc(v_lim) > 0.
 ZERO_ACCEL_MARGIN = 1e-6
-
-
-class ReferenceSolveError(StepRampError, RuntimeError):
-    """A reference solver failed or gave a result outside its trust bracket."""
 
 
 @dataclass
@@ -91,7 +87,7 @@ class MoveLimits:
 
 def check_pulses(pulses: Any) -> float:
     """The move length as a float, or a one-line error naming the field."""
-    if isinstance(pulses, bool) or not isinstance(pulses, int | float | np.integer | np.floating):
+    if not is_number(pulses):
         raise FormatError(f"pulses: expected a number, got {pulses!r}")
     value = float(pulses)
     if not math.isfinite(value) or not MIN_PULSES <= value <= MAX_PULSES:

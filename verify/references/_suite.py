@@ -5,11 +5,11 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 from typing import Any
 
-from profiles.errors import FormatError
+from profiles.errors import FormatError, ReferenceSolveError
 from profiles.motor import Motor
 from profiles.progress import Progress, track
 
-from ._common import Reference, ReferenceSolveError, capability_violation, move_limits
+from ._common import Reference, capability_violation, move_limits
 from .exact import exact_optimum
 
 #: Prefix put into `Reference.info` when the sampled output breaks the capability.

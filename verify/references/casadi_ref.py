@@ -15,10 +15,10 @@ from typing import Any
 
 import numpy as np
 
-from profiles.errors import FieldRangeError
+from profiles.errors import ReferenceSolveError, require_int, require_number
 from profiles.motor import Motor
 
-from ._common import MoveLimits, Reference, ReferenceSolveError, move_limits
+from ._common import MoveLimits, Reference, move_limits
 from .exact import exact_optimum
 from .ruckig_ref import ruckig_reference
 
@@ -151,12 +151,9 @@ def casadi_reference(motor: Motor, pulses: Any, *, intervals: int = 300,
     from the exact jerk-free optimum. Accepted only on Ipopt success with a duration in
     [exact × (1 − 0.5 %), ruckig feasible with the same jerk]; else ReferenceSolveError.
     """
-    if isinstance(intervals, bool) or not isinstance(intervals, int) \
-            or not 10 <= intervals <= 20_000:
-        raise FieldRangeError("intervals", intervals, 10, 20_000)
-    if jerk is not None and (isinstance(jerk, bool) or not isinstance(jerk, int | float)
-                             or not 1e-9 <= jerk <= 1e18):
-        raise FieldRangeError("jerk", jerk, 1e-9, 1e18)
+    require_int("intervals", intervals, 10, 20_000)
+    if jerk is not None:
+        require_number("jerk", jerk, 1e-9, 1e18)
     j_max = float(jerk) if jerk is not None else motor.max_jerk_pps3
     lim = move_limits(motor, pulses)
     exact = exact_optimum(motor, lim.pulses, points=max(2 * intervals, 400))

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from profiles.errors import FieldRangeError
+from profiles.errors import require_int
 from profiles.motor import Motor
 
 from ._common import MoveLimits, Reference, move_limits
@@ -110,8 +110,7 @@ def exact_optimum(motor: Motor, pulses: Any, *, points: int = 4000) -> Reference
     `points` samples (about half speeding up, half slowing down) plus the curve
     points; every sample is exact (closed form), `duration_s` is exact.
     """
-    if isinstance(points, bool) or not isinstance(points, int) or not 4 <= points <= 10_000_000:
-        raise FieldRangeError("points", points, 4, 10_000_000)
+    require_int("points", points, 4, 10_000_000)
     start = time.perf_counter()
     lim = move_limits(motor, pulses)
     v0, v_lim, n = lim.v0_pps, lim.v_lim_pps, lim.pulses

@@ -14,10 +14,10 @@ from typing import Any
 
 import numpy as np
 
-from profiles.errors import FieldRangeError, FormatError
+from profiles.errors import FormatError, ReferenceSolveError, require_number
 from profiles.motor import Motor
 
-from ._common import Reference, ReferenceSolveError, move_limits
+from ._common import Reference, move_limits
 
 #: Samples taken from a ruckig trajectory (plus its phase boundaries).
 RUCKIG_SAMPLES = 2001
@@ -33,9 +33,7 @@ def _max_over(motor: Motor, f: Any, lo: float, hi: float) -> float:
 def _limit(name: str, value: float | None, lo: float, hi: float) -> float | None:
     if value is None:
         return None
-    if isinstance(value, bool) or not isinstance(value, int | float) or not lo <= value <= hi:
-        raise FieldRangeError(name, value, lo, hi)
-    return float(value)
+    return float(require_number(name, value, lo, hi))
 
 
 def _v_max_candidates(motor: Motor, v0: float, v_lim: float) -> list[float]:

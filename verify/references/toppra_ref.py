@@ -18,10 +18,10 @@ from typing import Any
 
 import numpy as np
 
-from profiles.errors import FieldRangeError
+from profiles.errors import ReferenceSolveError, require_int
 from profiles.motor import Motor
 
-from ._common import MoveLimits, Reference, ReferenceSolveError, move_limits
+from ._common import MoveLimits, Reference, move_limits
 
 #: Re-linearisation rounds of the torque-curve tangents (5–6 converge to < 1e-5 in time).
 TOPPRA_ITERATIONS = 6
@@ -108,9 +108,7 @@ def _solve_once(motor: Motor, lim: MoveLimits, grid: np.ndarray, sd_lin: np.ndar
 
 def toppra_reference(motor: Motor, pulses: Any, *, gridpoints: int = 1000) -> Reference:
     """toppra time-optimal (jerk-free) move of `pulses` pulses from v0 to v0."""
-    if isinstance(gridpoints, bool) or not isinstance(gridpoints, int) \
-            or not 10 <= gridpoints <= 100_000:
-        raise FieldRangeError("gridpoints", gridpoints, 10, 100_000)
+    require_int("gridpoints", gridpoints, 10, 100_000)
     from toppra.parametrizer import ParametrizeConstAccel
 
     logging.getLogger("toppra").setLevel(logging.ERROR)  # it logs every solve at INFO

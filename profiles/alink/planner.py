@@ -1,0 +1,133 @@
+"""A-Link ALUM settings planner: the fastest stall-safe settings for a motor.
+
+The unit ramps at one constant (or 1 − cos) acceleration between a start and a
+high speed, so the planner searches every high speed the unit can run and gives
+each the fastest start speed and ramp the motor's torque allows.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from ..errors import FieldRangeError, StepRampError, require_int, require_number
+from ..motor import Motor
+from ..result import PlanResult
+from .model import (
+    BANDS_BY_HIGH,
+    BANDS_BY_MAX,
+    MOVE_PULSES_MAX,
+    PPS2_PER_INV_PARA,
+    SPEED_MAX_PPS,
+    STEPS_MAX,
+    AlinkSettings,
+    Shape,
+    max_setting,
+    move_time_s,
+    move_times,
+)
+
+S_CURVE_PEAK_FACTOR = math.pi / 2  # peak / average acceleration of the 1 − cos law
+
+
+def plan_settings(motor: Motor, *, pulses: int | None = None, max_pps: float = 0,
+                  s_curve: bool = False,
+                  ramp_limit_s: float = 1.0) -> PlanResult[AlinkSettings]:
+    """Fastest stall-safe settings for `motor`.
+
+    Every candidate high speed (each whole multiple of its multiplier up to the motor's
+    top speed) gets the fastest start speed ≤ start_pps and jump_pps and the fastest
+    para whose constant acceleration stays ≤ min a_acc and ≤ min a_dec over [start, high]
+    (for the S-curve the 1 − cos peak, π/2 × average, is held to that bound). With
+    `pulses`, the candidate with the shortest predicted move wins; without, the highest
+    speed whose ramp lasts at most `ramp_limit_s`.
+
+    `duration_s` is the predicted move (None without `pulses`); `extras`: `shape`
+    (trapezoid / triangle, None without `pulses`), `ramp_time_s`, `ramp_pulses`
+    (one ramp) and `accel_limit_pps2` (the motor's bound the ramp respects: the
+    minimum of a_acc and a_dec over [start, high]).
+    """
+    started = time.perf_counter()
+    if pulses is not None:
+        require_int("pulses", pulses, 1, MOVE_PULSES_MAX)
+    require_number("ramp_limit_s", ramp_limit_s, 0, 3600, lo_open=True)
+    max_int = max_setting(max_pps)
+    top = min(motor.top_pps, max_int or SPEED_MAX_PPS, SPEED_MAX_PPS)
+    start_cap = min(motor.start_pps, motor.jump_pps)
+    bands = BANDS_BY_HIGH if max_int == 0 else BANDS_BY_MAX
+    vh_all, m_all = [], []
+    lower = 0
+    for upper, m in bands:
+        if max_int and not lower < max_int <= upper:
+            lower = upper
+            continue
+        hi = min(upper, top) if max_int == 0 else min(max_int, top)
+        first = (lower // m + 1) * m if max_int == 0 else m
+        if hi >= first:
+            speeds = np.arange(first, math.floor(hi) // m * m + 1, m, dtype=np.int64)
+            vh_all.append(speeds)
+            m_all.append(np.full(len(speeds), m, dtype=np.int64))
+        lower = upper
+    if not vh_all:
+        raise FieldRangeError("motor.top_pps", motor.top_pps, 2, SPEED_MAX_PPS)
+    vh = np.concatenate(vh_all)
+    fastest = int(vh[-1])  # the fastest high speed the unit and the motor allow
+    mult = np.concatenate(m_all)
+    v0 = np.floor(start_cap / mult) * mult
+    v0 = np.minimum(v0, vh)
+    a_lim = np.minimum(motor.min_a_acc_pps2(v0, vh), motor.min_a_dec_pps2(v0, vh))
+    peak_factor = S_CURVE_PEAK_FACTOR if s_curve else 1.0
+    a_avg_lim = a_lim / peak_factor
+    with np.errstate(divide="ignore", invalid="ignore"):
+        para_exact = PPS2_PER_INV_PARA / a_avg_lim
+        para = np.ceil(para_exact * (1 + 1e-12) / mult) * mult
+    para = np.maximum(para, mult)
+    ok = (v0 >= mult) & (a_lim > 0) & np.isfinite(para) & (para <= STEPS_MAX * mult)
+    if not ok.any():
+        raise StepRampError(f"{motor.name or 'motor'}: no A-Link setting is stall-safe (start "
+                            f"speed {start_cap:g} pps, acceleration bounds outside "
+                            "the para ranges); lower the load or set MAX_SPEED")
+    vh, mult, v0, para, a_lim = vh[ok], mult[ok], v0[ok], para[ok], a_lim[ok]
+    a = PPS2_PER_INV_PARA / para
+    ramp_t = (vh - v0) / a
+    if pulses is not None:
+        t, _, _, _ = move_times(v0, vh, a, pulses, avoid=False)
+        best = int(np.argmin(t))
+    else:
+        fits = np.flatnonzero(ramp_t <= ramp_limit_s)
+        best = int(fits[-1]) if len(fits) else int(np.argmin(ramp_t))
+    warnings: list[str] = []
+    if pulses is None and ramp_t[best] > ramp_limit_s:
+        warnings.append(f"no setting ramps within {ramp_limit_s:g} s; the quickest ramp takes "
+                        f"{ramp_t[best]:.3g} s")
+    if v0[best] < start_cap:
+        warnings.append(f"self-start speed {v0[best]:g} pps (motor allows {start_cap:g}: "
+                        f"multiplier ×{mult[best]})")
+    settings = AlinkSettings(int(v0[best]), int(vh[best]), int(para[best]), max_int, s_curve,
+                             False, tuple(warnings))
+    predicted = None
+    shape: Shape | None = None
+    if pulses is not None:
+        mt = move_time_s(settings, pulses)
+        predicted, shape = mt.duration_s, mt.shape
+    if shape == "triangle":
+        binds = "move length (the ramps meet before the high speed)"
+    elif vh[best] == fastest:
+        binds = ("top speed (" + ("the motor's" if top == motor.top_pps else
+                                  "MAX_SPEED" if top == max_int else "the unit's maximum")
+                 + f", {top:g} pps)")
+    elif pulses is None:
+        binds = f"ramp time limit ({ramp_limit_s:g} s)"
+    else:  # a higher speed would need a slower ramp (less torque up there) and lose time
+        binds = "motor torque (a higher speed needs a slower ramp)"
+    ramp_pulses = float((vh[best] ** 2 - v0[best] ** 2) / (2 * a[best]))
+    info = (f"×{settings.multiplier}: start {settings.start_pps} pps, high {settings.high_pps} "
+            f"pps, UP_TIME para {settings.accel_para} ({settings.accel_pps2:.6g} pps/s, motor "
+            f"bound {a_lim[best]:.6g})" + ("" if predicted is None else
+                                           f"; {shape} move of {predicted:.6g} s"))
+    return PlanResult(settings, predicted, binds, info, pulses, None,
+                      time.perf_counter() - started, tuple(warnings),
+                      {"shape": shape, "ramp_time_s": float(ramp_t[best]),
+                       "ramp_pulses": ramp_pulses, "accel_limit_pps2": float(a_lim[best])})

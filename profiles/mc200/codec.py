@@ -1,0 +1,252 @@
+"""MC-200 SPI packets: the checksum, one Frame per layout, packets and byte streams.
+
+Facts: SPEC §3 and `seeds/mc200-spi-ja.txt` (one page per control mode). Every
+packet is 12 bytes, little-endian; bytes 10–11 are a checksum over bytes 0–9.
+`HostPacket` / `DriverPacket` encode and decode through their `fields.Frame`;
+`encode_positions` encodes many position commands at once from the same Frame
+(the template and the value's place in it), for streams of millions of packets.
+Choices where the manual is silent or contradicts itself: docs/manual-notes.md.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from typing import Literal
+
+import numpy as np
+
+from ..errors import DecodeError, FieldRangeError, FormatError
+from ..fields import F32, Array, Bit, Bits, Checksum, Frame, Reserved, SInt, UInt
+
+PACKET_SIZE = 12
+MAGIC_DEFAULT = 0x0F0F0F0F  # position and current pages; the velocity page says F0F0F0F0
+MAGIC_VELOCITY_PAGE = 0xF0F0F0F0
+Mode = Literal["position", "velocity", "current"]
+MODES: tuple[Mode, Mode, Mode] = ("position", "velocity", "current")
+MODE_CODE: dict[str, int] = {"position": 1, "velocity": 2, "current": 3}
+ValueKind = Literal["position", "velocity", "current", "raw"]
+
+def checksum(data: bytes) -> int:
+    """Sum of bytes 0–9 as five unsigned 16-bit little-endian words, low 15 bits, bit 15 set."""
+    row = np.frombuffer(bytes(data[:10]).ljust(10, b"\0"), dtype=np.uint8).reshape(1, 10)
+    return int(checksums(row)[0])
+
+
+def checksums(rows: np.ndarray) -> np.ndarray:
+    """`checksum` of every row of an (n, ≥ 10) uint8 array at once."""
+    words = np.ascontiguousarray(rows[:, :10]).view("<u2")
+    return (words.sum(axis=1, dtype=np.int64) & 0x7FFF) | 0x8000
+
+
+_HOST_HEADER = Bits("header", 1, (Bit("driver_id", 4, 4), Bit("servo", 3),
+                                  Bit("mode_switch", 0, 3, hi=3)))
+_HOST_BYTE7 = Bits("control", 1, (Bit("spi_error_reset", 6), Bit("din", 0, 4)))
+
+
+def _host_frame(kind: ValueKind) -> Frame:
+    value: SInt | F32 | UInt
+    if kind == "position":
+        value = SInt("value", 4, "little")
+    elif kind == "raw":
+        value = UInt("value", 4, "little")
+    else:
+        value = F32("value", "little")
+    return Frame(f"mc200.host.{kind}", (_HOST_HEADER, Reserved(2), value, _HOST_BYTE7,
+                                        Reserved(2), Checksum("checksum", 2, checksum)))
+
+
+HOST_FRAMES: dict[str, Frame] = {k: _host_frame(k) for k in ("position", "velocity", "current",
+                                                             "raw")}
+DRIVER_FRAME = Frame("mc200.driver", (
+    Bits("header", 1, (Bit("driver_id", 4, 4), Bit("servo_on", 3), Bit("alarm", 2),
+                       Bit("limit_alarm", 1), Bit("spi_error", 0))),
+    SInt("encoder_pulses", 4, "little"),
+    F32("current_a", "little"),
+    Bits("state", 1, (Bit("in_position", 7), Bit("mode", 0, 3, hi=3))),
+    Checksum("checksum", 2, checksum),
+))
+
+
+@dataclass(frozen=True)
+class HostPacket:
+    """Host → MC-200. `value` is read by `value_kind`: int32 position, float32 velocity or
+    current (the mode in force), or `raw` 32 bits (the mode-switch magic)."""
+
+    driver_id: int = 0
+    servo: bool = False
+    mode_switch: int = 0  # 0 none, 1 position, 2 velocity, 3 current
+    value: int | float = 0
+    value_kind: ValueKind = "position"
+    spi_error_reset: bool = False
+    din: int = 0
+
+    def encode(self) -> bytes:
+        if self.value_kind not in HOST_FRAMES:
+            raise FormatError(f"value_kind: {self.value_kind!r} is not one of "
+                              f"{', '.join(HOST_FRAMES)}")
+        return HOST_FRAMES[self.value_kind].encode(
+            driver_id=self.driver_id, servo=self.servo, mode_switch=self.mode_switch,
+            value=self.value, spi_error_reset=self.spi_error_reset, din=self.din)
+
+    @property
+    def raw_value(self) -> int:
+        """Bytes 3–6 as an unsigned 32-bit integer."""
+        return int.from_bytes(self.encode()[3:7], "little")
+
+    @classmethod
+    def decode(cls, data: bytes, *, mode: Mode = "position", magic: int = MAGIC_DEFAULT,
+               block: int | None = None) -> HostPacket:
+        """Decode with `mode` the control mode in force; a packet carrying a mode-switch
+        command and the magic decodes its value as `raw`."""
+        if mode not in MODE_CODE:
+            raise FormatError(f"mode: {mode!r} is not one of {', '.join(MODES)}")
+        d = HOST_FRAMES["raw"].decode(data, block=block)
+        kind: ValueKind = "raw" if d["mode_switch"] and d["value"] == magic else mode
+        if kind != "raw":
+            d = HOST_FRAMES[kind].decode(data, block=block)
+        return cls(d["driver_id"], bool(d["servo"]), d["mode_switch"], d["value"], kind,
+                   bool(d["spi_error_reset"]), d["din"])
+
+
+@dataclass(frozen=True)
+class DriverPacket:
+    """MC-200 → host. The manual gives no unit for the current; amperes assumed."""
+
+    driver_id: int = 0
+    servo_on: bool = False
+    alarm: bool = False
+    limit_alarm: bool = False
+    spi_error: bool = False
+    encoder_pulses: int = 0
+    current_a: float = 0.0
+    in_position: bool = False
+    mode: int = 0  # 1 position, 2 velocity, 3 current (0 before any mode is known)
+
+    def encode(self) -> bytes:
+        return DRIVER_FRAME.encode(
+            driver_id=self.driver_id, servo_on=self.servo_on, alarm=self.alarm,
+            limit_alarm=self.limit_alarm, spi_error=self.spi_error,
+            encoder_pulses=self.encoder_pulses, current_a=self.current_a,
+            in_position=self.in_position, mode=self.mode)
+
+    @classmethod
+    def decode(cls, data: bytes, *, block: int | None = None) -> DriverPacket:
+        d = DRIVER_FRAME.decode(data, block=block)
+        return cls(d["driver_id"], bool(d["servo_on"]), bool(d["alarm"]),
+                   bool(d["limit_alarm"]), bool(d["spi_error"]), d["encoder_pulses"],
+                   d["current_a"], bool(d["in_position"]), d["mode"])
+
+# --- byte streams ------------------------------------------------------------------------------
+
+Direction = Literal["host", "driver"]
+
+
+def encode_stream(packets: Sequence[HostPacket | DriverPacket]) -> bytes:
+    return b"".join(p.encode() for p in packets)
+
+
+def render_hex(packets: Sequence[HostPacket | DriverPacket]) -> str:
+    """One packet per line: 12 bytes as two uppercase hex digits separated by spaces."""
+    return hex_lines(encode_stream(packets))
+
+
+def hex_lines(data: bytes) -> str:
+    """`render_hex` of packets already encoded (whole packets, any number)."""
+    if len(data) % PACKET_SIZE:
+        raise DecodeError(f"{len(data)} bytes is not a whole number of {PACKET_SIZE}-byte "
+                          "packets")
+    if not data:
+        return ""
+    text = bytearray(data.hex(" ").upper().encode() + b"\n")
+    text[3 * PACKET_SIZE - 1::3 * PACKET_SIZE] = b"\n" * (len(data) // PACKET_SIZE)
+    return text.decode()
+
+
+def encode_positions(template: HostPacket, positions: np.ndarray) -> bytes:
+    """Position-command packets, one per position, otherwise equal to `template`, at once.
+
+    The Frame encodes the template (header, control byte, reserved bytes); the
+    positions go where the Frame puts its value field, and `checksums` closes each
+    packet: the bytes equal `replace(template, value=p).encode()` for every p.
+    """
+    if template.value_kind != "position":
+        raise FormatError(f"template: a position command, not {template.value_kind!r}")
+    frame = HOST_FRAMES["position"]
+    p = np.asarray(positions)
+    if p.ndim != 1 or (p.size and not np.issubdtype(p.dtype, np.integer)):
+        raise FormatError("positions: expected a 1-D array of integers")
+    lo, hi = -(1 << 31), (1 << 31) - 1
+    if p.size and (int(p.min()) < lo or int(p.max()) > hi):
+        bad = int(p.min()) if int(p.min()) < lo else int(p.max())
+        raise FieldRangeError(f"{frame.name}.value", bad, lo, hi)
+    rows = np.tile(np.frombuffer(template.encode(), dtype=np.uint8), (p.size, 1))
+    at = _offset(frame, "value")
+    rows[:, at:at + 4] = p.astype("<i4").view(np.uint8).reshape(-1, 4)
+    at = _offset(frame, "checksum")
+    rows[:, at:at + 2] = checksums(rows).astype("<u2").view(np.uint8).reshape(-1, 2)
+    return rows.tobytes()
+
+
+def _offset(frame: Frame, name: str) -> int:
+    """Byte offset of field `name` in a fixed-size frame (read from its description)."""
+    at = 0
+    for f in frame.fields:
+        if f.name == name:
+            return at
+        assert not isinstance(f, Array), "fixed-size frames only"
+        at += f.size
+    raise KeyError(name)
+
+
+def decode_stream(data: bytes | str, direction: Direction = "host", *,
+                  mode: Mode = "position",
+                  magic: int = MAGIC_DEFAULT) -> list[HostPacket] | list[DriverPacket]:
+    """Packets from binary or hex text (`render_hex` output). Binary is recognised by
+    bytes ≥ 0x80: every packet's byte 11 has bit 7 set, hex text never does. Host
+    packets are decoded with the control mode in force, following mode switches."""
+    if direction not in ("host", "driver"):
+        raise FormatError(f"direction: {direction!r} is not 'host' or 'driver'")
+    raw = _stream_bytes(data)
+    if len(raw) % PACKET_SIZE:
+        whole = len(raw) // PACKET_SIZE
+        raise DecodeError(f"{len(raw)} bytes is not a whole number of {PACKET_SIZE}-byte "
+                          "packets", block=whole, byte=len(raw) - whole * PACKET_SIZE)
+    chunks = [raw[i:i + PACKET_SIZE] for i in range(0, len(raw), PACKET_SIZE)]
+    if direction == "driver":
+        return [DriverPacket.decode(c, block=i) for i, c in enumerate(chunks)]
+    out: list[HostPacket] = []
+    in_force: Mode = mode
+    armed: int | None = None
+    for i, c in enumerate(chunks):
+        pkt = HostPacket.decode(c, mode=in_force, magic=magic, block=i)
+        raw_value = int.from_bytes(c[3:7], "little")
+        if armed is not None and raw_value == magic and pkt.mode_switch in (0, armed):
+            in_force, armed = MODES[armed - 1], None
+            pkt = replace(pkt, value=raw_value, value_kind="raw")
+        elif pkt.mode_switch and raw_value == magic:
+            armed = pkt.mode_switch
+        else:
+            armed = None
+        out.append(pkt)
+    return out
+
+
+def _stream_bytes(data: bytes | str) -> bytes:
+    if isinstance(data, str):
+        text = data
+    elif isinstance(data, bytes | bytearray | memoryview):
+        data = bytes(data)
+        if any(b >= 0x80 for b in data) or not data.strip():
+            return data
+        text = data.decode("ascii")
+    else:
+        raise FormatError(f"data: expected bytes or hex text, got {type(data).__name__}")
+    tokens = text.split()
+    out = bytearray()
+    for k, tok in enumerate(tokens):
+        if len(tok) != 2 or any(ch not in "0123456789abcdefABCDEF" for ch in tok):
+            raise DecodeError(f"{tok!r} is not a two-digit hex byte", block=k // PACKET_SIZE,
+                              byte=k % PACKET_SIZE)
+        out.append(int(tok, 16))
+    return bytes(out)
