@@ -43,7 +43,7 @@ from .alink import (
     multiplier,
     plan_settings,
 )
-from .errors import StepRampError
+from .errors import AlinkSyncError
 from .motor import Motor
 from .ppmc312.sync import SyncTimes, envelope_motor, line_deviation_times
 
@@ -51,10 +51,6 @@ Mode = Literal["time", "line"]
 LINE_HIGH_CANDIDATES = 24   # leader high speeds tried (the fastest multiples)
 LINE_PARA_CANDIDATES = 12   # leader paras tried (from the stall-safe least up)
 MODE_SIG_STA = 1 << 5       # MODE_SIG D5: all axes start on the STA input
-
-
-class AlinkSyncError(StepRampError, ValueError):
-    """A-Link axes that cannot be synchronised as asked."""
 
 
 @dataclass(frozen=True)

@@ -94,6 +94,14 @@ class UnknownCommandError(StepRampError, ValueError):
     """A command code the A-Link ALUM manual does not define."""
 
 
+class SyncError(StepRampError, ValueError):
+    """Axes that cannot be synchronised as asked."""
+
+
+class AlinkSyncError(StepRampError, ValueError):
+    """A-Link axes that cannot be synchronised as asked."""
+
+
 class ReferenceSolveError(StepRampError, RuntimeError):
     """A reference solver failed or gave a result outside its trust bracket."""
 

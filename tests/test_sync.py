@@ -19,12 +19,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from profiles.axes import FORMAT, axes_from_json, load_axes
-from profiles.errors import FieldRangeError, FormatError, StepRampError
+from profiles.errors import FieldRangeError, FormatError, StepRampError, SyncError
 from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312.execution import Execution, simulate_move
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312.sync import (
-    SyncError,
     cap_top,
     line_deviation,
     pad_to_ticks,

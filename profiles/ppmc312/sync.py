@@ -52,7 +52,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from ..errors import StepRampError
+from ..errors import SyncError
 from ..motor import Motor
 from .clock import INTERNAL_HZ, Clock
 from .criterion import all_length_safe
@@ -77,10 +77,6 @@ ENVELOPE_GRID = 49         # uniform speeds sampled (plus every curve point) for
 LINE_TOPS = 24             # top rates tried at most (the fastest ones)
 NEAR_BEST_PULSES = 0.25    # line candidates this close to the best deviation: take the fastest
 TRIGGER_EVENT1 = 0b01      # move command TRG 01: start when event input 1 goes low
-
-
-class SyncError(StepRampError, ValueError):
-    """Axes that cannot be synchronised as asked."""
 
 
 def spread_tolerance_s(duration_s: float) -> float:
