@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import FieldRangeError, FormatError
+from .errors import FieldRangeError, FormatError, require_int
 from .loads import Contribution, combine
 from .motor import FORMAT
 
@@ -115,9 +115,7 @@ class Drive:
     def __post_init__(self) -> None:
         _pos("supply_v", self.supply_v, 1e4)
         _pos("current_a", self.current_a, 1e3)
-        if isinstance(self.microstep, bool) or not isinstance(self.microstep, int) or not (
-                1 <= self.microstep <= 1024):
-            raise FieldRangeError("microstep", self.microstep, 1, 1024)
+        require_int("microstep", self.microstep, 1, 1024)
 
 
 def _pos(name: str, value: float, hi: float) -> None:
