@@ -82,8 +82,8 @@ def main() -> None:
             new = planner.plan_free_curve(motor, pulses=pulses, load_angle_deg=TARGET_DEG)
             old_ok = not all_length_problems(old_table, motor)
             worst = judge_executions(new.table, motor).worst_angle_deg
-            print(f"{name:22s} {pulses:7d} {old_s * 1e3:9.2f} {new.move_time_s * 1e3:9.2f} "
-                  f"{new.move_time_s / old_s:8.4f} {int(new.table.separate):3d}  "
+            print(f"{name:22s} {pulses:7d} {old_s * 1e3:9.2f} {new.duration_s * 1e3:9.2f} "
+                  f"{new.duration_s / old_s:8.4f} {int(new.table.separate):3d}  "
                   f"{'yes' if old_ok else 'NO':>33s}  {worst:6.1f}°")
 
     print(f"\nduty cycle: mix {MIX} (pulses, weight)")
@@ -95,9 +95,9 @@ def main() -> None:
             singles[n] = sum(w * simulate_move(table, m).duration_s for m, w in MIX)
         best_single = min(singles.values())
         longest = singles[max(n for n, _ in MIX)]
-        print(f"{name:22s} weighted {plan.move_time_s * 1e3:9.2f} ms; / best single-length "
-              f"plan {plan.move_time_s / best_single:.4f}; / plan for the longest move "
-              f"{plan.move_time_s / longest:.4f} (goal ≤ 1)")
+        print(f"{name:22s} weighted {plan.duration_s * 1e3:9.2f} ms; / best single-length "
+              f"plan {plan.duration_s / best_single:.4f}; / plan for the longest move "
+              f"{plan.duration_s / longest:.4f} (goal ≤ 1)")
 
 
 if __name__ == "__main__":

@@ -76,7 +76,7 @@ table = plan.table
 print(plan.info)
 print(f"clock {table.clock.name}, {len(table.rates)} stages, "
       f"separate decel counts (LE=1): {table.separate}")
-print(f"move of {PULSES} pulses: {plan.move_time_s * 1e3:.3f} ms")"""),
+print(f"move of {PULSES} pulses: {plan.duration_s * 1e3:.3f} ms")"""),
     ("md", """\
 ## Against the time-optimal references
 
@@ -145,7 +145,7 @@ def study(m, **kwargs):
 sf_rows = []
 for sf in (0.4, 0.5, 0.6, 0.7):
     p, optimum_s, margin = study(dataclasses.replace(motor, safety_factor=sf))
-    sf_rows.append((sf, len(p.table.rates), p.move_time_s, optimum_s, margin))
+    sf_rows.append((sf, len(p.table.rates), p.duration_s, optimum_s, margin))
 
 print(f"{'safety':>6} {'stages':>6} {'table ms':>9} {'optimum ms':>11} {'ratio':>6} "
       f"{'margin':>7}")
@@ -161,7 +161,7 @@ stage_rows = []
 for budget in (8, 16, 32, 64, 127):
     p, optimum_s, margin = study(motor, max_stages=budget)
     assert len(p.table.rates) <= budget
-    stage_rows.append((budget, len(p.table.rates), p.move_time_s, optimum_s, margin))
+    stage_rows.append((budget, len(p.table.rates), p.duration_s, optimum_s, margin))
 
 print(f"{'budget':>6} {'used':>5} {'table ms':>9} {'ratio':>6} {'margin':>7}")
 for budget, used, t, opt, margin in stage_rows:
@@ -231,7 +231,7 @@ for m in motors:
         results.append((m, pulses, free, inits))
         for shape, ip in inits.items():
             # The free curve is optimal over every staircase, the init ones included.
-            assert free.move_time_s <= ip.duration_s * (1 + 1e-9), (m.name, pulses, shape)
+            assert free.duration_s <= ip.duration_s * (1 + 1e-9), (m.name, pulses, shape)
 print(f"{len(results)} cases planned")"""),
     ("code", """\
 def cell(value, bold=False):
@@ -248,10 +248,10 @@ for m, pulses, free, inits in results:
     best = min(inits.values(), key=lambda ip: ip.duration_s)
     body.append(
         f"<tr><td>{html.escape(m.name)}</td>{cell(f'{pulses:,}')}"
-        + cell(f"{free.move_time_s * 1e3:.2f}", bold=True)
+        + cell(f"{free.duration_s * 1e3:.2f}", bold=True)
         + cell(f"{lin.duration_s * 1e3:.2f}") + cell(f"{s.duration_s * 1e3:.2f}")
-        + cell(f"{lin.duration_s / free.move_time_s:.3f}")
-        + cell(f"{s.duration_s / free.move_time_s:.3f}")
+        + cell(f"{lin.duration_s / free.duration_s:.3f}")
+        + cell(f"{s.duration_s / free.duration_s:.3f}")
         + f"<td style='font-size:85%'>{html.escape(best.info)}</td></tr>")
 display(HTML("<table>" + head + "".join(body) + "</table>"))"""),
     ("md", """\
@@ -265,7 +265,7 @@ for ax, m in zip(np.atleast_1d(axes), motors, strict=True):
     xs = [r[1] for r in rows]
     for shape, style, label in (("linear", "o-", "best linear init"),
                                 ("s_curve", "s--", "best S-curve init")):
-        ax.plot(xs, [r[3][shape].duration_s / r[2].move_time_s for r in rows], style,
+        ax.plot(xs, [r[3][shape].duration_s / r[2].duration_s for r in rows], style,
                 label=label)
     ax.axhline(1.0, color="k", lw=1, label="free curve")
     ax.set_xscale("log")
@@ -277,7 +277,7 @@ np.atleast_1d(axes)[0].legend()
 plt.show()"""),
     ("code", """\
 for m in motors:
-    ratios = [r[3][shape].duration_s / r[2].move_time_s
+    ratios = [r[3][shape].duration_s / r[2].duration_s
               for r in results if r[0] is m for shape in SHAPES]
     gmean = math.exp(sum(math.log(x) for x in ratios) / len(ratios))
     print(f"{m.name}: init tables take {min(ratios):.2f}–{max(ratios):.2f}× the free curve "
@@ -390,7 +390,7 @@ sent to slave address 1."""),
 init = plan_init(motor, "linear", PULSES, separate_decel=False)
 print(init.info)
 print(f"move of {PULSES} pulses: {init.duration_s * 1e3:.2f} ms "
-      f"(free curve {plan.move_time_s * 1e3:.2f} ms)")
+      f"(free curve {plan.duration_s * 1e3:.2f} ms)")
 frame = encode_serial_init(init.table, address=1)
 print("frame:", frame)
 init_path = out / "init-linear.upload.hex"

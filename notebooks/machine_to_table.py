@@ -93,7 +93,7 @@ plan = plan_free_curve(motor, pulses=pulses)
 table = plan.table
 top_pps = float(table.speeds_pps()[0])   # stages are listed fastest first
 print(plan.info)
-print(f"{pulses} pulses = {MOVE_MM:g} mm in {plan.move_time_s * 1e3:.1f} ms; top speed "
+print(f"{pulses} pulses = {MOVE_MM:g} mm in {plan.duration_s * 1e3:.1f} ms; top speed "
       f"{top_pps:.0f} pps = "
       f"{pps_to_machine(top_pps, 'mm/s', steps_per_rev=spr, mm_per_rev=LEAD_MM):.1f} mm/s")"""),
     ("code", """\
@@ -108,7 +108,7 @@ fig, ax = plt.subplots(figsize=(8, 4))
 ax.hlines(mm_s, starts, ends, color="C0", lw=2, label="stage speed")
 ax.set_xlabel("carriage travel while accelerating [mm]")
 ax.set_ylabel("speed [mm/s]")
-ax.set_title(f"{len(stage_speeds)} accel stages, {plan.move_time_s * 1e3:.1f} ms "
+ax.set_title(f"{len(stage_speeds)} accel stages, {plan.duration_s * 1e3:.1f} ms "
              f"for {MOVE_MM:g} mm")
 ax.grid(alpha=0.3)
 fig.tight_layout()

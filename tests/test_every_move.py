@@ -130,8 +130,8 @@ def test_never_slower_than_the_symmetric_table(name: str) -> None:
     for pulses in (2000, 100_000):
         auto = plan_free_curve(motor, pulses=pulses)
         sym = plan_free_curve(motor, pulses=pulses, separate_decel=False)
-        assert auto.move_time_s <= sym.move_time_s
-        assert simulate_move(auto.table, pulses).duration_s == pytest.approx(auto.move_time_s)
+        assert auto.duration_s <= sym.duration_s
+        assert simulate_move(auto.table, pulses).duration_s == pytest.approx(auto.duration_s)
 
 
 def test_load_torque_is_planned_for_both_directions() -> None:
@@ -140,7 +140,7 @@ def test_load_torque_is_planned_for_both_directions() -> None:
     plan = plan_free_curve(loaded, pulses=5000)
     assert check_stall(plan.table, loaded) == []
     # slower than without the load: the load hinders one of the two directions
-    assert plan.move_time_s > plan_free_curve(base, pulses=5000).move_time_s
+    assert plan.duration_s > plan_free_curve(base, pulses=5000).duration_s
     # the same table without accounting for the load's worse direction breaks the rule
     flipped = Motor(**{**base.__dict__, "load_torque_nm": -0.05})
     assert check_stall(plan.table, flipped) == []  # sign does not matter: both ways judged
@@ -152,7 +152,7 @@ def test_duty_cycle_never_worse_than_any_single_length_plan() -> None:
     mix = [(200, 5.0), (2000, 2.0), (20_000, 1.0)]
     plan, times = plan_duty_cycle(motor, mix)
     weighted = sum(w * times[n] for n, w in mix)
-    assert plan.move_time_s == pytest.approx(weighted)
+    assert plan.duration_s == pytest.approx(weighted)
     for n, _ in mix:
         assert times[n] == pytest.approx(simulate_move(plan.table, n).duration_s)
         single = plan_free_curve(motor, pulses=n).table

@@ -29,7 +29,7 @@ def test_init_plans_are_stall_safe_legal_and_best_of_their_candidates(
                                        for c in cands)
         assert plan.duration_s == simulate_move(plan.extras["stages"], pulses).duration_s
         # The free curve can run any stall-safe staircase, so it is never slower.
-        assert plan_free_curve(motor, pulses=pulses).move_time_s <= plan.duration_s * 1.0001
+        assert plan_free_curve(motor, pulses=pulses).duration_s <= plan.duration_s * 1.0001
 
 
 def test_counts_are_near_minimal() -> None:

@@ -25,5 +25,5 @@ def test_planned_table_never_beats_the_optimum(motor: Motor, pulses: int) -> Non
     assert check_stall(plan.table, motor) == []
     run = simulate_move(plan.table, pulses)
     assert run.shape == "trapezoid"
-    assert run.duration_s == pytest.approx(plan.move_time_s, rel=1e-9)
+    assert run.duration_s == pytest.approx(plan.duration_s, rel=1e-9)
     assert run.duration_s >= exact_optimum(motor, pulses).duration_s * (1 - 1e-9)

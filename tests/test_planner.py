@@ -63,19 +63,19 @@ def test_plans_are_stall_safe_legal_and_beat_baseline(name: str, pulses: int | N
     assert_chip_legal(plan.table, pulses)
     assert len(plan.table.rates) <= max_stages
     budget = pulses if pulses is not None else reference_pulses(motor)
-    assert plan.move_time_s == pytest.approx(move_time(plan.table, budget), rel=1e-12)
+    assert plan.duration_s == pytest.approx(move_time(plan.table, budget), rel=1e-12)
     base = plan_baseline(motor, pulses=pulses, max_stages=max_stages)
     assert check_stall(base.table, motor) == []
     assert_chip_legal(base.table, pulses)
-    assert plan.move_time_s <= base.move_time_s * (1 + 1e-12)
+    assert plan.duration_s <= base.duration_s * (1 + 1e-12)
 
 
 def test_beats_baseline_by_one_percent_geometric_mean() -> None:
     ratios = []
     for motor in MOTORS.values():
         for pulses in (300, 2000, 10000, 100000):
-            ratios.append(plan_free_curve(motor, pulses=pulses).move_time_s
-                          / plan_baseline(motor, pulses=pulses).move_time_s)
+            ratios.append(plan_free_curve(motor, pulses=pulses).duration_s
+                          / plan_baseline(motor, pulses=pulses).duration_s)
     gmean = math.exp(float(np.mean(np.log(ratios))))
     print(f"planner / baseline move time: geometric mean {gmean:.4f}, "
           f"per case {np.round(ratios, 4).tolist()}")
@@ -86,7 +86,7 @@ def test_beats_baseline_by_one_percent_geometric_mean() -> None:
 @pytest.mark.parametrize("name", sorted(MOTORS))
 @pytest.mark.parametrize("pulses", [2000, None])
 def test_more_stages_never_slower(name: str, pulses: int | None) -> None:
-    times = [plan_free_curve(MOTORS[name], pulses=pulses, max_stages=m).move_time_s
+    times = [plan_free_curve(MOTORS[name], pulses=pulses, max_stages=m).duration_s
              for m in (2, 4, 10, 40, 127)]
     assert all(b <= a * (1 + 1e-12) for a, b in itertools.pairwise(times)), times
 
@@ -98,8 +98,8 @@ def test_separate_decel_choice() -> None:
     forced = plan_free_curve(motor, pulses=100_000, separate_decel=True)
     assert common.table.decel_pulses is None and forced.table.decel_pulses is not None
     # decel counts come from a_dec ≥ a_acc: LE=1 is never slower, and here strictly faster
-    assert auto.move_time_s <= common.move_time_s
-    assert forced.move_time_s < common.move_time_s
+    assert auto.duration_s <= common.duration_s
+    assert forced.duration_s < common.duration_s
     assert sum(forced.table.decel) < sum(forced.table.accel_pulses)
     # ... and it stays safe for every move length (its triangles switch on safe stages)
     assert check_stall(forced.table, motor) == []
@@ -180,7 +180,7 @@ def test_dp_matches_brute_force(stages: int, pulses: int, separate: bool) -> Non
     want = brute_force(motor, clock, stages, pulses, separate)
     got = plan_free_curve(motor, clock=clock, max_stages=stages, pulses=pulses,
                           separate_decel=separate)
-    assert got.move_time_s == pytest.approx(want, rel=1e-12)
+    assert got.duration_s == pytest.approx(want, rel=1e-12)
     assert check_stall(got.table, motor) == []
 
 
@@ -218,7 +218,7 @@ def test_jerk_limited_motor() -> None:
     assert_chip_legal(plan.table, 5000)
     free = plan_free_curve(tiny_motor(start_pps=300.0, max_jump_pps=200.0), clock=clock,
                            pulses=5000)
-    assert plan.move_time_s >= free.move_time_s
+    assert plan.duration_s >= free.duration_s
 
 
 @pytest.mark.slow

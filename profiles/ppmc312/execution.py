@@ -37,7 +37,7 @@ from typing import Any, Literal, NamedTuple
 
 import numpy as np
 
-from profiles.errors import FieldRangeError, require_int
+from profiles.errors import FieldRangeError, MoveParameterError, require_int
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.table import RATE_FIELD_MAX, STAGE_COUNT_FIELD_MAX, FreeCurveTable, InitTable
 
@@ -56,15 +56,6 @@ LATENCY_S: dict[tuple[bool, bool], float] = {
 }
 CHIP_RATE_OUT_OF_RANGE = 0x20   # parameter error: pulse rate setting out of range (§11-6)
 CHIP_BAD_PULSE_COUNT = 0x23     # parameter error: the move's pulse count is wrong (§11-6)
-
-
-class MoveParameterError(FieldRangeError):
-    """A move parameter the chip would refuse with parameter error `chip_code` (response F0)."""
-
-    def __init__(self, field_name: str, value: object, lo: int, hi: int, chip_code: int) -> None:
-        super().__init__(field_name, value, lo, hi)
-        self.chip_code = chip_code
-        self.args = (f"{self.args[0]} (the chip answers F0 {chip_code:02X})",)
 
 
 @dataclass(frozen=True)

@@ -36,8 +36,9 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import FieldRangeError, StepRampError, require_int
+from ..errors import FieldRangeError, PlanError, require_int
 from ..motor import Motor
+from ..result import PlanResult
 from .clock import INTERNAL_HZ, MAX_OUTPUT_PPS, Clock
 from .criterion import switch_safe
 from .limits import (
@@ -56,18 +57,7 @@ REFERENCE_MOVE_FACTOR = 10  # pulses=None: 10 × the continuous ramps' pulses (s
 BASELINE_POINTS = 600
 
 
-class PlanError(StepRampError, ValueError):
-    """A request no stall-safe, chip-legal table can satisfy."""
-
-
-@dataclass(frozen=True)
-class Plan:
-    table: FreeCurveTable
-    move_time_s: float
-    pulses: int | None
-    clock: Clock
-    solve_s: float
-    info: str
+Plan = PlanResult[FreeCurveTable]  # what every free-curve planner here returns
 
 
 # --------------------------------------------------------------------------- clock
@@ -644,7 +634,15 @@ def _plan(motor: Motor, clock: Clock | None, max_stages: int, pulses: int | None
     info = (f"{label}: {len(ev.rates)} stages, LE={int(sep)}, top {clock.hz / ev.rates[-1]:.6g} pps"
             f", accel {int(ev.n.sum())} + decel {int(ev.d.sum())} pulses, {objective} "
             f"{time_s * 1e3:.6g} ms")
-    return Plan(table, time_s, pulses, clock, time.perf_counter() - t0, info)
+    if len(ev.rates) >= max_stages:
+        binds = "stage budget"
+    elif ev.total >= budget:
+        binds = "move length"  # the ramps use every pulse: a faster top does not fit
+    elif clock.hz / ev.rates[-1] >= min(motor.top_pps, MAX_OUTPUT_PPS) * (1 - 1e-9):
+        binds = "top speed"
+    else:
+        binds = "stall criterion (capability and jump limit)"
+    return Plan(table, time_s, binds, info, pulses, clock, time.perf_counter() - t0)
 
 
 def plan_free_curve(motor: Motor, *, clock: Clock | None = None, max_stages: int = 127,
@@ -692,7 +690,8 @@ def tighten(motor: Motor, make: Callable[[Motor], Plan], load_angle_deg: float) 
         note = (f"; worst load angle {worst:.1f}° electrical over every move length"
                 + (f" (tightened ×{scale:.3g}: safety factor, jump and start speed)"
                    if scale < 1 else ""))
-        plan = replace(plan, info=plan.info + note, solve_s=time.perf_counter() - t0)
+        plan = replace(plan, info=plan.info + note, solve_s=time.perf_counter() - t0,
+                       binds=plan.binds if scale == 1.0 else "load angle (tightened)")
         if best is None or worst < best[0]:
             best = (worst, plan)
         return worst, plan
@@ -727,7 +726,7 @@ def plan_duty_cycle(motor: Motor, mix: list[tuple[int, float]], *, clock: Clock 
     Minimises Σ weight × move time (as the chip runs each length) over tables planned for
     each length of the mix and for `candidates` lengths spread geometrically between the
     shortest and the longest: never worse on the mix than the plan for any single length
-    of it. Returns the plan (its `move_time_s` is the weighted time) and each length's
+    of it. Returns the plan (its `duration_s` is the weighted time) and each length's
     time."""
     from .execution import simulate_move
 
@@ -757,7 +756,7 @@ def plan_duty_cycle(motor: Motor, mix: list[tuple[int, float]], *, clock: Clock 
         raise PlanError("no table could be planned for any length of the mix")
     total, plan, times = best
     info = plan.info + f"; duty cycle of {len(mix)} move lengths: weighted time {total:.6g} s"
-    return replace(plan, move_time_s=total, pulses=None, info=info), times
+    return replace(plan, duration_s=total, pulses=None, info=info), times
 
 
 def plan_baseline(motor: Motor, *, clock: Clock | None = None, max_stages: int = 127,

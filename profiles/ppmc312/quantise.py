@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import FieldRangeError
+from ..errors import FieldRangeError, PlanError
 from ..result import PlanResult
 from .clock import MAX_OUTPUT_PPS, Clock
 from .execution import simulate_move
@@ -30,7 +30,7 @@ from .limits import (
     STAGE_PULSES_MIN,
     STAGES_MIN,
 )
-from .planner import PlanError, check_plan_args
+from .planner import check_plan_args
 from .table import FreeCurveTable
 
 QUANTISE_MAX_PULSES = 10_000_000  # the quantiser keeps a few float arrays of one entry per pulse

@@ -52,13 +52,13 @@ from typing import Any, Literal
 
 import numpy as np
 
-from ..errors import SyncError
+from ..errors import PlanError, SyncError
 from ..motor import Motor
 from .clock import INTERNAL_HZ, Clock
 from .criterion import all_length_safe
 from .execution import Execution, simulate_move
 from .limits import MIN_STAGE_TICKS, RATE_MAX, RATE_MIN, SIDE_TOTAL_MAX, STAGE_PULSES_MAX
-from .planner import PlanError, _problem, plan_free_curve
+from .planner import _problem, plan_free_curve
 from .table import FreeCurveTable
 from .upload import encode_move
 

@@ -133,7 +133,7 @@ def _free(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, Any]]:
     table = plan.table
     return table, {"stages": len(table.rates), "clock": table.clock.name,
                    "separate_decel": table.separate, "pulses": plan.pulses,
-                   "move_time_s": plan.move_time_s, "solve_s": plan.solve_s, "info": plan.info}
+                   "move_time_s": plan.duration_s, "solve_s": plan.solve_s, "info": plan.info}
 
 
 def _duty_cycle(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, Any]]:
@@ -145,7 +145,7 @@ def _duty_cycle(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, An
                                   load_angle_deg=args.load_angle)
     table = plan.table
     return table, {"stages": len(table.rates), "clock": table.clock.name,
-                   "separate_decel": table.separate, "weighted_time_s": plan.move_time_s,
+                   "separate_decel": table.separate, "weighted_time_s": plan.duration_s,
                    "move_times_s": {str(n): t for n, t in times.items()},
                    "solve_s": plan.solve_s, "info": plan.info}
 
