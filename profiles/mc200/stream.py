@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
-from ..errors import FieldRangeError, FormatError, StepRampError, require_int, require_number
+from ..errors import FieldRangeError, FormatError, require_int, require_number
 from ..progress import report
 from .codec import PACKET_SIZE, HostPacket, encode_positions, encode_stream, hex_lines
 from .model import SEQUENCE_MAX, mode_switch, servo_on
@@ -240,47 +240,15 @@ def packet_count(duration_s: float, period_us: float, hold_packets: int = 10) ->
 
 def ruckig_profile(pulses: int, v_max_pps: float, a_max_pps2: float,
                    j_max_pps3: float) -> tuple[PositionFn, float]:
-    """A jerk-limited rest-to-rest profile from ruckig, solved in normalised units
-    (position / pulses, time / sqrt(pulses / a_max)) and evaluated vectorised."""
-    from ruckig import InputParameter, Result, Ruckig, RuckigError, Trajectory
+    """A jerk-limited rest-to-rest profile from ruckig (profiles.ruckig_move), evaluated
+    vectorised: (position_at(t_s) → pulses, duration_s)."""
+    from ..ruckig_move import solve_move
 
     require_int("pulses", pulses, 1, INT32_MAX)
     for name, value in (("v_max_pps", v_max_pps), ("a_max_pps2", a_max_pps2),
                         ("j_max_pps3", j_max_pps3)):
         require_number(name, value, 0, 1e15, lo_open=True, hi_open=True)
-    length = float(pulses)
-    t_ref = math.sqrt(length / a_max_pps2)
-    inp = InputParameter(1)
-    inp.current_position = [0.0]
-    inp.target_position = [1.0]
-    inp.max_velocity = [v_max_pps * t_ref / length]
-    inp.max_acceleration = [1.0]
-    inp.max_jerk = [j_max_pps3 * t_ref**3 / length]
-    traj = Trajectory(1)
-    try:
-        result = Ruckig(1).calculate(inp, traj)
-    except RuckigError:  # ruckig refuses limits it cannot solve (e.g. v ≈ 0); its text is a dump
-        raise StepRampError(f"ruckig: no profile for {pulses} pulses, v {v_max_pps:g}, "
-                            f"a {a_max_pps2:g}, j {j_max_pps3:g} (the limits are outside "
-                            "ruckig's numeric range)") from None
-    if result != Result.Working:
-        raise StepRampError(f"ruckig: no profile for {pulses} pulses, v {v_max_pps:g}, "
-                            f"a {a_max_pps2:g}, j {j_max_pps3:g} ({result})")
-    prof = traj.profiles[0][0]
-    if prof.brake.duration > 0:  # never for a start at rest; the evaluator assumes none
-        raise StepRampError("ruckig: unexpected brake phase in a rest-to-rest profile")
-    durations = np.asarray(prof.t, dtype=float)
-    starts = np.concatenate(([0.0], np.cumsum(durations)))[:-1]
-    j = np.asarray(prof.j, dtype=float)
-    a0, v0, p0 = (np.asarray(x, dtype=float)[:7] for x in (prof.a, prof.v, prof.p))
-    total_n = float(traj.duration)
-
-    def position_at(t: np.ndarray) -> np.ndarray:
-        tn = np.clip(np.asarray(t, dtype=float) / t_ref, 0.0, total_n)
-        k = np.clip(np.searchsorted(starts, tn, side="right") - 1, 0, 6)
-        dt = tn - starts[k]
-        pn = p0[k] + dt * (v0[k] + dt * (a0[k] / 2 + dt * j[k] / 6))
-        return np.clip(pn, 0.0, 1.0) * length
-
-    return position_at, total_n * t_ref
+    move = solve_move(pulses, v_max_pps=v_max_pps, a_up_pps2=a_max_pps2,
+                      a_down_pps2=a_max_pps2, j_max_pps3=j_max_pps3)
+    return move.position_at, move.duration_s
 

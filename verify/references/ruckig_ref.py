@@ -14,8 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from profiles.errors import FormatError, ReferenceSolveError, require_number
+from profiles.errors import FormatError, ReferenceSolveError, StepRampError, require_number
 from profiles.motor import Motor
+from profiles.ruckig_move import RuckigMove, solve_move
 
 from ._common import Reference, move_limits
 
@@ -59,8 +60,6 @@ def ruckig_reference(motor: Motor, pulses: Any, *, v_max_pps: float | None = Non
     """
     if bound not in ("feasible", "optimistic"):
         raise FormatError(f"bound: expected 'feasible' or 'optimistic', got {bound!r}")
-    from ruckig import InputParameter, Result, Ruckig, Trajectory
-
     start = time.perf_counter()
     lim = move_limits(motor, pulses)
     v0 = lim.v0_pps
@@ -68,7 +67,6 @@ def ruckig_reference(motor: Motor, pulses: Any, *, v_max_pps: float | None = Non
     a_given = _limit("a_max_pps2", a_max_pps2, 1e-9, 1e15)
     j_given = _limit("j_max_pps3", j_max_pps3, 1e-9, 1e18)
     jerk = j_given if j_given is not None else motor.max_jerk_pps3
-    j_norm = math.inf if jerk is None else jerk / lim.j_ref_pps3
 
     def limits(v_max: float) -> tuple[float, float]:
         if a_given is not None:
@@ -79,27 +77,14 @@ def ruckig_reference(motor: Motor, pulses: Any, *, v_max_pps: float | None = Non
         return (_max_over(motor, motor.a_acc_pps2, 0.0, v_max),
                 _max_over(motor, motor.a_dec_pps2, 0.0, v_max))
 
-    def solve(v_max: float) -> Any:
+    def solve(v_max: float) -> RuckigMove:
         a_up, a_down = limits(v_max)
-        inp = InputParameter(1)
-        inp.current_position = [0.0]
-        inp.current_velocity = [v0 / lim.v_ref_pps]
-        inp.current_acceleration = [0.0]
-        inp.target_position = [1.0]
-        inp.target_velocity = [v0 / lim.v_ref_pps]
-        inp.target_acceleration = [0.0]
-        inp.max_velocity = [v_max / lim.v_ref_pps]
-        inp.max_acceleration = [a_up / lim.a_ref_pps2]
-        inp.min_acceleration = [-a_down / lim.a_ref_pps2]
-        inp.max_jerk = [j_norm]
-        traj = Trajectory(1)
         try:
-            result = Ruckig(1).calculate(inp, traj)
-        except RuntimeError as exc:  # ruckig raises RuckigError (a RuntimeError) on bad input
-            raise ReferenceSolveError(f"ruckig: {str(exc).splitlines()[0]}") from exc
-        if result != Result.Working:
-            raise ReferenceSolveError(f"ruckig: calculation failed ({result})")
-        return traj
+            return solve_move(lim.pulses, v_max_pps=v_max, a_up_pps2=a_up, a_down_pps2=a_down,
+                              j_max_pps3=None if jerk is None else float(jerk), v0_pps=v0,
+                              t_ref_s=lim.t_ref_s)
+        except StepRampError as exc:
+            raise ReferenceSolveError(str(exc)) from exc
 
     if v_given is not None or bound != "feasible" or a_given is not None:
         v_max = v_given if v_given is not None else lim.v_lim_pps
@@ -109,24 +94,19 @@ def ruckig_reference(motor: Motor, pulses: Any, *, v_max_pps: float | None = Non
         # near the speed where a_acc reaches 0). Choose the cap that gives the fastest
         # feasible move; one calculate takes about a microsecond.
         v_max = min(_v_max_candidates(motor, v0, lim.v_lim_pps),
-                    key=lambda v: float(solve(v).duration) if limits(v)[0] > 0 else math.inf)
+                    key=lambda v: solve(v).duration_s if limits(v)[0] > 0 else math.inf)
     a_up, a_down = limits(v_max)
-    traj = solve(v_max)
+    move = solve(v_max)
     solve_s = time.perf_counter() - start
 
-    duration_n = float(traj.duration)
-    phase_ends = np.cumsum(np.asarray(traj.profiles[0][0].t, dtype=float))
-    t_n = np.unique(np.concatenate([np.linspace(0.0, duration_n, RUCKIG_SAMPLES),
-                                    phase_ends[phase_ends < duration_n]]))
-    pva = np.array([[s[0] for s in traj.at_time(float(t))] for t in t_n])
-    x = pva[:, 0] * lim.pulses
+    ends = move.phase_ends_s
+    t_s = np.unique(np.concatenate([np.linspace(0.0, move.duration_s, RUCKIG_SAMPLES),
+                                    ends[ends < move.duration_s]]))
+    x, v, a = move.sample(t_s)
     x[-1] = lim.pulses
-    v = pva[:, 1] * lim.v_ref_pps
     v[0] = v[-1] = v0  # ruckig meets the boundary speeds to ~1e-12 relative; pin them
-    a = pva[:, 2] * lim.a_ref_pps2
     jerk_txt = "none" if jerk is None else f"{jerk:.6g} pps³"
     info = (f"ruckig {bound}: v_max {v_max:.6g} pps, a +{a_up:.6g}/−{a_down:.6g} pps², "
             f"jerk {jerk_txt}")
-    return Reference(name=f"ruckig-{bound}", duration_s=duration_n * lim.t_ref_s,
-                     t_s=t_n * lim.t_ref_s, x_pulses=x, v_pps=v, a_pps2=a, solve_s=solve_s,
-                     info=info)
+    return Reference(name=f"ruckig-{bound}", duration_s=move.duration_s, t_s=t_s, x_pulses=x,
+                     v_pps=v, a_pps2=a, solve_s=solve_s, info=info)
