@@ -67,6 +67,8 @@ def test_report_matches_the_written_tables(written: tuple[Path, int, str]) -> No
         run = simulate_move(table, abs(item["pulses"]))
         assert item["duration_s"] == run.duration_s   # as simulate computes it
         durations.append(run.duration_s)
+        # every table judged over every move length by both judges
+        assert item["stall_findings"] == 0 and 0 < item["worst_load_angle_deg"] < 90
         # the upload files decode back to the table
         for ext in ("hex", "bin"):
             assert decode_upload(parse_upload((out / f"{item['name']}.upload.{ext}")

@@ -224,7 +224,10 @@ def sync_report(plan: Plan, *, device: str, ruckig: RuckigSync | None = None,
                 commands: Sequence[bytes | list[tuple[int, int, int]]] | None = None
                 ) -> dict[str, Any]:
     """report.json: per axis its duration (as simulate computes it), the finish spread and
-    its tolerance, the line deviation, ruckig's synchronised durations beside ours."""
+    its tolerance, the line deviation, ruckig's synchronised durations beside ours, and
+    each PPMC-312 table's verdict over every move length: criterion findings and the
+    worst load angle (electrical degrees; ≥ 90° is unsafe)."""
+    from verify.physics import judge_executions
     from verify.stall import check_stall
 
     times = pulse_times(plan)
@@ -239,7 +242,8 @@ def sync_report(plan: Plan, *, device: str, ruckig: RuckigSync | None = None,
                         top_pps=a.table.clock.hz / a.table.rates[0],
                         separate_decel=a.table.separate, shape=a.execution.shape,
                         first_pulse_latency_s=a.execution.first_pulse_latency_s,
-                        stall_findings=len(check_stall(a.table, a.motor)))
+                        stall_findings=len(check_stall(a.table, a.motor)),
+                        worst_load_angle_deg=judge_executions(a.table, a.motor).worst_angle_deg)
         else:
             s = a.settings
             item.update(start_pps=s.start_pps, high_pps=s.high_pps, up_time_para=s.accel_para,

@@ -76,9 +76,11 @@ def _do_sync(args: argparse.Namespace) -> int:
         write_output(None, json.dumps(report, indent=1) + "\n")
     else:
         write_output(None, _text(report))
+    from profiles.rotor import PEAK_DEG
+
     bad = (report["finish_spread_s"] > report["finish_spread_tolerance_s"]
            or any(a.get("stall_findings", 0) or a.get("stall_safe") is False
-                  for a in report["axes"]))
+                  or a.get("worst_load_angle_deg", 0.0) >= PEAK_DEG for a in report["axes"]))
     return EXIT_FINDINGS if bad else EXIT_OK
 
 
