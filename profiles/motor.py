@@ -27,7 +27,10 @@ _REQUIRED = {"format", "steps_per_rev", "pullout_torque", "inertia_kgm2", "safet
              "start_pps"}
 _OPTIONAL = {"friction_torque_nm", "max_jump_pps", "max_pps", "max_jerk_pps3", "name",
              "holding_torque_nm", "rotor_teeth", "phases", "damping_ratio", "load_torque_nm",
-             "sources"}
+             "sources", "tolerances", "resonance_bands_pps"}
+# Parameters a `tolerances` entry may range over (docs/manual-notes.md, "Tolerance box").
+TOLERANCE_KEYS = ("inertia_kgm2", "friction_torque_nm", "load_torque_nm", "torque_scale",
+                  "damping_ratio")
 # Defaults where a motor file is silent (docs/manual-notes.md, "Load-angle model").
 DEFAULT_PHASES = 2
 DEFAULT_ROTOR_TEETH = 50        # the 1.8° (2-phase) and 0.72° (5-phase) hybrid rotor
@@ -55,6 +58,10 @@ class Motor:
     # provenance: field → [{"value": number, "from": text}, …] (informative, never used)
     sources: dict[str, list[dict[str, Any]]] | None = field(default=None, repr=False,
                                                             compare=False)
+    # absolute [low, high] per TOLERANCE_KEYS entry; the plain fields stay the nominal
+    tolerances: tuple[tuple[str, float, float], ...] = ()
+    # speeds [pps] where the machine resonates: closed intervals [lo, hi]
+    resonance_bands_pps: tuple[tuple[float, float], ...] = ()
 
     def __post_init__(self) -> None:
         v = np.asarray(self.curve_speed_pps, dtype=float)
@@ -88,6 +95,8 @@ class Motor:
             raise FieldRangeError("damping_ratio", self.damping_ratio, 0, 10)
         if not abs(self.load_torque_nm) < 1e4:
             raise FieldRangeError("load_torque_nm", self.load_torque_nm, -1e4, 1e4)
+        _check_tolerances(self)
+        _check_bands(self.resonance_bands_pps)
         if self.a_acc_pps2(0.0) <= 0:
             raise FormatError("the motor cannot accelerate from rest: safety_factor × torque at "
                               "0 pps does not exceed the friction and load torque")
@@ -179,6 +188,10 @@ class Motor:
             out["load_torque_nm"] = self.load_torque_nm
         if self.sources is not None:
             out["sources"] = self.sources
+        if self.tolerances:
+            out["tolerances"] = {k: [lo, hi] for k, lo, hi in self.tolerances}
+        if self.resonance_bands_pps:
+            out["resonance_bands_pps"] = [[lo, hi] for lo, hi in self.resonance_bands_pps]
         return out
 
     @classmethod
@@ -197,7 +210,8 @@ class Motor:
         if not isinstance(curve, list) or not all(
                 isinstance(p, list) and len(p) == 2 and all(_is_num(x) for x in p) for p in curve):
             raise FormatError("pullout_torque: expected a list of [speed_pps, torque_nm] pairs")
-        for key in (_REQUIRED | _OPTIONAL) - {"format", "pullout_torque", "name", "sources"}:
+        for key in (_REQUIRED | _OPTIONAL) - {"format", "pullout_torque", "name", "sources",
+                                              "tolerances", "resonance_bands_pps"}:
             if key in obj and not _is_num(obj[key]):
                 raise FormatError(f"{key}: expected a number, got {obj[key]!r}")
         for key in ("steps_per_rev", "rotor_teeth", "phases"):
@@ -217,7 +231,21 @@ class Motor:
                    phases=int(obj.get("phases", DEFAULT_PHASES)),
                    damping_ratio=float(obj.get("damping_ratio", DEFAULT_DAMPING_RATIO)),
                    load_torque_nm=float(obj.get("load_torque_nm", 0.0)),
-                   sources=_sources(obj["sources"]) if "sources" in obj else None)
+                   sources=_sources(obj["sources"]) if "sources" in obj else None,
+                   tolerances=_read_tolerances(obj.get("tolerances", {})),
+                   resonance_bands_pps=_read_bands(obj.get("resonance_bands_pps", [])))
+
+    def nominal(self, name: str) -> float:
+        """The nominal value of a TOLERANCE_KEYS parameter (torque_scale: 1)."""
+        return 1.0 if name == "torque_scale" else float(getattr(self, name))
+
+    def tolerance(self, name: str) -> tuple[float, float]:
+        """The [low, high] range of a TOLERANCE_KEYS parameter (its nominal when none)."""
+        for key, lo, hi in self.tolerances:
+            if key == name:
+                return lo, hi
+        value = self.nominal(name)
+        return value, value
 
 
 def load_motor(path: str | Path) -> Motor:
@@ -227,6 +255,54 @@ def load_motor(path: str | Path) -> Motor:
 def bundled_motor_paths() -> list[Path]:
     """The example motors shipped with stepramp."""
     return sorted((Path(__file__).parent / "data").glob("motor-*.json"))
+
+
+def _read_tolerances(obj: Any) -> tuple[tuple[str, float, float], ...]:
+    if not isinstance(obj, dict):
+        raise FormatError("tolerances: expected an object of \"field\": [low, high] entries")
+    out = []
+    for key, pair in obj.items():
+        if key not in TOLERANCE_KEYS:
+            raise FormatError(f"tolerances: unknown field {key!r} (allowed: "
+                              f"{', '.join(TOLERANCE_KEYS)})")
+        if not (isinstance(pair, list) and len(pair) == 2 and all(_is_num(x) for x in pair)):
+            raise FormatError(f"tolerances.{key}: expected [low, high] (two numbers), got {pair!r}")
+        out.append((key, float(pair[0]), float(pair[1])))
+    return tuple(sorted(out, key=lambda e: TOLERANCE_KEYS.index(e[0])))
+
+
+def _read_bands(obj: Any) -> tuple[tuple[float, float], ...]:
+    if not isinstance(obj, list) or not all(
+            isinstance(b, list) and len(b) == 2 and all(_is_num(x) for x in b) for b in obj):
+        raise FormatError("resonance_bands_pps: expected a list of [lo_pps, hi_pps] pairs")
+    return tuple((float(lo), float(hi)) for lo, hi in obj)
+
+
+def _check_tolerances(motor: Motor) -> None:
+    """Each range is ordered, holds the nominal value and stays physical."""
+    seen = set()
+    for key, lo, hi in motor.tolerances:
+        if key not in TOLERANCE_KEYS or key in seen:
+            raise FormatError(f"tolerances: {key!r} is not a tolerance field or is repeated")
+        seen.add(key)
+        if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi:
+            raise FormatError(f"tolerances.{key}: low {lo:g} must not exceed high {hi:g}")
+        nominal = motor.nominal(key)
+        if not lo <= nominal <= hi:
+            raise FieldRangeError(f"tolerances.{key} (must hold the nominal {nominal:g})",
+                                  nominal, lo, hi)
+        floor = {"inertia_kgm2": 1e-12, "torque_scale": 1e-9}.get(key)
+        if floor is not None and lo < floor:
+            raise FieldRangeError(f"tolerances.{key} low", lo, floor, hi)
+        if key in ("friction_torque_nm", "damping_ratio") and lo < 0:
+            raise FieldRangeError(f"tolerances.{key} low", lo, 0, hi)
+
+
+def _check_bands(bands: tuple[tuple[float, float], ...]) -> None:
+    for i, (lo, hi) in enumerate(bands):
+        if not (math.isfinite(lo) and math.isfinite(hi)) or not 0 < lo < hi:
+            raise FormatError(f"resonance_bands_pps[{i}]: expected 0 < lo < hi, got "
+                              f"[{lo:g}, {hi:g}]")
 
 
 def _is_num(x: Any) -> bool:

@@ -15,11 +15,13 @@ from .report import FileResult
 
 if TYPE_CHECKING:
     from profiles.motor import Motor
+    from verify.robust import BoxVerdict
     from profiles.ppmc312.table import FreeCurveTable, InitTable
 
 
 def check_file(path: str, motor: Motor | None = None, extck_hz: float | None = None, *,
-               pulses: Iterable[int] | None = None, physics: bool = True) -> FileResult:
+               pulses: Iterable[int] | None = None, physics: bool = True,
+               samples: int = 1000, seed: int = 0, strict: bool = False) -> FileResult:
     """The findings for the table or upload file at `path`.
 
     `motor` adds the stall-safety findings of both judges, over every execution the
@@ -32,6 +34,8 @@ def check_file(path: str, motor: Motor | None = None, extck_hz: float | None = N
     try:
         table, chip_findings = load_checkable(path, extck_hz)
         findings = list(chip_findings)
+        notes: list[str] = []
+        details: dict[str, object] = {}
         if table is not None:
             findings += check_table(table)
         if motor is not None and table is not None:
@@ -43,12 +47,23 @@ def check_file(path: str, motor: Motor | None = None, extck_hz: float | None = N
             except InitBuildError:
                 stages = None  # no stages to judge: check_table has said why, with the code
             if stages is not None:
-                findings += stall_findings(stages, motor, pulses=pulses, physics=physics)
+                from verify.resonance import resonance_findings
+
+                if motor.tolerances:
+                    found, box = robust_findings(stages, motor, pulses=pulses,
+                                                 physics=physics, samples=samples, seed=seed)
+                    findings += found
+                    if box is not None:
+                        notes.append(box.describe())
+                        details["tolerance_box"] = box.to_json()
+                else:
+                    findings += stall_findings(stages, motor, pulses=pulses, physics=physics)
+                findings += resonance_findings(stages, motor, strict=strict)
     except StepRampError as e:
         return FileResult(path=path, ok=False, findings=[], error=str(e))
     findings = dedupe(findings)
     ok = not any(f.severity == "error" for f in findings)
-    return FileResult(path=path, ok=ok, findings=findings)
+    return FileResult(path=path, ok=ok, findings=findings, notes=notes, details=details)
 
 
 def stall_findings(table: FreeCurveTable, motor: Motor, *, pulses: Iterable[int] | None = None,
@@ -57,7 +72,7 @@ def stall_findings(table: FreeCurveTable, motor: Motor, *, pulses: Iterable[int]
     `load-angle` (error) past the 90° peak, `load-angle-margin` (warning) past the
     75° the planner aims at. The load angle is judged only on stages in order (the
     criterion reports a table out of order and nothing else)."""
-    from verify.physics import PEAK_DEG, TARGET_DEG, judge_executions
+    from verify.physics import judge_executions
     from verify.stall import check_stall
 
     lengths = None if pulses is None else sorted(set(pulses))
@@ -65,15 +80,46 @@ def stall_findings(table: FreeCurveTable, motor: Motor, *, pulses: Iterable[int]
     if not physics or any(f.rule == "stall-order" for f in out):
         return out
     verdict = judge_executions(table, motor, pulses=lengths)
-    if verdict.worst_angle_deg >= PEAK_DEG:
-        out.append(Finding("error", "load-angle", verdict.describe() + (
+    return out + load_angle_findings(verdict.worst_angle_deg, verdict.describe(), not out)
+
+
+def load_angle_findings(worst_deg: float, describe: str, criterion_ok: bool) -> list[Finding]:
+    """`load-angle` (error) past the 90° peak, `load-angle-margin` (warning) past 75°."""
+    from verify.physics import PEAK_DEG, TARGET_DEG
+
+    out = []
+    if worst_deg >= PEAK_DEG:
+        out.append(Finding("error", "load-angle", describe + (
             "; the criterion passes: the rotor rings after a step at this damping (raise the "
             "counts around the steps, or lower the safety factor and plan again)"
-            if not out else "")))
-    elif verdict.worst_angle_deg > TARGET_DEG:
+            if criterion_ok else "")))
+    elif worst_deg > TARGET_DEG:
         out.append(Finding("warning", "load-angle-margin",
-                           verdict.describe() + f" (stepramp plan aims at ≤ {TARGET_DEG:g}°)"))
+                           describe + f" (stepramp plan aims at ≤ {TARGET_DEG:g}°)"))
     return out
+
+
+def robust_findings(table: FreeCurveTable, motor: Motor, *, pulses: Iterable[int] | None = None,
+                    physics: bool = True, samples: int = 1000, seed: int = 0
+                    ) -> tuple[list[Finding], BoxVerdict | None]:
+    """Both judges over `motor`'s tolerance box: the criterion on the box's worst-case
+    capability (exact over the box), the load angle at every corner and over a seeded
+    Monte Carlo sample (verify.robust)."""
+    from dataclasses import replace
+
+    from profiles.tolerance import worst_case_motor
+    from verify.robust import judge_box
+    from verify.stall import check_stall
+
+    lengths = None if pulses is None else sorted(set(pulses))
+    out = [replace(f, message=f.message + " (at the tolerance box's worst case)")
+           for f in check_stall(table, worst_case_motor(motor), pulses=lengths)]
+    if not physics or any(f.rule == "stall-order" for f in out):
+        return out, None
+    box = judge_box(table, motor, pulses=lengths, samples=samples, seed=seed)
+    return out + load_angle_findings(box.worst_angle_deg if box.sample_failures == 0
+                                     else max(box.worst_angle_deg, 90.0),
+                                     box.describe(), not out), box
 
 
 def dedupe(findings: Iterable[Finding]) -> list[Finding]:

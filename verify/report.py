@@ -39,12 +39,16 @@ class FileResult:
     ok: bool
     findings: list[Finding] = field(default_factory=list)
     error: str | None = None   # why the file could not be used as a table at all
+    # verdict summaries that are no finding (e.g. a tolerance box's stall probability bound)
+    notes: list[str] = field(default_factory=list)
+    details: dict[str, object] = field(default_factory=dict)   # the same, for JSON
 
     def to_json(self) -> dict[str, object]:
         out: dict[str, object] = {"path": self.path, "ok": self.ok,
                                   "findings": [f.to_json() for f in self.findings]}
         if self.error is not None:
             out["error"] = self.error
+        out.update(self.details)
         return out
 
 
@@ -79,6 +83,7 @@ def _text(results: Sequence[FileResult]) -> str:
                 errors += 1
             else:
                 warnings += 1
+        lines += [f"{r.path}: note: {_one_line(n)}" for n in r.notes]
     failed = sum(1 for r in results if not r.ok)
     unusable = sum(1 for r in results if r.error is not None)
     summary = (f"{len(results)} file{_s(len(results))} checked: {len(results) - failed} ok, "

@@ -38,6 +38,7 @@ import numpy as np
 
 from ..errors import FieldRangeError, PlanError, require_int
 from ..motor import Motor
+from ..resonance import band_edges_rates, stage_allowed, top_allowed
 from ..result import PlanResult
 from .clock import INTERNAL_HZ, MAX_OUTPUT_PPS, Clock
 from .criterion import switch_safe
@@ -112,7 +113,13 @@ class _Problem:
             n = d = np.maximum(n, d)
         valid = ((rf > 0) & (delta > 0) & (delta <= self.jump) & (n <= STAGE_PULSES_MAX)
                  & (d <= STAGE_PULSES_MAX))
+        if self.motor.resonance_bands_pps:  # no stage in a band a jump can step over
+            valid &= stage_allowed(f_slow, self.motor) & stage_allowed(f_fast, self.motor)
         return n, d, valid
+
+    def top_ok(self, rates: Any) -> np.ndarray:
+        """The top stage (the cruise) lies outside every resonance band."""
+        return top_allowed(self.hz / np.asarray(rates, dtype=float), self.motor)
 
 
 def _problem(motor: Motor, clock: Clock, separate: bool) -> _Problem:
@@ -193,7 +200,10 @@ def _grid_rates(pb: _Problem, target: int) -> np.ndarray:
             break
         chain.append(nxt)
         r = nxt
-    rates = np.unique(np.concatenate((rates, np.asarray(chain, dtype=np.int64), [pb.r_fast])))
+    # the rates just outside each resonance band: the stages a jump over it starts and ends on
+    edges = np.asarray(band_edges_rates(pb.motor, hz), dtype=np.int64)
+    rates = np.unique(np.concatenate((rates, np.asarray(chain, dtype=np.int64), [pb.r_fast],
+                                      edges)))
     rates = rates[(rates >= pb.r_fast) & (rates <= RATE_MAX)]
     return rates[::-1].copy()  # slowest first
 
@@ -306,7 +316,7 @@ def _evaluate(pb: _Problem, rates: np.ndarray, budget: int,
     """Exact move time of a staircase with minimal counts (or the given ones); None if the
     staircase breaks a rule or does not fit the budget."""
     rates = np.asarray(rates, dtype=np.int64)
-    if len(rates) < STAGES_MIN or np.any(np.diff(rates) >= 0):
+    if len(rates) < STAGES_MIN or np.any(np.diff(rates) >= 0) or not pb.top_ok(rates[-1:])[0]:
         return None
     if counts is None:
         n, d, valid = pb.counts(rates[:-1], rates[1:])
@@ -394,6 +404,7 @@ def _refine_top(pb: _Problem, ev: _Eval, budget: int, offsets: np.ndarray) -> _E
     r = ev.rates
     cand = r[-1] + offsets
     cand = cand[(cand >= pb.r_fast) & (cand < r[-2])]
+    cand = cand[pb.top_ok(cand)]
     if len(cand) == 0:
         return None
     f = pb.hz / r.astype(float)
@@ -432,7 +443,8 @@ def _search(pb: _Problem, gr: _Graph, max_stages: int, budget: int, *,
         lam_j = 1.0 / gr.f
         est = dp.value + (dp.lam - lam_j) * dp.pulses + budget * lam_j
         fits = ((dp.pulses + gr.wtop <= budget) & (dp.accel + gr.watop <= SIDE_TOTAL_MAX)
-                & (dp.pulses - dp.accel + gr.wtop - gr.watop <= SIDE_TOTAL_MAX))
+                & (dp.pulses - dp.accel + gr.wtop - gr.watop <= SIDE_TOTAL_MAX)
+                & pb.top_ok(gr.rates))
         return est, fits
 
     def visit(lam: float) -> tuple[int, bool] | None:
@@ -653,12 +665,22 @@ def plan_free_curve(motor: Motor, *, clock: Clock | None = None, max_stages: int
     when it is faster. The table passes the criterion for every move length the chip
     can run with it. With `load_angle_deg` (e.g. 75) the plan is also judged by the
     load-angle model on every execution and tightened until its worst angle is within
-    that (see `tighten`)."""
+    that (see `tighten`). A motor with `tolerances` gets one table safe over its whole
+    box: the criterion on the box's worst-case capability (exact over the box,
+    profiles.tolerance), the load angle judged at every corner."""
     def make(m: Motor) -> Plan:
         return _plan(m, clock, max_stages, pulses, separate_decel, grid="adaptive",
                      refine=True, label="planner")
 
-    return make(motor) if load_angle_deg is None else tighten(motor, make, load_angle_deg)
+    if not motor.tolerances:
+        return make(motor) if load_angle_deg is None else tighten(motor, make, load_angle_deg)
+    from ..tolerance import corners, worst_case_motor
+
+    worst = worst_case_motor(motor)
+    if load_angle_deg is None:
+        return make(worst)
+    return tighten(worst, make, load_angle_deg,
+                   judges=[c.motor for c in corners(motor)])
 
 
 TIGHTEN_STEP = 0.85
@@ -666,12 +688,15 @@ TIGHTEN_ROUNDS = 8
 TIGHTEN_BISECT = 2
 
 
-def tighten(motor: Motor, make: Callable[[Motor], Plan], load_angle_deg: float) -> Plan:
+def tighten(motor: Motor, make: Callable[[Motor], Plan], load_angle_deg: float, *,
+            judges: list[Motor] | None = None) -> Plan:
     """Plan with `make`, judge the table on the nominal motor by the load-angle model
     over every execution, and while its worst angle exceeds `load_angle_deg`, plan again
     with a tighter motor: the safety factor, the largest jump and the start speed scaled
     by 0.85 each round (smaller steps, gentler slopes, a softer start: what ringing after
-    a step feeds on). Refuses when no round gets below the 90° peak."""
+    a step feeds on). Refuses when no round gets below the 90° peak. `judges`: judge
+    the load angle on each of these motors (a tolerance box's corners) and take the
+    worst, instead of on `motor`."""
     from ..rotor import PEAK_DEG
     from .load_angle import worst_load_angle
 
@@ -686,8 +711,10 @@ def tighten(motor: Motor, make: Callable[[Motor], Plan], load_angle_deg: float) 
             motor, safety_factor=motor.safety_factor * scale,
             max_jump_pps=motor.jump_pps * scale, start_pps=motor.start_pps * scale)
         plan = make(tight)
-        worst = worst_load_angle(plan.table, motor).worst_angle_deg
+        worst = max(worst_load_angle(plan.table, m).worst_angle_deg
+                    for m in (judges or [motor]))
         note = (f"; worst load angle {worst:.1f}° electrical over every move length"
+                + (f" at {len(judges)} tolerance corners" if judges else "")
                 + (f" (tightened ×{scale:.3g}: safety factor, jump and start speed)"
                    if scale < 1 else ""))
         plan = replace(plan, info=plan.info + note, solve_s=time.perf_counter() - t0,

@@ -5,7 +5,15 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ._common import EXIT_FINDINGS, EXIT_OK, EXIT_UNUSABLE, load_motor, number, pulse_list
+from ._common import (
+    EXIT_FINDINGS,
+    EXIT_OK,
+    EXIT_UNUSABLE,
+    load_motor,
+    number,
+    positive_int,
+    pulse_list,
+)
 
 
 def add_subparser(sub: Any) -> None:
@@ -22,6 +30,13 @@ def add_subparser(sub: Any) -> None:
                         "(default: every length 1..0xFFFFFFFF)")
     c.add_argument("--no-physics", dest="physics", action="store_false",
                    help="with --motor: skip the load-angle judge (the criterion only)")
+    c.add_argument("--samples", type=positive_int, default=1000, metavar="N",
+                   help="with --motor whose file has tolerances: Monte Carlo samples of the "
+                        "tolerance box for the load angle (default 1000; 0: corners only)")
+    c.add_argument("--seed", type=positive_int, default=0,
+                   help="random seed of the samples (default 0: the same samples every run)")
+    c.add_argument("--strict", action="store_true",
+                   help="with --motor: report resonance-dwell as an error, not a warning")
     c.add_argument("--extck-hz", type=number,
                    help="external clock frequency of EXTCK uploads [Hz]")
     c.add_argument("-o", "--output", metavar="OUT", help="write the report here (default stdout)")
@@ -37,7 +52,8 @@ def _do_check(args: argparse.Namespace) -> int:
     if args.pulses is not None and not args.motor:
         raise FormatError("--pulses limits the stall verdict: it needs --motor")
     motor = load_motor(args.motor) if args.motor else None
-    results = [check_file(path, motor, args.extck_hz, pulses=args.pulses, physics=args.physics)
+    results = [check_file(path, motor, args.extck_hz, pulses=args.pulses, physics=args.physics,
+                          samples=args.samples, seed=args.seed, strict=args.strict)
                for path in args.files]
     write_output(args.output, render(results, args.format))
     if any(r.error for r in results):

@@ -1,0 +1,139 @@
+"""Judging a table over a motor's tolerance box (profiles.tolerance).
+
+- the criterion: on `worst_case_motor`, which is exact over the whole box
+  (docs/manual-notes.md, "Tolerance box: the binding corner");
+- the load angle: over every execution at every corner of the box (the scalar
+  model of profiles.ppmc312.load_angle), and over a seeded Monte Carlo sample
+  of the box on the executions that are worst at some corner (the batched model
+  of profiles.rotor_batch: one numpy RK4 for all samples);
+- the stall probability: samples past the 90° peak, with the exact
+  Clopper–Pearson one-sided 95 % upper bound (0 of N → 1 − 0.05^(1/N) ≈ 3/N).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+
+from profiles.motor import Motor
+from profiles.ppmc312.execution import simulate_move
+from profiles.ppmc312.load_angle import spans_of, worst_load_angle
+from profiles.ppmc312.table import FreeCurveTable
+from profiles.progress import Progress, report
+from profiles.rotor import PEAK_DEG, rotor_of
+from profiles.rotor_batch import batch_rotor, follow_batch
+from profiles.tolerance import clopper_pearson_upper, corners, sample_params
+
+DEFAULT_SAMPLES = 1000
+CONFIDENCE = 0.95
+
+
+@dataclass(frozen=True)
+class BoxVerdict:
+    """The load angle over a tolerance box."""
+
+    worst_angle_deg: float           # over corners and samples
+    worst_where: str                 # which corner or sample, with its parameters
+    worst_pulses: int                # the move length there
+    corners: int
+    corner_worst_deg: float
+    samples: int
+    seed: int
+    sample_worst_deg: float
+    sample_failures: int             # samples past the 90° peak
+    sampled_pulses: tuple[int, ...]  # the executions the samples were judged on
+    stall_probability_upper: float   # Clopper–Pearson one-sided upper bound
+    first_unstable_pulses: int | None
+
+    @property
+    def safe(self) -> bool:
+        return self.worst_angle_deg < PEAK_DEG and self.sample_failures == 0
+
+    def describe(self) -> str:
+        text = (f"tolerance box: worst load angle {self.worst_angle_deg:.1f}° electrical at "
+                f"{self.worst_where}, move of {self.worst_pulses} pulses ({self.corners} "
+                f"corners over every move length; {self.samples} samples, seed {self.seed}, on "
+                f"the moves of {', '.join(map(str, self.sampled_pulses))} pulses)")
+        if self.samples:
+            text += (f"; {self.sample_failures} of {self.samples} samples past the 90° peak: "
+                     f"stall probability < {self.stall_probability_upper:.3%} at "
+                     f"{CONFIDENCE:.0%} (exact Clopper–Pearson bound)")
+        return text
+
+    def to_json(self) -> dict[str, object]:
+        return {"worst_load_angle_deg": self.worst_angle_deg, "worst_at": self.worst_where,
+                "worst_pulses": self.worst_pulses, "corners": self.corners,
+                "corner_worst_deg": self.corner_worst_deg, "samples": self.samples,
+                "seed": self.seed, "sample_worst_deg": self.sample_worst_deg,
+                "sample_failures": self.sample_failures,
+                "sampled_pulses": list(self.sampled_pulses),
+                "stall_probability_upper": self.stall_probability_upper,
+                "confidence": CONFIDENCE, "safe": self.safe}
+
+
+def judge_box(table: FreeCurveTable, motor: Motor, *, pulses: Iterable[int] | None = None,
+              samples: int = DEFAULT_SAMPLES, seed: int = 0,
+              progress: Progress | None = None) -> BoxVerdict:
+    """The load angle of `table` over `motor`'s tolerance box (every move length, or the
+    moves of the given lengths)."""
+    lengths = None if pulses is None else sorted(set(pulses))
+    box_corners = corners(motor)
+    total = len(box_corners) + (1 if samples else 0)
+    worst = (-1.0, "", 0)
+    unstable: list[int] = []
+    worst_lengths: set[int] = set()
+    corner_worst = -1.0
+    for i, corner in enumerate(box_corners):
+        w = worst_load_angle(table, corner.motor, pulses=lengths)
+        worst_lengths.add(w.worst_pulses)
+        if w.first_unstable_pulses is not None:
+            unstable.append(w.first_unstable_pulses)
+        corner_worst = max(corner_worst, w.worst_angle_deg)
+        if w.worst_angle_deg > worst[0]:
+            worst = (w.worst_angle_deg, corner.describe(), w.worst_pulses)
+        report(progress, i + 1, total)
+    # Samples are judged on the moves worst at some corner (given lengths: all of them)
+    sampled = tuple(sorted(worst_lengths if lengths is None or len(lengths) > 8 else lengths))
+    sample_worst, failures = -1.0, 0
+    if samples:
+        peaks, where = sample_peaks(table, motor, sampled, samples, seed)
+        failures = int(np.sum(peaks >= PEAK_DEG))
+        k = int(np.argmax(peaks))
+        sample_worst = float(peaks[k])
+        if sample_worst > worst[0]:
+            params = sample_params(motor, samples, seed)
+            values = ", ".join(f"{key} {params[key][k]:.4g}" for key in params
+                               if motor.tolerance(key)[1] > motor.tolerance(key)[0])
+            worst = (sample_worst, f"sample {k} ({values})", int(where[k]))
+        if failures:
+            unstable.append(int(np.min(where[peaks >= PEAK_DEG])))
+        report(progress, total, total)
+    bound = clopper_pearson_upper(failures, samples, CONFIDENCE) if samples else 1.0
+    return BoxVerdict(worst[0], worst[1], worst[2], len(box_corners), corner_worst, samples,
+                      seed, sample_worst, failures, sampled, bound,
+                      min(unstable) if unstable else None)
+
+
+def sample_peaks(table: FreeCurveTable, motor: Motor, lengths: Iterable[int], samples: int,
+                 seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Each sample's worst |load angle| over the moves of `lengths` (both directions when
+    the box or the motor has a load torque), and the move length where it is worst."""
+    params = sample_params(motor, samples, seed)
+    lo, hi = motor.tolerance("load_torque_nm")
+    directions = (1, -1) if (lo or hi) else (1,)
+    peaks = np.full(samples, -1.0)
+    where = np.zeros(samples, dtype=np.int64)
+    nominal_rotor = rotor_of(motor)
+    for direction in directions:
+        rotor = batch_rotor(motor, params, direction=direction)
+        step = min(rotor.step_s(), nominal_rotor.step_s())
+        for n in lengths:
+            run = simulate_move(table, int(n))
+            spans = spans_of(run, nominal_rotor, step)[:-1]  # follow_batch adds the rest
+            result = follow_batch(rotor, spans, step_s=step)
+            better = result.peak_deg > peaks
+            peaks = np.where(better, result.peak_deg, peaks)
+            where = np.where(better, int(n), where)
+    return peaks, where
