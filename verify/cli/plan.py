@@ -106,21 +106,33 @@ def _do_plan(args: argparse.Namespace) -> int:
 
 
 def _judge(table: Any, motor: Any) -> dict[str, Any]:
-    """Both judges over every move length the chip can run with `table`."""
+    """Both judges over every move length the chip can run with `table` (over the
+    motor's tolerance box when it has one)."""
     from profiles.ppmc312.init_model import as_free_curve
     from verify.physics import judge_executions
     from verify.stall import check_stall
 
     stages = as_free_curve(table)
-    findings = check_stall(stages, motor)
-    physics = judge_executions(stages, motor)
+    if motor.tolerances:
+        # over the tolerance box: the criterion at its worst case (exact), the load angle
+        # at every corner (`stepramp check --motor` adds the Monte Carlo samples)
+        from profiles.tolerance import worst_case_motor
+        from verify.robust import judge_box
+
+        findings = check_stall(stages, worst_case_motor(motor))
+        box = judge_box(stages, motor, samples=0)
+        safe_physics, worst_deg, describe = box.safe, box.worst_angle_deg, box.describe()
+    else:
+        physics = judge_executions(stages, motor)
+        safe_physics, worst_deg, describe = (physics.safe, physics.worst_angle_deg,
+                                             physics.describe())
     reasons = [f"[{f.rule}] {f.message}" for f in findings[:3]]
     if len(findings) > 3:
         reasons.append(f"and {len(findings) - 3} more criterion findings "
                        "(stepramp check --motor lists them)")
-    why = "; ".join(reasons + ([physics.describe()] if not physics.safe else []))
-    return {"safe": not findings and physics.safe,
-            "worst_load_angle_deg": round(physics.worst_angle_deg, 2),
+    why = "; ".join(reasons + ([describe] if not safe_physics else []))
+    return {"safe": not findings and safe_physics,
+            "worst_load_angle_deg": round(worst_deg, 2),
             "why": why or None}
 
 
