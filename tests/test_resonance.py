@@ -1,0 +1,129 @@
+"""Resonance bands: the planner jumps narrow bands, never cruises in one, crosses wide
+ones with minimal stages; `check` reports resonance-dwell."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from profiles.motor import Motor, load_motor
+from profiles.ppmc312.criterion import all_length_problems
+from profiles.ppmc312.planner import plan_free_curve
+from profiles.ppmc312.table import FreeCurveTable, dump_table
+from profiles.resonance import forbidden_dwells, in_bands
+from verify import cli
+from verify.resonance import resonance_findings
+
+NEMA17 = Path(__file__).resolve().parents[1] / "profiles" / "data" / "motor-nema17-1600.json"
+PULSES = 20000
+
+
+def speeds(table: FreeCurveTable) -> np.ndarray:
+    return np.sort(table.clock.hz / np.asarray(table.rates, dtype=float))  # ascending
+
+
+@pytest.fixture(scope="module")
+def nominal() -> tuple[Motor, FreeCurveTable]:
+    m = load_motor(NEMA17)
+    return m, plan_free_curve(m, pulses=PULSES).table
+
+
+def with_bands(m: Motor, bands: list[tuple[float, float]]) -> Motor:
+    return replace(m, resonance_bands_pps=tuple(bands))
+
+
+def test_narrow_band_is_jumped(nominal: tuple[Motor, FreeCurveTable]) -> None:
+    m, table = nominal
+    v = speeds(table)
+    mid = float(v[5])  # a low stage: the jump-limited region
+    band = (mid - 150.0, mid + 150.0)
+    assert band[1] - band[0] < m.jump_pps
+    banded = with_bands(m, [band])
+    assert forbidden_dwells(table, banded)  # the nominal table dwells in it
+    new = plan_free_curve(banded, pulses=PULSES).table
+    w = speeds(new)
+    assert not in_bands(w, (band,)).any()
+    below, above = w[w < band[0]].max(), w[w > band[1]].min()
+    assert above - below <= m.jump_pps * (1 + 1e-12)  # one step over it
+    assert not all_length_problems(new, banded)
+    assert forbidden_dwells(new, banded) == []
+
+
+def test_top_never_in_a_band(nominal: tuple[Motor, FreeCurveTable]) -> None:
+    m, table = nominal
+    top = float(speeds(table)[-1])
+    band = (top - 3000.0, top + 3000.0)  # wider than the jump limit: only the cruise is barred
+    banded = with_bands(m, [band])
+    dwell = forbidden_dwells(table, banded)
+    assert [d.kind for d in dwell] == ["cruise"]
+    new = plan_free_curve(banded, pulses=PULSES).table
+    assert not in_bands(speeds(new)[-1:], (band,)).any()
+    assert forbidden_dwells(new, banded) == []
+
+
+def test_wide_band_is_crossed_with_minimal_stages(nominal: tuple[Motor, FreeCurveTable]) -> None:
+    """Every stage inside a band wider than the jump limit runs the fewest pulses the
+    criterion allows: one pulse fewer on either side breaks it (or the chip minimum)."""
+    m, _ = nominal
+    band = (9000.0, 14000.0)
+    banded = with_bands(m, [band])
+    new = plan_free_curve(banded, pulses=PULSES, separate_decel=True).table
+    assert new.decel_pulses is not None
+    v = new.clock.hz / np.asarray(new.rates, dtype=float)  # fastest first
+    inside = np.flatnonzero(in_bands(v, (band,)))
+    assert len(inside) >= 2 and 0 not in inside
+    assert not all_length_problems(new, banded)
+    chip_min = np.maximum(2, np.ceil(256 / np.asarray(new.rates)))
+    tried = 0
+    for k in inside.tolist():
+        for side in ("accel_pulses", "decel_pulses"):
+            counts = list(getattr(new, side))
+            if counts[k] <= chip_min[k]:
+                continue
+            counts[k] -= 1
+            fewer = replace(new, **{side: tuple(counts)})
+            assert all_length_problems(fewer, banded), (k, side)
+            tried += 1
+    assert tried >= len(inside)  # the criterion, not the chip minimum, sets these counts
+
+
+def test_check_reports_resonance_dwell(tmp_path: Path, nominal: tuple[Motor, FreeCurveTable],
+                                       capsys: pytest.CaptureFixture[str]) -> None:
+    m, table = nominal
+    v = speeds(table)
+    obj = json.loads(NEMA17.read_text())
+    obj["resonance_bands_pps"] = [[float(v[5]) - 150, float(v[5]) + 150],
+                                  [float(v[-1]) - 3000, float(v[-1]) + 3000]]
+    motor_path = tmp_path / "m.json"
+    motor_path.write_text(json.dumps(obj))
+    table_path = tmp_path / "t.json"
+    table_path.write_text(dump_table(table))
+    found = resonance_findings(table, Motor.from_json(obj))
+    assert {f.severity for f in found} == {"warning"}
+    assert len(found) == 2 and all(f.rule == "resonance-dwell" for f in found)
+    base = ["check", "--motor", str(motor_path), "--no-physics", str(table_path)]
+    assert cli.main(base) == 0
+    out = capsys.readouterr().out
+    assert out.count("warning [resonance-dwell]") == 2 and "cruise at" in out
+    assert cli.main([*base, "--strict"]) == 1
+    assert capsys.readouterr().out.count("error [resonance-dwell]") == 2
+    # the planner's own table for these bands passes --strict
+    banded = Motor.from_json(obj)
+    fixed = tmp_path / "fixed.json"
+    fixed.write_text(dump_table(plan_free_curve(banded, pulses=PULSES).table))
+    assert cli.main(["check", "--motor", str(motor_path), "--no-physics", "--strict",
+                     str(fixed)]) == 0
+
+
+@pytest.mark.parametrize("bands, words", [
+    ([[3000, 2000]], "0 < lo < hi"), ([[0, 10]], "0 < lo < hi"), ([3000], "pairs")])
+def test_bad_bands(bands: list, words: str) -> None:
+    obj = json.loads(NEMA17.read_text())
+    obj["resonance_bands_pps"] = bands
+    with pytest.raises(Exception, match="resonance_bands_pps") as e:
+        Motor.from_json(obj)
+    assert words in str(e.value)
