@@ -67,7 +67,8 @@ def test_top_never_in_a_band(nominal: tuple[Motor, FreeCurveTable]) -> None:
 
 def test_wide_band_is_crossed_with_minimal_stages(nominal: tuple[Motor, FreeCurveTable]) -> None:
     """Every stage inside a band wider than the jump limit runs the fewest pulses the
-    criterion allows: one pulse fewer on either side breaks it (or the chip minimum)."""
+    criterion allows (one pulse fewer on either side breaks it, or it is at the chip
+    minimum), and there are as few of them as the jump limit allows."""
     m, _ = nominal
     band = (9000.0, 14000.0)
     banded = with_bands(m, [band])
@@ -88,7 +89,10 @@ def test_wide_band_is_crossed_with_minimal_stages(nominal: tuple[Motor, FreeCurv
             fewer = replace(new, **{side: tuple(counts)})
             assert all_length_problems(fewer, banded), (k, side)
             tried += 1
-    assert tried >= len(inside)  # the criterion, not the chip minimum, sets these counts
+    # here the jump limit binds (counts at the chip minimum): as few stages as steps of at
+    # most jump_pps from below the band to above it need
+    assert tried + np.sum(chip_min[inside] == np.asarray(new.accel_pulses)[inside]) >= len(inside)
+    assert len(inside) == int(np.ceil((band[1] - band[0]) / m.jump_pps)) - 1
 
 
 def test_check_reports_resonance_dwell(tmp_path: Path, nominal: tuple[Motor, FreeCurveTable],
