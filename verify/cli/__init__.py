@@ -26,6 +26,7 @@ from ._common import EXIT_OK, EXIT_UNUSABLE, VersionAction
 COMMANDS: tuple[str, ...] = (
     "check", "show", "export", "decode", "move", "expand",
     "plan", "simulate", "compare", "sync",
+    "sweep",
     "alink", "mc200", "motor",
 )
 

@@ -1,0 +1,73 @@
+"""`stepramp sweep`: plan and verify a catalogue of motors × move lengths."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from ._common import EXIT_FINDINGS, EXIT_OK, number, positive_int, progress_bar, pulse_list
+
+TARGET_DEG = 75.0  # profiles.rotor.TARGET_DEG, kept here so --help needs no import
+
+
+def add_subparser(sub: Any) -> None:
+    s = sub.add_parser("sweep", help="plan and verify robust tables for motors × move lengths "
+                                     "into a CSV or Parquet file")
+    s.add_argument("--motors", nargs="+", required=True, metavar="M.json",
+                   help="motor files (with their loads, tolerances and resonance bands)")
+    s.add_argument("--pulses", type=pulse_list, required=True, metavar="N[,M…]",
+                   help="move lengths to plan for [pulses]")
+    s.add_argument("--samples", type=positive_int, default=1000, metavar="K",
+                   help="Monte Carlo samples of each motor's tolerance box for the load angle "
+                        "(default 1000; motors without tolerances have none)")
+    s.add_argument("--seed", type=positive_int, default=0,
+                   help="random seed of the samples (default 0)")
+    s.add_argument("--load-angle", type=number, default=TARGET_DEG, metavar="DEG",
+                   help="tighten each table until its worst load angle is at most this [°] "
+                        f"(electrical; default {TARGET_DEG:g})")
+    s.add_argument("--workers", type=positive_int, default=1, metavar="N",
+                   help="local worker processes (default 1: in this process)")
+    s.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run on the existing Dask cluster at this scheduler address, e.g. "
+                        "tcp://10.0.0.5:8786 (needs the extra stepramp[cluster])")
+    s.add_argument("--plot", metavar="OUT.png",
+                   help="also write a summary figure (move time and worst load angle per "
+                        "move length and motor)")
+    s.add_argument("-o", "--output", required=True, metavar="RESULTS",
+                   help="results: CSV, or Parquet when the name ends in .parquet")
+    s.set_defaults(func=_do_sweep)
+
+
+def _do_sweep(args: argparse.Namespace) -> int:
+    from profiles.errors import FormatError
+    from profiles.motor import load_motor
+    from verify.output import write_output
+    from verify.sweep import encode_rows, jobs_of, run_sweep, sweep_figure
+
+    if args.workers < 1:
+        raise FormatError("--workers: at least 1")
+    if args.scheduler is not None and args.workers != 1:
+        raise FormatError("--workers runs local processes; with --scheduler the cluster's "
+                          "workers run the jobs: give one or the other")
+    motors = []
+    for path in args.motors:
+        motor = load_motor(path)  # a bad file stops the sweep before any work
+        motors.append((Path(path).stem, motor.to_json()))
+    jobs = jobs_of(motors, args.pulses, samples=args.samples, seed=args.seed,
+                   load_angle_deg=args.load_angle)
+    with progress_bar("sweep", unit="job") as progress:
+        rows = run_sweep(jobs, workers=args.workers, scheduler=args.scheduler,
+                         progress=progress)
+    data = encode_rows(rows, args.output)
+    if args.plot:
+        from verify.plot import save_figure
+
+        save_figure(sweep_figure(rows), args.plot)
+    write_output(args.output, data)
+    unsafe = [r for r in rows if not r["safe"]]
+    print(f"stepramp sweep: {len(rows)} rows ({len(motors)} motors × {len(args.pulses)} move "
+          f"lengths), {len(rows) - len(unsafe)} safe, {len(unsafe)} not → {args.output}",
+          file=sys.stderr)
+    return EXIT_FINDINGS if unsafe else EXIT_OK
