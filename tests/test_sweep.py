@@ -78,7 +78,7 @@ def test_sweep_cli_csv_parquet_plot(tmp_path: Path, capsys: pytest.CaptureFixtur
     assert len(rows) == 1 and rows[0]["motor"] == "motor-nema17-1600"
     assert rows[0]["safe"] == "True" and float(rows[0]["worst_load_angle_deg"]) < 90
     assert fig.stat().st_size > 1000
-    assert "1 safe, 0 not" in capsys.readouterr().err
+    assert "1 safe, 0 not safe" in capsys.readouterr().err
     pq = pytest.importorskip("pyarrow.parquet")
     pout = tmp_path / "r.parquet"
     assert cli.main([*args, "-o", str(pout)]) == 0

@@ -123,6 +123,7 @@ def _judge(table: Any, motor: Any) -> dict[str, Any]:
         box = judge_box(stages, motor, samples=0)
         safe_physics, worst_deg, describe = box.safe, box.worst_angle_deg, box.describe()
     else:
+        findings = check_stall(stages, motor)
         physics = judge_executions(stages, motor)
         safe_physics, worst_deg, describe = (physics.safe, physics.worst_angle_deg,
                                              physics.describe())

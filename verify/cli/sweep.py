@@ -52,9 +52,11 @@ def _do_sweep(args: argparse.Namespace) -> int:
         raise FormatError("--workers runs local processes; with --scheduler the cluster's "
                           "workers run the jobs: give one or the other")
     motors = []
-    for path in args.motors:
+    stems = [Path(p).stem for p in args.motors]
+    for path, stem in zip(args.motors, stems, strict=True):
         motor = load_motor(path)  # a bad file stops the sweep before any work
-        motors.append((Path(path).stem, motor.to_json()))
+        # rows name a motor by its file's stem, by its path where two stems are the same
+        motors.append((stem if stems.count(stem) == 1 else path, motor.to_json()))
     jobs = jobs_of(motors, args.pulses, samples=args.samples, seed=args.seed,
                    load_angle_deg=args.load_angle)
     with progress_bar("sweep", unit="job") as progress:
@@ -67,7 +69,7 @@ def _do_sweep(args: argparse.Namespace) -> int:
         save_figure(sweep_figure(rows), args.plot)
     write_output(args.output, data)
     unsafe = [r for r in rows if not r["safe"]]
-    print(f"stepramp sweep: {len(rows)} rows ({len(motors)} motors × {len(args.pulses)} move "
-          f"lengths), {len(rows) - len(unsafe)} safe, {len(unsafe)} not → {args.output}",
+    print(f"stepramp sweep: {len(motors)} motor(s) × {len(args.pulses)} move length(s): "
+          f"{len(rows) - len(unsafe)} safe, {len(unsafe)} not safe → {args.output}",
           file=sys.stderr)
     return EXIT_FINDINGS if unsafe else EXIT_OK
