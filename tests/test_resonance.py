@@ -97,7 +97,7 @@ def test_wide_band_is_crossed_with_minimal_stages(nominal: tuple[Motor, FreeCurv
 
 def test_check_reports_resonance_dwell(tmp_path: Path, nominal: tuple[Motor, FreeCurveTable],
                                        capsys: pytest.CaptureFixture[str]) -> None:
-    m, table = nominal
+    _, table = nominal
     v = speeds(table)
     obj = json.loads(NEMA17.read_text())
     obj["resonance_bands_pps"] = [[float(v[5]) - 150, float(v[5]) + 150],

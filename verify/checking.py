@@ -15,8 +15,8 @@ from .report import FileResult
 
 if TYPE_CHECKING:
     from profiles.motor import Motor
-    from verify.robust import BoxVerdict
     from profiles.ppmc312.table import FreeCurveTable, InitTable
+    from verify.robust import BoxVerdict
 
 
 def check_file(path: str, motor: Motor | None = None, extck_hz: float | None = None, *,
