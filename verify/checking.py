@@ -16,12 +16,14 @@ from .report import FileResult
 if TYPE_CHECKING:
     from profiles.motor import Motor
     from profiles.ppmc312.table import FreeCurveTable, InitTable
+    from profiles.progress import Progress
     from verify.robust import BoxVerdict
 
 
 def check_file(path: str, motor: Motor | None = None, extck_hz: float | None = None, *,
                pulses: Iterable[int] | None = None, physics: bool = True,
-               samples: int = 1000, seed: int = 0, strict: bool = False) -> FileResult:
+               samples: int = 1000, seed: int = 0, strict: bool = False,
+               progress: Progress | None = None) -> FileResult:
     """The findings for the table or upload file at `path`.
 
     `motor` adds the stall-safety findings of both judges, over every execution the
@@ -51,7 +53,8 @@ def check_file(path: str, motor: Motor | None = None, extck_hz: float | None = N
 
                 if motor.tolerances:
                     found, box = robust_findings(stages, motor, pulses=pulses,
-                                                 physics=physics, samples=samples, seed=seed)
+                                                 physics=physics, samples=samples, seed=seed,
+                                                 progress=progress)
                     findings += found
                     if box is not None:
                         notes.append(box.describe())
@@ -100,7 +103,8 @@ def load_angle_findings(worst_deg: float, describe: str, criterion_ok: bool) -> 
 
 
 def robust_findings(table: FreeCurveTable, motor: Motor, *, pulses: Iterable[int] | None = None,
-                    physics: bool = True, samples: int = 1000, seed: int = 0
+                    physics: bool = True, samples: int = 1000, seed: int = 0,
+                    progress: Progress | None = None
                     ) -> tuple[list[Finding], BoxVerdict | None]:
     """Both judges over `motor`'s tolerance box: the criterion on the box's worst-case
     capability (exact over the box), the load angle at every corner and over a seeded
@@ -116,7 +120,8 @@ def robust_findings(table: FreeCurveTable, motor: Motor, *, pulses: Iterable[int
            for f in check_stall(table, worst_case_motor(motor), pulses=lengths)]
     if not physics or any(f.rule == "stall-order" for f in out):
         return out, None
-    box = judge_box(table, motor, pulses=lengths, samples=samples, seed=seed)
+    box = judge_box(table, motor, pulses=lengths, samples=samples, seed=seed,
+                    progress=progress)
     return out + load_angle_findings(box.worst_angle_deg if box.sample_failures == 0
                                      else max(box.worst_angle_deg, 90.0),
                                      box.describe(), not out), box

@@ -93,6 +93,16 @@ def fields_as_options(options: Mapping[str, str]) -> Iterator[None]:
         raise
 
 
+def add_sample_options(p: argparse.ArgumentParser, scope: str) -> None:
+    """`--samples` and `--seed`: the Monte Carlo sample of a motor's tolerance box."""
+    p.add_argument("--samples", type=positive_int, default=1000, metavar="N",
+                   help=f"{scope}Monte Carlo samples of the motor's tolerance box for the load "
+                        "angle (default 1000; 0: its corners only; a motor without "
+                        "tolerances has none)")
+    p.add_argument("--seed", type=positive_int, default=0,
+                   help="random seed of the samples (default 0: the same samples every run)")
+
+
 def load_motor(path: str) -> Any:
     from profiles.motor import load_motor as load
 

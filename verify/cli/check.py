@@ -9,9 +9,10 @@ from ._common import (
     EXIT_FINDINGS,
     EXIT_OK,
     EXIT_UNUSABLE,
+    add_sample_options,
     load_motor,
     number,
-    positive_int,
+    progress_bar,
     pulse_list,
 )
 
@@ -30,11 +31,7 @@ def add_subparser(sub: Any) -> None:
                         "(default: every length 1..0xFFFFFFFF)")
     c.add_argument("--no-physics", dest="physics", action="store_false",
                    help="with --motor: skip the load-angle judge (the criterion only)")
-    c.add_argument("--samples", type=positive_int, default=1000, metavar="N",
-                   help="with --motor whose file has tolerances: Monte Carlo samples of the "
-                        "tolerance box for the load angle (default 1000; 0: corners only)")
-    c.add_argument("--seed", type=positive_int, default=0,
-                   help="random seed of the samples (default 0: the same samples every run)")
+    add_sample_options(c, "with --motor: ")
     c.add_argument("--strict", action="store_true",
                    help="with --motor: report resonance-dwell as an error, not a warning")
     c.add_argument("--extck-hz", type=number,
@@ -52,9 +49,11 @@ def _do_check(args: argparse.Namespace) -> int:
     if args.pulses is not None and not args.motor:
         raise FormatError("--pulses limits the stall verdict: it needs --motor")
     motor = load_motor(args.motor) if args.motor else None
-    results = [check_file(path, motor, args.extck_hz, pulses=args.pulses, physics=args.physics,
-                          samples=args.samples, seed=args.seed, strict=args.strict)
-               for path in args.files]
+    with progress_bar("check over the tolerance box", unit="part") as progress:
+        results = [check_file(path, motor, args.extck_hz, pulses=args.pulses,
+                              physics=args.physics, samples=args.samples, seed=args.seed,
+                              strict=args.strict, progress=progress)
+                   for path in args.files]
     write_output(args.output, render(results, args.format))
     if any(r.error for r in results):
         return EXIT_UNUSABLE

@@ -7,7 +7,15 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from ._common import EXIT_FINDINGS, EXIT_OK, number, positive_int, progress_bar, pulse_list
+from ._common import (
+    EXIT_FINDINGS,
+    EXIT_OK,
+    add_sample_options,
+    number,
+    positive_int,
+    progress_bar,
+    pulse_list,
+)
 
 TARGET_DEG = 75.0  # profiles.rotor.TARGET_DEG, kept here so --help needs no import
 
@@ -19,11 +27,7 @@ def add_subparser(sub: Any) -> None:
                    help="motor files (with their loads, tolerances and resonance bands)")
     s.add_argument("--pulses", type=pulse_list, required=True, metavar="N[,M…]",
                    help="move lengths to plan for [pulses]")
-    s.add_argument("--samples", type=positive_int, default=1000, metavar="K",
-                   help="Monte Carlo samples of each motor's tolerance box for the load angle "
-                        "(default 1000; motors without tolerances have none)")
-    s.add_argument("--seed", type=positive_int, default=0,
-                   help="random seed of the samples (default 0)")
+    add_sample_options(s, "")
     s.add_argument("--load-angle", type=number, default=TARGET_DEG, metavar="DEG",
                    help="tighten each table until its worst load angle is at most this [°] "
                         f"(electrical; default {TARGET_DEG:g})")
