@@ -209,3 +209,20 @@ def test_check_cli_over_the_box(tmp_path: Path, capsys: pytest.CaptureFixture[st
     assert code == (0 if box_json["safe"] else 1)
     assert math.isclose(box_json["stall_probability_upper"], 1 - 0.05 ** (1 / 100)) \
         or box_json["sample_failures"] > 0
+
+
+@pytest.mark.parametrize("holding", [None, 0.33])
+def test_batched_peak_torque_is_the_scalar_rotors(holding: float | None) -> None:
+    """Both ways of the batched T_pk (one scaled curve; per-rotor curves capped at the
+    holding torque) against profiles.rotor for each sample."""
+    from profiles.rotor import rotor_of
+
+    m = replace(motor_with(tolerances=FULL_BOX), holding_torque_nm=holding)
+    params = sample_params(m, 7, seed=2)
+    batch = batch_rotor(m, params)
+    assert (batch.shared_curve is None) == (holding is not None)
+    for v in (0.0, 1000.0, 2000.0, 9000.0, 47999.0, 48000.0, 60000.0):
+        got = batch.t_peak_pps2(np.full(7, v))
+        for i, s in enumerate(samples(m, 7, seed=2)):
+            r = rotor_of(s.motor)
+            assert got[i] == pytest.approx(r.k * r.t_peak(v), rel=1e-12, abs=1e-9)
