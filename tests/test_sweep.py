@@ -43,7 +43,8 @@ def test_rows_are_the_plans_and_verdicts(local_rows: list[dict[str, Any]]) -> No
         from profiles.motor import Motor
         motor = Motor.from_json(obj)
         plan = plan_free_curve(motor, pulses=3000)
-        assert r["move_time_s"] == plan.move_time_s and r["stages"] == len(plan.table.rates)
+        assert r["move_time_s"] == plan.duration_s and r["stages"] == len(plan.table.rates)
+        assert r["binds"] == plan.binds
         criterion_ok = not all_length_problems(plan.table, worst_case_motor(motor))
         assert r["safe"] == (criterion_ok and r["worst_load_angle_deg"] < 90)
     plain, boxed = local_rows

@@ -24,7 +24,7 @@ from profiles.errors import FormatError, StepRampError
 from profiles.progress import Progress, report
 
 COLUMNS = ("motor", "pulses", "move_time_s", "worst_load_angle_deg", "safe", "stages", "LE",
-           "clock", "top_pps", "solve_s", "judge_s", "corners", "samples",
+           "clock", "top_pps", "binds", "solve_s", "judge_s", "corners", "samples",
            "sample_failures", "stall_probability_upper", "error")
 
 
@@ -53,9 +53,9 @@ def run_job(job: Job) -> dict[str, Any]:
         row["error"] = str(e)
         return row
     table = plan.table
-    row.update(move_time_s=plan.move_time_s, stages=len(table.rates), LE=int(table.separate),
+    row.update(move_time_s=plan.duration_s, stages=len(table.rates), LE=int(table.separate),
                clock=table.clock.name, top_pps=table.clock.hz / table.rates[0],
-               solve_s=plan.solve_s)
+               binds=plan.binds, solve_s=plan.solve_s)
     t0 = time.perf_counter()
     row.update(judge(table, motor, job.samples, job.seed))
     row["judge_s"] = time.perf_counter() - t0
