@@ -1,41 +1,175 @@
 """Reading input files: one place that turns a path into bytes or JSON.
 
-Every reader raises a one-line `FormatError` naming the file, never a traceback.
+Every reader raises a one-line `FormatError` naming the file, never a traceback,
+and every read is bounded: only regular files (or `-`, stdin) are read, never more
+than `MAX_INPUT_BYTES`; JSON nesting is capped at `MAX_JSON_DEPTH` and numbers at
+`MAX_NUMBER_CHARS` characters; NaN and Infinity are refused. Tables, motors and
+uploads are kilobytes, so the caps only ever stop a wrong path (/dev/zero, a FIFO,
+a directory) or a hostile file, before it costs memory, time or a Python limit.
 """
 
 from __future__ import annotations
 
 import json
+import math
+import os
+import re
+import stat
+import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 from .errors import FormatError
 
+MAX_INPUT_BYTES = 16 * 1024 * 1024
+MAX_JSON_DEPTH = 64
+# Any real value fits (a double prints in ≤ 24 characters); 1 followed by 309 zeros does not.
+MAX_NUMBER_CHARS = 40
+STDIN = "-"
 
-def read_bytes(path: str | Path) -> bytes:
-    """A file's bytes; a missing, unreadable or empty file is a one-line FormatError."""
-    p = Path(path)
-    try:
-        data = p.read_bytes()
-    except FileNotFoundError:
-        raise FormatError(f"{p}: no such file") from None
-    except OSError as e:
-        raise FormatError(f"{p}: cannot read ({e.__class__.__name__}: {e})") from None
+
+def display_path(path: str | Path) -> str:
+    """A path as it can be printed on any terminal: bytes that are not UTF-8 (held by
+    Python as lone surrogates) are shown as \\xNN escapes instead of breaking a strict
+    stdout/stderr encoder."""
+    text = os.fspath(path)
+    return text.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+
+
+def read_bytes(path: str | Path, *, limit: int = MAX_INPUT_BYTES) -> bytes:
+    """A file's bytes (`-` reads stdin); a missing, unreadable, non-regular, oversized or
+    empty file is a one-line FormatError."""
+    name = display_path(path)
+    if os.fspath(path) == STDIN:
+        data = _read_capped(sys.stdin.buffer, limit, "stdin")
+    else:
+        data = _read_regular(os.fspath(path), name, limit)
     if not data.strip():
-        raise FormatError(f"{p}: the file is empty")
+        raise FormatError(f"{name}: the file is empty")
     return data
+
+
+def _read_regular(path: str, name: str, limit: int) -> bytes:
+    # stat before open: opening a FIFO for reading blocks until a writer appears.
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        raise FormatError(f"{name}: no such file") from None
+    except (OSError, ValueError) as e:
+        raise FormatError(f"{name}: cannot read ({_why(e)})") from None
+    _require_regular(st.st_mode, name)
+    _require_size(st.st_size, name, limit)
+    try:
+        # O_NONBLOCK: should the path become a FIFO between stat and open, open returns.
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    except FileNotFoundError:
+        raise FormatError(f"{name}: no such file") from None
+    except OSError as e:
+        raise FormatError(f"{name}: cannot read ({_why(e)})") from None
+    with os.fdopen(fd, "rb") as fh:
+        _require_regular(os.fstat(fd).st_mode, name)  # what was opened, not what was stat'ed
+        try:
+            return _read_capped(fh, limit, name)
+        except OSError as e:
+            raise FormatError(f"{name}: cannot read ({_why(e)})") from None
+
+
+def _require_regular(mode: int, name: str) -> None:
+    if stat.S_ISDIR(mode):
+        raise FormatError(f"{name}: is a directory, not a file")
+    if not stat.S_ISREG(mode):
+        kind = ("a FIFO" if stat.S_ISFIFO(mode) else "a device" if stat.S_ISCHR(mode)
+                or stat.S_ISBLK(mode) else "a socket" if stat.S_ISSOCK(mode) else "special")
+        raise FormatError(f"{name}: is {kind}, not a regular file (use - to read stdin)")
+
+
+def _require_size(size: int, name: str, limit: int) -> None:
+    if size > limit:
+        raise FormatError(f"{name}: {size} bytes is more than the {limit} bytes an input "
+                          "may have")
+
+
+def _read_capped(fh: BinaryIO, limit: int, name: str) -> bytes:
+    data = fh.read(limit + 1)  # one byte more tells an oversized stream (or a grown file)
+    if data is None:  # a non-blocking stream with nothing to read yet
+        return b""
+    if len(data) > limit:
+        raise FormatError(f"{name}: more than the {limit} bytes an input may have")
+    return bytes(data)
+
+
+def _why(e: BaseException) -> str:
+    if isinstance(e, OSError) and e.strerror:
+        return e.strerror
+    return f"{e.__class__.__name__}: {e}"
+
+
+# Strings (with their escapes) and brackets: enough to measure nesting without parsing.
+_NESTING_TOKENS = re.compile(rb'"[^"\\]*(?:\\.[^"\\]*)*"|[\[\]{}]', re.S)
+
+
+def json_depth(data: bytes) -> int:
+    """The deepest bracket nesting in JSON text (brackets inside strings do not count)."""
+    depth = deepest = 0
+    for m in _NESTING_TOKENS.finditer(data):
+        c = m.group()[:1]
+        if c in (b"[", b"{"):
+            depth += 1
+            deepest = max(deepest, depth)
+        elif c in (b"]", b"}"):
+            depth -= 1
+    return deepest
+
+
+def _number(kind: type[int] | type[float], path: str) -> Any:
+    def parse(text: str) -> int | float:
+        if len(text) > MAX_NUMBER_CHARS:
+            raise FormatError(f"{path}: number {text[:12]}… has {len(text)} characters, more "
+                              f"than the {MAX_NUMBER_CHARS} a value may have")
+        value = kind(text)
+        if isinstance(value, float) and not math.isfinite(value):
+            raise FormatError(f"{path}: number {text} is out of range (not a finite double)")
+        return value
+    return parse
 
 
 def parse_json(data: bytes, path: str | Path) -> Any:
     """JSON from a file's bytes (read once); `path` names it in errors."""
+    name = display_path(path)
+    depth = json_depth(data)
+    if depth > MAX_JSON_DEPTH:
+        raise FormatError(f"{name}: JSON nested {depth} deep, more than the "
+                          f"{MAX_JSON_DEPTH} levels an input may have")
+
+    def no_constant(word: str) -> Any:
+        raise FormatError(f"{name}: {word} is not a JSON number (NaN and Infinity are refused)")
+
     try:
-        return json.loads(data.decode("utf-8"))
+        return json.loads(data.decode("utf-8"), parse_int=_number(int, name),
+                          parse_float=_number(float, name), parse_constant=no_constant)
     except UnicodeDecodeError as e:
-        raise FormatError(f"{path}: cannot read ({e.__class__.__name__}: {e})") from None
+        raise FormatError(f"{name}: cannot read ({e.__class__.__name__}: {e})") from None
     except json.JSONDecodeError as e:
-        raise FormatError(f"{path}: not valid JSON (line {e.lineno}, column {e.colno}: "
+        raise FormatError(f"{name}: not valid JSON (line {e.lineno}, column {e.colno}: "
                           f"{e.msg})") from None
+    except RecursionError:  # unreachable below MAX_JSON_DEPTH; kept as the last guard
+        raise FormatError(f"{name}: JSON nested too deeply") from None
 
 
 def read_json(path: str | Path) -> Any:
     return parse_json(read_bytes(path), path)
+
+
+def json_text(obj: Any, *, indent: int | None = 1) -> str:
+    """JSON for an output: non-finite floats become null (NaN is not JSON), never `NaN`."""
+    return json.dumps(_finite(obj), indent=indent, allow_nan=False) + "\n"
+
+
+def _finite(obj: Any) -> Any:
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_finite(v) for v in obj]
+    return obj
