@@ -334,3 +334,174 @@ def test_init_built_stage_too_short_is_0x05_and_advice_fixes_it() -> None:
                 if f.rule == "init-stage-pulses"]
     assert [f for f in check_table(replace(t, accel_pulses=need - 1))
             if f.rule == "init-stage-pulses"]
+
+
+# --- every rule pinned: (severity, rule, chip code, stage), the whole list, in order -----
+# Each case is one side of one limit; its neighbour case is the other side. The expected
+# lists are written from the manual's rules (module docstring of verify.checks), not
+# computed: a changed severity, code, stage, boundary or order fails here.
+
+C1 = Clock.internal("1MHz")
+C15 = Clock.internal("15.625kHz")
+E, W = "error", "warning"
+Pin = tuple[str, str, int | None, int | None]
+
+
+def pinned(t: FreeCurveTable | InitTable) -> list[Pin]:
+    return [(f.severity, f.rule, f.chip_code, f.stage) for f in check_table(t)]
+
+
+def ramp(n: int, first: int = 400, step: int = 100) -> list[int]:
+    return [first + step * k for k in range(n)]
+
+
+FREE_CASES: list[tuple[str, FreeCurveTable, list[Pin]]] = [
+    ("clean", fc(ramp(3), [100] * 3), []),
+    # stage counts 2..127 per side [0x11]
+    ("1 stage", fc([400], [100]), [(E, "stage-count", 0x11, None)]),
+    ("2 stages", fc(ramp(2), [100] * 2), []),
+    ("127 stages", fc(ramp(127, 400, 10), [100] * 127), []),
+    ("128 stages", fc(ramp(128, 400, 10), [100] * 128), [(E, "stage-count", 0x11, None)]),
+    ("decel 1 stage", fc(ramp(3), [100] * 3, [100]),
+     [(E, "stage-count", 0x11, None), (W, "decel-stage-count", None, None)]),
+    ("decel 2 stages", fc(ramp(3), [100] * 3, [100] * 2), [(W, "decel-stage-count", None, None)]),
+    ("decel same count", fc(ramp(3), [100] * 3, [50] * 3), []),
+    ("accel shorter", fc(ramp(3), [100] * 2, [100] * 3), [(W, "decel-stage-count", None, None)]),
+    # rate ≤ 1 [0x18], at any clock (at 1 MHz rate 1 is 1 Mpps: legal speed, still 0x18)
+    ("rate 1 at 8MHz", fc([1, 500, 600], [300, 100, 100]), [(E, "rate-min", 0x18, 0)]),
+    ("rate 1 at 1MHz", fc([1, 500, 600], [300, 100, 100], clock=C1), [(E, "rate-min", 0x18, 0)]),
+    ("rate 0 at 1MHz", fc([0, 500, 600], [300, 100, 100], clock=C1), [(E, "rate-min", 0x18, 0)]),
+    ("rate 2 at 1MHz", fc([2, 500, 600], [300, 100, 100], clock=C1), []),
+    ("rate 1 at stage 1", fc([400, 1, 600], [100, 300, 100]),
+     [(E, "rate-min", 0x18, 1), (W, "rates-monotonic", None, 1), (W, "stage-short", None, 1)]),
+    # speed ≤ 2 Mpps: at 8 MHz the fastest rate is 4
+    ("rate 3 at 8MHz", fc([3, 500, 600], [100, 100, 100]), [(E, "speed-max", None, 0)]),
+    ("rate 4 at 8MHz", fc([4, 500, 600], [100, 100, 100]), []),
+    # pulses ≤ 1 [0x19]
+    ("pulses 1", fc([400, 500, 600], [100, 1, 100]),
+     [(E, "pulses-min", 0x19, 1), (W, "stage-short", None, 1)]),
+    ("pulses 0 at stage 0", fc([400, 500, 600], [0, 100, 100]), [(E, "pulses-min", 0x19, 0)]),
+    ("pulses 2", fc([400, 500, 600], [100, 2, 100]), [(W, "stage-short", None, 1)]),
+    ("decel pulses 1", fc(ramp(3), [100] * 3, [100, 100, 1]),
+     [(E, "pulses-min", 0x19, 2), (W, "stage-short", None, 2)]),
+    # stage field ≤ 0xFFFFF (with it, the side total is over 0xFFFFF too [0x1A])
+    ("pulses 0xFFFFF+1", fc([400, 500], [0x100000, 0x80000]),
+     [(E, "accel-total-max", 0x1A, None), (E, "pulses-field", None, 0)]),
+    ("decel pulses 0xFFFFF+1", fc([400, 500], [100, 100], [0x80000, 0x100000]),
+     [(E, "decel-total-max", 0x1A, None), (E, "pulses-field", None, 1)]),
+    # side totals ≤ 0xFFFFF [0x1A]
+    ("accel total 0xFFFFF", fc([400, 500], [0x80000, 0x7FFFF]), []),
+    ("accel total 0x100000", fc([400, 500], [0x80000, 0x80000]),
+     [(E, "accel-total-max", 0x1A, None)]),
+    ("decel total 0xFFFFF", fc([400, 500], [100, 100], [0x80000, 0x7FFFF]), []),
+    ("decel total 0x100000", fc([400, 500], [100, 100], [0x80000, 0x80000]),
+     [(E, "decel-total-max", 0x1A, None)]),
+    # pulses × rate ≥ 256 ticks
+    ("255 ticks", fc([5, 400, 500], [51, 100, 100]), [(E, "stage-ticks-min", None, 0)]),
+    ("256 ticks", fc([16, 400, 500], [16, 100, 100]), []),
+    ("decel 255 ticks", fc([5, 400, 500], [100, 100, 100], [51, 100, 100]),
+     [(E, "stage-ticks-min", None, 0)]),
+    # rates strictly growing fastest → slowest (stage 1 is checked too)
+    ("repeat at stage 1", fc([400, 400, 500], [100] * 3), [(W, "rates-monotonic", None, 1)]),
+    ("faster at stage 2", fc([400, 500, 450], [100] * 3), [(W, "rates-monotonic", None, 2)]),
+    ("two repeats", fc([400, 400, 400], [100] * 3),
+     [(W, "rates-monotonic", None, 1), (W, "rates-monotonic", None, 2)]),
+    # a stage under 1/10 of its neighbours' mean (stage 0 exempt)
+    ("middle exactly 1/10", fc([400, 500, 600], [100, 10, 100]), []),
+    ("middle under 1/10", fc([400, 500, 600], [100, 9, 100]), [(W, "stage-short", None, 1)]),
+    ("last just over 1/10", fc([400, 500, 600], [100, 100, 9]), []),
+    ("last under 1/10", fc([400, 500, 600], [100, 100, 8]), [(W, "stage-short", None, 2)]),
+    ("stage 0 short is fine", fc([400, 500, 600], [2, 100, 100]), []),
+    ("next stage 10x longer", fc([400, 500, 600], [100, 10, 10000]),
+     [(W, "stage-short", None, 1)]),
+    ("previous stage 10x longer", fc([400, 500, 600], [1000, 10, 10]),
+     [(W, "stage-short", None, 1)]),
+    ("decel short", fc([400, 500, 600], [100] * 3, [100, 9, 100]), [(W, "stage-short", None, 1)]),
+    # slowest decel stage below 62.5 kpps: at 8 MHz rate ≥ 129
+    ("stop at rate 128", fc([100, 128], [100, 100]), [(W, "stop-speed-high", None, 1)]),
+    ("stop at rate 129", fc([100, 129], [100, 100]), []),
+    ("LE=1 stop stage", fc([100, 128, 400], [100] * 3, [100, 100]),
+     [(W, "decel-stage-count", None, None), (W, "stop-speed-high", None, 1)]),
+    ("stop at 1MHz rate 16", fc([10, 16], [100, 100], clock=C1),
+     [(W, "stop-speed-high", None, 1)]),
+    ("stop at 1MHz rate 17", fc([10, 17], [100, 100], clock=C1), []),
+    # order: errors first; table-wide before staged; by stage
+    ("order", fc([400, 1, 380, 500], [100, 300, 0, 100], [100]),
+     [(E, "stage-count", 0x11, None), (E, "rate-min", 0x18, 1), (E, "pulses-min", 0x19, 2),
+      (W, "decel-stage-count", None, None), (W, "rates-monotonic", None, 1),
+      (W, "stage-short", None, 1), (W, "stage-short", None, 2)]),
+]
+
+
+@pytest.mark.parametrize("t, expected", [c[1:] for c in FREE_CASES],
+                         ids=[c[0] for c in FREE_CASES])
+def test_free_curve_rule_pinned(t: FreeCurveTable, expected: list[Pin]) -> None:
+    assert pinned(t) == expected
+
+
+def init(start: int = 1000, high: int = 100, accel: int = 0x1000, stop: int | None = None,
+         decel: int | None = None, clock: Clock = C8, shape: str = "linear") -> InitTable:
+    return InitTable(clock, shape, start, high, accel, stop, decel)  # type: ignore[arg-type]
+
+
+INIT_CASES: list[tuple[str, InitTable, list[Pin]]] = [
+    ("clean", init(), []),
+    # start/stop 0x11..0xFFFF, high 2..0xFFEF [0x01]
+    # (start 0x10 cannot be 128 above a legal high: the gap error comes with it)
+    ("start 0x10", init(start=0x10, high=2, clock=C15),
+     [(E, "rate-range", 0x01, None), (E, "init-gap", 0x02, None)]),
+    ("start 0x11", init(start=0x11 + 0x80, high=0x11), []),
+    ("stop 0x10", init(start=1000, high=2, stop=0x10, decel=0x1000, clock=C15),
+     [(E, "rate-range", 0x01, None), (E, "init-gap", 0x04, None)]),
+    ("high 1", init(start=1000, high=1, clock=C1), [(E, "rate-range", 0x01, None)]),
+    ("high 2 at 1MHz", init(start=1000, high=2, clock=C1), []),
+    ("high 0xFFEF", init(start=0xFFFF, high=0xFFEF - 0x70), []),
+    ("high 0xFFF0", init(start=0xFFFF, high=0xFFF0),
+     [(E, "rate-range", 0x01, None), (E, "init-gap", 0x02, None)]),
+    # start (stop) ≤ high [0x03]
+    ("start = high", init(start=500, high=500), [(E, "start-above-high", 0x03, None)]),
+    ("stop = high", init(start=1000, high=500, stop=500, decel=0x1000),
+     [(E, "start-above-high", 0x03, None)]),
+    # slower end − high ≤ 127 [0x02]; the faster end's gap ≤ 127 [0x04]
+    ("gap 127", init(start=627, high=500), [(E, "init-gap", 0x02, None)]),
+    ("gap 128", init(start=628, high=500), []),
+    ("faster end gap 127", init(start=1000, high=500, stop=627, decel=0x1000),
+     [(E, "init-gap", 0x04, None)]),
+    ("slower end gap 127", init(start=627, high=500, stop=600, decel=0x1000),
+     [(E, "init-gap", 0x02, None), (E, "init-gap", 0x04, None)]),
+    ("both gaps 128", init(start=628, high=500, stop=628, decel=0x1000), []),
+    # accel/decel pulses: field 0x10..0xFFFFF, at least 0x100
+    # (so few pulses cannot build the staircase either [0x05])
+    ("pulses 0x0F", init(accel=0x0F),
+     [(E, "init-pulses-field", None, None), (E, "init-stage-pulses", 0x05, None)]),
+    ("pulses 0x10", init(accel=0x10),
+     [(E, "init-pulses-min", None, None), (E, "init-stage-pulses", 0x05, None)]),
+    ("pulses 0xFF", init(accel=0xFF), [(E, "init-pulses-min", None, None)]),
+    ("decel pulses 0xFF", init(start=1000, high=100, stop=1000, decel=0xFF),
+     [(E, "init-pulses-min", None, None)]),
+    ("pulses 0xFFFFF", init(accel=0xFFFFF), []),
+    ("pulses 0x100000", init(accel=0x100000), [(E, "init-pulses-field", None, None)]),
+    # high speed ≤ 2 Mpps; stop speed below 62.5 kpps
+    ("high rate 3 at 8MHz", init(start=1000, high=3), [(E, "speed-max", None, None)]),
+    ("high rate 4 at 8MHz", init(start=1000, high=4), []),
+    ("stop rate 128", init(start=1000, high=4, stop=128 + 0, decel=0x1000),
+     [(E, "init-gap", 0x04, None), (W, "stop-speed-high", None, None)]),
+    ("stop rate 129", init(start=1000, high=4, stop=129, decel=0x1000),
+     [(E, "init-gap", 0x04, None)]),
+    # (a stop rate ≤ 128 at 8 MHz is always within 127 of any legal high: 0x02 comes too)
+    ("start rate 128 (LE=0)", init(start=128, high=4), [(E, "init-gap", 0x02, None),
+                                                        (W, "stop-speed-high", None, None)]),
+    ("start rate 129 (LE=0)", init(start=129, high=4), [(E, "init-gap", 0x02, None)]),
+    ("stop 128, high 2", init(start=200, high=2, stop=128, decel=0x1000),
+     [(E, "init-gap", 0x04, None), (E, "speed-max", None, None),
+      (W, "stop-speed-high", None, None)]),
+    # the built table has a stage ≤ 2 pulses [0x05]
+    ("built stage too short", init(start=0xFFFF, high=2, accel=0x100, clock=C1),
+     [(E, "init-stage-pulses", 0x05, None)]),
+]
+
+
+@pytest.mark.parametrize("t, expected", [c[1:] for c in INIT_CASES],
+                         ids=[c[0] for c in INIT_CASES])
+def test_init_rule_pinned(t: InitTable, expected: list[Pin]) -> None:
+    assert pinned(t) == expected

@@ -1,0 +1,289 @@
+"""Mutation testing: do the tests notice a wrong rule?
+
+A small AST mutator. For each module it makes one mutant per site:
+- comparison operators: < ↔ <=, > ↔ >=, == ↔ !=, in ↔ not in, is ↔ is not
+- integer constants ± 1
+- min ↔ max, any ↔ all
+- a call made for its effect (a statement `f(…)`) deleted
+- and ↔ or
+and runs the module's tests against it (in a forked child that imports the mutant in
+place of the module; a mutant that hangs is killed after --timeout seconds and counts as
+killed). A mutant is *killed* when a test fails; the score is killed / (mutants −
+equivalent), where `EQUIVALENT` lists, with the reason, each mutant that cannot change
+behaviour. Text inside f-strings (messages) is not mutated: the verdicts, codes and
+numbers are what the tests pin.
+
+Usage: python bench/mutation.py [MODULE …] [--timeout S] [--list] [--only N,N]
+(modules: upload, frames, checks, execution; default all). Kept out of the test suite:
+a full run takes minutes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import importlib.abc
+import importlib.util
+import os
+import signal
+import sys
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+MODULES: dict[str, tuple[str, list[str]]] = {
+    "upload": ("profiles.ppmc312.upload",
+               ["tests/test_ppmc312_upload.py", "tests/test_ppmc312_frames.py"]),
+    "frames": ("profiles.ppmc312.frames",
+               ["tests/test_ppmc312_frames.py", "tests/test_ppmc312_upload.py"]),
+    "checks": ("verify.checks", ["tests/test_checks.py"]),
+    "execution": ("profiles.ppmc312.execution", ["tests/test_execution.py"]),
+}
+
+# (module key, line, mutation) → why the mutant cannot change what the module does.
+EQUIVALENT: dict[tuple[str, int, str], str] = {}
+
+
+@dataclass(frozen=True)
+class Site:
+    index: int
+    line: int
+    what: str
+
+
+_CMP_SWAP: dict[type[ast.cmpop], type[ast.cmpop]] = {
+    ast.Lt: ast.LtE, ast.LtE: ast.Lt, ast.Gt: ast.GtE, ast.GtE: ast.Gt,
+    ast.Eq: ast.NotEq, ast.NotEq: ast.Eq, ast.In: ast.NotIn, ast.NotIn: ast.In,
+    ast.Is: ast.IsNot, ast.IsNot: ast.Is,
+}
+_SYMBOL = {ast.Lt: "<", ast.LtE: "<=", ast.Gt: ">", ast.GtE: ">=", ast.Eq: "==",
+           ast.NotEq: "!=", ast.In: "in", ast.NotIn: "not in", ast.Is: "is", ast.IsNot: "is not"}
+_CALL_SWAP = {"min": "max", "max": "min", "any": "all", "all": "any"}
+
+
+class _Mutator(ast.NodeTransformer):
+    """Walks the tree in a fixed order; counts sites; applies site `target` only."""
+
+    def __init__(self, target: int | None) -> None:
+        self.target = target
+        self.sites: list[Site] = []
+        self.in_fstring = 0
+        self.in_docstring_or_annotation = 0
+
+    def _site(self, node: ast.AST, what: str) -> bool:
+        index = len(self.sites)
+        self.sites.append(Site(index, getattr(node, "lineno", 0), what))
+        return index == self.target
+
+    def visit_JoinedStr(self, node: ast.JoinedStr) -> ast.AST:
+        return node  # messages are not mutated
+
+    def visit_AnnAssign(self, node: ast.AnnAssign) -> ast.AST:
+        if node.value is not None:
+            node.value = self.visit(node.value)
+        return node
+
+    def visit_arg(self, node: ast.arg) -> ast.AST:
+        return node  # annotations
+
+    def visit_FunctionDef(self, node: ast.FunctionDef) -> ast.AST:
+        node.returns = node.returns  # annotations untouched
+        node.args = self.visit(node.args)
+        node.body = [self.visit(s) for s in node.body]
+        node.body = [s for s in node.body if s is not None]
+        node.decorator_list = [self.visit(d) for d in node.decorator_list]
+        return node
+
+    def visit_ImportFrom(self, node: ast.ImportFrom) -> ast.AST:
+        return node
+
+    def visit_Compare(self, node: ast.Compare) -> ast.AST:
+        self.generic_visit(node)
+        for i, op in enumerate(node.ops):
+            swap = _CMP_SWAP.get(type(op))
+            if swap is not None and self._site(node, f"{_SYMBOL[type(op)]} → {_SYMBOL[swap]}"):
+                node.ops[i] = swap()
+        return node
+
+    def visit_Constant(self, node: ast.Constant) -> ast.AST:
+        v = node.value
+        if isinstance(v, int) and not isinstance(v, bool):
+            for delta in (1, -1):
+                if self._site(node, f"{v} → {v + delta}"):
+                    return ast.copy_location(ast.Constant(v + delta), node)
+        return node
+
+    def visit_Call(self, node: ast.Call) -> ast.AST:
+        self.generic_visit(node)
+        if isinstance(node.func, ast.Name) and node.func.id in _CALL_SWAP:
+            new = _CALL_SWAP[node.func.id]
+            if self._site(node, f"{node.func.id} → {new}"):
+                node.func = ast.copy_location(ast.Name(new, ast.Load()), node.func)
+        return node
+
+    def visit_BoolOp(self, node: ast.BoolOp) -> ast.AST:
+        self.generic_visit(node)
+        old, new = ("and", "or") if isinstance(node.op, ast.And) else ("or", "and")
+        if self._site(node, f"{old} → {new}"):
+            node.op = ast.Or() if isinstance(node.op, ast.And) else ast.And()
+        return node
+
+    def visit_Expr(self, node: ast.Expr) -> ast.AST:
+        if isinstance(node.value, ast.Constant) and isinstance(node.value.value, str):
+            return node  # a docstring
+        self.generic_visit(node)
+        if isinstance(node.value, ast.Call):
+            name = ast.unparse(node.value.func)
+            if self._site(node, f"call {name}(…) deleted"):
+                return ast.copy_location(ast.Pass(), node)
+        return node
+
+
+def sites(source: str) -> list[Site]:
+    m = _Mutator(None)
+    m.visit(ast.parse(source))
+    return m.sites
+
+
+def mutant(source: str, index: int) -> str:
+    tree = ast.parse(source)
+    _Mutator(index).visit(tree)
+    ast.fix_missing_locations(tree)
+    return ast.unparse(tree)
+
+
+class _MutantFinder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
+    """Serves the mutated source for one module name; everything else imports as usual."""
+
+    def __init__(self, name: str, path: Path, source: str) -> None:
+        self.name, self.path, self.source = name, path, source
+
+    def find_spec(self, fullname: str, path: object, target: object = None
+                  ) -> importlib.machinery.ModuleSpec | None:
+        if fullname != self.name:
+            return None
+        return importlib.util.spec_from_file_location(fullname, self.path, loader=self)
+
+    def create_module(self, spec: importlib.machinery.ModuleSpec) -> None:
+        return None
+
+    def exec_module(self, module: object) -> None:
+        exec(compile(self.source, str(self.path), "exec"), module.__dict__)  # type: ignore[attr-defined]
+
+
+def _run_child(name: str, path: Path, source: str, tests: list[str]) -> int:
+    import pytest
+
+    sys.meta_path.insert(0, _MutantFinder(name, path, source))
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 1)
+    os.dup2(devnull, 2)
+    return int(pytest.main(["-x", "-q", "-p", "no:cacheprovider", "-p", "no:randomly",
+                            "--no-header", "-o", "addopts=", *tests]))
+
+
+def run_one(name: str, path: Path, source: str, tests: list[str], timeout: float) -> str:
+    """'killed', 'survived' or 'timeout' for one mutated source."""
+    pid = os.fork()
+    if pid == 0:  # child
+        code = 3
+        try:
+            code = _run_child(name, path, source, tests)
+        finally:
+            os._exit(code)
+    deadline = time.monotonic() + timeout
+    while True:
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if done:
+            return "survived" if os.waitstatus_to_exitcode(status) == 0 else "killed"
+        if time.monotonic() > deadline:
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+            return "timeout"
+        time.sleep(0.02)
+
+
+def _prepare_parent() -> None:
+    """Heavy imports once, before forking; the project's modules are NOT imported here
+    (each child imports them fresh, the mutant among them)."""
+    os.environ.setdefault("CI", "true")  # derandomised hypothesis: repeatable verdicts
+    os.chdir(ROOT)
+    sys.path.insert(0, str(ROOT))
+    import hypothesis  # noqa: F401
+    import numpy  # noqa: F401
+    import pytest  # noqa: F401
+
+
+def run_module(key: str, timeout: float, only: set[int] | None) -> dict[str, object]:
+    name, tests = MODULES[key]
+    path = ROOT / (name.replace(".", "/") + ".py")
+    source = path.read_text()
+    all_sites = sites(source)
+    baseline = run_one(name, path, ast.unparse(ast.parse(source)), tests, timeout * 4)
+    if baseline != "survived":
+        raise SystemExit(f"{key}: the tests fail on the unmutated module ({baseline})")
+    counts = {"killed": 0, "timeout": 0, "survived": 0, "equivalent": 0}
+    survivors: list[tuple[Site, str]] = []
+    for site in all_sites:
+        if only is not None and site.index not in only:
+            continue
+        verdict = run_one(name, path, mutant(source, site.index), tests, timeout)
+        reason = EQUIVALENT.get((key, site.line, site.what))
+        if verdict == "survived" and reason is not None:
+            counts["equivalent"] += 1
+            survivors.append((site, f"equivalent: {reason}"))
+        else:
+            counts[verdict] += 1
+            if verdict == "survived":
+                survivors.append((site, "SURVIVED"))
+        print(f"  {key} #{site.index} line {site.line}: {site.what}: {verdict}", flush=True,
+              file=sys.stderr)
+    total = sum(counts.values())
+    scored = total - counts["equivalent"]
+    score = (counts["killed"] + counts["timeout"]) / scored if scored else 1.0
+    return {"module": key, "mutants": total, **counts, "score": score,
+            "survivors": survivors}
+
+
+def _table(results: list[dict[str, object]]) -> Iterator[str]:
+    yield "| module | mutants | killed | timeout | equivalent | survived | score |"
+    yield "|---|---|---|---|---|---|---|"
+    for r in results:
+        yield (f"| {MODULES[str(r['module'])][0]} | {r['mutants']} | {r['killed']} | "
+               f"{r['timeout']} | {r['equivalent']} | {r['survived']} | "
+               f"{100 * float(r['score']):.1f} % |")  # type: ignore[arg-type]
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("modules", nargs="*", choices=list(MODULES), default=[])
+    ap.add_argument("--timeout", type=float, default=60.0, help="seconds per mutant")
+    ap.add_argument("--list", action="store_true", help="list the mutation sites only")
+    ap.add_argument("--only", help="comma-separated site indexes (one module)")
+    args = ap.parse_args()
+    keys = args.modules or list(MODULES)
+    if args.list:
+        for key in keys:
+            name = MODULES[key][0]
+            source = (ROOT / (name.replace(".", "/") + ".py")).read_text()
+            for s in sites(source):
+                print(f"{key} #{s.index} line {s.line}: {s.what}")
+        return 0
+    only = {int(x) for x in args.only.split(",")} if args.only else None
+    _prepare_parent()
+    started = time.monotonic()
+    results = [run_module(k, args.timeout, only) for k in keys]
+    for line in _table(results):
+        print(line)
+    for r in results:
+        for site, why in r["survivors"]:  # type: ignore[attr-defined]
+            print(f"- {MODULES[str(r['module'])][0]} line {site.line}: {site.what}: {why}")
+    print(f"({time.monotonic() - started:.0f} s)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
