@@ -439,64 +439,64 @@ def test_free_curve_rule_pinned(t: FreeCurveTable, expected: list[Pin]) -> None:
     assert pinned(t) == expected
 
 
-def init(start: int = 1000, high: int = 100, accel: int = 0x1000, stop: int | None = None,
+def init_t(start: int = 1000, high: int = 100, accel: int = 0x1000, stop: int | None = None,
          decel: int | None = None, clock: Clock = C8, shape: str = "linear") -> InitTable:
     return InitTable(clock, shape, start, high, accel, stop, decel)  # type: ignore[arg-type]
 
 
 INIT_CASES: list[tuple[str, InitTable, list[Pin]]] = [
-    ("clean", init(), []),
+    ("clean", init_t(), []),
     # start/stop 0x11..0xFFFF, high 2..0xFFEF [0x01]
     # (start 0x10 cannot be 128 above a legal high: the gap error comes with it)
-    ("start 0x10", init(start=0x10, high=2, clock=C15),
+    ("start 0x10", init_t(start=0x10, high=2, clock=C15),
      [(E, "rate-range", 0x01, None), (E, "init-gap", 0x02, None)]),
-    ("start 0x11", init(start=0x11 + 0x80, high=0x11), []),
-    ("stop 0x10", init(start=1000, high=2, stop=0x10, decel=0x1000, clock=C15),
+    ("start 0x11", init_t(start=0x11 + 0x80, high=0x11), []),
+    ("stop 0x10", init_t(start=1000, high=2, stop=0x10, decel=0x1000, clock=C15),
      [(E, "rate-range", 0x01, None), (E, "init-gap", 0x04, None)]),
-    ("high 1", init(start=1000, high=1, clock=C1), [(E, "rate-range", 0x01, None)]),
-    ("high 2 at 1MHz", init(start=1000, high=2, clock=C1), []),
-    ("high 0xFFEF", init(start=0xFFFF, high=0xFFEF - 0x70), []),
-    ("high 0xFFF0", init(start=0xFFFF, high=0xFFF0),
+    ("high 1", init_t(start=1000, high=1, clock=C1), [(E, "rate-range", 0x01, None)]),
+    ("high 2 at 1MHz", init_t(start=1000, high=2, clock=C1), []),
+    ("high 0xFFEF", init_t(start=0xFFFF, high=0xFFEF - 0x70), []),
+    ("high 0xFFF0", init_t(start=0xFFFF, high=0xFFF0),
      [(E, "rate-range", 0x01, None), (E, "init-gap", 0x02, None)]),
     # start (stop) ≤ high [0x03]
-    ("start = high", init(start=500, high=500), [(E, "start-above-high", 0x03, None)]),
-    ("stop = high", init(start=1000, high=500, stop=500, decel=0x1000),
+    ("start = high", init_t(start=500, high=500), [(E, "start-above-high", 0x03, None)]),
+    ("stop = high", init_t(start=1000, high=500, stop=500, decel=0x1000),
      [(E, "start-above-high", 0x03, None)]),
     # slower end − high ≤ 127 [0x02]; the faster end's gap ≤ 127 [0x04]
-    ("gap 127", init(start=627, high=500), [(E, "init-gap", 0x02, None)]),
-    ("gap 128", init(start=628, high=500), []),
-    ("faster end gap 127", init(start=1000, high=500, stop=627, decel=0x1000),
+    ("gap 127", init_t(start=627, high=500), [(E, "init-gap", 0x02, None)]),
+    ("gap 128", init_t(start=628, high=500), []),
+    ("faster end gap 127", init_t(start=1000, high=500, stop=627, decel=0x1000),
      [(E, "init-gap", 0x04, None)]),
-    ("slower end gap 127", init(start=627, high=500, stop=600, decel=0x1000),
+    ("slower end gap 127", init_t(start=627, high=500, stop=600, decel=0x1000),
      [(E, "init-gap", 0x02, None), (E, "init-gap", 0x04, None)]),
-    ("both gaps 128", init(start=628, high=500, stop=628, decel=0x1000), []),
+    ("both gaps 128", init_t(start=628, high=500, stop=628, decel=0x1000), []),
     # accel/decel pulses: field 0x10..0xFFFFF, at least 0x100
     # (so few pulses cannot build the staircase either [0x05])
-    ("pulses 0x0F", init(accel=0x0F),
+    ("pulses 0x0F", init_t(accel=0x0F),
      [(E, "init-pulses-field", None, None), (E, "init-stage-pulses", 0x05, None)]),
-    ("pulses 0x10", init(accel=0x10),
+    ("pulses 0x10", init_t(accel=0x10),
      [(E, "init-pulses-min", None, None), (E, "init-stage-pulses", 0x05, None)]),
-    ("pulses 0xFF", init(accel=0xFF), [(E, "init-pulses-min", None, None)]),
-    ("decel pulses 0xFF", init(start=1000, high=100, stop=1000, decel=0xFF),
+    ("pulses 0xFF", init_t(accel=0xFF), [(E, "init-pulses-min", None, None)]),
+    ("decel pulses 0xFF", init_t(start=1000, high=100, stop=1000, decel=0xFF),
      [(E, "init-pulses-min", None, None)]),
-    ("pulses 0xFFFFF", init(accel=0xFFFFF), []),
-    ("pulses 0x100000", init(accel=0x100000), [(E, "init-pulses-field", None, None)]),
+    ("pulses 0xFFFFF", init_t(accel=0xFFFFF), []),
+    ("pulses 0x100000", init_t(accel=0x100000), [(E, "init-pulses-field", None, None)]),
     # high speed ≤ 2 Mpps; stop speed below 62.5 kpps
-    ("high rate 3 at 8MHz", init(start=1000, high=3), [(E, "speed-max", None, None)]),
-    ("high rate 4 at 8MHz", init(start=1000, high=4), []),
-    ("stop rate 128", init(start=1000, high=4, stop=128 + 0, decel=0x1000),
+    ("high rate 3 at 8MHz", init_t(start=1000, high=3), [(E, "speed-max", None, None)]),
+    ("high rate 4 at 8MHz", init_t(start=1000, high=4), []),
+    ("stop rate 128", init_t(start=1000, high=4, stop=128 + 0, decel=0x1000),
      [(E, "init-gap", 0x04, None), (W, "stop-speed-high", None, None)]),
-    ("stop rate 129", init(start=1000, high=4, stop=129, decel=0x1000),
+    ("stop rate 129", init_t(start=1000, high=4, stop=129, decel=0x1000),
      [(E, "init-gap", 0x04, None)]),
     # (a stop rate ≤ 128 at 8 MHz is always within 127 of any legal high: 0x02 comes too)
-    ("start rate 128 (LE=0)", init(start=128, high=4), [(E, "init-gap", 0x02, None),
+    ("start rate 128 (LE=0)", init_t(start=128, high=4), [(E, "init-gap", 0x02, None),
                                                         (W, "stop-speed-high", None, None)]),
-    ("start rate 129 (LE=0)", init(start=129, high=4), [(E, "init-gap", 0x02, None)]),
-    ("stop 128, high 2", init(start=200, high=2, stop=128, decel=0x1000),
+    ("start rate 129 (LE=0)", init_t(start=129, high=4), [(E, "init-gap", 0x02, None)]),
+    ("stop 128, high 2", init_t(start=200, high=2, stop=128, decel=0x1000),
      [(E, "init-gap", 0x04, None), (E, "speed-max", None, None),
       (W, "stop-speed-high", None, None)]),
     # the built table has a stage ≤ 2 pulses [0x05]
-    ("built stage too short", init(start=0xFFFF, high=2, accel=0x100, clock=C1),
+    ("built stage too short", init_t(start=0xFFFF, high=2, accel=0x100, clock=C1),
      [(E, "init-stage-pulses", 0x05, None)]),
 ]
 
