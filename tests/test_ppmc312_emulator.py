@@ -222,7 +222,7 @@ def mutated(draw: st.DrawFn) -> list[bytes]:
             blocks[k][0] ^= draw(st.sampled_from([1, 2, 4, 0x80]))
         elif how == "truncate" and len(blocks[k]) > 1:
             blocks[k] = blocks[k][:draw(st.integers(1, len(blocks[k]) - 1))]
-        elif how == "length":
+        elif how == "length" and len(blocks[k]) > 1:  # a 1-byte block has no length byte
             blocks[k][1] = draw(st.integers(0, 255))
         elif how == "drop" and len(blocks) > 1:
             blocks.pop(k)
@@ -258,3 +258,17 @@ def test_empty_parameter_block_changes_nothing() -> None:
     # …but an empty block cannot end an upload that still expects data.
     verdict = accept_upload([blocks[0], bytes.fromhex("01 00")])
     assert (verdict.error_code, verdict.block) == (0x17, 1)
+
+
+def test_a_one_byte_block_is_judged_not_crashed() -> None:
+    """The case the `mutated` strategy used to crash on (it set the length byte of a
+    block truncated to 1 byte): a lone command byte is a chip answer or one-line error."""
+    blocks = encode_free_curve(FreeCurveTable(Clock.internal("8MHz"), (400, 500), (100, 100)))
+    for k in range(len(blocks)):
+        cut = [*blocks[:k], blocks[k][:1], *blocks[k + 1:]]
+        try:
+            verdict = accept_upload(cut)
+        except DecodeError as e:
+            assert "\n" not in str(e)
+        else:
+            assert not verdict.ok

@@ -7,15 +7,14 @@ import json
 from pathlib import Path
 from typing import Any
 
+import jsonschema  # a test dependency ([dev]): missing, the suite fails, never skips
 import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-jsonschema = pytest.importorskip("jsonschema")
-
-from profiles.errors import FieldRangeError, FormatError, StepRampError  # noqa: E402
-from profiles.ppmc312.clock import Clock  # noqa: E402
-from profiles.ppmc312.table import (  # noqa: E402
+from profiles.errors import FieldRangeError, FormatError, StepRampError
+from profiles.ppmc312.clock import Clock
+from profiles.ppmc312.table import (
     FreeCurveTable,
     InitTable,
     dump_table,
