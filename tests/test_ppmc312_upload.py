@@ -413,3 +413,109 @@ def test_bus_writes_refuse_oversize_blocks() -> None:
         bus_writes(bytes(33))
     with pytest.raises(FieldRangeError, match="block size"):
         bus_writes(b"")
+
+
+# --- golden bytes: every block kind, written out by hand from the manual's layouts ----------
+# (§7-1 init, §7-2 free curve, §8-3 move, §10-1 table read, §5-6 bus writes). Each case
+# decodes back to its table; a changed header, length, mode bit, order or split fails here.
+
+C8, C1 = Clock.internal("8MHz"), Clock.internal("1MHz")
+GOLDEN_FREE_CURVES: list[tuple[str, FreeCurveTable, int, list[str]]] = [
+    ("LE=0 8MHz", FreeCurveTable(C8, (400, 500), (100, 200)), 30,
+     ["02 03 01 00 02", "00 04 01 90 01 f4", "01 06 00 00 64 00 00 c8"]),
+    ("LE=1 1MHz", FreeCurveTable(C1, (400, 500, 600), (100, 200, 300), (10, 20)), 30,
+     ["02 04 01 11 03 02", "00 06 01 90 01 f4 02 58", "00 09 00 00 64 00 00 c8 00 01 2c",
+      "01 06 00 00 0a 00 00 14"]),
+    ("LE=1 decel longer", FreeCurveTable(C1, (400, 500, 600), (7, 8), (1, 2, 3)), 30,
+     ["02 04 01 11 02 03", "00 06 01 90 01 f4 02 58", "00 06 00 00 07 00 00 08",
+      "01 09 00 00 01 00 00 02 00 00 03"]),
+    ("3 data bytes a block", FreeCurveTable(C8, (400, 500), (100, 200)), 3,
+     ["02 03 01 00 02", "00 02 01 90", "00 02 01 f4", "00 03 00 00 64", "01 03 00 00 c8"]),
+    ("4 data bytes a block", FreeCurveTable(C8, (400, 500, 600), (1, 2, 3)), 4,
+     ["02 03 01 00 03", "00 04 01 90 01 f4", "00 02 02 58", "00 03 00 00 01", "00 03 00 00 02",
+      "01 03 00 00 03"]),
+    ("EXTCK falling", FreeCurveTable(Clock.extck(1e6, "falling"), (2, 3), (2, 2)), 30,
+     ["02 03 01 07 02", "00 04 00 02 00 03", "01 06 00 00 02 00 00 02"]),
+]
+
+
+@pytest.mark.parametrize("table, max_data, blocks", [c[1:] for c in GOLDEN_FREE_CURVES],
+                         ids=[c[0] for c in GOLDEN_FREE_CURVES])
+def test_free_curve_golden_bytes(table: FreeCurveTable, max_data: int, blocks: list[str]) -> None:
+    assert [b.hex(" ") for b in encode_free_curve(table, max_data=max_data)] == blocks
+    wire = [bytes.fromhex(b) for b in blocks]
+    assert decode_free_curve(wire, extck_hz=1e6) == table
+    assert decode_upload(wire, extck_hz=1e6) == table
+
+
+def test_full_30_byte_parameter_block_is_32_bytes_on_the_bus() -> None:
+    table = FreeCurveTable(C8, tuple(range(400, 415)), (100,) * 15)
+    blocks = encode_free_curve(table)
+    assert [len(b) for b in blocks] == [5, 32, 32, 17]
+    assert blocks[1][:4].hex(" ") == "00 1e 01 90" and blocks[2][:2].hex(" ") == "00 1e"
+    assert blocks[3][:2].hex(" ") == "01 0f"
+    assert decode_free_curve(blocks) == table
+    writes = bus_writes(blocks[1])  # a full block: WAR 0
+    assert writes[:2] == [("WCR", 0x20), ("WAR", 0x00)] and len(writes) == 34
+    assert bus_writes(b"\x03")[:2] == [("WCR", 0x20), ("WAR", 0x1F)]  # the smallest block
+    with pytest.raises(FieldRangeError, match="block size"):
+        bus_writes(b"")
+    with pytest.raises(FieldRangeError, match="block size"):
+        bus_writes(bytes(33))
+
+
+GOLDEN_INIT: list[tuple[str, InitTable, str]] = [
+    ("LE=0 linear 8MHz", InitTable(C8, "linear", 1000, 100, 0x1000),
+     "03 09 00 00 03 e8 00 64 00 10 00"),
+    ("LE=0 s-curve 1MHz", InitTable(C1, "s_curve", 0xFFFF, 2, 0xFFFFF),
+     "03 09 00 09 ff ff 00 02 0f ff ff"),
+    ("LE=1 s-curve 15.625kHz", InitTable(Clock.internal("15.625kHz"), "s_curve", 0x1234, 0x0056,
+                                         0x000789, 0x0abc, 0x0def0),
+     "03 0e 00 1d 12 34 0a bc 00 56 00 07 89 00 de f0"),
+]
+
+
+@pytest.mark.parametrize("table, hexed", [c[1:] for c in GOLDEN_INIT],
+                         ids=[c[0] for c in GOLDEN_INIT])
+def test_init_golden_bytes(table: InitTable, hexed: str) -> None:
+    assert encode_init(table).hex(" ") == hexed
+    assert decode_init(bytes.fromhex(hexed)) == table
+    assert decode_upload([bytes.fromhex(hexed)]) == table
+
+
+@pytest.mark.parametrize("kw, hexed", [
+    (dict(pulses=1), "03 08 82 00 00 00 00 00 00 01"),
+    (dict(pulses=0x01020304, ccw=True, high_rate=0x0506), "03 08 82 40 05 06 01 02 03 04"),
+    (dict(pulses=5, override=True, trigger=1), "03 08 82 05 00 00 00 00 00 05"),
+    (dict(pulses=5, ccw=True, override=True, trigger=3), "03 08 82 47 00 00 00 00 00 05"),
+])
+def test_move_golden_bytes(kw: dict[str, object], hexed: str) -> None:
+    assert encode_move(**kw).hex(" ") == hexed  # type: ignore[arg-type]
+    back = decode_move(bytes.fromhex(hexed))
+    assert back["pulses"] == kw["pulses"] and back["ccw"] == kw.get("ccw", False)
+
+
+GOLDEN_TABLE_READ: list[tuple[str, FreeCurveTable, list[str]]] = [
+    ("LE=0", FreeCurveTable(C8, (400, 500), (100, 200)),
+     ["02 0a 41 02 02 00 00 01 2c 00 01 2c", "00 05 01 01 90 01 f4",
+      "01 07 02 00 00 64 00 00 c8"]),
+    ("LE=1, 7 rates", FreeCurveTable(C8, tuple(range(1, 8)), (1, 2), tuple(range(10, 17))),
+     ["02 0a 41 07 02 07 00 00 03 00 00 5b", "00 0d 01 00 01 00 02 00 03 00 04 00 05 00 06",
+      "00 03 01 00 07", "00 07 02 00 00 01 00 00 02",
+      "00 0d 03 00 00 0a 00 00 0b 00 00 0c 00 00 0d", "01 0a 03 00 00 0e 00 00 0f 00 00 10"]),
+]
+
+
+@pytest.mark.parametrize("table, blocks", [c[1:] for c in GOLDEN_TABLE_READ],
+                         ids=[c[0] for c in GOLDEN_TABLE_READ])
+def test_table_read_golden_bytes(table: FreeCurveTable, blocks: list[str]) -> None:
+    assert [b.hex(" ") for b in encode_table_read_response(table)] == blocks
+    assert decode_table_read([bytes.fromhex(b) for b in blocks], clock=table.clock) == table
+
+
+def test_an_ascii_frame_followed_by_blocks_is_refused() -> None:
+    frame = serial.encode_serial_init(InitTable(C8, "linear", 1000, 100, 0x1000), 0)
+    assert decode_upload([frame]).kind == "init"
+    with pytest.raises(DecodeError, match="one frame; more follow") as e:
+        decode_upload([frame, b"\x00\x02\x01\x90"])
+    assert (e.value.block, e.value.byte) == (1, 0)
