@@ -33,13 +33,19 @@ def display_path(path: str | Path) -> str:
     Python as lone surrogates) are shown as \\xNN escapes instead of breaking a strict
     stdout/stderr encoder."""
     text = os.fspath(path)
-    return text.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+    try:
+        raw = text.encode("utf-8", "surrogateescape")
+    except UnicodeEncodeError:  # a lone surrogate that no byte stands for ("\ud800")
+        raw = text.encode("utf-8", "backslashreplace")
+    return raw.decode("utf-8", "backslashreplace")
 
 
 def read_bytes(path: str | Path, *, limit: int = MAX_INPUT_BYTES) -> bytes:
     """A file's bytes (`-` reads stdin); a missing, unreadable, non-regular, oversized or
     empty file is a one-line FormatError."""
     name = display_path(path)
+    if os.fspath(path) == "":
+        raise FormatError("'': an empty file name (give a path, or - for stdin)")
     if os.fspath(path) == STDIN:
         data = _read_capped(sys.stdin.buffer, limit, "stdin")
     else:
@@ -133,13 +139,22 @@ def _number(kind: type[int] | type[float], path: str) -> Any:
     return parse
 
 
+def require_shallow_json(data: bytes, path: str | Path) -> None:
+    """Refuse JSON text nested deeper than MAX_JSON_DEPTH (Python's parser would hit its
+    recursion limit on it); text that is not a JSON object or array passes untouched."""
+    text = data.removeprefix(b"\xef\xbb\xbf").lstrip()
+    if text[:1] not in (b"{", b"["):
+        return
+    depth = json_depth(text)
+    if depth > MAX_JSON_DEPTH:
+        raise FormatError(f"{display_path(path)}: JSON nested {depth} deep, more than the "
+                          f"{MAX_JSON_DEPTH} levels an input may have")
+
+
 def parse_json(data: bytes, path: str | Path) -> Any:
     """JSON from a file's bytes (read once); `path` names it in errors."""
     name = display_path(path)
-    depth = json_depth(data)
-    if depth > MAX_JSON_DEPTH:
-        raise FormatError(f"{name}: JSON nested {depth} deep, more than the "
-                          f"{MAX_JSON_DEPTH} levels an input may have")
+    require_shallow_json(data, path)
 
     def no_constant(word: str) -> Any:
         raise FormatError(f"{name}: {word} is not a JSON number (NaN and Infinity are refused)")

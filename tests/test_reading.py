@@ -191,3 +191,12 @@ def test_display_path_escapes_undecodable_bytes() -> None:
     shown.encode("ascii")  # printable on the strictest terminal
     err = _refused(odd, "no such file")
     assert err.startswith("missing\\xff.json")
+
+
+def test_display_path_survives_lone_surrogates() -> None:
+    assert display_path("x\ud800y") == "x\\ud800y"
+
+
+def test_an_empty_path_is_refused_by_name() -> None:
+    with pytest.raises(FormatError, match="an empty file name"):
+        read_bytes("")

@@ -137,7 +137,7 @@ def load_checkable(path: str, extck_hz: float | None = None
     """A table file, or an upload file judged first by what the chip would answer:
     (the table, []) or, for an upload the chip refuses, (None, [its finding])."""
     from profiles.ppmc312.table import table_from_json
-    from profiles.reading import parse_json, read_bytes
+    from profiles.reading import parse_json, read_bytes, require_shallow_json
 
     raw = read_bytes(path)
     if looks_like_table_json(raw):
@@ -146,6 +146,7 @@ def load_checkable(path: str, extck_hz: float | None = None
     from profiles.ppmc312.files import parse_upload
     from profiles.ppmc312.upload import decode_upload
 
+    require_shallow_json(raw, path)  # a JSON upload is parsed by files.parse_upload
     blocks = parse_upload(raw)
     if blocks and blocks[0][:1] in (b"\x02", b"\x03"):  # parallel blocks: ask the chip model
         verdict = accept_upload(blocks)

@@ -14,13 +14,13 @@
 
 from __future__ import annotations
 
-import json
 import re
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from profiles.errors import FormatError
+from profiles.reading import display_path, json_text
 
 from .findings import Finding
 
@@ -58,7 +58,7 @@ def render(results: Sequence[FileResult], fmt: str) -> str:
         return _text(results)
     if fmt == "json":
         # ASCII escapes keep the document valid even for paths with undecodable bytes.
-        return json.dumps({"files": [r.to_json() for r in results]}, indent=1) + "\n"
+        return json_text({"files": [r.to_json() for r in results]})
     if fmt == "junit":
         return _junit(results)
     raise FormatError(f"format: {fmt!r} is not one of {', '.join(FORMATS)}")
@@ -68,7 +68,8 @@ def finding_line(path: str, f: Finding) -> str:
     """`path: severity [rule] stage N (chip 0xNN): message`."""
     where = "" if f.stage is None else f" stage {f.stage}"
     chip = "" if f.chip_code is None else f" (chip {f.chip_code_hex})"
-    return f"{path}: {f.severity} [{f.rule}]{where}{chip}: {_one_line(f.message)}"
+    return (f"{display_path(path)}: {f.severity} [{f.rule}]{where}{chip}: "
+            f"{_one_line(f.message)}")
 
 
 def _text(results: Sequence[FileResult]) -> str:
@@ -76,7 +77,7 @@ def _text(results: Sequence[FileResult]) -> str:
     errors = warnings = 0
     for r in results:
         if r.error is not None:
-            lines.append(f"{r.path}: unusable: {_one_line(r.error)}")
+            lines.append(f"{display_path(r.path)}: unusable: {_one_line(r.error)}")
         for f in r.findings:
             lines.append(finding_line(r.path, f))
             if f.severity == "error":
@@ -102,7 +103,7 @@ def _junit(results: Sequence[FileResult]) -> str:
                                      "skipped": "0"})
     for r in results:
         case = ET.SubElement(suite, "testcase", {"classname": "stepramp.check",
-                                                 "name": _xml_text(r.path)})
+                                                 "name": _xml_text(display_path(r.path))})
         if r.error is not None:
             err = ET.SubElement(case, "error", {"type": "unusable",
                                                 "message": _xml_text(_one_line(r.error))})

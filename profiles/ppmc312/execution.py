@@ -32,6 +32,7 @@ lands exactly at `duration_s`. The first-pulse latency is reported apart.
 from __future__ import annotations
 
 import io
+from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from typing import Any, Literal, NamedTuple
 
@@ -516,11 +517,24 @@ PULSE_TIMES_CSV_MAX = 10_000_000  # one row per pulse: ~200 MB of text at this s
 def pulse_times_csv(execution: Execution) -> str:
     """Every pulse's time as CSV `pulse,time_s` (pulse numbered from 1, ns resolution);
     refuses moves of more than PULSE_TIMES_CSV_MAX pulses (one row each)."""
+    return "".join(pulse_times_csv_chunks(execution))
+
+
+def pulse_times_csv_chunks(execution: Execution, chunk: int = 1 << 16) -> Iterator[str]:
+    """`pulse_times_csv` in pieces of at most `chunk` rows, computed segment by segment
+    (pulse k of a segment ends at start_tick + k·rate ticks), so memory does not grow with
+    the move; the limit is checked before the first piece."""
     if execution.pulses > PULSE_TIMES_CSV_MAX:
         raise FieldRangeError("pulses (one CSV row per pulse)", execution.pulses, 1,
                               PULSE_TIMES_CSV_MAX)
-    times = execution.pulse_times_s(limit=PULSE_TIMES_CSV_MAX)
-    return "pulse,time_s\n" + "".join(f"{i},{t:.9f}\n" for i, t in enumerate(times, start=1))
+    yield "pulse,time_s\n"
+    hz, number = execution.clock.hz, 1
+    for s in execution.segments:
+        for k0 in range(0, s.pulses, chunk):
+            k = np.arange(k0 + 1, min(s.pulses, k0 + chunk) + 1, dtype=np.int64)
+            times = (s.start_tick + k * s.rate) / hz
+            yield "".join(f"{n},{t:.9f}\n" for n, t in enumerate(times.tolist(), number))
+            number += len(k)
 
 
 def samples_csv(execution: Execution, n: int = 1000) -> str:

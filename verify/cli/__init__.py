@@ -14,11 +14,18 @@ this package plus one entry in `COMMANDS`. Command modules share only
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
+import os
+import signal
 import sys
+import traceback
 from collections.abc import Sequence
+from typing import NoReturn
 
 from profiles.errors import StepRampError
+from profiles.reading import display_path
+from verify.output import OutputInterrupted
 
 from ._common import EXIT_OK, EXIT_UNUSABLE, VersionAction
 
@@ -31,28 +38,95 @@ COMMANDS: tuple[str, ...] = (
 )
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """argparse whose usage errors are one line (`stepramp check: the following arguments
+    are required: FILE`) and exit 2, like every other unusable input; sub-parsers inherit
+    the class."""
+
+    def error(self, message: str) -> NoReturn:
+        print(f"{self.prog}: {display_path(message)} (see {self.prog} --help)", file=sys.stderr)
+        self.exit(EXIT_UNUSABLE)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="stepramp", description=__doc__.splitlines()[0])
+    p = OneLineParser(prog="stepramp", description=__doc__.splitlines()[0])
     p.add_argument("--version", action=VersionAction)
+    p.add_argument("--debug", action="store_true",
+                   help="on an internal error, show the Python traceback (also accepted "
+                        "anywhere on the command line)")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in COMMANDS:
         importlib.import_module(f"{__name__}.{name}").add_subparser(sub)
     return p
 
 
+# Positional and option names that hold the command's input, in the order an error
+# line names them.
+_INPUTS = ("files", "table", "upload", "file", "motor", "words")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run one command. The error contract: 0 ok, 1 findings, 2 unusable input with one
+    line on stderr naming the command (and the input); an unexpected exception is a bug,
+    reported the same way as an internal error (`--debug` shows the traceback) and never
+    as exit 1, which CI reads as "findings"."""
+    args_list = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in args_list or bool(os.environ.get("STEPRAMP_DEBUG"))
+    args_list = [a for a in args_list if a != "--debug"]
     parser = build_parser()
     try:
-        args = parser.parse_args(argv)
-    except SystemExit as e:  # argparse prints its own one-line usage error
-        return EXIT_UNUSABLE if e.code not in (0, None) else EXIT_OK
+        args = parser.parse_args(args_list)
+    except SystemExit as e:  # --help/--version (0) or a usage error (printed, 2)
+        return EXIT_OK if e.code in (0, None) else EXIT_UNUSABLE
+    command = " ".join(x for x in (args.command, getattr(args, f"{args.command}_command", None))
+                       if x)
     try:
         return int(args.func(args))
     except StepRampError as e:
-        print(f"stepramp {args.command}: {e}", file=sys.stderr)
+        _say(command, str(e))
         return EXIT_UNUSABLE
-    except OSError as e:
-        print(f"stepramp {args.command}: {e.filename or ''}: {e.strerror or e}", file=sys.stderr)
-        return EXIT_UNUSABLE
-    except BrokenPipeError:  # pragma: no cover - `stepramp … | head`
+    except BrokenPipeError:  # `stepramp … | head`: the reader has all it wanted
+        _quiet_stdout()
         return EXIT_OK
+    except OSError as e:
+        where = f"{display_path(e.filename)}: " if e.filename else ""
+        _say(command, f"{where}{e.strerror or e}")
+        return EXIT_UNUSABLE
+    except KeyboardInterrupt:
+        _say(command, "interrupted")
+        return 128 + signal.SIGINT
+    except OutputInterrupted as e:
+        _say(command, f"interrupted by signal {e.signum}; no output was left half-written")
+        return 128 + e.signum
+    except Exception as e:  # the catch-all of the contract: a bug, never exit 1
+        if debug:
+            traceback.print_exc()
+        _say(command, f"internal error ({e.__class__.__name__}: {_first_line(e)})"
+                      f"{_input_of(args)}; this is a bug in stepramp: please report it "
+                      "(--debug shows the traceback)")
+        return EXIT_UNUSABLE
+
+
+def _say(command: str, message: str) -> None:
+    print(f"stepramp {command}: {display_path(_first_line(message))}", file=sys.stderr)
+
+
+def _first_line(e: object) -> str:
+    text = str(e).strip()
+    return text.splitlines()[0] if text else ""
+
+
+def _input_of(args: argparse.Namespace) -> str:
+    for name in _INPUTS:
+        value = getattr(args, name, None)
+        if value:
+            shown = " ".join(value) if isinstance(value, list) else str(value)
+            return f" on {shown[:200]}"
+    return ""
+
+
+def _quiet_stdout() -> None:
+    # Python would report the broken pipe again when it flushes stdout at exit.
+    with contextlib.suppress(OSError, ValueError):
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())

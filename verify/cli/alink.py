@@ -98,11 +98,11 @@ def _do_settings(args: argparse.Namespace) -> int:
 
 
 def _do_decode(args: argparse.Namespace) -> int:
-    import json
     from dataclasses import asdict
 
     from profiles import alink
     from profiles.errors import FieldRangeError, FormatError
+    from profiles.reading import json_text
     from verify.output import write_output
 
     words = []
@@ -118,7 +118,7 @@ def _do_decode(args: argparse.Namespace) -> int:
     resp = alink.decode_response(*words, expected_pair=args.pair, read_back=args.read_back)
     doc = asdict(resp)
     if args.format == "json":
-        write_output(None, json.dumps(doc, indent=1) + "\n")
+        write_output(None, json_text(doc))
     else:
         flags = [k for k, v in doc.items() if v is True and k not in ("ack", "valid", "read_back")]
         write_output(None, f"{'Ack' if resp.ack else 'Nak'}, value {resp.value}, pair codes "

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
 from ._common import (
@@ -42,13 +43,16 @@ def add_subparser(sub: Any) -> None:
 
 def _do_check(args: argparse.Namespace) -> int:
     from profiles.errors import FormatError
+    from profiles.reading import display_path
     from verify.checking import check_file
     from verify.output import write_output
     from verify.report import render
 
-    if args.pulses is not None and not args.motor:
+    if args.pulses is not None and args.motor is None:
         raise FormatError("--pulses limits the stall verdict: it needs --motor")
-    motor = load_motor(args.motor) if args.motor else None
+    # `is not None`: --motor '' is a wrong path, not "no motor" (the stall check would
+    # silently not run and the table pass).
+    motor = load_motor(args.motor) if args.motor is not None else None
     with progress_bar("check over the tolerance box", unit="part") as progress:
         results = [check_file(path, motor, args.extck_hz, pulses=args.pulses,
                               physics=args.physics, samples=args.samples, seed=args.seed,
@@ -56,5 +60,12 @@ def _do_check(args: argparse.Namespace) -> int:
                    for path in args.files]
     write_output(args.output, render(results, args.format))
     if any(r.error for r in results):
+        # The report says it too, but it may have gone to a file: one line per unusable input.
+        for r in results:
+            if r.error:
+                name = display_path(r.path)
+                shown = display_path(r.error)
+                print(f"stepramp check: {shown if shown.startswith(name) else f'{name}: {shown}'}",
+                      file=sys.stderr)
         return EXIT_UNUSABLE
     return EXIT_OK if all(r.ok for r in results) else EXIT_FINDINGS

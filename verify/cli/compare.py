@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 from typing import Any
 
 from ._common import EXIT_FINDINGS, EXIT_OK, fields_as_options, positive_int
@@ -30,6 +29,7 @@ def _do_compare(args: argparse.Namespace) -> int:
     from profiles.errors import FormatError
     from profiles.motor import load_motor
     from profiles.ppmc312.table import load_table
+    from profiles.reading import json_text
     from verify.compare import compare_table
     from verify.output import write_output
     from verify.references import SOLVERS
@@ -48,7 +48,7 @@ def _do_compare(args: argparse.Namespace) -> int:
     if args.plot:
         result.plot(args.plot)
     if args.format == "json":
-        write_output(None, json.dumps(result.to_json(), indent=1) + "\n")
+        write_output(None, json_text(result.to_json()))
     else:
         write_output(None, result.to_text())
     return EXIT_OK if result.safe else EXIT_FINDINGS

@@ -18,6 +18,9 @@ def add_subparser(sub: Any) -> None:
     d.add_argument("--clock", type=clock_or_extck,
                    help=f"with --table-read: the table's clock, {CLOCK_NAMES}, or EXTCK with "
                         "--extck-hz")
+    d.add_argument("--edge", choices=("rising", "falling"), default=None,
+                   help="with --table-read --clock EXTCK: the EXTCK edge the chip counts "
+                        "(default rising; the response does not carry it)")
     d.add_argument("-o", "--output", metavar="TABLE",
                    help="write the table file here (default stdout)")
     d.set_defaults(func=_do_decode)
@@ -26,10 +29,12 @@ def add_subparser(sub: Any) -> None:
 def _do_decode(args: argparse.Namespace) -> int:
     from profiles.ppmc312.files import parse_upload
     from profiles.ppmc312.table import Table, dump_table
-    from profiles.reading import read_bytes
+    from profiles.reading import read_bytes, require_shallow_json
     from verify.output import write_output
 
-    blocks = parse_upload(read_bytes(args.upload))
+    raw = read_bytes(args.upload)
+    require_shallow_json(raw, args.upload)  # a JSON upload is parsed by files.parse_upload
+    blocks = parse_upload(raw)
     table: Table
     with fields_as_options({"extck_hz": "--extck-hz"}):
         table = _decode(args, blocks)
@@ -42,6 +47,9 @@ def _decode(args: argparse.Namespace, blocks: Any) -> Any:
     from profiles.ppmc312.clock import Clock
     from profiles.ppmc312.upload import decode_table_read, decode_upload
 
+    if args.edge is not None and not (args.table_read and args.clock == "EXTCK"):
+        raise FormatError("--edge is for --table-read --clock EXTCK (an upload carries its "
+                          "edge in the CLK field)")
     if args.table_read:
         # The table-read response (41) carries stages, not the CLK field: the user says.
         if not args.clock:
@@ -49,7 +57,7 @@ def _decode(args: argparse.Namespace, blocks: Any) -> Any:
         if args.clock == "EXTCK":
             if args.extck_hz is None:
                 raise FormatError("--clock EXTCK needs --extck-hz (the external frequency)")
-            clock = Clock.extck(args.extck_hz)
+            clock = Clock.extck(args.extck_hz, args.edge or "rising")
         else:
             clock = Clock.internal(args.clock)
         return decode_table_read(blocks, clock=clock)

@@ -73,18 +73,17 @@ def _do_stream(args: argparse.Namespace) -> int:
 
 
 def _do_decode(args: argparse.Namespace) -> int:
-    import json
     from dataclasses import asdict
 
     from profiles import mc200
-    from profiles.reading import read_bytes
+    from profiles.reading import json_text, read_bytes
     from verify.output import write_output
 
     packets = mc200.decode_stream(read_bytes(args.file), args.direction)
     rows = [asdict(p) for p in packets]
     if args.format == "json":
-        write_output(None, json.dumps({"direction": args.direction, "packets": rows},
-                                      indent=1) + "\n")
+        # json_text: a float32 velocity field can hold NaN, which JSON cannot
+        write_output(None, json_text({"direction": args.direction, "packets": rows}))
     else:
         write_output(None, "".join(
             f"{i:6d}  " + " ".join(f"{k}={v}" for k, v in row.items()) + "\n"

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from collections.abc import Callable
 from typing import Any
@@ -64,6 +63,7 @@ def _do_plan(args: argparse.Namespace) -> int:
     from profiles.errors import FormatError
     from profiles.motor import load_motor
     from profiles.ppmc312.table import dump_table
+    from profiles.reading import json_text
     from verify.output import write_output
 
     if args.moves is not None and (args.pulses is not None or args.source):
@@ -98,7 +98,7 @@ def _do_plan(args: argparse.Namespace) -> int:
     # The table owns stdout when no -o is given; the summary then goes to stderr.
     stream = sys.stdout if args.output else sys.stderr
     if args.format == "json":
-        print(json.dumps(summary), file=stream)
+        print(json_text(summary, indent=None), end="", file=stream)
     else:
         print(", ".join(f"{k}: {_fmt(v)}" for k, v in summary.items() if v not in (None, "")),
               file=stream)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 from typing import Any
 
 from ._common import EXIT_OK, fields_as_options, positive_int
@@ -25,7 +24,8 @@ def add_subparser(sub: Any) -> None:
     s.add_argument("--csv", metavar="OUT",
                    help="write the per-stage timeline as CSV (ticks and s)")
     s.add_argument("--pulse-times", metavar="OUT",
-                   help="write every pulse's time as CSV (pulse, time_s [s]); at most 10 M pulses")
+                   help="write every pulse's time as CSV (pulse, time_s [s]), streamed; at most "
+                        "10 M pulses")
     s.add_argument("--samples", metavar="OUT",
                    help="write the staircase sampled at 1000 points as CSV (t_s [s], x_pulses, "
                         "v_pps [pps], a_pps2 [pps²])")
@@ -34,9 +34,15 @@ def add_subparser(sub: Any) -> None:
 
 def _do_simulate(args: argparse.Namespace) -> int:
     from profiles.errors import FormatError
-    from profiles.ppmc312.execution import pulse_times_csv, samples_csv, simulate_move, to_csv
+    from profiles.ppmc312.execution import (
+        pulse_times_csv_chunks,
+        samples_csv,
+        simulate_move,
+        to_csv,
+    )
     from profiles.ppmc312.table import load_table
-    from verify.output import write_output
+    from profiles.reading import json_text
+    from verify.output import Data, write_output, write_outputs
 
     if args.axes is not None:
         if args.table is not None or args.pulses is not None or args.high_rate:
@@ -49,14 +55,18 @@ def _do_simulate(args: argparse.Namespace) -> int:
     with fields_as_options({"pulses": "--pulses",
                             "high_rate": "--high-rate (0: the table's)"}):
         execution = simulate_move(table, args.pulses, high_rate=args.high_rate)
+    # All files or none: a failing --pulse-times leaves no --csv behind. The pulse times
+    # are written as they are computed (memory does not grow with the move).
+    files: list[tuple[str | None, Data]] = []
     if args.csv:
-        write_output(args.csv, to_csv(execution))
+        files.append((args.csv, to_csv(execution)))
     if args.pulse_times:
-        write_output(args.pulse_times, pulse_times_csv(execution))
+        files.append((args.pulse_times, pulse_times_csv_chunks(execution)))
     if args.samples:
-        write_output(args.samples, samples_csv(execution, 1000))
+        files.append((args.samples, samples_csv(execution, 1000)))
+    write_outputs(files)
     if args.format == "json":
-        write_output(None, json.dumps(execution.to_json(), indent=1) + "\n")
+        write_output(None, json_text(execution.to_json()))
     else:
         lines = [f"shape: {execution.shape} (status 0x{execution.status:02X})",
                  f"pulses: {execution.pulses}",
@@ -74,6 +84,7 @@ def _simulate_axes(args: argparse.Namespace) -> int:
     from profiles.ppmc312.execution import simulate_move
     from profiles.ppmc312.sync import line_deviation
     from profiles.ppmc312.table import load_table
+    from profiles.reading import json_text
     from verify.output import write_output
     from verify.sync import joint_timeline
 
@@ -93,7 +104,7 @@ def _simulate_axes(args: argparse.Namespace) -> int:
                         for n, a, e in zip(names, axes.axes, runs, strict=True)],
                "finish_spread_s": max(d) - min(d),
                "max_line_deviation_pulses": line_deviation(runs)[0]}
-        write_output(None, json.dumps(doc, indent=1) + "\n")
+        write_output(None, json_text(doc))
     else:
         write_output(None, joint_timeline(names, runs))
     return EXIT_OK

@@ -1,0 +1,392 @@
+"""Fuzzing the `stepramp` command in-process: hostile files and command lines.
+
+Every case runs `verify.cli.main(argv)` on a mutated input file (tables, motors, upload
+files in each format, table-read answers, MC-200 packet files) or a mutated command line
+and holds it to the CLI's contract:
+- the exit code is 0, 1 or 2;
+- no traceback and no "internal error" (the error contract's catch-all: a bug);
+- exit 2 prints exactly one line on stderr, naming the command;
+- after exit 2, no output file and no temp file is left behind;
+- `check` on a free-curve table gives the verdict of a plain re-statement of the chip's
+  rules written here (exit 1 exactly when one is broken).
+
+`tests/test_fuzz.py` drives the same generators from hypothesis; this script runs a
+longer seeded campaign and prints counts per command:
+
+    python bench/fuzz.py [--cases 20000] [--seed 1]
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import json
+import os
+import random
+import re
+import sys
+import tempfile
+import time
+from collections import Counter, defaultdict
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+EXAMPLES = ROOT / "examples"
+MOTORS = sorted((ROOT / "profiles" / "data").glob("motor-*.json"))
+
+# Values a hostile JSON number or option can take.
+NUMBERS = ["0", "-1", "1", "2", "255", "256", "65535", "65536", "1048575", "1048576",
+           "4294967295", "4294967296", "18446744073709551616", "1e308", "-1e308", "1e-320",
+           "1.5", "0.0", "-0", "1e999", "NaN", "Infinity", "1" * 50, "1" * 4301,
+           '"12"', "null", "true", "[]", "{}"]
+OPTION_VALUES = ["0", "1", "-1", "3", "30", "31", "0x10", "1e-9", "1e9", "nan", "inf", "-inf",
+                 "", "-", "abc", "1" * 30, "4294967296", "65535", "8MHz", "EXTCK", "15.625kHz"]
+PATH_NAMES = ["", "-", "/dev/zero", "/dev/null", "/", "missing.json",
+              os.fsdecode(b"odd\xff.json"), "a" * 300]
+
+
+@dataclass
+class Outcome:
+    command: str
+    argv: list[str]
+    code: int
+    out: str
+    err: str
+    problems: list[str] = field(default_factory=list)
+
+
+def seeds() -> dict[str, bytes]:
+    """Valid inputs of every kind, made with the CLI itself (so they follow its formats)."""
+    out: dict[str, bytes] = {
+        "table-free": (EXAMPLES / "free-curve-nema17.json").read_bytes(),
+        "table-bad": (EXAMPLES / "free-curve-bad.json").read_bytes(),
+        "table-init": (EXAMPLES / "init-linear.json").read_bytes(),
+        "table-read": (EXAMPLES / "free-curve-nema17.read.hex").read_bytes(),
+        "motor": MOTORS[0].read_bytes(),
+    }
+    with tempfile.TemporaryDirectory() as tmp:
+        for fmt in ("hex", "bin", "json", "c", "bus"):
+            target = Path(tmp) / f"u.{fmt}"
+            run_cli(["export", str(EXAMPLES / "free-curve-nema17.json"), "--format", fmt,
+                     "-o", str(target)])
+            if target.exists():
+                out[f"upload-{fmt}"] = target.read_bytes()
+        target = Path(tmp) / "init.hex"
+        run_cli(["export", str(EXAMPLES / "init-linear.json"), "-o", str(target)])
+        out["upload-init"] = target.read_bytes()
+        for fmt in ("hex", "bin"):
+            target = Path(tmp) / f"s.{fmt}"
+            run_cli(["mc200", "stream", "--vmax", "20000", "--amax", "200000", "--jmax",
+                     "5000000", "--pulses", "400", "--period-us", "1000", "--format", fmt,
+                     "-o", str(target)])
+            if target.exists():
+                out[f"mc200-{fmt}"] = target.read_bytes()
+    return out
+
+
+# --- mutations -----------------------------------------------------------------------
+def mutate(data: bytes, rnd: random.Random) -> bytes:
+    """One to three random edits: bit flips, bytes set, cut, repeated or spliced, and for
+    text, numbers replaced by hostile ones or nesting deepened."""
+    for _ in range(rnd.randint(1, 3)):
+        data = rnd.choice(_MUTATIONS)(bytearray(data), rnd)
+    return bytes(data)
+
+
+def _flip(d: bytearray, rnd: random.Random) -> bytes:
+    if d:
+        d[rnd.randrange(len(d))] ^= 1 << rnd.randrange(8)
+    return bytes(d)
+
+
+def _set_byte(d: bytearray, rnd: random.Random) -> bytes:
+    if d:
+        d[rnd.randrange(len(d))] = rnd.choice([0, 0xFF, 0x80, 0x7F, ord("{"), ord("["),
+                                               ord('"'), rnd.randrange(256)])
+    return bytes(d)
+
+
+def _cut(d: bytearray, rnd: random.Random) -> bytes:
+    if not d:
+        return b""
+    i = rnd.randrange(len(d))
+    j = min(len(d), i + rnd.randint(1, 64))
+    return bytes(d[:i] + d[j:]) if rnd.random() < 0.7 else bytes(d[:i])
+
+
+def _repeat(d: bytearray, rnd: random.Random) -> bytes:
+    if not d:
+        return b""
+    i = rnd.randrange(len(d))
+    j = min(len(d), i + rnd.randint(1, 64))
+    return bytes(d[:j] + d[i:j] * rnd.randint(1, 8) + d[j:])
+
+
+def _splice(d: bytearray, rnd: random.Random) -> bytes:
+    junk = rnd.choice([b"\x00", b"\xff\xfe", "é".encode(), b"\n", b",", b"-", b"0x",
+                       bytes(rnd.randrange(256) for _ in range(rnd.randint(1, 16)))])
+    i = rnd.randrange(len(d) + 1)
+    return bytes(d[:i] + junk + d[i:])
+
+
+_NUMBER = re.compile(rb"-?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?")
+
+
+def _number(d: bytearray, rnd: random.Random) -> bytes:
+    spans = [m.span() for m in _NUMBER.finditer(d)]
+    if not spans:
+        return bytes(d)
+    i, j = rnd.choice(spans)
+    return bytes(d[:i] + rnd.choice(NUMBERS).encode() + d[j:])
+
+
+def _deepen(d: bytearray, rnd: random.Random) -> bytes:
+    n = rnd.choice([10, 63, 64, 65, 1000, 100_000])
+    i = rnd.randrange(len(d) + 1)
+    return bytes(d[:i] + b"[" * n + b"1" + b"]" * n + d[i:])
+
+
+_MUTATIONS: list[Callable[[bytearray, random.Random], bytes]] = [
+    _flip, _flip, _set_byte, _cut, _repeat, _splice, _number, _number, _deepen]
+
+
+# --- running the CLI in-process -----------------------------------------------------
+class _Stdout(io.TextIOWrapper):
+    def __init__(self) -> None:
+        super().__init__(io.BytesIO(), encoding="utf-8", errors="strict", write_through=True)
+
+    def text(self) -> str:
+        self.flush()
+        raw = self.buffer.getvalue()  # type: ignore[attr-defined]
+        return raw.decode("utf-8", "backslashreplace")
+
+
+def run_cli(argv: list[str]) -> tuple[int, str, str]:
+    from verify.cli import main
+
+    out, err = _Stdout(), _Stdout()
+    stdin = io.TextIOWrapper(io.BytesIO(b""), encoding="utf-8")
+    saved = sys.stdout, sys.stderr, sys.stdin
+    sys.stdout, sys.stderr, sys.stdin = out, err, stdin
+    try:
+        code = main(argv)
+    except SystemExit as e:  # main must not exit; report it as a problem below
+        code = -1 if not isinstance(e.code, int) else 100 + e.code
+    finally:
+        sys.stdout, sys.stderr, sys.stdin = saved
+    return code, out.text(), err.text()
+
+
+def judge(command: str, argv: list[str], folder: Path, before: set[str],
+          expect: int | None = None) -> Outcome:
+    """Run one case and list every way it breaks the contract."""
+    code, out, err = run_cli(argv)
+    o = Outcome(command, argv, code, out, err)
+    if code not in (0, 1, 2):
+        o.problems.append(f"exit code {code}")
+    if "Traceback" in err or "Traceback" in out:
+        o.problems.append("traceback")
+    if "internal error" in err:
+        o.problems.append("internal error: " + err.strip()[:200])
+    if code == 2:
+        lines = err.splitlines()
+        if len(lines) != 1:
+            o.problems.append(f"exit 2 with {len(lines)} lines on stderr")
+        elif not lines[0].startswith(f"stepramp {command.split()[0]}"):
+            o.problems.append(f"error line does not name the command: {lines[0][:80]}")
+        left = sorted(set(os.listdir(folder)) - before)
+        if left:
+            o.problems.append(f"exit 2 left files behind: {left}")
+    if code in (0, 1):
+        hidden = [n for n in os.listdir(folder) if n.startswith(".") and n not in before]
+        if hidden:
+            o.problems.append(f"temp files left: {hidden}")
+    if expect is not None and code in (0, 1) and code != expect:
+        o.problems.append(f"verdict {code}, the plain rules say {expect}")
+    return o
+
+
+# --- a plain statement of the free-curve rules (the verdict oracle) ------------------
+def plain_verdict(raw: bytes) -> int | None:
+    """1 if a free-curve table JSON breaks a chip rule, 0 if not, None if it is not a
+    well-formed free-curve table (then only the contract is judged)."""
+    try:
+        doc = json.loads(raw)
+    except (ValueError, RecursionError):
+        return None
+    if not isinstance(doc, dict) or doc.get("kind") != "free_curve":
+        return None
+    clock = {"8MHz": 8e6, "1MHz": 1e6, "500kHz": 5e5, "250kHz": 2.5e5, "62.5kHz": 62500.0,
+             "15.625kHz": 15625.0}.get(doc.get("clock"))  # type: ignore[arg-type]
+    rates, acc, dec = doc.get("rates"), doc.get("accel_pulses"), doc.get("decel_pulses")
+    lists = [x for x in (rates, acc, dec) if x is not None]
+    if clock is None or set(doc) - {"format", "device", "kind", "clock", "rates",
+                                    "accel_pulses", "decel_pulses"} or doc.get(
+            "format") != "stepramp.table/1" or doc.get("device") != "ppmc312":
+        return None
+    if not all(isinstance(x, list) and all(type(v) is int and 0 <= v <= 0xFFFFFF for v in x)
+               for x in lists) or rates is None or acc is None:
+        return None
+    if any(v > 0xFFFF for v in rates) or len(rates) != max(len(acc), len(dec or [])) or any(
+            len(x) > 255 for x in lists):
+        return None
+    sides = [acc] + ([dec] if dec is not None else [])
+    broken = any(not 2 <= len(s) <= 127 for s in sides)
+    broken |= any(r <= 1 or clock / r > 2e6 for r in rates)
+    for s in sides:
+        broken |= any(p <= 1 or p > 0xFFFFF for p in s) or sum(s) > 0xFFFFF
+        broken |= any(p * r < 256 and p > 1 and r > 1 for p, r in zip(s, rates, strict=False))
+    return int(broken)
+
+
+# --- cases ------------------------------------------------------------------------------
+FILE_COMMANDS: list[tuple[str, str, list[str]]] = [
+    # (command label, seed kind, argv template: FILE and OUT are filled in)
+    ("check", "table-free", ["check", "FILE"]),
+    ("check", "table-bad", ["check", "FILE", "--format", "json"]),
+    ("check", "table-init", ["check", "FILE", "--format", "junit", "-o", "OUT"]),
+    ("check", "upload-hex", ["check", "FILE"]),
+    ("check", "upload-bin", ["check", "FILE"]),
+    ("check", "upload-json", ["check", "FILE"]),
+    ("check", "upload-c", ["check", "FILE"]),
+    ("check", "upload-init", ["check", "FILE"]),
+    ("check --motor", "motor", ["check", "EXAMPLE", "--motor", "FILE"]),
+    ("export", "table-free", ["export", "FILE", "-o", "OUT"]),
+    ("export", "table-init", ["export", "FILE", "--format", "json", "-o", "OUT"]),
+    ("decode", "upload-hex", ["decode", "FILE", "-o", "OUT"]),
+    ("decode", "upload-bin", ["decode", "FILE"]),
+    ("decode", "upload-init", ["decode", "FILE"]),
+    ("decode --table-read", "table-read", ["decode", "FILE", "--table-read", "--clock", "8MHz"]),
+    ("expand", "table-init", ["expand", "FILE", "-o", "OUT"]),
+    ("simulate", "table-free", ["simulate", "FILE", "--pulses", "5000", "--csv", "OUT"]),
+    ("simulate", "table-init", ["simulate", "FILE", "--pulses", "3000", "--format", "json"]),
+    ("mc200 decode", "mc200-hex", ["mc200", "decode", "FILE", "--format", "json"]),
+    ("mc200 decode", "mc200-bin", ["mc200", "decode", "FILE", "--direction", "host"]),
+]
+
+ARGV_TEMPLATES: list[tuple[str, list[str]]] = [
+    ("check", ["check", "EXAMPLE", "--extck-hz", "V"]),
+    ("check", ["check", "PATH"]),
+    ("check --motor", ["check", "EXAMPLE", "--motor", "PATH"]),
+    ("export", ["export", "EXAMPLE", "--format", "hex", "--max-block-data", "V", "-o", "OUT"]),
+    ("export", ["export", "INIT", "--to", "ascii", "--address", "V"]),
+    ("export", ["export", "EXAMPLE", "-o", "PATH"]),
+    ("decode", ["decode", "PATH"]),
+    ("decode --table-read", ["decode", "READ", "--table-read", "--clock", "V", "--extck-hz",
+                             "V"]),
+    ("move", ["move", "--pulses", "V", "--high-rate", "V"]),
+    ("move", ["move", "--pulses", "V", "--to", "ascii", "--address", "V"]),
+    ("expand", ["expand", "PATH"]),
+    ("simulate", ["simulate", "EXAMPLE", "--pulses", "V", "--high-rate", "V"]),
+    ("alink decode", ["alink", "decode", "V", "V", "V"]),
+    ("alink settings", ["alink", "settings", "--start-pps", "V", "--high-pps", "V",
+                        "--accel-ms-per-kpps", "V"]),
+    ("mc200 stream", ["mc200", "stream", "--vmax", "V", "--amax", "200000", "--jmax",
+                      "5000000", "--pulses", "400", "--period-us", "V"]),
+    ("mc200 decode", ["mc200", "decode", "PATH"]),
+    ("usage", ["V", "V"]),
+    ("usage", ["check"]),
+    ("usage", ["export", "EXAMPLE", "--format", "V"]),
+]
+
+
+def file_case(rnd: random.Random, seed_data: dict[str, bytes], folder: Path,
+              index: int | None = None) -> Outcome:
+    label, kind, template = FILE_COMMANDS[rnd.randrange(len(FILE_COMMANDS))
+                                          if index is None else index]
+    raw = mutate(seed_data[kind], rnd) if rnd.random() < 0.95 else seed_data[kind]
+    name = "input" + Path(template[1] if False else kind).suffix
+    path = folder / name
+    path.write_bytes(raw)
+    argv = [_fill(a, folder, path) for a in template]
+    before = set(os.listdir(folder))
+    expect = plain_verdict(raw) if template[:2] == ["check", "FILE"] and kind.startswith(
+        "table") and "--motor" not in template else None
+    outcome = judge(label, argv, folder, before, expect)
+    path.unlink()
+    _clean(folder)
+    return outcome
+
+
+def argv_case(rnd: random.Random, folder: Path, index: int | None = None) -> Outcome:
+    label, template = ARGV_TEMPLATES[rnd.randrange(len(ARGV_TEMPLATES))
+                                     if index is None else index]
+    argv = []
+    for a in template:
+        if a == "V":
+            argv.append(rnd.choice(OPTION_VALUES))
+        elif a == "PATH":
+            argv.append(rnd.choice(PATH_NAMES + [str(folder)]))
+        else:
+            argv.append(_fill(a, folder, None))
+    before = set(os.listdir(folder))
+    outcome = judge(label, argv, folder, before)
+    _clean(folder)
+    return outcome
+
+
+def _fill(a: str, folder: Path, path: Path | None) -> str:
+    return {"FILE": str(path), "OUT": str(folder / "out.txt"),
+            "EXAMPLE": str(EXAMPLES / "free-curve-nema17.json"),
+            "INIT": str(EXAMPLES / "init-linear.json"),
+            "READ": str(EXAMPLES / "free-curve-nema17.read.hex")}.get(a, a)
+
+
+def _clean(folder: Path) -> None:
+    for p in folder.iterdir():
+        with contextlib.suppress(OSError):
+            p.unlink()
+
+
+def campaign(cases: int, seed: int) -> Iterator[Outcome]:
+    rnd = random.Random(seed)
+    seed_data = seeds()
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        for _ in range(cases):
+            if rnd.random() < 0.75:
+                yield file_case(rnd, seed_data, folder)
+            else:
+                yield argv_case(rnd, folder)
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cases", type=int, default=20_000)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--show", type=int, default=20, help="problem cases to print")
+    args = ap.parse_args()
+    started = time.monotonic()
+    counts: dict[str, Counter[str]] = defaultdict(Counter)
+    shown = 0
+    for o in campaign(args.cases, args.seed):
+        c = counts[o.command]
+        c["cases"] += 1
+        c[f"exit {o.code}"] += 1
+        if o.problems:
+            c["problems"] += 1
+            if shown < args.show:
+                shown += 1
+                print(f"PROBLEM {o.command}: {o.problems} argv={o.argv[:6]}", file=sys.stderr)
+    total = Counter[str]()
+    print("| command | cases | exit 0 | exit 1 | exit 2 | contract broken |")
+    print("|---|---|---|---|---|---|")
+    for name in sorted(counts):
+        c = counts[name]
+        total.update(c)
+        print(f"| {name} | {c['cases']} | {c['exit 0']} | {c['exit 1']} | {c['exit 2']} | "
+              f"{c['problems']} |")
+    print(f"| **all** | {total['cases']} | {total['exit 0']} | {total['exit 1']} | "
+          f"{total['exit 2']} | {total['problems']} |")
+    print(f"({time.monotonic() - started:.0f} s, seed {args.seed})")
+    return 1 if total["problems"] else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
