@@ -425,7 +425,13 @@ FREE_CASES: list[tuple[str, FreeCurveTable, list[Pin]]] = [
     ("stop at 1MHz rate 16", fc([10, 16], [100, 100], clock=C1),
      [(W, "stop-speed-high", None, 1)]),
     ("stop at 1MHz rate 17", fc([10, 17], [100, 100], clock=C1), []),
-    # order: errors first; table-wide before staged; by stage
+    # at 1 MHz rate 2 is 500 kpps: legal beside a rate-1 stage
+    ("rates 1, 2 at 1MHz", fc([1, 2, 600], [300, 200, 100], clock=C1),
+     [(E, "rate-min", 0x18, 0), (W, "stage-short", None, 1)]),
+    # order: errors first; table-wide before staged; by stage, whatever rule found it first
+    ("order by stage across rules", fc([400, 500, 1, 700], [1, 100, 300, 100]),
+     [(E, "pulses-min", 0x19, 0), (E, "rate-min", 0x18, 2), (W, "rates-monotonic", None, 2),
+      (W, "stage-short", None, 2)]),
     ("order", fc([400, 1, 380, 500], [100, 300, 0, 100], [100]),
      [(E, "stage-count", 0x11, None), (E, "rate-min", 0x18, 1), (E, "pulses-min", 0x19, 2),
       (W, "decel-stage-count", None, None), (W, "rates-monotonic", None, 1),
@@ -505,3 +511,28 @@ INIT_CASES: list[tuple[str, InitTable, list[Pin]]] = [
                          ids=[c[0] for c in INIT_CASES])
 def test_init_rule_pinned(t: InitTable, expected: list[Pin]) -> None:
     assert pinned(t) == expected
+
+
+def test_rate_min_advice_at_slow_clocks_is_rate_2() -> None:
+    (f,) = [x for x in check_table(fc([1, 500, 600], [300, 100, 100], clock=C1))]
+    assert "raise it to ≥ 2 (≤ 2 Mpps at 1MHz)" in f.message
+    (f,) = [x for x in check_table(fc([1, 500, 600], [300, 100, 100]))]
+    assert "raise it to ≥ 4 (≤ 2 Mpps at 8MHz)" in f.message
+
+
+@pytest.mark.parametrize("decel, says", [
+    ((100, 100), "decel uses only the 2 fastest rates (rates[0..1]) and starts/stops at rate 500;"),
+    ((100,), "decel uses only the 1 fastest rates (rates[0..0]) and starts/stops at rate 400;"),
+    ((), "decel uses only the 0 fastest rates (rates[0..-1]); give"),
+])
+def test_decel_stage_count_message_names_the_end_rate(decel: tuple[int, ...], says: str) -> None:
+    t = fc([400, 500, 600], [100] * 3, list(decel))
+    (f,) = [x for x in check_table(t) if x.rule == "decel-stage-count"]
+    assert says in f.message
+
+
+def test_accel_side_shorter_message() -> None:
+    t = fc([400, 500, 600], [100, 100], [100] * 3)
+    (f,) = [x for x in check_table(t) if x.rule == "decel-stage-count"]
+    assert "accel uses only the 2 fastest rates (rates[0..1]) and starts/stops at rate 500" \
+        in f.message
