@@ -336,7 +336,7 @@ def argv_case(rnd: random.Random, folder: Path, index: int | None = None) -> Out
         if a == "V":
             argv.append(rnd.choice(OPTION_VALUES))
         elif a == "PATH":
-            argv.append(rnd.choice(PATH_NAMES + [str(folder)]))
+            argv.append(rnd.choice([*PATH_NAMES, str(folder)]))
         else:
             argv.append(_fill(a, folder, None))
     before = set(os.listdir(folder))
