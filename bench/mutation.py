@@ -25,6 +25,7 @@ import ast
 import importlib.abc
 import importlib.util
 import os
+import re
 import signal
 import sys
 import time
@@ -44,7 +45,22 @@ MODULES: dict[str, tuple[str, list[str]]] = {
 }
 
 # (module key, line, mutation) → why the mutant cannot change what the module does.
-EQUIVALENT: dict[tuple[str, int, str], str] = {}
+_SORT_GUARD = "the guard only skips sorting a list of 0 or 1 findings, already in order"
+_KEY_NONE = ("the third key element of a finding without a stage is only ever compared with "
+             "another such finding's (the second element separates them from staged ones)")
+_PREFILTER = ("a pre-filter before the exact per-stage test: entering the loop more often "
+              "finds nothing more")
+EQUIVALENT: dict[tuple[str, int, str], str] = {
+    ("checks", 75, "1 → 0"): _SORT_GUARD,
+    ("checks", 75, "> → >="): _SORT_GUARD,
+    ("checks", 81, "1 → 2"): _KEY_NONE,
+    ("checks", 81, "1 → 0"): _KEY_NONE,
+    ("checks", 112, "< → <="): "the branch runs only when the two counts differ",
+    ("checks", 113, "<= → <"): ("n_short is the shorter side's count and rates has the "
+                                "longer side's: n_short < len(rates) whenever this runs"),
+    ("checks", 125, "1 → 2"): _PREFILTER,
+    ("checks", 125, "> → >="): _PREFILTER,
+}
 
 
 @dataclass(frozen=True)
@@ -257,6 +273,41 @@ def run_module(key: str, timeout: float, only: set[int] | None) -> dict[str, obj
             "survivors": survivors}
 
 
+_LOG_LINE = re.compile(r"^\s*(\w+) #(\d+) line (\d+): (.*): (killed|survived|timeout)$")
+
+
+def rescore(lines: list[str], reruns: list[str]) -> list[dict[str, object]]:
+    """Scores from logged verdicts (stderr of earlier runs): each mutant's last verdict
+    counts, so a re-run of survivors after new tests replaces their first verdict."""
+    verdicts: dict[tuple[str, int], tuple[Site, str]] = {}
+    for line in lines + [x for log in reruns for x in Path(log).read_text().splitlines()]:
+        m = _LOG_LINE.match(line)
+        if m:
+            key, index, lineno, what, verdict = m.groups()
+            verdicts[(key, int(index))] = (Site(int(index), int(lineno), what), verdict)
+    results = []
+    for key in MODULES:
+        mine = [v for (k, _), v in sorted(verdicts.items()) if k == key]
+        if not mine:
+            continue
+        counts = {"killed": 0, "timeout": 0, "survived": 0, "equivalent": 0}
+        survivors: list[tuple[Site, str]] = []
+        for site, verdict in mine:
+            reason = EQUIVALENT.get((key, site.line, site.what))
+            if verdict == "survived" and reason is not None:
+                counts["equivalent"] += 1
+                survivors.append((site, f"equivalent: {reason}"))
+            else:
+                counts[verdict] += 1
+                if verdict == "survived":
+                    survivors.append((site, "SURVIVED"))
+        scored = len(mine) - counts["equivalent"]
+        results.append({"module": key, "mutants": len(mine), **counts,
+                        "score": (counts["killed"] + counts["timeout"]) / scored if scored
+                        else 1.0, "survivors": survivors})
+    return results
+
+
 def _table(results: list[dict[str, object]]) -> Iterator[str]:
     yield "| module | mutants | killed | timeout | equivalent | survived | score |"
     yield "|---|---|---|---|---|---|---|"
@@ -268,18 +319,32 @@ def _table(results: list[dict[str, object]]) -> Iterator[str]:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("modules", nargs="*", choices=list(MODULES), default=[])
+    ap.add_argument("modules", nargs="*", default=[], help=f"any of {', '.join(MODULES)}")
     ap.add_argument("--timeout", type=float, default=30.0, help="seconds per mutant")
     ap.add_argument("--list", action="store_true", help="list the mutation sites only")
     ap.add_argument("--only", help="comma-separated site indexes (one module)")
+    ap.add_argument("--rescore", metavar="LOG",
+                    help="no run: score the per-mutant lines of an earlier run's stderr")
+    ap.add_argument("--rerun", metavar="LOG", action="append",
+                    help="with --rescore: later runs of some mutants (--only), which win")
     args = ap.parse_args()
     keys = args.modules or list(MODULES)
+    if set(keys) - set(MODULES):
+        ap.error(f"unknown module(s) {sorted(set(keys) - set(MODULES))}")
     if args.list:
         for key in keys:
             name = MODULES[key][0]
             source = (ROOT / (name.replace(".", "/") + ".py")).read_text()
             for s in sites(source):
                 print(f"{key} #{s.index} line {s.line}: {s.what}")
+        return 0
+    if args.rescore:
+        results = rescore(Path(args.rescore).read_text().splitlines(), args.rerun or [])
+        for line in _table(results):
+            print(line)
+        for r in results:
+            for site, why in r["survivors"]:  # type: ignore[attr-defined]
+                print(f"- {MODULES[str(r['module'])][0]} line {site.line}: {site.what}: {why}")
         return 0
     only = {int(x) for x in args.only.split(",")} if args.only else None
     _prepare_parent()
