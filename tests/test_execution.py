@@ -295,3 +295,53 @@ def test_every_shape_emits_exactly_the_requested_pulses(table: FreeCurveTable, p
         times = e.pulse_times_s()
         assert np.array_equal(e.position_at(times), np.arange(1, pulses + 1))
         assert e.position_at(0.0) == 0 and e.position_at(e.duration_s) == pulses
+
+
+# --- the model's chip codes and status bytes, pinned at their boundaries ----------------------
+
+def _move_error(table: FreeCurveTable, pulses: object, high_rate: object = 0) -> int | None:
+    from profiles.ppmc312.execution import MoveParameterError
+
+    try:
+        simulate_move(table, pulses, high_rate=high_rate)  # type: ignore[arg-type]
+    except MoveParameterError as e:
+        assert str(e).endswith(f"(the chip answers F0 {e.chip_code:02X})")
+        return e.chip_code
+    return None
+
+
+PINNED_TABLE = FreeCurveTable(MHZ1, (100, 200, 300), (10, 10, 10))
+
+
+@pytest.mark.parametrize("pulses, code", [
+    (0, 0x23), (1, None), (0xFFFFFFFF, None), (0x100000000, 0x23), (-1, 0x23), (True, 0x23),
+])
+def test_pulse_count_chip_code_0x23(pulses: object, code: int | None) -> None:
+    assert _move_error(PINNED_TABLE, pulses) == code
+
+
+@pytest.mark.parametrize("high_rate, code", [
+    (0, None), (99, 0x20), (100, None), (300, None), (301, 0x20), (1.5, 0x20),
+])
+def test_high_rate_chip_code_0x20(high_rate: object, code: int | None) -> None:
+    assert _move_error(PINNED_TABLE, 100, high_rate) == code
+
+
+@pytest.mark.parametrize("table, pulses, high_rate, shape, status", [
+    (PINNED_TABLE, 60, 0, "trapezoid", 0x00),
+    (PINNED_TABLE, 59, 0, "triangle", 0x10),
+    # LE=1, accel one stage longer: fewer pulses than its extra stage → straight accel
+    (FreeCurveTable(MHZ1, (100, 200, 300), (10, 10, 10), (10, 10)), 9, 0,
+     "straight_triangle_accel", 0x40),
+    (FreeCurveTable(MHZ1, (100, 200, 300), (10, 10, 10), (10, 10)), 10, 0, "triangle", 0x10),
+    # decel one stage longer → straight decel
+    (FreeCurveTable(MHZ1, (100, 200, 300), (10, 10), (10, 10, 10)), 9, 0,
+     "straight_triangle_decel", 0x20),
+    # a high rate slower than the accel side's second stage cannot accelerate
+    (PINNED_TABLE, 100, 201, "straight_triangle_decel", 0x20),
+    (PINNED_TABLE, 100, 200, "trapezoid", 0x00),
+])
+def test_shape_status_bytes(table: FreeCurveTable, pulses: int, high_rate: int, shape: str,
+                            status: int) -> None:
+    e = simulate_move(table, pulses, high_rate=high_rate)
+    assert (e.shape, e.status) == (shape, status)
