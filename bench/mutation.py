@@ -231,6 +231,14 @@ def run_one(name: str, path: Path, source: str, tests: list[str], timeout: float
         time.sleep(0.02)
 
 
+def _sample(key: str, n: int, seed: int) -> set[int]:
+    import random
+
+    name = MODULES[key][0]
+    count = len(sites((ROOT / (name.replace(".", "/") + ".py")).read_text()))
+    return set(random.Random(f"{seed}-{key}").sample(range(count), min(n, count)))
+
+
 def _prepare_parent() -> None:
     """Heavy imports once, before forking; the project's modules are NOT imported here
     (each child imports them fresh, the mutant among them)."""
@@ -323,6 +331,10 @@ def main() -> int:
     ap.add_argument("--timeout", type=float, default=30.0, help="seconds per mutant")
     ap.add_argument("--list", action="store_true", help="list the mutation sites only")
     ap.add_argument("--only", help="comma-separated site indexes (one module)")
+    ap.add_argument("--sample", type=int, metavar="N",
+                    help="run a random sample of N mutants per module (seeded): the score "
+                         "is then an estimate")
+    ap.add_argument("--seed", type=int, default=13, help="the sample's seed")
     ap.add_argument("--rescore", metavar="LOG",
                     help="no run: score the per-mutant lines of an earlier run's stderr")
     ap.add_argument("--rerun", metavar="LOG", action="append",
@@ -349,7 +361,8 @@ def main() -> int:
     only = {int(x) for x in args.only.split(",")} if args.only else None
     _prepare_parent()
     started = time.monotonic()
-    results = [run_module(k, args.timeout, only) for k in keys]
+    results = [run_module(k, args.timeout, only if args.sample is None
+                          else _sample(k, args.sample, args.seed)) for k in keys]
     for line in _table(results):
         print(line)
     for r in results:
