@@ -34,7 +34,7 @@ fuzz = importlib.util.module_from_spec(_spec)
 sys.modules["stepramp_fuzz"] = fuzz
 _spec.loader.exec_module(fuzz)
 
-FUZZ = settings(max_examples=60, deadline=None,
+FUZZ = settings(max_examples=40, deadline=None,
                 suppress_health_check=[HealthCheck.too_slow,
                                        HealthCheck.function_scoped_fixture])
 SEEDS = fuzz.seeds()
@@ -82,7 +82,7 @@ def test_readers_on_random_bytes(name: str, data: bytes) -> None:
 
 @pytest.mark.parametrize("index", range(len(fuzz.FILE_COMMANDS)),
                          ids=[f"{c[0]}-{c[1]}" for c in fuzz.FILE_COMMANDS])
-@settings(FUZZ, max_examples=15)
+@settings(FUZZ, max_examples=8)
 @given(rnd=st.randoms(use_true_random=False))
 def test_commands_on_mutated_files(index: int, rnd: random.Random, tmp_path: Path) -> None:
     folder = Path(tempfile.mkdtemp(dir=tmp_path))
@@ -92,7 +92,7 @@ def test_commands_on_mutated_files(index: int, rnd: random.Random, tmp_path: Pat
 
 @pytest.mark.parametrize("index", range(len(fuzz.ARGV_TEMPLATES)),
                          ids=[" ".join(t[1][:2]) for t in fuzz.ARGV_TEMPLATES])
-@settings(FUZZ, max_examples=10)
+@settings(FUZZ, max_examples=6)
 @given(rnd=st.randoms(use_true_random=False))
 def test_command_lines(index: int, rnd: random.Random, tmp_path: Path) -> None:
     folder = Path(tempfile.mkdtemp(dir=tmp_path))
