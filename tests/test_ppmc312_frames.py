@@ -110,3 +110,56 @@ def test_check_length_byte_and_choice_error() -> None:
     err2 = FieldChoiceError("trigger", 2, (1, 3))
     assert str(err2) == "trigger: 2 is not one of the allowed values 1, 3"
     assert isinstance(err2, FieldRangeError)
+
+
+# --- golden bytes of every fixed frame, written out by hand from the manual -----------------
+@pytest.mark.parametrize("frame, fields, hexed", [
+    (F.INIT_COMMON, dict(fo=1, clk=2, start_rate=0x1234, high_rate=0x0056,
+                         accel_pulses=0x0789AB), "03 09 00 0a 12 34 00 56 07 89 ab"),
+    (F.INIT_SEPARATE, dict(fo=0, clk=7, start_rate=0x1000, stop_rate=0x2000, high_rate=0x0100,
+                           accel_pulses=0x000300, decel_pulses=0x0FFFFF),
+     "03 0e 00 17 10 00 20 00 01 00 00 03 00 0f ff ff"),
+    (F.FC_COMMAND_COMMON, dict(clk=5, accel_stages=2), "02 03 01 05 02"),
+    (F.FC_COMMAND_SEPARATE, dict(clk=6, accel_stages=127, decel_stages=1), "02 04 01 16 7f 01"),
+    (F.MOVE, dict(dir=0, ov=0, trg=0, high_rate=0, pulses=1), "03 08 82 00 00 00 00 00 00 01"),
+    (F.FC_PROGRESS, dict(status=F.STATUS_ACCEL, remaining=0x7E), "03 03 01 01 7e"),
+    (F.FC_DONE, dict(accel_total=1, decel_total=0x100), "03 08 01 0f 00 00 01 00 01 00"),
+    (F.INIT_DONE, {}, "03 01 00"),
+    (F.PARAM_ERROR, dict(error=0x05, command=0), "03 03 f0 05 00"),
+    (F.STATE_ERROR, dict(status=2, state=0x3F, command=0x82), "03 04 f1 02 3f 82"),
+    (F.SIZE_ERROR, dict(length_written=0x1F), "03 02 f6 1f"),
+    (F.TABLE_READ_COMMAND, {}, "03 01 41"),
+    (F.TABLE_READ_FIRST, dict(rate_stages=3, accel_stages=3, decel_stages=2,
+                              accel_total=0x010203, decel_total=0x0A0B0C),
+     "02 0a 41 03 03 02 01 02 03 0a 0b 0c"),
+], ids=lambda v: v.name if isinstance(v, Frame) else None)
+def test_fixed_frame_golden_bytes(frame: Frame, fields: dict[str, int], hexed: str) -> None:
+    assert frame.encode(**fields).hex(" ") == hexed
+    assert frame.decode(bytes.fromhex(hexed)) == fields
+
+
+@pytest.mark.parametrize("frame, kind", [(F.READ_RATES, "01"), (F.READ_ACCEL, "02"),
+                                         (F.READ_DECEL, "03")])
+def test_table_read_item_golden_bytes(frame: Frame, kind: str) -> None:
+    size = frame.fields[-1].item.size  # type: ignore[union-attr]
+    block = frame.encode(next=0, length=1 + size, items=[0x0102])
+    assert block.hex(" ") == f"00 {1 + size:02x} {kind} " + ("01 02" if size == 2
+                                                              else "00 01 02")
+    for other in {"01", "02", "03"} - {kind}:  # the kind byte is fixed per block kind
+        with pytest.raises(DecodeError, match="kind"):
+            frame.decode(bytes.fromhex(f"00 {1 + size:02x} {other} " + "00 " * size))
+
+
+def test_constants_of_the_bus() -> None:
+    # manual §5-5/§5-6: a block is at most 32 bytes (WAR = 0x20 − size), 30 data bytes;
+    # a length byte of 31 or more is refused (0x15); a read block at most 0x40 − 2 after
+    # its length; a read item block carries 13 data bytes.
+    assert (F.MAX_BLOCK_BYTES, F.MAX_BLOCK_DATA, F.REFUSED_LENGTH) == (32, 30, 31)
+    assert (F.MAX_READ_LENGTH, F.READ_DATA_BYTES) == (62, 13)
+    assert (F.HDR_PARAMS_MORE, F.HDR_PARAMS_LAST, F.HDR_CODE_MORE, F.HDR_CODE_EXEC) == (0, 1, 2, 3)
+    assert (F.CODE_INIT, F.CODE_FREE_CURVE, F.CODE_TABLE_READ, F.CODE_ACCEL_MOVE) == (
+        0x00, 0x01, 0x41, 0x82)
+    assert (F.RESP_PARAM_ERROR, F.RESP_STATE_ERROR, F.RESP_SIZE_ERROR) == (0xF0, 0xF1, 0xF6)
+    assert (F.STATUS_RATES, F.STATUS_ACCEL, F.STATUS_DECEL, F.STATUS_DONE) == (0, 1, 2, 0x0F)
+    assert (F.ITEM_KIND_RATES, F.ITEM_KIND_ACCEL, F.ITEM_KIND_DECEL) == (1, 2, 3)
+    assert F.OVERRIDE_TRIGGERS == (1, 3) and (F.RATE_SIZE, F.PULSES_SIZE) == (2, 3)
