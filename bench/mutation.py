@@ -60,6 +60,7 @@ EQUIVALENT: dict[tuple[str, int, str], str] = {
                                 "longer side's: n_short < len(rates) whenever this runs"),
     ("checks", 125, "1 → 2"): _PREFILTER,
     ("checks", 125, "> → >="): _PREFILTER,
+    ("checks", 136, "1 → 0"): _PREFILTER + " (rates[0:] makes the all() false always)",
 }
 
 
