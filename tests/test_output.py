@@ -295,3 +295,24 @@ def test_ctrl_c_during_a_write_removes_the_temp_file(tmp_path: Path) -> None:
     with pytest.raises(KeyboardInterrupt):
         write_output(str(tmp_path / "out.txt"), producer())
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.slow
+def test_sigterm_to_the_cli_mid_stream_leaves_nothing(tmp_path: Path) -> None:
+    import time
+
+    out = tmp_path / "times.csv"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "verify.cli", "simulate", str(ROOT / "examples" /
+                                                             "free-curve-nema17.json"),
+         "--pulses", "10000000", "--pulse-times", str(out)],
+        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 120
+    while not _leftovers(tmp_path) and time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+    assert _leftovers(tmp_path), "the temp file never appeared"
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 128 + signal.SIGTERM
+    assert err.decode().count("\n") == 1 and "interrupted by signal 15" in err.decode()
+    assert list(tmp_path.iterdir()) == []
