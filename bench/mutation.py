@@ -329,7 +329,7 @@ def _table(results: list[dict[str, object]]) -> Iterator[str]:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("modules", nargs="*", default=[], help=f"any of {', '.join(MODULES)}")
-    ap.add_argument("--timeout", type=float, default=30.0, help="seconds per mutant")
+    ap.add_argument("--timeout", type=float, default=120.0, help="seconds per mutant")
     ap.add_argument("--list", action="store_true", help="list the mutation sites only")
     ap.add_argument("--only", help="comma-separated site indexes (one module)")
     ap.add_argument("--sample", type=int, metavar="N",
