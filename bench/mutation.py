@@ -61,6 +61,9 @@ EQUIVALENT: dict[tuple[str, int, str], str] = {
     ("checks", 125, "1 → 2"): _PREFILTER,
     ("checks", 125, "> → >="): _PREFILTER,
     ("checks", 136, "1 → 0"): _PREFILTER + " (rates[0:] makes the all() false always)",
+    ("checks", 149, "1 → 2"): _PREFILTER,
+    ("checks", 156, "> → >="): _PREFILTER,
+    ("checks", 170, "< → <="): _PREFILTER,
 }
 
 
