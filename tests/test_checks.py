@@ -389,7 +389,8 @@ FREE_CASES: list[tuple[str, FreeCurveTable, list[Pin]]] = [
      [(E, "accel-total-max", 0x1A, None), (E, "pulses-field", None, 0)]),
     ("decel pulses 0xFFFFF+1", fc([400, 500], [100, 100], [0x80000, 0x100000]),
      [(E, "decel-total-max", 0x1A, None), (E, "pulses-field", None, 1)]),
-    ("pulses 0xFFFFF", fc([400, 500], [0xFFFFF, 2]), [(E, "accel-total-max", 0x1A, None)]),
+    ("pulses 0xFFFFF", fc([400, 500], [0xFFFFF, 2]),
+     [(E, "accel-total-max", 0x1A, None), (W, "stage-short", None, 1)]),
     # side totals ≤ 0xFFFFF [0x1A]
     ("accel total 0xFFFFF", fc([400, 500], [0x80000, 0x7FFFF]), []),
     ("accel total 0x100000", fc([400, 500], [0x80000, 0x80000]),
