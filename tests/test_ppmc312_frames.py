@@ -110,6 +110,7 @@ def test_check_length_byte_and_choice_error() -> None:
     err2 = FieldChoiceError("trigger", 2, (1, 3))
     assert str(err2) == "trigger: 2 is not one of the allowed values 1, 3"
     assert isinstance(err2, FieldRangeError)
+    assert (err2.field, err2.value, err2.lo, err2.hi) == ("trigger", 2, 1, 3)
 
 
 # --- golden bytes of every fixed frame, written out by hand from the manual -----------------
