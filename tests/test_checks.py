@@ -365,6 +365,8 @@ FREE_CASES: list[tuple[str, FreeCurveTable, list[Pin]]] = [
     ("decel 1 stage", fc(ramp(3), [100] * 3, [100]),
      [(E, "stage-count", 0x11, None), (W, "decel-stage-count", None, None)]),
     ("decel 2 stages", fc(ramp(3), [100] * 3, [100] * 2), [(W, "decel-stage-count", None, None)]),
+    ("no decel stages, fast stop rate", fc([100, 120], [100, 100], []),
+     [(E, "stage-count", 0x11, None), (W, "decel-stage-count", None, None)]),
     ("decel same count", fc(ramp(3), [100] * 3, [50] * 3), []),
     ("accel shorter", fc(ramp(3), [100] * 2, [100] * 3), [(W, "decel-stage-count", None, None)]),
     # rate ≤ 1 [0x18], at any clock (at 1 MHz rate 1 is 1 Mpps: legal speed, still 0x18)
@@ -401,6 +403,13 @@ FREE_CASES: list[tuple[str, FreeCurveTable, list[Pin]]] = [
     # pulses × rate ≥ 256 ticks
     ("255 ticks", fc([5, 400, 500], [51, 100, 100]), [(E, "stage-ticks-min", None, 0)]),
     ("256 ticks", fc([16, 400, 500], [16, 100, 100]), []),
+    ("256 ticks beside 255", fc([5, 16, 400], [51, 16, 100]),
+     [(E, "stage-ticks-min", None, 0), (W, "stage-short", None, 1)]),
+    # (a count ≤ 1 or a rate ≤ 1 has its own rule: no tick finding on top)
+    ("1 pulse at rate 5", fc([5, 400, 500], [1, 100, 100]), [(E, "pulses-min", 0x19, 0)]),
+    ("rate 1 × 100 pulses", fc([1, 500, 600], [100, 100, 100]), [(E, "rate-min", 0x18, 0)]),
+    ("rate 2 × 100 pulses at 1MHz", fc([2, 500, 600], [100, 100, 100], clock=C1),
+     [(E, "stage-ticks-min", None, 0)]),
     ("decel 255 ticks", fc([5, 400, 500], [100, 100, 100], [51, 100, 100]),
      [(E, "stage-ticks-min", None, 0)]),
     # rates strictly growing fastest → slowest (stage 1 is checked too)
