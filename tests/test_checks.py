@@ -418,15 +418,21 @@ FREE_CASES: list[tuple[str, FreeCurveTable, list[Pin]]] = [
     ("two repeats", fc([400, 400, 400], [100] * 3),
      [(W, "rates-monotonic", None, 1), (W, "rates-monotonic", None, 2)]),
     # a stage under 1/10 of its neighbours' mean (stage 0 exempt)
-    ("middle exactly 1/10", fc([400, 500, 600], [100, 10, 100]), []),
-    ("middle under 1/10", fc([400, 500, 600], [100, 9, 100]), [(W, "stage-short", None, 1)]),
+    ("middle exactly 1/10", fc([400, 500, 600, 700], [100, 100, 10, 100]), []),
+    ("middle just under 1/10", fc([400, 500, 600, 700], [100, 100, 9, 100]),
+     [(W, "stage-short", None, 2)]),
+    # stage 1's one neighbour is stage 2 (stage 0 runs on into the cruise)
+    ("stage 1 exactly 1/10 of stage 2", fc([400, 500, 600], [2000, 12, 100]), []),
+    ("stage 1 under 1/10 of stage 2", fc([400, 500, 600], [2000, 11, 100]),
+     [(W, "stage-short", None, 1)]),
+    ("stage 1 of 3 under 1/10", fc([400, 500, 600], [100, 9, 100]), [(W, "stage-short", None, 1)]),
     ("last just over 1/10", fc([400, 500, 600], [100, 100, 9]), []),
     ("last under 1/10", fc([400, 500, 600], [100, 100, 8]), [(W, "stage-short", None, 2)]),
     ("stage 0 short is fine", fc([400, 500, 600], [2, 100, 100]), []),
     ("next stage 10x longer", fc([400, 500, 600], [100, 10, 10000]),
      [(W, "stage-short", None, 1)]),
-    ("previous stage 10x longer", fc([400, 500, 600], [1000, 10, 10]),
-     [(W, "stage-short", None, 1)]),
+    ("previous stage 10x longer", fc([400, 500, 600, 700], [125, 1000, 10, 10]),
+     [(W, "stage-short", None, 2)]),
     ("decel short", fc([400, 500, 600], [100] * 3, [100, 9, 100]), [(W, "stage-short", None, 1)]),
     # slowest decel stage below 62.5 kpps: at 8 MHz rate ≥ 129
     ("stop at rate 128", fc([100, 128], [100, 100]), [(W, "stop-speed-high", None, 1)]),
@@ -446,7 +452,7 @@ FREE_CASES: list[tuple[str, FreeCurveTable, list[Pin]]] = [
     ("order", fc([400, 1, 380, 500], [100, 300, 0, 100], [100]),
      [(E, "stage-count", 0x11, None), (E, "rate-min", 0x18, 1), (E, "pulses-min", 0x19, 2),
       (W, "decel-stage-count", None, None), (W, "rates-monotonic", None, 1),
-      (W, "stage-short", None, 1), (W, "stage-short", None, 2)]),
+      (W, "stage-short", None, 2)]),
 ]
 
 
