@@ -78,8 +78,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = parser.parse_args(args_list)
     except SystemExit as e:  # --help/--version (0) or a usage error (printed, 2)
         return EXIT_OK if e.code in (0, None) else EXIT_UNUSABLE
-    command = " ".join(x for x in (args.command, getattr(args, f"{args.command}_command", None))
-                       if x)
+    command = args.command  # the group for alink/mc200 ("stepramp mc200: …"), as before
     try:
         return int(args.func(args))
     except StepRampError as e:
