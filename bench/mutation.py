@@ -64,6 +64,10 @@ EQUIVALENT: dict[tuple[str, int, str], str] = {
     ("checks", 149, "1 → 2"): _PREFILTER,
     ("checks", 156, "> → >="): _PREFILTER,
     ("checks", 170, "< → <="): _PREFILTER,
+    ("frames", 119, "1 → 0"): ("RESPONSE_HEADER is used one byte at a time through "
+                               "pack_int/unpack_int, which never read its size"),
+    ("frames", 119, "1 → 2"): ("RESPONSE_HEADER is used one byte at a time through "
+                               "pack_int/unpack_int, which never read its size"),
 }
 
 

@@ -530,6 +530,13 @@ def test_init_rule_pinned(t: InitTable, expected: list[Pin]) -> None:
     assert pinned(t) == expected
 
 
+def test_pulse_count_advice_is_2_at_slow_rates_and_256_ticks_at_fast_ones() -> None:
+    (f,) = [x for x in check_table(fc([400, 500, 600], [100, 0, 1000])) if x.severity == "error"]
+    assert f.message == "accel_pulses[1] = 0 is ≤ 1: raise it to ≥ 2"
+    (f,) = [x for x in check_table(fc([16, 500, 600], [1, 100, 100]))]
+    assert f.message == "accel_pulses[0] = 1 is ≤ 1: raise it to ≥ 16"
+
+
 def test_rate_min_advice_at_slow_clocks_is_rate_2() -> None:
     (f,) = [x for x in check_table(fc([1, 500, 600], [300, 100, 100], clock=C1))]
     assert "raise it to ≥ 2 (≤ 2 Mpps at 1MHz)" in f.message

@@ -164,3 +164,16 @@ def test_constants_of_the_bus() -> None:
     assert (F.STATUS_RATES, F.STATUS_ACCEL, F.STATUS_DECEL, F.STATUS_DONE) == (0, 1, 2, 0x0F)
     assert (F.ITEM_KIND_RATES, F.ITEM_KIND_ACCEL, F.ITEM_KIND_DECEL) == (1, 2, 3)
     assert F.OVERRIDE_TRIGGERS == (1, 3) and (F.RATE_SIZE, F.PULSES_SIZE) == (2, 3)
+
+
+@pytest.mark.parametrize("frame", [F.RATE_BLOCK, F.ACCEL_BLOCK, F.DECEL_BLOCK, F.READ_RATES,
+                                   F.READ_ACCEL, F.READ_DECEL], ids=lambda f: f.name)
+def test_a_block_carries_at_least_one_entry(frame: Frame) -> None:
+    head = {"last": 0} if frame in (F.RATE_BLOCK, F.ACCEL_BLOCK, F.DECEL_BLOCK) else {"next": 0}
+    size = frame.fields[-1].item.size  # type: ignore[union-attr]
+    length = size + (1 if "next" in head else 0)  # the entries (and a read block's kind byte)
+    with pytest.raises(FieldRangeError, match="item count"):
+        frame.encode(**head, length=length, items=[])
+    if "last" in head:
+        with pytest.raises(DecodeError, match="0 items"):
+            frame.decode(bytes.fromhex("00 01"))
