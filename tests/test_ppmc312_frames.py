@@ -177,3 +177,15 @@ def test_a_block_carries_at_least_one_entry(frame: Frame) -> None:
     if "last" in head:
         with pytest.raises(DecodeError, match="0 items"):
             frame.decode(bytes.fromhex("00 01"))
+
+
+def test_parameter_error_texts_by_code() -> None:
+    # manual §11-6: the codes the chip answers in F0, each with what it means
+    words = {0x00: "length", 0x01: "out of range", 0x02: "slower", 0x03: "not above",
+             0x04: "no table", 0x05: "≤ 2 pulses", 0x10: "command header",
+             0x11: "stage count", 0x15: "31 or more", 0x16: "more data", 0x17: "block header",
+             0x18: "rate ≤ 1", 0x19: "pulse count ≤ 1", 0x1A: "total above 0xFFFFF"}
+    assert sorted(F.PARAM_ERRORS) == sorted(words)
+    for code, word in words.items():
+        assert word in F.PARAM_ERRORS[code], code
+        assert F.PARAM_ERRORS[code].startswith("init: " if code < 0x10 else "free curve: ")
