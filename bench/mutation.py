@@ -64,6 +64,10 @@ EQUIVALENT: dict[tuple[str, int, str], str] = {
     ("checks", 149, "1 → 2"): _PREFILTER,
     ("checks", 156, "> → >="): _PREFILTER,
     ("checks", 170, "< → <="): _PREFILTER,
+    ("execution", 141, "4 → 3"): ("t = k / hz round-trips to within 2 ulps (the comment "
+                                   "above it): 3 and 4 ulps snap the same instants"),
+    ("execution", 143, "0 → -1"): ("only an execution without segments reaches -1, and "
+                                   "every caller returns before using the index then"),
     ("frames", 119, "1 → 0"): ("RESPONSE_HEADER is used one byte at a time through "
                                "pack_int/unpack_int, which never read its size"),
     ("frames", 119, "1 → 2"): ("RESPONSE_HEADER is used one byte at a time through "

@@ -189,3 +189,10 @@ def test_parameter_error_texts_by_code() -> None:
     for code, word in words.items():
         assert word in F.PARAM_ERRORS[code], code
         assert F.PARAM_ERRORS[code].startswith("init: " if code < 0x10 else "free curve: ")
+
+
+def test_a_length_byte_above_the_limit_names_byte_1() -> None:
+    with pytest.raises(DecodeError, match="above the limit 0x1E") as e:
+        F.check_length_byte(bytes([0, 31]) + bytes(31), 3)
+    assert (e.value.block, e.value.byte) == (3, 1)
+    assert F.check_length_byte(bytes([0, 30]) + bytes(30), 3) == 30

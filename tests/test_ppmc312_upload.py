@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
@@ -519,3 +521,15 @@ def test_an_ascii_frame_followed_by_blocks_is_refused() -> None:
     with pytest.raises(DecodeError, match="one frame; more follow") as e:
         decode_upload([frame, b"\x00\x02\x01\x90"])
     assert (e.value.block, e.value.byte) == (1, 0)
+
+
+@pytest.mark.parametrize("block, says, byte", [
+    ("02", "the command block is 1 byte(s)", 1),
+    ("02 03", "is 2 bytes, expected 5", 2),   # a length byte: judged by the frame
+    ("02 05", "length byte 0x05", 1),
+    ("02 04 01 10 02", "is 5 bytes, expected 6", 5),
+])
+def test_short_command_blocks(block: str, says: str, byte: int) -> None:
+    with pytest.raises(DecodeError, match=re.escape(says)) as e:
+        decode_free_curve([bytes.fromhex(block)])
+    assert (e.value.block, e.value.byte) == (0, byte)
