@@ -41,7 +41,9 @@ MODULES: dict[str, tuple[str, list[str]]] = {
     "frames": ("profiles.ppmc312.frames",
                ["tests/test_ppmc312_frames.py", "tests/test_ppmc312_upload.py"]),
     "checks": ("verify.checks", ["tests/test_checks.py"]),
-    "execution": ("profiles.ppmc312.execution", ["tests/test_execution.py"]),
+    "execution": ("profiles.ppmc312.execution", [
+        "tests/test_execution.py",
+        "tests/test_every_move.py::test_families_partition_every_length_and_fix_the_segment_rates"]),
 }
 
 # (module key, line, mutation) → why the mutant cannot change what the module does.
