@@ -533,3 +533,49 @@ def test_short_command_blocks(block: str, says: str, byte: int) -> None:
     with pytest.raises(DecodeError, match=re.escape(says)) as e:
         decode_free_curve([bytes.fromhex(block)])
     assert (e.value.block, e.value.byte) == (0, byte)
+
+
+# --- every decode error names its block and byte (table read, upload dispatch) ----------
+def _read(blocks: list[str]) -> list[bytes]:
+    return [bytes.fromhex(b) for b in blocks]
+
+
+READ_LE1 = GOLDEN_TABLE_READ[1][2]
+
+
+@pytest.mark.parametrize("blocks, says, where", [
+    ([READ_LE1[0].replace("02 07 00 00 03", "00 07 00 00 03"), *READ_LE1[1:]],
+     "accel stage count 0", (0, 4)),
+    ([READ_LE1[0].replace("00 00 03 00 00 5b", "00 00 04 00 00 5b"), *READ_LE1[1:]],
+     "accel total 4 but the stages sum to 3", (0, 6)),
+    ([READ_LE1[0].replace("00 00 03 00 00 5b", "00 00 03 00 00 5c"), *READ_LE1[1:]],
+     "decel total 92 but the stages sum to 91", (0, 9)),
+    ([*READ_LE1, "01 03 01 00 07"], "data after the last block", (6, 0)),
+    ([READ_LE1[0], "00 01 07", *READ_LE1[2:]], "item kind 0x07, expected 0x01", (1, 2)),
+    ([READ_LE1[0], "00 05 07 00 01 00 02", *READ_LE1[2:]], "item kind 0x07, expected 0x01",
+     (1, 2)),
+    ([READ_LE1[0], READ_LE1[1], "00 05 01 00 07 00 08", *READ_LE1[3:]],
+     "2 rate entries, only 1 more are due", (2, 3)),
+])
+def test_table_read_errors_name_block_and_byte(blocks: list[str], says: str,
+                                              where: tuple[int, int]) -> None:
+    with pytest.raises(DecodeError, match=re.escape(says)) as e:
+        decode_table_read(_read(blocks), clock=C8)
+    assert (e.value.block, e.value.byte) == where
+
+
+@pytest.mark.parametrize("blocks, says, where", [
+    (["02 03"], "no command code", (0, 2)),
+    (["03 01 41"], "is not a table upload", (0, 0)),
+    ([""], "empty block", (0, 0)),
+])
+def test_upload_dispatch_errors_name_block_and_byte(blocks: list[str], says: str,
+                                                    where: tuple[int, int]) -> None:
+    with pytest.raises(DecodeError, match=re.escape(says)) as e:
+        decode_upload(_read(blocks))
+    assert (e.value.block, e.value.byte) == where
+
+
+def test_encode_table_ascii_defaults_to_address_0() -> None:
+    table = InitTable(C8, "linear", 1000, 100, 0x1000)
+    assert encode_table(table, to="ascii") == [serial.encode_serial_init(table, 0)]
