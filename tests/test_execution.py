@@ -345,3 +345,68 @@ def test_shape_status_bytes(table: FreeCurveTable, pulses: int, high_rate: int, 
                             status: int) -> None:
     e = simulate_move(table, pulses, high_rate=high_rate)
     assert (e.shape, e.status) == (shape, status)
+
+
+def test_positions_at_and_before_the_start_are_0() -> None:
+    e = simulate_move(PINNED_TABLE, 100)
+    assert e.position_at(np.array([-1.0, -1e-9, 0.0])).tolist() == [0, 0, 0]
+    assert e.position_at(e.duration_s * 2) == 100
+
+
+def test_segment_accel_by_hand() -> None:
+    # 1 MHz, rates 100 and 200, 10 pulses each; 40 pulses: accel 200 (10 000 pps for…)
+    e = simulate_move(FreeCurveTable(MHZ1, (100, 200), (10, 10)), 40)
+    assert runs(e) == [("accel", 200, 10), ("accel", 100, 10), ("decel", 100, 10),
+                       ("decel", 200, 10)]
+    # 5 000 pps for 2 ms, then 10 000 pps for 1 ms, 10 000 for 1 ms, 5 000 for 2 ms:
+    # slopes (10 000 − 5 000) / 2 ms, 0 / 1 ms, (5 000 − 10 000) / 1 ms, and 0 for the last
+    assert e.segment_accel_pps2().tolist() == pytest.approx([2.5e6, 0.0, -5e6, 0.0])
+
+
+def test_sample_count_limits() -> None:
+    e = simulate_move(PINNED_TABLE, 100)
+    assert len(e.sample(2)[0]) == 2
+    for n in (1, 10**8 + 1):
+        with pytest.raises(FieldRangeError, match="sample n"):
+            e.sample(n)
+
+
+def test_an_empty_side_names_its_count_0() -> None:
+    with pytest.raises(FieldRangeError) as e:
+        simulate_move(FreeCurveTable(MHZ1, (10, 20), (), (5, 5)), 3)
+    assert (e.value.value, e.value.lo) == (0, 1)
+
+
+@pytest.mark.parametrize("table, high_rate, expected", [
+    # 2 stages, high rate between them: no acceleration, the move runs at the start rate
+    (FreeCurveTable(MHZ1, (100, 200), (10, 10)), 150,
+     [("cruise", 200, 30)]),
+    # 3 stages, high rate slower than the middle one: start rate, then down the slower ones
+    (PINNED_TABLE, 201, [("cruise", 300, 30)]),
+])
+def test_a_high_rate_that_cannot_accelerate(table: FreeCurveTable, high_rate: int,
+                                            expected: list[tuple[str, int, int]]) -> None:
+    e = simulate_move(table, 30, high_rate=high_rate)
+    assert (e.shape, e.status) == ("straight_triangle_decel", 0x20)
+    assert runs(e) == expected
+
+
+def test_pulse_times_csv_chunks_match_the_cumulative_sum() -> None:
+    from profiles.ppmc312.execution import (
+        PULSE_TIMES_CSV_MAX,
+        pulse_times_csv_chunks,
+        samples_csv,
+    )
+
+    e = simulate_move(FreeCurveTable(MHZ1, (100, 200, 300), (10, 20, 30)), 200)
+    chunks = list(pulse_times_csv_chunks(e, chunk=7))
+    assert chunks[0] == "pulse,time_s\n" and max(c.count("\n") for c in chunks[1:]) <= 7
+    rows = "".join(chunks).splitlines()[1:]
+    times = e.pulse_times_s()  # repeat/cumsum: another way to the same instants
+    assert rows == [f"{i},{t:.9f}" for i, t in enumerate(times, start=1)]
+    assert len(samples_csv(e).splitlines()) == 1001  # 1000 samples by default
+    assert PULSE_TIMES_CSV_MAX == 10_000_000
+    big = simulate_move(PINNED_TABLE, PULSE_TIMES_CSV_MAX)
+    assert next(pulse_times_csv_chunks(big)) == "pulse,time_s\n"
+    with pytest.raises(FieldRangeError, match="one CSV row per pulse"):
+        next(pulse_times_csv_chunks(simulate_move(PINNED_TABLE, PULSE_TIMES_CSV_MAX + 1)))
