@@ -537,6 +537,16 @@ def test_pulse_count_advice_is_2_at_slow_rates_and_256_ticks_at_fast_ones() -> N
     assert f.message == "accel_pulses[0] = 1 is ≤ 1: raise it to ≥ 16"
 
 
+def test_advice_at_rate_0_and_rate_1() -> None:
+    found = check_table(fc([0, 500, 600], [1, 100, 100]))
+    assert [f.message for f in found if f.rule == "pulses-min"] == [
+        "accel_pulses[0] = 1 is ≤ 1: raise it to ≥ 2"]
+    # a short stage at rate 1: 300 ticks beside stage 2's 60 000 needs 6 000 pulses
+    found = check_table(fc([400, 1, 600], [100, 300, 100]))
+    (short,) = [f for f in found if f.rule == "stage-short"]
+    assert "raise accel_pulses[1] to ≥ 6000 " in short.message
+
+
 def test_rate_min_advice_at_slow_clocks_is_rate_2() -> None:
     (f,) = [x for x in check_table(fc([1, 500, 600], [300, 100, 100], clock=C1))]
     assert "raise it to ≥ 2 (≤ 2 Mpps at 1MHz)" in f.message
