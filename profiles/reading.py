@@ -110,20 +110,34 @@ def _why(e: BaseException) -> str:
     return f"{e.__class__.__name__}: {e}"
 
 
-# Strings (with their escapes) and brackets: enough to measure nesting without parsing.
-_NESTING_TOKENS = re.compile(rb'"[^"\\]*(?:\\.[^"\\]*)*"|[\[\]{}]', re.S)
+# A bracket or the quote that opens a string; the rest of a string up to its closing quote.
+# Scanning string by string (anchored) keeps this linear: one regex over the whole text
+# with strings as an alternative goes quadratic on `"\"\"\"…` with no closing quote.
+_SPECIAL = re.compile(rb'["\[\]{}]')
+_STRING_REST = re.compile(rb'[^"\\]*(?:\\.[^"\\]*)*"', re.S)
 
 
-def json_depth(data: bytes) -> int:
-    """The deepest bracket nesting in JSON text (brackets inside strings do not count)."""
-    depth = deepest = 0
-    for m in _NESTING_TOKENS.finditer(data):
-        c = m.group()[:1]
-        if c in (b"[", b"{"):
+def json_depth(data: bytes, stop: int | None = None) -> int:
+    """The deepest bracket nesting in JSON text (brackets inside strings do not count);
+    with `stop`, the scan ends as soon as that depth is reached."""
+    depth = deepest = pos = 0
+    while (m := _SPECIAL.search(data, pos)) is not None:
+        c = data[m.start()]
+        if c == 0x22:  # '"': skip the string; unterminated, nothing after it counts
+            rest = _STRING_REST.match(data, m.end())
+            if rest is None:
+                break
+            pos = rest.end()
+            continue
+        if c in (0x5B, 0x7B):  # '[' '{'
             depth += 1
-            deepest = max(deepest, depth)
-        elif c in (b"]", b"}"):
+            if depth > deepest:
+                deepest = depth
+                if stop is not None and deepest >= stop:
+                    break
+        else:
             depth -= 1
+        pos = m.end()
     return deepest
 
 
@@ -145,9 +159,8 @@ def require_shallow_json(data: bytes, path: str | Path) -> None:
     text = data.removeprefix(b"\xef\xbb\xbf").lstrip()
     if text[:1] not in (b"{", b"["):
         return
-    depth = json_depth(text)
-    if depth > MAX_JSON_DEPTH:
-        raise FormatError(f"{display_path(path)}: JSON nested {depth} deep, more than the "
+    if json_depth(text, stop=MAX_JSON_DEPTH + 1) > MAX_JSON_DEPTH:
+        raise FormatError(f"{display_path(path)}: JSON nested more than the "
                           f"{MAX_JSON_DEPTH} levels an input may have")
 
 
