@@ -72,6 +72,8 @@ EQUIVALENT: dict[tuple[str, int, str], str] = {
                                    "every caller returns before using the index then"),
     ("checks", 209, "0 → -1"): ("stage 0's neighbour mean is never used: stage 0 is exempt "
                                  "from the short-stage rule"),
+    ("execution", 297, "min → max"): ("breakpoints past the trapezoid's first length give "
+                                       "the same segment rates: move_families merges them"),
     ("frames", 119, "1 → 0"): ("RESPONSE_HEADER is used one byte at a time through "
                                "pack_int/unpack_int, which never read its size"),
     ("frames", 119, "1 → 2"): ("RESPONSE_HEADER is used one byte at a time through "

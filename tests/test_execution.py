@@ -410,3 +410,23 @@ def test_pulse_times_csv_chunks_match_the_cumulative_sum() -> None:
     assert next(pulse_times_csv_chunks(big)) == "pulse,time_s\n"
     with pytest.raises(FieldRangeError, match="one CSV row per pulse"):
         next(pulse_times_csv_chunks(simulate_move(PINNED_TABLE, PULSE_TIMES_CSV_MAX + 1)))
+
+
+def test_families_of_a_move_that_cannot_accelerate() -> None:
+    """LE=1, decel two stages longer, high rate 150 between the accel side's rates: the
+    move runs at level max(150, 200) = 200 and then down the decel stages slower than it
+    (300 × 7, 400 × 8). Worked by hand: up to 8 pulses only rate 400 runs; from 9 rate 300
+    joins (15 is the whole tail, the same rates); from 16 a cruise at 200 comes first."""
+    from profiles.ppmc312.execution import move_families
+
+    table = FreeCurveTable(MHZ1, (100, 200, 300, 400), (10, 10), (5, 6, 7, 8))
+    fams = move_families(table, high_rate=150)
+    assert [f.lo for f in fams] == [1, 9, 16]
+    assert fams[-1].hi == 0xFFFFFFFF
+    for fam in fams:
+        for n in range(fam.lo, min(fam.hi, 40) + 1):
+            assert [(s.phase, s.rate) for s in simulate_move(table, n, high_rate=150).segments
+                    ] == [(s.phase, s.rate) for s in fam.execution().segments], n
+    assert runs(simulate_move(table, 8, high_rate=150)) == [("decel", 400, 8)]
+    assert runs(simulate_move(table, 9, high_rate=150)) == [("decel", 300, 1), ("decel", 400, 8)]
+    assert runs(simulate_move(table, 16, high_rate=150))[0] == ("cruise", 200, 1)
