@@ -74,6 +74,13 @@ EQUIVALENT: dict[tuple[str, int, str], str] = {
                                  "from the short-stage rule"),
     ("execution", 297, "min → max"): ("breakpoints past the trapezoid's first length give "
                                        "the same segment rates: move_families merges them"),
+    ("execution", 153, "0 → -1"): ("for ticks in (−1, 0] the clip to [0, count] already "
+                                    "gives position 0"),
+    ("execution", 181, "0 → 1"): "only an execution without segments returns there",
+    ("execution", 181, "0 → -1"): "only an execution without segments returns there",
+    ("execution", 273, "<= → <"): ("no breakpoint of a move that cannot accelerate reaches "
+                                   "0xFFFFFFFF: its decel tail holds at most 127 × 0xFFFFFF "
+                                   "pulses"),
     ("frames", 119, "1 → 0"): ("RESPONSE_HEADER is used one byte at a time through "
                                "pack_int/unpack_int, which never read its size"),
     ("frames", 119, "1 → 2"): ("RESPONSE_HEADER is used one byte at a time through "

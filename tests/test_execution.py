@@ -431,3 +431,6 @@ def test_families_of_a_move_that_cannot_accelerate() -> None:
     assert runs(simulate_move(table, 9, high_rate=150)) == [("decel", 300, 1), ("decel", 400, 8)]
     assert runs(simulate_move(table, 16, high_rate=150))[0] == ("cruise", 200, 1)
     assert move_families(table) == move_families(table, high_rate=0)  # 0: the table's
+    # the rate the move runs at is reported: the slower of the high rate and the start rate
+    assert simulate_move(table, 30, high_rate=150).high_rate == 200
+    assert simulate_move(table, 30, high_rate=250).high_rate == 250
