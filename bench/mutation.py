@@ -52,6 +52,8 @@ _KEY_NONE = ("the third key element of a finding without a stage is only ever co
              "another such finding's (the second element separates them from staged ones)")
 _PREFILTER = ("a pre-filter before the exact per-stage test: entering the loop more often "
               "finds nothing more")
+_NO_ACCEL_LEVEL = ("_no_accel is always handed the cruise rate, already max(high rate, start "
+                   "rate) (_sides): its own max with the start rate changes nothing")
 EQUIVALENT: dict[tuple[str, int, str], str] = {
     ("checks", 75, "1 → 0"): _SORT_GUARD,
     ("checks", 75, "> → >="): _SORT_GUARD,
@@ -81,6 +83,8 @@ EQUIVALENT: dict[tuple[str, int, str], str] = {
     ("execution", 273, "<= → <"): ("no breakpoint of a move that cannot accelerate reaches "
                                    "0xFFFFFFFF: its decel tail holds at most 127 × 0xFFFFFF "
                                    "pulses"),
+    ("execution", 447, "1 → 2"): _NO_ACCEL_LEVEL,
+    ("execution", 447, "1 → 0"): _NO_ACCEL_LEVEL,
     ("frames", 119, "1 → 0"): ("RESPONSE_HEADER is used one byte at a time through "
                                "pack_int/unpack_int, which never read its size"),
     ("frames", 119, "1 → 2"): ("RESPONSE_HEADER is used one byte at a time through "

@@ -473,6 +473,8 @@ INIT_CASES: list[tuple[str, InitTable, list[Pin]]] = [
     # (start 0x10 cannot be 128 above a legal high: the gap error comes with it)
     ("start 0x10", init_t(start=0x10, high=2, clock=C15),
      [(E, "rate-range", 0x01, None), (E, "init-gap", 0x02, None)]),
+    ("start 0 (stop rate 0: no division by it)", init_t(start=0, high=2, clock=C15),
+     [(E, "rate-range", 0x01, None), (E, "start-above-high", 0x03, None)]),
     ("start 0x11", init_t(start=0x11 + 0x80, high=0x11), []),
     ("stop 0x10", init_t(start=1000, high=2, stop=0x10, decel=0x1000, clock=C15),
      [(E, "rate-range", 0x01, None), (E, "init-gap", 0x04, None)]),

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import io
+import itertools
 import json
 
 import numpy as np
@@ -434,3 +435,23 @@ def test_families_of_a_move_that_cannot_accelerate() -> None:
     # the rate the move runs at is reported: the slower of the high rate and the start rate
     assert simulate_move(table, 30, high_rate=150).high_rate == 200
     assert simulate_move(table, 30, high_rate=250).high_rate == 250
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(st.integers(2, 40), min_size=2, max_size=5), st.data())
+def test_segments_are_merged_and_contiguous(accel: list[int], data: st.DataObject) -> None:
+    """Whatever the shape: no two neighbouring segments share phase and rate (a clamped
+    share at the peak rate joins its neighbour), the pulses add up to the move, and each
+    segment starts where the previous one ended."""
+    n = len(accel)
+    decel = data.draw(st.one_of(st.none(), st.lists(st.integers(2, 40), min_size=2,
+                                                    max_size=5)))
+    rates = tuple(100 + 37 * k for k in range(max(n, len(decel or []))))
+    table = FreeCurveTable(MHZ1, rates, tuple(accel), None if decel is None else tuple(decel))
+    pulses = data.draw(st.integers(1, sum(accel) + sum(decel or accel) + 3))
+    high = data.draw(st.sampled_from([0, *rates]))
+    e = simulate_move(table, pulses, high_rate=high)
+    keys = [(s.phase, s.rate) for s in e.segments]
+    assert all(a != b for a, b in itertools.pairwise(keys)), keys
+    assert sum(s.pulses for s in e.segments) == pulses
+    assert all(a.end_tick == b.start_tick for a, b in itertools.pairwise(e.segments))
