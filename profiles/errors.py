@@ -151,3 +151,8 @@ def _show(value: object) -> str:
     if isinstance(value, int):
         return f"{value} (0x{value:X})" if value >= 0 and abs(value) > 9 else str(value)
     return repr(value) if isinstance(value, str) else str(value)
+
+
+class OutputError(StepRampError, OSError):
+    """An output file that cannot be written (verify/output.py): names OUT as the user
+    wrote it, never a temp file, and the reason, in one line."""

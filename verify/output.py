@@ -31,17 +31,14 @@ from dataclasses import dataclass
 from types import FrameType
 from typing import BinaryIO
 
-from profiles.errors import StepRampError
+from profiles.errors import OutputError
 from profiles.reading import display_path
 
 Chunk = str | bytes
 Data = str | bytes | Iterable[Chunk]
 STDOUT = "-"
 _STREAM_PREFIXES = ("/dev/stdout", "/dev/stderr", "/dev/fd/", "/proc/self/fd/")
-
-
-class OutputError(StepRampError, OSError):
-    """An output that cannot be written: names OUT and the reason, in one line."""
+__all__ = ["OutputError", "OutputInterrupted", "write_output", "write_outputs"]
 
 
 def write_output(out: str | None, data: Data) -> None:
