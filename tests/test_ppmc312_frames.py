@@ -157,7 +157,7 @@ def test_constants_of_the_bus() -> None:
     # its length; a read item block carries 13 data bytes.
     assert (F.MAX_BLOCK_BYTES, F.MAX_BLOCK_DATA, F.REFUSED_LENGTH) == (32, 30, 31)
     assert (F.MAX_READ_LENGTH, F.READ_DATA_BYTES) == (62, 13)
-    assert (F.HDR_PARAMS_MORE, F.HDR_PARAMS_LAST, F.HDR_CODE_MORE, F.HDR_CODE_EXEC) == (0, 1, 2, 3)
+    assert (F.HDR_CODE_MORE, F.HDR_CODE_EXEC) == (2, 3)
     assert (F.CODE_INIT, F.CODE_FREE_CURVE, F.CODE_TABLE_READ, F.CODE_ACCEL_MOVE) == (
         0x00, 0x01, 0x41, 0x82)
     assert (F.RESP_PARAM_ERROR, F.RESP_STATE_ERROR, F.RESP_SIZE_ERROR) == (0xF0, 0xF1, 0xF6)
