@@ -282,10 +282,12 @@ class Designer:
 
         self.motors = dict(motors) if motors is not None else bundled_motors()
         if motor is not None:
-            name = next((k for k, m in self.motors.items() if m is motor), None)
+            same = motor.to_json()
+            name = next((k for k, m in self.motors.items() if m.to_json() == same), None)
             if name is None:
                 name = motor.name or "motor"
                 self.motors = {name: motor, **self.motors}
+            self.motors[name] = motor
         else:
             name = next(iter(self.motors))
         self.out_dir = Path(out_dir)
@@ -392,7 +394,7 @@ class Designer:
         """Write the current table and its upload files into `out_dir`."""
         if self.result is None:
             return []
-        stem = f"design-{self.controls['motor'].value}-{self.result.settings.pulses}"
+        stem = f"design-{_slug(self.controls['motor'].value)}-{self.result.settings.pulses}"
         try:
             self.written = write_design(self.result, self.out_dir, stem)
         except StepRampError as e:
@@ -435,9 +437,13 @@ class Designer:
 
     def snapshot(self) -> Any:
         """A static copy (figure and summary) for viewers without a live kernel."""
-        from IPython.display import HTML, Image
+        import base64
 
-        return [Image(self.image.value), HTML(self.summary.value)]
+        from IPython.display import HTML
+
+        png = base64.b64encode(self.image.value).decode("ascii")
+        return HTML(f"<div class='stepramp-designer-snapshot'>{self.summary.value}"
+                    f"<img alt='designer figure' src='data:image/png;base64,{png}'/></div>")
 
     def _repr_mimebundle_(self, **kwargs: Any) -> Any:
         return self.widget._repr_mimebundle_(**kwargs)
@@ -451,6 +457,13 @@ def designer(motor: Motor | None = None, **kw: Any) -> Designer:
 def _torque_span(motor: Motor) -> float:
     """Load torque slider range: up to half the usable torque at standstill."""
     return float(0.5 * motor.safety_factor * motor.torque_nm(0.0))
+
+
+def _slug(name: str) -> str:
+    """A file-name-safe form of a motor's name."""
+    import re
+
+    return re.sub(r"[^A-Za-z0-9.]+", "-", name).strip("-") or "motor"
 
 
 def _escape(text: str) -> str:
