@@ -16,11 +16,13 @@ import pytest
 
 pytest.importorskip("ipywidgets")
 
-from profiles.motor import bundled_motor_paths, load_motor  # noqa: E402
-from profiles.ppmc312 import decode_upload  # noqa: E402
-from profiles.ppmc312.files import parse_upload  # noqa: E402
-from profiles.ppmc312.table import load_table  # noqa: E402
-from verify.designer import Designer, Settings, design, designer, loaded_motor  # noqa: E402
+import itertools
+
+from profiles.motor import bundled_motor_paths, load_motor
+from profiles.ppmc312 import decode_upload
+from profiles.ppmc312.files import parse_upload
+from profiles.ppmc312.table import load_table
+from verify.designer import Designer, Settings, design, designer, loaded_motor
 
 ROOT = Path(__file__).resolve().parents[1]
 NEMA17 = load_motor(next(p for p in bundled_motor_paths() if "nema17" in p.name))
@@ -180,7 +182,7 @@ def test_widgets_driven_in_a_kernel_change_the_outputs(tmp_path: Path,
     runs = json.loads(text.split("DRIVE ", 1)[1])
     steps = ["start", "pulses", "safety_factor", "load_inertia_kgm2", "load_torque_nm", "clock",
              "max_stages", "motor"]
-    for previous, step in zip(steps, steps[1:], strict=False):
+    for previous, step in itertools.pairwise(steps):
         assert runs[step]["png"] != runs[previous]["png"], step
         assert runs[step]["summary"] != runs[previous]["summary"], step
     for step in ("pulses", "safety_factor", "load_inertia_kgm2", "load_torque_nm"):
