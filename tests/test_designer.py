@@ -36,7 +36,8 @@ def d(tmp_path: Path) -> Designer:
 def test_it_opens_on_the_given_motor_with_a_figure(d: Designer) -> None:
     assert d.motor is NEMA17 and d.result is not None
     assert d.image.value[:8] == b"\x89PNG\r\n\x1a\n"
-    assert d.result.settings == Settings(pulses=5_000, safety_factor=NEMA17.safety_factor)
+    assert d.result.settings == Settings(pulses=5_000, safety_factor=NEMA17.safety_factor,
+                                         load_torque_nm=NEMA17.load_torque_nm)
     assert "5000 pulses" in d.summary.value and "load angle" in d.summary.value
 
 
@@ -69,10 +70,12 @@ def test_stage_budget_and_clock_reach_the_table(d: Designer) -> None:
     assert d.result.plan.table.clock.name == "1MHz"
 
 
-def test_load_torque_counts_as_friction(d: Designer) -> None:
-    d.controls["load_torque_nm"].value = 0.04
+def test_load_torque_is_the_motors_signed_load_torque(d: Designer) -> None:
+    d.controls["load_torque_nm"].value = -0.04
     assert d.result is not None
-    assert d.result.motor.friction_torque_nm == pytest.approx(NEMA17.friction_torque_nm + 0.04)
+    assert d.result.motor.load_torque_nm == pytest.approx(-0.04)
+    assert d.result.motor.friction_torque_nm == NEMA17.friction_torque_nm
+    assert d.controls["load_torque_nm"].min < 0 < d.controls["load_torque_nm"].max
 
 
 def test_motor_picker_switches_motor_and_resets_its_sliders(d: Designer) -> None:

@@ -12,9 +12,9 @@ The computation (`design`) is separate from the widgets so a bench can time it
 (bench/bench_designer.py). Widgets (ipywidgets) and matplotlib are imported
 only when a designer is built.
 
-Load torque: the motor files have no load-torque field yet, so the slider's
-torque is added to the friction torque (it opposes the motor both ways, as
-friction does: a conservative model of a load that is not gravity).
+The load torque slider sets the motor's `load_torque_nm` (signed: > 0 opposes
+forward motion); the load angle is followed in the direction the load opposes
+(forward when it is zero).
 """
 
 from __future__ import annotations
@@ -40,13 +40,13 @@ SLOW_REFERENCES = ("toppra", "ruckig", "casadi")
 
 @dataclass(frozen=True)
 class Settings:
-    """What the sliders set. `load_inertia_kgm2` adds to the motor's inertia,
-    `load_torque_nm` to its friction torque (see the module docstring)."""
+    """What the sliders set. `load_inertia_kgm2` adds to the motor's inertia;
+    `load_torque_nm` replaces the motor's (None: the motor file's own)."""
 
     pulses: int = 10_000
     safety_factor: float = 0.6
     load_inertia_kgm2: float = 0.0
-    load_torque_nm: float = 0.0
+    load_torque_nm: float | None = None
     clock: str = AUTO_CLOCK
     max_stages: int = 127
 
@@ -79,9 +79,8 @@ class Design:
             f"smallest stall margin {self.margins['min']:.3f} (≥ 1 is stall-safe)",
         ]
         if self.physics is not None:
-            verdict = "STALLS" if self.physics.stalled else "no stall"
-            lines.append(f"load angle: worst lag {self.physics.worst_lag_full_steps:+.3f} "
-                         f"full steps (stall at ±0.5): {verdict}")
+            lines.append(f"load angle: worst {self.physics.worst_angle_deg:+.1f}° electrical "
+                         f"(peak 90°, pole slip 180°): {_verdict(self.physics)}")
         total = sum(self.timings_ms.values())
         lines.append(f"recomputed in {total:.0f} ms ("
                      + ", ".join(f"{k} {v:.0f}" for k, v in self.timings_ms.items()) + ")")
@@ -92,10 +91,10 @@ def loaded_motor(motor: Motor, settings: Settings) -> Motor:
     """`motor` with the settings' safety factor, extra inertia and load torque."""
     if not 0 <= settings.load_inertia_kgm2 <= 1e3:
         raise FieldRangeError("load_inertia_kgm2", settings.load_inertia_kgm2, 0, 1e3)
+    load = motor.load_torque_nm if settings.load_torque_nm is None else settings.load_torque_nm
     return dataclasses.replace(
         motor, safety_factor=settings.safety_factor,
-        inertia_kgm2=motor.inertia_kgm2 + settings.load_inertia_kgm2,
-        friction_torque_nm=motor.friction_torque_nm + abs(settings.load_torque_nm))
+        inertia_kgm2=motor.inertia_kgm2 + settings.load_inertia_kgm2, load_torque_nm=load)
 
 
 def design(motor: Motor, settings: Settings, *, load_angle: bool = True) -> Design:
@@ -119,7 +118,9 @@ def design(motor: Motor, settings: Settings, *, load_angle: bool = True) -> Desi
     if load_angle:
         from verify.physics import load_angle_check
 
-        physics = load_angle_check(execution, loaded)
+        # T_L > 0 opposes forward motion: follow the direction the load hinders.
+        physics = load_angle_check(execution, loaded,
+                                   direction=-1 if loaded.load_torque_nm < 0 else 1)
     t4 = time.perf_counter()
     timings.update(plan=(t1 - t0) * 1e3, exact=(t2 - t1) * 1e3, margins=(t3 - t2) * 1e3,
                    load_angle=(t4 - t3) * 1e3)
@@ -171,9 +172,9 @@ class DesignFigure:
         self.ax_m.yaxis.set_minor_locator(NullLocator())
         self.ax_m.yaxis.set_major_formatter(FuncFormatter(lambda y, _pos: f"{y:g}"))
         self.ax_m.axhline(1.0, color="k", lw=1, ls="--", label="stall limit")
-        self.ax_l.set(xlabel="time [ms]", ylabel="lag [full steps]")
+        self.ax_l.set(xlabel="time [ms]", ylabel="load angle [° el.]")
         for sign in (1, -1):
-            self.ax_l.axhline(0.5 * sign, color="k", lw=1, ls="--")
+            self.ax_l.axhline(90 * sign, color="k", lw=1, ls="--")
         for ax in (self.ax_v, self.ax_m, self.ax_l):
             ax.grid(alpha=0.3)
         self.table_line, = self.ax_v.step([], [], where="post", color="tab:red", lw=1.5)
@@ -229,13 +230,13 @@ class DesignFigure:
 
         ph = result.physics
         if ph is not None:
-            lag_t, lag = _envelope(ph.lag_t_s * 1e3, ph.lag_full_steps, self.MAX_POINTS)
-            self.lag_line.set_data(lag_t, lag)
+            lag_t, angle = _envelope(ph.lag_t_s * 1e3, ph.angle_deg, self.MAX_POINTS)
+            self.lag_line.set_data(lag_t, angle)
             self.ax_l.set_xlim(0, max(float(lag_t[-1]), 1e-3) if len(lag_t) else 1.0)
-            span = max(0.6, 1.1 * float(np.max(np.abs(lag)))) if len(lag) else 0.6
+            span = max(100.0, 1.1 * float(np.max(np.abs(angle)))) if len(angle) else 100.0
             self.ax_l.set_ylim(-span, span)
-            self.ax_l.set_title(f"load angle: worst {ph.worst_lag_full_steps:+.3f} full steps"
-                                + (" (STALLS)" if ph.stalled else ""), fontsize=10)
+            self.ax_l.set_title(f"load angle: worst {ph.worst_angle_deg:+.1f}° (peak ±90°): "
+                                f"{_verdict(ph)}", fontsize=10)
         else:
             self.lag_line.set_data([], [])
             self.ax_l.set_title("load angle: off", fontsize=10)
@@ -319,7 +320,9 @@ class Designer:
                                         max=10 * base.inertia_kgm2,
                                         step=base.inertia_kgm2 / 20, readout_format=".2e",
                                         description="load inertia [kg·m²]"),
-            "load_torque_nm": slider(w.FloatSlider, value=0.0, min=0.0,
+            "load_torque_nm": slider(w.FloatSlider, value=min(max(
+                                     base.load_torque_nm, -_torque_span(base)),
+                                     _torque_span(base)), min=-_torque_span(base),
                                      max=_torque_span(base), step=_torque_span(base) / 100,
                                      readout_format=".3f",
                                      description="load torque [N·m]"),
@@ -414,9 +417,11 @@ class Designer:
             c["load_inertia_kgm2"].max = 10 * base.inertia_kgm2
             c["load_inertia_kgm2"].step = base.inertia_kgm2 / 20
             c["load_inertia_kgm2"].value = 0.0
-            c["load_torque_nm"].max = _torque_span(base)
-            c["load_torque_nm"].step = _torque_span(base) / 100
-            c["load_torque_nm"].value = 0.0
+            span = _torque_span(base)
+            c["load_torque_nm"].max = span
+            c["load_torque_nm"].min = -span
+            c["load_torque_nm"].step = span / 100
+            c["load_torque_nm"].value = min(max(base.load_torque_nm, -span), span)
         finally:
             self._held = False
         self.recompute()
@@ -457,6 +462,12 @@ def designer(motor: Motor | None = None, **kw: Any) -> Designer:
 def _torque_span(motor: Motor) -> float:
     """Load torque slider range: up to half the usable torque at standstill."""
     return float(0.5 * motor.safety_factor * motor.torque_nm(0.0))
+
+
+def _verdict(physics: Any) -> str:
+    if physics.slipped:
+        return "SLIPS A POLE"
+    return "stable" if physics.stable else "UNSTABLE (past the 90° peak)"
 
 
 def _slug(name: str) -> str:
