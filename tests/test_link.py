@@ -6,6 +6,7 @@ from __future__ import annotations
 import random
 import time
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -345,3 +346,88 @@ def test_a_noisy_line_loses_and_misreads_nothing(pty_chip: tuple[SerialChip, str
     assert sum(line.startswith("move:") for line in chip.log) == 6  # no move twice
     assert noisy.faults >= 5 and link.stats["resends"] > 0 and chip.error_count > 0
     noisy.close()
+
+
+# --- the commands: `stepramp link …` and `stepramp emulate --pty` ----------------------------
+
+def run_cli(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
+    from verify.cli import main
+
+    code = main(argv)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_cli_link_runs_every_command(pty_chip: tuple[SerialChip, str], tmp_path: Path,
+                                     capsys: pytest.CaptureFixture[str]) -> None:
+    chip, path = pty_chip
+    base = ["link", "--port", path, "--address", str(ADDRESS)]
+    table = tmp_path / "init.json"
+    table.write_text('{"format": "stepramp.table/1", "device": "ppmc312", "kind": "init", '
+                     '"clock": "8MHz", "shape": "linear", "start_rate": 10000, '
+                     '"high_rate": 400, "accel_pulses": 2000}')
+    assert run_cli([*base, "poll"], capsys) == (0, "slave 5: ready\n", "")
+    code, out, err = run_cli([*base, "move", "--pulses", "100"], capsys)
+    assert (code, out) == (1, "")
+    assert err == "stepramp link: slave 5: move: the chip refused it: state error (B5 43)\n"
+    assert run_cli([*base, "init", str(table)], capsys) == (
+        0, "slave 5: init accepted: linear, start rate 10000, high rate 400, 2000 accel/decel "
+           "pulses\n", "")
+    assert chip.table is not None
+    assert run_cli([*base, "move", "--pulses", "100000", "--ccw"], capsys) == (
+        0, "slave 5: move of 100000 pulses CCW started\n", "")
+    assert run_cli([*base, "poll"], capsys) == (0, "slave 5: busy\n", "")
+    assert run_cli([*base, "stop"], capsys) == (0, "slave 5: pulse output stopped\n", "")
+    assert run_cli([*base, "poll"], capsys) == (
+        0, "slave 5: stopped: stopped by the immediate-stop command (0x37)\n", "")
+    assert run_cli([*base, "position"], capsys) == (
+        0, f"slave 5: position {chip.position} pulses\n", "")
+    assert chip.position < 0
+    assert run_cli([*base, "errors"], capsys) == (
+        0, "slave 5: 0 line error(s) (framing, overrun and checksum); last error code 0x43 "
+           "(state error)\n", "")
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["--address", "16", "poll"], "address: 16 (0x10) is outside the allowed range 0..15"),
+    (["--address", "6", "--timeout-s", "0.05", "--retries", "0", "poll"],
+     "slave 6: poll: no reply within 0.05 s (1 attempt)"),
+    (["--address", "5", "init", "{examples}/free-curve-nema17.json"], "no serial form"),
+])
+def test_cli_link_bad_input_is_one_line_exit_2(pty_chip: tuple[SerialChip, str], argv: list[str],
+                                               message: str,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    examples = str(Path(__file__).resolve().parents[1] / "examples")
+    argv = [a.replace("{examples}", examples) for a in argv]
+    code, out, err = run_cli(["link", "--port", pty_chip[1], *argv], capsys)
+    assert (code, out) == (2, "")
+    assert err.startswith("stepramp link: ") and message in err and err.count("\n") == 1
+
+
+def test_cli_emulate_serves_a_pty_until_sigterm(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[1]
+    env = dict(os.environ, PYTHONPATH=str(root))
+    link_path = tmp_path / "chip.tty"
+    proc = subprocess.Popen([sys.executable, "-m", "verify.cli", "emulate", "--pty",
+                             "--address", "9", "--link", str(link_path), "--log"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        assert proc.stdout is not None
+        first = proc.stdout.readline()
+        assert first.startswith("PPMC-312 slave 9 (ASCII serial mode) on /dev/")
+        assert first.rstrip().endswith(f"(link {link_path})")
+        assert link_path.is_symlink()
+        assert run_cli(["link", "--port", str(link_path), "--address", "9", "position"],
+                       capsys) == (0, "slave 9: position 0 pulses\n", "")
+        assert proc.stdout.readline() == "position: 0\n"  # --log: one line per frame
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        code = proc.wait(timeout=10)
+    assert code == 0
+    assert not link_path.exists()

@@ -407,8 +407,10 @@ class PtyServer:
 
     POLL_S = 0.05
 
-    def __init__(self, chip: SerialChip, *, link: str | None = None) -> None:
+    def __init__(self, chip: SerialChip, *, link: str | None = None,
+                 on_log: Callable[[str], None] | None = None) -> None:
         self.chip = chip
+        self.on_log = on_log
         self._master, self._slave = os.openpty()
         tty.setraw(self._slave)  # no echo, no line editing: bytes pass as sent
         self.path = os.ttyname(self._slave)
@@ -438,9 +440,17 @@ class PtyServer:
             except OSError:  # no client has the terminal open (EIO): wait for one
                 time.sleep(self.POLL_S)
                 continue
+            seen = len(self.chip.log)
             replies = self.chip.receive(data)
             if replies:
                 os.write(self._master, replies)
+            if self.on_log is not None:
+                for line in self.chip.log[seen:]:
+                    self.on_log(line)
+
+    def request_stop(self) -> None:
+        """Make `serve()` return (safe from a signal handler)."""
+        self._stopping.set()
 
     def stop(self) -> None:
         self._stopping.set()
