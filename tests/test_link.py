@@ -217,11 +217,11 @@ def test_error_replies_accept_the_printed_ready_byte_and_a_data_byte() -> None:
 
 # --- lost replies: nothing lost, nothing done twice ----------------------------------------
 
-class DropReplies:
-    """Pass-through to a port, dropping the chip's reply to chosen writes (counted from 0)."""
+class PassThrough:
+    """A port wrapper: everything goes to `port` unless a subclass says otherwise."""
 
-    def __init__(self, port: Any, drop: set[int]) -> None:
-        self.port, self.drop, self.writes = port, drop, 0
+    def __init__(self, port: Any) -> None:
+        self.port = port
 
     @property
     def timeout(self) -> float | None:
@@ -232,12 +232,7 @@ class DropReplies:
         self.port.timeout = value
 
     def write(self, data: bytes) -> int:
-        n = self.port.write(data)
-        if self.writes in self.drop:
-            time.sleep(0.02)
-            self.port.reset_input_buffer()
-        self.writes += 1
-        return n  # type: ignore[no-any-return]
+        return self.port.write(data)  # type: ignore[no-any-return]
 
     def read(self, size: int = 1) -> bytes:
         return self.port.read(size)  # type: ignore[no-any-return]
@@ -247,6 +242,22 @@ class DropReplies:
 
     def close(self) -> None:
         self.port.close()
+
+
+class DropReplies(PassThrough):
+    """Drops the chip's reply to chosen writes (counted from 0)."""
+
+    def __init__(self, port: Any, drop: set[int]) -> None:
+        super().__init__(port)
+        self.drop, self.writes = drop, 0
+
+    def write(self, data: bytes) -> int:
+        n = self.port.write(data)
+        if self.writes in self.drop:
+            time.sleep(0.02)
+            self.port.reset_input_buffer()
+        self.writes += 1
+        return n  # type: ignore[no-any-return]
 
 
 def test_a_move_whose_reply_is_lost_is_not_sent_twice(pty_chip: tuple[SerialChip, str]) -> None:
@@ -279,12 +290,13 @@ def test_a_lost_stop_report_is_recovered_from_the_end_status(
 
 # --- a noisy line ---------------------------------------------------------------------------
 
-class NoisyLine:
-    """Between master and chip: each byte, either way, has its bits flipped or is dropped
+class NoisyLine(PassThrough):
+    """Between master and chip: each byte, either way, has a bit flipped or is dropped
     with the given probabilities (a seeded generator: the same faults each run)."""
 
     def __init__(self, port: Any, seed: int, flip: float, drop: float) -> None:
-        self.port, self.rng, self.flip, self.drop = port, random.Random(seed), flip, drop
+        super().__init__(port)
+        self.rng, self.flip, self.drop = random.Random(seed), flip, drop
         self.faults = 0
 
     def _noise(self, data: bytes) -> bytes:
@@ -300,26 +312,12 @@ class NoisyLine:
             out.append(byte)
         return bytes(out)
 
-    @property
-    def timeout(self) -> float | None:
-        return self.port.timeout  # type: ignore[no-any-return]
-
-    @timeout.setter
-    def timeout(self, value: float | None) -> None:
-        self.port.timeout = value
-
     def write(self, data: bytes) -> int:
         self.port.write(self._noise(data))
         return len(data)
 
     def read(self, size: int = 1) -> bytes:
         return self._noise(self.port.read(size))
-
-    def reset_input_buffer(self) -> None:
-        self.port.reset_input_buffer()
-
-    def close(self) -> None:
-        self.port.close()
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3])

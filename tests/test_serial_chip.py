@@ -13,12 +13,17 @@ from hypothesis import strategies as st
 
 from profiles.errors import FieldRangeError
 from profiles.ppmc312.ascii import (
+    END_CODE_REPLY,
+    ERROR_CODE_REPLY,
+    ERROR_COUNT_REPLY,
     POSITION_REPLY,
+    SERIAL_END_STATUS_READ,
     SERIAL_ERROR_CODE_READ,
     SERIAL_ERROR_COUNT_READ,
     SERIAL_POSITION_READ,
     SERIAL_POSITION_SET,
     SERIAL_STOP,
+    SPECIAL_REPLY,
     decode_frame,
     encode_frame,
     encode_serial_init,
@@ -258,3 +263,36 @@ def test_loop_transport_answers_like_the_chip() -> None:
     port = LoopSerial(SerialChip(ADDRESS), timeout=0.5)
     port.write(encode_frame("poll", ADDRESS, b""))
     assert port.read(3) == READY
+
+
+# --- the serial frames the link and the chip share: one description, both ways ----------------
+
+@given(st.integers(0, 15), st.integers(0, 1), st.integers(-(1 << 31), (1 << 31) - 1))
+def test_position_frames_round_trip(address: int, encoder: int, position: int) -> None:
+    for frame, values, kind in (
+            (SERIAL_POSITION_SET, {"encoder": encoder, "position": position}, "command"),
+            (POSITION_REPLY, {"source": encoder, "position": position}, "data")):
+        wire = encode_frame(kind, address, frame.encode(values))
+        parsed = decode_frame(wire, from_slave=kind == "data")
+        assert (parsed.kind, parsed.address) == (kind, address)
+        assert frame.decode(parsed.payload) == values
+
+
+@given(st.integers(0, 15), st.integers(0, 0xFFFF), st.integers(0, 0xFF))
+def test_error_and_end_code_replies_round_trip(address: int, count: int, code: int) -> None:
+    for frame, values in ((ERROR_COUNT_REPLY, {"error_count": count}),
+                          (ERROR_CODE_REPLY, {"error_code": code}),
+                          (END_CODE_REPLY, {"end_code": code}),
+                          (SPECIAL_REPLY, {"code": code})):
+        wire = encode_frame("ready", address, frame.encode(values))
+        assert frame.decode(decode_frame(wire, from_slave=True).payload) == values
+
+
+def test_serial_command_codes_are_the_manuals() -> None:
+    # §16-1 stop 80, §18-1 position read 42 / 62 (P), §18-2 set 43 / 63, §18-6 40,
+    # §18-10 41, §18-11 4C.
+    assert SERIAL_STOP.encode() == b"\x80"
+    assert [SERIAL_POSITION_READ.encode(encoder=p) for p in (0, 1)] == [b"\x42", b"\x62"]
+    assert SERIAL_POSITION_SET.encode(encoder=1, position=-1) == b"\x63\xff\xff\xff\xff"
+    assert (SERIAL_END_STATUS_READ.encode(), SERIAL_ERROR_CODE_READ.encode(),
+            SERIAL_ERROR_COUNT_READ.encode()) == (b"\x40", b"\x41", b"\x4c")

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from types import TracebackType
 from typing import Any, Protocol
 
-from ..errors import DecodeError, StepRampError
+from ..errors import DecodeError, FieldRangeError, StepRampError, require_int
 from ..fields import Frame
 from .ascii import (
     CONTROL,
@@ -144,17 +144,11 @@ class Link:
 
     def __init__(self, port: str | SerialPort, address: int, *, baud: int = 19_200,
                  timeout_s: float = 0.2, retries: int = 3) -> None:
-        if isinstance(address, bool) or not isinstance(address, int) or not (
-                0 <= address <= MAX_ADDRESS):
-            from ..errors import FieldRangeError
-            raise FieldRangeError("address", address, 0, MAX_ADDRESS)
-        if not (isinstance(timeout_s, int | float) and 0 < timeout_s <= 60):
-            from ..errors import FieldRangeError
+        self.address = require_int("address", address, 0, MAX_ADDRESS)
+        if isinstance(timeout_s, bool) or not (isinstance(timeout_s, int | float)
+                                               and 0.001 <= timeout_s <= 60):
             raise FieldRangeError("timeout_s", timeout_s, 0.001, 60)
-        if isinstance(retries, bool) or not isinstance(retries, int) or not 0 <= retries <= 100:
-            from ..errors import FieldRangeError
-            raise FieldRangeError("retries", retries, 0, 100)
-        self.address = address
+        retries = require_int("retries", retries, 0, 100)
         self.timeout_s = float(timeout_s)
         self.retries = retries
         self.stats = {"attempts": 0, "resends": 0, "timeouts": 0, "garbled": 0}
@@ -355,7 +349,6 @@ class Link:
 
 def _open(port: str, baud: int, timeout_s: float) -> SerialPort:
     if baud not in BAUD_RATES:
-        from ..errors import FieldRangeError
         raise FieldRangeError("baud", baud, min(BAUD_RATES), max(BAUD_RATES))
     import serial
 

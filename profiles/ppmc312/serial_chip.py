@@ -39,7 +39,7 @@ from dataclasses import dataclass
 
 from serial.urlhandler import protocol_loop
 
-from ..errors import StepRampError
+from ..errors import StepRampError, require_int
 from ..fields import Frame
 from .ascii import (
     CONTROL,
@@ -149,11 +149,7 @@ class SerialChip:
 
     def __init__(self, address: int, *, clock_s: Callable[[], float] = time.monotonic,
                  extck_hz: float | None = None) -> None:
-        if isinstance(address, bool) or not isinstance(address, int) or not (
-                0 <= address <= MAX_ADDRESS):
-            from ..errors import FieldRangeError
-            raise FieldRangeError("address", address, 0, MAX_ADDRESS)
-        self.address = address
+        self.address = require_int("address", address, 0, MAX_ADDRESS)
         self._now = clock_s
         self._extck_hz = extck_hz
         self.table: InitTable | None = None
