@@ -274,12 +274,16 @@ def bundled_motors() -> dict[str, Motor]:
 class Designer:
     """The widget: `controls` (sliders and pickers by name), `buttons`, `image` (the figure
     PNG), `summary`, `status`; `result` is the latest `Design`. Display it in a notebook
-    (it shows its widget) or call `recompute()` after setting controls from code."""
+    (it shows its widget); setting a control from code recomputes as dragging it does."""
 
     def __init__(self, motor: Motor | None = None, *, pulses: int = 10_000,
                  out_dir: str | Path = ".", motors: dict[str, Motor] | None = None,
                  load_angle: bool = True) -> None:
-        import ipywidgets as w
+        try:
+            import ipywidgets as w
+        except ImportError:
+            raise StepRampError("the designer needs ipywidgets: pip install "
+                                "'stepramp[notebook]'") from None
 
         self.motors = dict(motors) if motors is not None else bundled_motors()
         if motor is not None:
