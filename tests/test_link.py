@@ -254,8 +254,15 @@ class DropReplies(PassThrough):
     def write(self, data: bytes) -> int:
         n = self.port.write(data)
         if self.writes in self.drop:
-            time.sleep(0.02)
-            self.port.reset_input_buffer()
+            # Wait for the reply's first byte however slow the machine, then swallow
+            # the rest: the master sees nothing.
+            timeout = self.port.timeout
+            self.port.timeout = 5.0
+            assert self.port.read(1), "the chip did not answer"
+            self.port.timeout = 0.05
+            while self.port.read(64):
+                pass
+            self.port.timeout = timeout
         self.writes += 1
         return n  # type: ignore[no-any-return]
 
@@ -320,12 +327,13 @@ class NoisyLine(PassThrough):
         return self._noise(self.port.read(size))
 
 
-@pytest.mark.parametrize("seed", [1, 2, 3])
+@pytest.mark.parametrize("seed", [1, pytest.param(2, marks=pytest.mark.slow),
+                                  pytest.param(3, marks=pytest.mark.slow)])
 def test_a_noisy_line_loses_and_misreads_nothing(pty_chip: tuple[SerialChip, str],
                                                  seed: int) -> None:
     chip, path = pty_chip
     noisy = NoisyLine(serial.Serial(path, timeout=0.1), seed, flip=0.02, drop=0.02)
-    link = Link(noisy, ADDRESS, timeout_s=0.08, retries=10)
+    link = Link(noisy, ADDRESS, timeout_s=0.15, retries=10)
     link.init(TABLE)
     assert chip.table == TABLE
     expected = 0

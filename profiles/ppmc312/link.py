@@ -341,7 +341,7 @@ class Link:
 
     def _drain(self) -> None:
         """Let a damaged exchange's leftovers arrive and drop them before resending."""
-        self._port.timeout = min(0.02, self.timeout_s)
+        self._port.timeout = min(0.05, self.timeout_s)
         while self._port.read(256):
             pass
         self._port.reset_input_buffer()
