@@ -61,16 +61,16 @@ def test_poll_init_move_position_and_the_stop_report(link: Link) -> None:
     assert str(link.poll()) == "ready"
     assert link.position() == 0
     link.init(TABLE)
-    link.move(300)
+    link.move(2000)  # 0.27 s: still running at the next poll
     assert link.poll().state == "busy"
-    stopped = wait_stopped(link, 300)
+    stopped = wait_stopped(link, 2000)
     assert (stopped.state, stopped.code) == ("stopped", 0x38)
     assert str(stopped) == "stopped: normal stop at the commanded position (0x38)"
     assert link.poll().state == "ready"
-    assert link.position() == 300
+    assert link.position() == 2000
     link.move(120, ccw=True)
     assert wait_stopped(link, 120).code == 0x38
-    assert link.position() == 180
+    assert link.position() == 1880
     assert link.stats["resends"] == 0
 
 
@@ -128,10 +128,10 @@ def test_link_over_loop_transport() -> None:
     chip = SerialChip(ADDRESS)
     link = Link(LoopSerial(chip), ADDRESS, timeout_s=0.2)
     link.init(TABLE)
-    link.move(50)
+    link.move(2000)
     assert chip.busy
-    assert wait_stopped(link, 50).code == 0x38
-    assert link.position() == 50
+    assert wait_stopped(link, 2000).code == 0x38
+    assert link.position() == 2000
 
 
 # --- replies the link must not believe ----------------------------------------------------
