@@ -12,10 +12,10 @@ from typing import Any
 import pytest
 import serial
 
+from profiles.errors import UnsupportedError
 from profiles.ppmc312.ascii import encode_frame
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.execution import simulate_move
-from profiles.ppmc312.frames import UnsupportedError
 from profiles.ppmc312.link import (
     ChipRefused,
     GarbledReply,
