@@ -27,7 +27,16 @@ from dataclasses import dataclass
 from types import TracebackType
 from typing import Any, Protocol
 
-from ..errors import DecodeError, FieldRangeError, StepRampError, require_int
+from ..errors import (
+    ChipRefused,
+    DecodeError,
+    FieldRangeError,
+    GarbledReply,
+    LinkError,
+    LinkTimeout,
+    UnknownReply,
+    require_int,
+)
 from ..fields import Frame
 from .ascii import (
     CONTROL,
@@ -62,30 +71,6 @@ ERROR_CODE = {"ready": 1, "data": 1, "special": 1}
 ERROR_COUNT = {"ready": 2, "data": 2, "special": 1}
 POSITION = {"data": 5, "special": 1}
 END_STATUS = {"data": 1, "special": 1}
-
-
-class LinkError(StepRampError):
-    """The serial link could not complete an exchange (one line: slave, what, why)."""
-
-
-class LinkTimeout(LinkError):
-    """No reply (or no whole reply) within the timeout, retries included."""
-
-
-class GarbledReply(LinkError):
-    """Replies arrived but none was valid (checksum, characters, length, address)."""
-
-
-class UnknownReply(LinkError):
-    """A valid frame whose meaning no table of the manual gives."""
-
-
-class ChipRefused(LinkError):
-    """The chip answered a special reply refusing the command (`code`, e.g. 0x43)."""
-
-    def __init__(self, message: str, code: int) -> None:
-        super().__init__(message)
-        self.code = code
 
 
 class SerialPort(Protocol):
