@@ -479,6 +479,7 @@ NOTEBOOKS: dict[str, list[Cell]] = {
     "upload-files": UPLOAD,
     "two-axis-move": cells_from("two_axis_move"),
     "machine-to-table": cells_from("machine_to_table"),
+    "design-interactive": cells_from("design_interactive"),
 }
 
 

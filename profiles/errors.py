@@ -106,6 +106,31 @@ class ReferenceSolveError(StepRampError, RuntimeError):
     """A reference solver failed or gave a result outside its trust bracket."""
 
 
+# The serial link (profiles/ppmc312/link.py): one line each, naming slave, command, why.
+class LinkError(StepRampError):
+    """The serial link could not complete an exchange (one line: slave, what, why)."""
+
+
+class LinkTimeout(LinkError):
+    """No reply (or no whole reply) within the timeout, retries included."""
+
+
+class GarbledReply(LinkError):
+    """Replies arrived but none was valid (checksum, characters, length, address)."""
+
+
+class UnknownReply(LinkError):
+    """A valid frame whose meaning no table of the manual gives."""
+
+
+class ChipRefused(LinkError):
+    """The chip answered a special reply refusing the command (`code`, e.g. 0x43)."""
+
+    def __init__(self, message: str, code: int) -> None:
+        super().__init__(message)
+        self.code = code
+
+
 # --- the number validator ----------------------------------------------------------------------
 # bool is an int subclass, so `isinstance(True, int)` holds: every numeric field would take
 # True as 1. One predicate excludes it, once, for every caller.

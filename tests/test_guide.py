@@ -45,6 +45,7 @@ from profiles.ppmc312.table import _KEYS as TABLE_KEYS
 from profiles.ppmc312.table import table_from_json
 from verify import cli
 
+LINK_COMMANDS = ("init", "move", "poll", "position", "errors", "stop")
 REPO = Path(__file__).resolve().parents[1]
 GUIDE = REPO / "docs" / "guide.md"
 ELLIPSIS = "…"
@@ -71,11 +72,18 @@ class Command:
 
     @property
     def name(self) -> str:
-        """The sub-command, e.g. `check` or `alink settings`."""
+        """The sub-command, e.g. `check`, `alink settings` or `link poll`."""
         words = [a for a in self.argv if not a.startswith("-")]
         if not words:  # `stepramp --version`
             return ""
+        if words[0] == "link":  # options (with values) come before link's sub-command
+            return "link " + next(w for w in words[1:] if w in LINK_COMMANDS)
         return " ".join(words[:2]) if words[0] in ("alink", "mc200", "motor") else words[0]
+
+    @property
+    def background(self) -> bool:
+        """Commands that serve until stopped (`emulate`): started, checked, left running."""
+        return self.argv[:1] == ["emulate"]
 
 
 def guide_text() -> str:
@@ -198,14 +206,42 @@ def run_subprocess(argv: list[str], cwd: Path) -> tuple[int, str]:
     return done.returncode, text
 
 
+def start_background(argv: list[str], cwd: Path) -> tuple[subprocess.Popen[str], str]:
+    """A serving command (`emulate`) as a subprocess, and the first line it prints."""
+    env = dict(os.environ, PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    proc = subprocess.Popen([sys.executable, "-m", "verify.cli", *argv], cwd=cwd, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    assert proc.stdout is not None
+    return proc, proc.stdout.readline()
+
+
 def run_guide(run: Runner, cwd: Path, include_slow: bool) -> list[str]:
     """Run the guide's commands in order; one message per disagreement."""
-    problems = []
+    problems: list[str] = []
+    serving: list[subprocess.Popen[str]] = []
+    try:
+        _run_guide(run, cwd, include_slow, problems, serving)
+    finally:
+        for proc in serving:
+            proc.terminate()
+            proc.wait(timeout=30)
+    return problems
+
+
+def _run_guide(run: Runner, cwd: Path, include_slow: bool, problems: list[str],
+               serving: list[subprocess.Popen[str]]) -> None:
     for c in guide_commands():
         if c.slow and not include_slow:
             continue
-        code, output = run(expand_globs(c.argv, cwd), cwd)
         where = f"guide line {c.line}: $ {c.text}"
+        if c.background:
+            proc, first = start_background(c.argv, cwd)
+            serving.append(proc)
+            mismatch = output_mismatch(c.shown, [first])
+            if mismatch:
+                problems.append(f"{where}\n  {mismatch}\n  first line: {first!r}")
+            continue
+        code, output = run(expand_globs(c.argv, cwd), cwd)
         if "Traceback (most recent call last)" in output:
             problems.append(f"{where}\n  printed a traceback:\n{output}")
             continue
@@ -215,7 +251,6 @@ def run_guide(run: Runner, cwd: Path, include_slow: bool) -> list[str]:
         mismatch = output_mismatch(c.shown, output.splitlines())
         if mismatch:
             problems.append(f"{where}\n  {mismatch}\n  real output:\n{output}")
-    return problems
 
 
 @pytest.fixture(scope="module")
@@ -279,7 +314,8 @@ def test_every_command_has_an_example() -> None:
         nested = [a for a in sub._actions if a.__class__.__name__ == "_SubParsersAction"]
         names |= {f"{name} {n}" for n in nested[0].choices} if nested else {name}
     expected = {"check", "show", "export", "decode", "move", "expand", "plan", "simulate",
-                "compare", "alink settings", "alink decode", "mc200 stream", "mc200 decode"}
+                "compare", "alink settings", "alink decode", "mc200 stream", "mc200 decode",
+                "emulate", *(f"link {name}" for name in LINK_COMMANDS)}
     assert names >= expected
     documented = {c.name for c in guide_commands()}
     assert names - documented == set(), "commands without an example in the guide"

@@ -23,7 +23,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 NOTEBOOK_DIR = ROOT / "notebooks"
 NOTEBOOKS = ("design-free-curve", "linear-vs-free-curve", "upload-files", "two-axis-move",
-             "machine-to-table")
+             "machine-to-table", "design-interactive")
 CELL_TIMEOUT_S = 120
 FALLBACK_KERNEL = "stepramp-python3"
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..errors import DecodeError, FormatError, UnsupportedError, require_int
-from ..fields import Bit, Bits, Frame, UInt
+from ..fields import Bit, Bits, Const, Frame, SInt, UInt
 from .clock import EXTCK_FALLING, Clock
 from .frames import block_bytes
 from .table import InitTable
@@ -54,6 +54,18 @@ SPECIAL_REPLIES: dict[int, str] = {
     0x44: "limit error",
     0x46: "alarm",
     0x47: "command error",
+    # §15-2/15-3/15-4, §18-7, §19: state reports and other refusals.
+    0x20: "interlock released",
+    0x21: "override command executed",
+    0x22: "event command executed",
+    0x24: "encoder range entered",
+    0x25: "in-position range entered",
+    0x26: "encoder range left",
+    0x27: "in-position range left",
+    0x28: "general input changed",
+    0x48: "event registration failed",
+    0x49: "override aborted",
+    0x4A: "event aborted",
 }
 
 _HEX = set(string.hexdigits.encode())
@@ -187,3 +199,49 @@ def _decode_payload(frame: Frame, payload: bytes) -> dict[str, Any]:
 def _strip_byte(message: str) -> str:
     head, sep, tail = message.partition(": ")
     return tail if sep and head.startswith("byte ") else message
+
+
+# --- the other serial commands and their replies (link master, serial chip) -------
+# Each §16–18 command the link sends, and each data reply it reads, described once.
+SERIAL_STOP = Frame("serial immediate stop", (Const("code", b"\x80"),))              # §16-1
+SERIAL_POSITION_READ = Frame("serial position read", (                                # §18-1
+    Bits("code", 1, (Bit("high", 6, 2, const=0b01), Bit("encoder", 5),
+                     Bit("low", 0, 5, const=0b00010))),
+))
+SERIAL_POSITION_SET = Frame("serial position set", (                                  # §18-2
+    Bits("code", 1, (Bit("high", 6, 2, const=0b01), Bit("encoder", 5),
+                     Bit("low", 0, 5, const=0b00011))),
+    SInt("position", 4),
+))
+SERIAL_END_STATUS_READ = Frame("serial end status read", (Const("code", b"\x40"),))   # §18-6
+SERIAL_ERROR_CODE_READ = Frame("serial error code read", (Const("code", b"\x41"),))   # §18-10
+SERIAL_ERROR_COUNT_READ = Frame("serial error count read", (Const("code", b"\x4C"),))  # §18-11
+
+# Replies. The position is a signed 32-bit count (CCW moves count down).
+POSITION_REPLY = Frame("position reply", (UInt("source", 1, hi=1), SInt("position", 4)))
+END_CODE_REPLY = Frame("end code reply", (UInt("end_code", 1),))       # §18-6, §19-14
+ERROR_CODE_REPLY = Frame("error code reply", (UInt("error_code", 1),))  # §18-10
+ERROR_COUNT_REPLY = Frame("error count reply", (UInt("error_count", 2),))  # §18-11
+SPECIAL_REPLY = Frame("special reply", (UInt("code", 1),))              # §19 (B0 + a)
+
+# §18-6 / §19-14: why pulse output stopped.
+END_CODES: dict[int, str] = {
+    0x31: "stopped by the alarm input",
+    0x32: "stopped at the origin input",
+    0x33: "stopped by a limit",
+    0x34: "decelerated to a stop by the high-speed limit",
+    0x36: "stopped by the decelerate-stop command",
+    0x37: "stopped by the immediate-stop command",
+    0x38: "normal stop at the commanded position",
+    0x39: "stopped at once (stop rate = start rate: no deceleration possible)",
+}
+# §18-10: the error code register.
+ERROR_CODES: dict[int, str] = {
+    0x00: "no error",
+    0x42: "parameter error",
+    0x43: "state error",
+    0x44: "limit error",
+    0x47: "undefined command",
+    0x48: "size error",
+    0x49: "registration failed",
+}

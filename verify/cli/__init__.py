@@ -35,6 +35,7 @@ COMMANDS: tuple[str, ...] = (
     "plan", "simulate", "compare", "sync",
     "sweep",
     "alink", "mc200", "motor",
+    "link", "emulate",
 )
 
 

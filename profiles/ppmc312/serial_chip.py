@@ -1,0 +1,470 @@
+"""A PPMC-312 slave in ASCII serial mode (manual §12–19): what it answers on the line.
+
+`SerialChip.receive(data)` takes the bytes the master sent (any split: a frame
+may arrive a byte at a time) and returns the bytes the chip sends back. The
+chip models:
+- framing: a frame starts at a control byte (bit 7 set); its length follows
+  from the type (a poll is the control byte and a checksum) and, for a command,
+  from the command code (`command_size`, every §15–18 command);
+- the checksum of every frame, and the error counter the master reads with
+  command 4C (framing, overrun and checksum errors);
+- init (§15-1), accel/decel move (§16-3, timed by `execution.simulate_move`),
+  immediate stop (§16-1), position read/set (§18-1/2), end status (§18-6),
+  error code (§18-10), error count (§18-11), and polls (§19): busy while the
+  simulated move runs, then once the stop report (A0 + end code), then ready.
+Documented commands outside that list are answered with the command error
+(B0 47, "not modelled"); no part of the chip is faked.
+
+Our readings where the manual is silent (docs/manual-notes.md, "Serial link"):
+- a frame with a wrong checksum is answered B0 47 (§13-5 says the chip answers
+  a checksum error but lists no code for it; 47 is "an error in the command");
+- framing errors in this model are the line faults a byte stream shows: a frame
+  cut short by the next control byte, characters outside any frame, a control
+  byte with bit 6 set or a slave type. None of them is answered (§13-5);
+- the error count is the sum of the three counters, saturating at 0xFFFF;
+- error code and error count replies carry the ready control byte (90 + a), as
+  §18-10/18-11 print it; the master also accepts a data reply (A0 + a).
+"""
+
+from __future__ import annotations
+
+import os
+import select
+import string
+import threading
+import time
+import tty
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from serial.urlhandler import protocol_loop
+
+from ..errors import StepRampError, require_int
+from ..fields import Frame
+from .ascii import (
+    CONTROL,
+    END_CODE_REPLY,
+    ERROR_CODE_REPLY,
+    ERROR_COUNT_REPLY,
+    MAX_ADDRESS,
+    POSITION_REPLY,
+    SERIAL_INIT,
+    SERIAL_MOVE,
+    SERIAL_POSITION_READ,
+    SERIAL_POSITION_SET,
+    SPECIAL_REPLY,
+    checksum,
+    encode_frame,
+)
+from .clock import Clock
+from .execution import Execution, simulate_move
+from .init_model import init_stage_problem
+from .table import InitTable
+
+# (name, mask, value, payload bytes including the code): how long each command's
+# frame is, from its code byte alone (manual §15–18). Codes are disjoint (tested).
+COMMANDS: tuple[tuple[str, int, int, int], ...] = (
+    ("init", 0xF0, 0x00, 8),
+    ("in-position setting", 0xCF, 0xC6, 3),
+    ("encoder setting", 0xEF, 0xC7, 3),
+    ("interlock position setting", 0xFF, 0xC8, 5),
+    ("high-speed limit setting", 0xFF, 0x47, 3),
+    ("END pin setting", 0xFF, 0xC9, 2),
+    ("immediate stop", 0xFF, 0x80, 1),
+    ("immediate stop at position", 0xFF, 0x8B, 5),
+    ("immediate stop on event 0", 0xFF, 0x9B, 1),
+    ("immediate stop on event 1", 0xFF, 0xBB, 1),
+    ("decelerate stop", 0xFF, 0x81, 1),
+    ("decelerate stop at position", 0xFF, 0x8C, 5),
+    ("decelerate stop on event 0", 0xFF, 0x9C, 1),
+    ("decelerate stop on event 1", 0xFF, 0xBC, 1),
+    ("accel/decel move", 0xDF, 0x83, 7),
+    ("constant-speed move", 0xDF, 0x84, 7),
+    ("single step", 0xDF, 0x82, 1),
+    ("continuous high speed", 0xDF, 0x86, 3),
+    ("continuous constant speed", 0xDF, 0x85, 3),
+    ("accel speed change", 0xFF, 0x89, 3),
+    ("accel speed change at position", 0xFF, 0x8E, 7),
+    ("accel speed change on event 0", 0xFF, 0x9E, 3),
+    ("accel speed change on event 1", 0xFF, 0xBE, 3),
+    ("immediate speed change", 0xFF, 0x88, 3),
+    ("immediate speed change at position", 0xFF, 0x8D, 7),
+    ("immediate speed change on event 0", 0xFF, 0x9D, 3),
+    ("immediate speed change on event 1", 0xFF, 0xBD, 3),
+    ("origin search", 0xCF, 0x87, 3),
+    ("high-speed origin return", 0xCF, 0x8A, 3),
+    ("excitation on", 0xFF, 0xC0, 1),
+    ("excitation off", 0xFF, 0xC1, 1),
+    ("counter clear", 0xFF, 0xC2, 1),
+    ("zero clamp", 0xFF, 0xC3, 1),
+    ("alarm clear", 0xFF, 0xC4, 1),
+    ("general input", 0xFF, 0x44, 1),
+    ("general output", 0xFF, 0x45, 2),
+    ("control pin read", 0xFF, 0x46, 1),
+    ("mask setting", 0xFF, 0xC5, 2),
+    ("position read", 0xDF, 0x42, 1),
+    ("position set", 0xDF, 0x43, 5),
+    ("interlock", 0xFF, 0x48, 1),
+    ("version read", 0xFF, 0x4A, 1),
+    ("synchronous monitor", 0xFF, 0x4D, 1),
+    ("end status read", 0xFF, 0x40, 1),
+    ("event setting", 0xCF, 0x49, 10),
+    ("status read", 0xFF, 0x4E, 1),
+    ("error code read", 0xFF, 0x41, 1),
+    ("error count read", 0xFF, 0x4C, 1),
+    ("reset", 0xFF, 0xFF, 1),
+)
+
+PARAMETER_ERROR, STATE_ERROR, COMMAND_ERROR = 0x42, 0x43, 0x47
+END_NORMAL, END_IMMEDIATE_STOP = 0x38, 0x37
+COUNT_MAX = 0xFFFF
+_HEX = frozenset(string.hexdigits.encode())
+
+
+def command_of(code: int) -> tuple[str, int] | None:
+    """(name, payload bytes) of the command whose code byte is `code`, or None."""
+    for name, mask, value, size in COMMANDS:
+        if code & mask == value:
+            return name, size
+    return None
+
+
+@dataclass
+class _Move:
+    execution: Execution
+    start_s: float        # when the first pulse period starts (after the latency)
+    sign: int             # +1 CW, −1 CCW
+    origin: int           # position counter when the move started
+
+    def pulses_at(self, now_s: float) -> int:
+        return int(self.execution.position_at(max(0.0, now_s - self.start_s)))
+
+    def done_at(self, now_s: float) -> bool:
+        return now_s - self.start_s >= self.execution.duration_s
+
+
+class SerialChip:
+    """One PPMC-312 slave at `address` (0–15). `clock_s` gives the time in seconds
+    (time.monotonic by default; tests pass their own)."""
+
+    def __init__(self, address: int, *, clock_s: Callable[[], float] = time.monotonic,
+                 extck_hz: float | None = None) -> None:
+        self.address = require_int("address", address, 0, MAX_ADDRESS)
+        self._now = clock_s
+        self._extck_hz = extck_hz
+        self.table: InitTable | None = None
+        self.framing_errors = 0
+        self.overrun_errors = 0
+        self.checksum_errors = 0
+        self.error_code = 0x00        # §18-10 register: the last refusal's code
+        self.end_code = 0x00          # §18-6: why the last pulse output stopped
+        self.log: list[str] = []      # one line per frame handled, for a console
+        self._position = 0
+        self._move: _Move | None = None
+        self._report: int | None = None   # the stop report the next poll carries
+        self._frame: bytearray | None = None
+        self._need = 0                # characters still due after the control byte
+        self._skip = False            # inside a frame for another slave (or a dead one)
+        self._stray = False           # inside a run of characters outside any frame
+
+    # --- state ---------------------------------------------------------------------
+    @property
+    def error_count(self) -> int:
+        return min(COUNT_MAX, self.framing_errors + self.overrun_errors + self.checksum_errors)
+
+    @property
+    def busy(self) -> bool:
+        self._settle()
+        return self._move is not None
+
+    @property
+    def position(self) -> int:
+        self._settle()
+        if self._move is None:
+            return self._position
+        return self._move.origin + self._move.sign * self._move.pulses_at(self._now())
+
+    def _settle(self) -> None:
+        """Finish a move whose last pulse is out: the counter holds, the report waits."""
+        move = self._move
+        if move is not None and move.done_at(self._now()):
+            self._position = move.origin + move.sign * move.execution.pulses
+            self._move = None
+            self.end_code = self._report = END_NORMAL
+
+    # --- the byte stream ---------------------------------------------------------------
+    def receive(self, data: bytes) -> bytes:
+        """Take bytes from the line; return the chip's replies to every frame they complete."""
+        out = bytearray()
+        for byte in bytes(data):
+            out += self._byte(byte)
+        return bytes(out)
+
+    def _byte(self, byte: int) -> bytes:
+        if byte & 0x80:
+            if self._frame is not None:
+                self._framing("a frame cut short by the next control byte")
+            self._frame, self._skip, self._stray = None, False, False
+            if byte & 0x40:
+                self._framing(f"0x{byte:02X} is not a control byte (bit 6 set)")
+                self._skip = True
+                return b""
+            fields = CONTROL.decode(bytes([byte]))
+            if fields["address"] != self.address:
+                self._skip = True
+                return b""
+            if fields["type"] >= 2:
+                self._framing(f"control byte 0x{byte:02X} is a slave's type")
+                self._skip = True
+                return b""
+            self._frame = bytearray([byte])
+            self._need = 2 if fields["type"] == 0 else 4  # poll: checksum; command: + code
+            return b""
+        if self._frame is None:
+            if not self._skip and not self._stray:
+                self._framing("characters outside any frame")
+                self._stray = True
+            return b""
+        self._frame.append(byte)
+        self._need -= 1
+        frame = self._frame
+        if len(frame) == 3 and frame[0] & 0x30 == 0x10:
+            # The command code is in: the chip now knows the frame's length.
+            code = int(frame[1:3], 16) if _HEX.issuperset(frame[1:3]) else None
+            known = None if code is None else command_of(code)
+            if known is None:
+                self._frame, self._skip = None, True
+                if code is None:  # damaged on the line: counted like a checksum error
+                    self.checksum_errors += 1
+                    return self._refuse(COMMAND_ERROR, "a command code that is not hex",
+                                        register=False)
+                return self._refuse(COMMAND_ERROR, f"undefined command 0x{code:02X}")
+            self._need = 2 * (known[1] - 1) + 2  # the parameters' characters and the checksum
+        if self._need > 0:
+            return b""
+        self._frame = None
+        return self._complete(bytes(frame))
+
+    def _framing(self, why: str) -> None:
+        self.framing_errors += 1
+        self.log.append(f"framing error: {why}")
+
+    # --- whole frames ---------------------------------------------------------------------
+    def _complete(self, frame: bytes) -> bytes:
+        chars, sent = frame[1:-2], frame[-2:]
+        if not _HEX.issuperset(frame[1:]) or int(sent, 16) != checksum(frame[0], chars):
+            self.checksum_errors += 1
+            return self._refuse(COMMAND_ERROR, "checksum error", register=False)
+        payload = bytes.fromhex(chars.decode("ascii"))
+        if frame[0] & 0x30 == 0:
+            return self._poll()
+        return self._command(payload)
+
+    def _poll(self) -> bytes:
+        self._settle()
+        if self._move is not None:
+            self.log.append("poll: busy")
+            return encode_frame("busy", self.address, b"")
+        if self._report is not None:
+            code, self._report = self._report, None
+            self.log.append(f"poll: stop report 0x{code:02X}")
+            return self._reply("data", END_CODE_REPLY, end_code=code)
+        self.log.append("poll: ready")
+        return encode_frame("ready", self.address, b"")
+
+    def _command(self, payload: bytes) -> bytes:
+        code = payload[0]
+        name, _ = command_of(code) or ("?", 0)
+        handler = _HANDLERS.get(name)
+        if handler is None:
+            return self._refuse(COMMAND_ERROR, f"{name} (0x{code:02X}) is not modelled")
+        return handler(self, payload)
+
+    def _ready(self, what: str) -> bytes:
+        self.log.append(what)
+        return encode_frame("ready", self.address, b"")
+
+    def _reply(self, kind: str, frame: Frame, **values: int) -> bytes:
+        return encode_frame(kind, self.address, frame.encode(**values))
+
+    def _refuse(self, code: int, why: str, *, register: bool = True) -> bytes:
+        if register:  # line damage is counted, not registered (§18-10 vs §18-11)
+            self.error_code = code
+        self.log.append(f"refused 0x{code:02X}: {why}")
+        return self._reply("special", SPECIAL_REPLY, code=code)
+
+    # --- the modelled commands -----------------------------------------------------------
+    def _init(self, payload: bytes) -> bytes:
+        if self.busy:
+            return self._refuse(STATE_ERROR, "init during pulse output")
+        try:
+            f = SERIAL_INIT.decode(payload)
+            table = InitTable(Clock.from_code(f["clk"], self._extck_hz),
+                              "s_curve" if f["fo"] else "linear", f["start_rate"],
+                              f["high_rate"], f["accel_pulses"])
+        except StepRampError as e:
+            self.table = None
+            return self._refuse(PARAMETER_ERROR, f"init: {e}")
+        problem = init_stage_problem(table)
+        if problem is not None:
+            self.table = None  # §7-1: a refused table command destroys the table
+            return self._refuse(PARAMETER_ERROR, f"init: {problem[1]}")
+        self.table = table
+        return self._ready(f"init: {table.shape}, start {table.start_rate}, high "
+                           f"{table.high_rate}, {table.accel_pulses} pulses")
+
+    def _accel_move(self, payload: bytes) -> bytes:
+        if self.busy:
+            return self._refuse(STATE_ERROR, "move during pulse output")
+        if self.table is None:
+            return self._refuse(STATE_ERROR, "move with no table (send init first)")
+        try:
+            f = SERIAL_MOVE.decode(payload)
+            execution = simulate_move(self.table, f["pulses"], high_rate=f["high_rate"])
+        except StepRampError as e:
+            return self._refuse(PARAMETER_ERROR, f"move: {e}")
+        now = self._now()
+        sign = -1 if f["dir"] else 1
+        self._move = _Move(execution, now + execution.first_pulse_latency_s, sign,
+                           self._position)
+        self._report = None
+        return self._ready(f"move: {f['pulses']} pulses {'CCW' if f['dir'] else 'CW'}, "
+                           f"{execution.duration_s:.6f} s")
+
+    def _stop(self, payload: bytes) -> bytes:
+        if self.busy:
+            self._position = self.position
+            self._move = None
+            self.end_code = self._report = END_IMMEDIATE_STOP
+            return self._ready(f"stop: held at {self._position}")
+        return self._ready("stop: no pulse output")
+
+    def _position_read(self, payload: bytes) -> bytes:
+        if SERIAL_POSITION_READ.decode(payload)["encoder"]:
+            return self._refuse(COMMAND_ERROR, "encoder position (no encoder modelled)")
+        position = self.position
+        self.log.append(f"position: {position}")
+        return self._reply("data", POSITION_REPLY, source=0, position=position)
+
+    def _position_set(self, payload: bytes) -> bytes:
+        f = SERIAL_POSITION_SET.decode(payload)
+        if f["encoder"]:
+            return self._refuse(COMMAND_ERROR, "encoder position (no encoder modelled)")
+        if self.busy:
+            return self._refuse(STATE_ERROR, "position set during pulse output")
+        self._position = f["position"]
+        return self._ready(f"position set: {self._position}")
+
+    def _end_status(self, payload: bytes) -> bytes:
+        self._settle()
+        return self._reply("data", END_CODE_REPLY, end_code=self.end_code)
+
+    def _error_code(self, payload: bytes) -> bytes:
+        return self._reply("ready", ERROR_CODE_REPLY, error_code=self.error_code)
+
+    def _error_count(self, payload: bytes) -> bytes:
+        return self._reply("ready", ERROR_COUNT_REPLY, error_count=self.error_count)
+
+
+_HANDLERS: dict[str, Callable[[SerialChip, bytes], bytes]] = {
+    "init": SerialChip._init,
+    "accel/decel move": SerialChip._accel_move,
+    "immediate stop": SerialChip._stop,
+    "position read": SerialChip._position_read,
+    "position set": SerialChip._position_set,
+    "end status read": SerialChip._end_status,
+    "error code read": SerialChip._error_code,
+    "error count read": SerialChip._error_count,
+}
+
+
+# --- transports: the chip on a line --------------------------------------------------------
+class LoopSerial(protocol_loop.Serial):  # type: ignore[misc]
+    """pyserial's in-process `loop://` port with `chip` at the far end: what the
+    master writes goes to the chip; the chip's replies are what it reads."""
+
+    def __init__(self, chip: SerialChip, *, timeout: float | None = 1.0) -> None:
+        self.chip = chip
+        super().__init__("loop://", timeout=timeout)
+
+    def write(self, data: bytes) -> int:
+        replies = self.chip.receive(bytes(data))
+        if replies:
+            super().write(replies)
+        return len(data)
+
+
+class PtyServer:
+    """`chip` served on a pseudo-terminal: open `path` as a serial port to talk to it.
+
+    The chip answers from a thread; `stop()` (or leaving the `with` block) ends it.
+    `link` makes a symbolic link to the terminal under a stable name, removed on stop.
+    """
+
+    POLL_S = 0.05
+
+    def __init__(self, chip: SerialChip, *, link: str | None = None,
+                 on_log: Callable[[str], None] | None = None) -> None:
+        self.chip = chip
+        self.on_log = on_log
+        self._master, self._slave = os.openpty()
+        tty.setraw(self._slave)  # no echo, no line editing: bytes pass as sent
+        self.path = os.ttyname(self._slave)
+        self.link = link
+        if link is not None:
+            if os.path.lexists(link) and not os.path.islink(link):
+                self._close_fds()
+                raise StepRampError(f"{link}: exists and is not a symbolic link; not replaced")
+            if os.path.lexists(link):
+                os.unlink(link)
+            os.symlink(self.path, link)
+        self._stopping = threading.Event()
+        self._thread = threading.Thread(target=self.serve, name="ppmc312-pty", daemon=True)
+
+    def start(self) -> PtyServer:
+        self._thread.start()
+        return self
+
+    def serve(self) -> None:
+        """Answer the line until `stop()`; runs in the caller's thread."""
+        while not self._stopping.is_set():
+            ready, _, _ = select.select([self._master], [], [], self.POLL_S)
+            if not ready:
+                continue
+            try:
+                data = os.read(self._master, 4096)
+            except OSError:  # no client has the terminal open (EIO): wait for one
+                time.sleep(self.POLL_S)
+                continue
+            seen = len(self.chip.log)
+            replies = self.chip.receive(data)
+            if replies:
+                os.write(self._master, replies)
+            if self.on_log is not None:
+                for line in self.chip.log[seen:]:
+                    self.on_log(line)
+
+    def request_stop(self) -> None:
+        """Make `serve()` return (safe from a signal handler)."""
+        self._stopping.set()
+
+    def stop(self) -> None:
+        self._stopping.set()
+        if self._thread.is_alive():
+            self._thread.join()
+        if self.link is not None and os.path.islink(self.link):
+            os.unlink(self.link)
+        self._close_fds()
+
+    def _close_fds(self) -> None:
+        for fd in (self._master, self._slave):
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+
+    def __enter__(self) -> PtyServer:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()

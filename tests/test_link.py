@@ -1,0 +1,439 @@
+"""The serial link master (profiles/ppmc312/link.py) against the serial chip on a real
+pseudo-terminal, on a noisy line, and against scripted replies it must not believe."""
+
+from __future__ import annotations
+
+import random
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+import serial
+
+from profiles.errors import UnsupportedError
+from profiles.ppmc312.ascii import encode_frame
+from profiles.ppmc312.clock import Clock
+from profiles.ppmc312.execution import simulate_move
+from profiles.ppmc312.link import (
+    ChipRefused,
+    GarbledReply,
+    Link,
+    LinkError,
+    LinkTimeout,
+    PollReply,
+    UnknownReply,
+)
+from profiles.ppmc312.serial_chip import LoopSerial, PtyServer, SerialChip
+from profiles.ppmc312.table import FreeCurveTable, InitTable
+
+ADDRESS = 5
+TABLE = InitTable(Clock.internal("8MHz"), "linear", 10_000, 400, 2000)
+
+
+def move_s(pulses: int) -> float:
+    run = simulate_move(TABLE, pulses)
+    return run.first_pulse_latency_s + run.duration_s
+
+
+def wait_stopped(link: Link, pulses: int) -> Any:
+    time.sleep(move_s(pulses) + 0.02)
+    return link.poll()
+
+
+@pytest.fixture
+def pty_chip() -> Iterator[tuple[SerialChip, str]]:
+    chip = SerialChip(ADDRESS)
+    with PtyServer(chip) as server:
+        yield chip, server.path
+
+
+@pytest.fixture
+def link(pty_chip: tuple[SerialChip, str]) -> Iterator[Link]:
+    with Link(pty_chip[1], ADDRESS, timeout_s=0.5) as opened:
+        yield opened
+
+
+# --- every command on a real pty --------------------------------------------------------
+
+def test_poll_init_move_position_and_the_stop_report(link: Link) -> None:
+    assert str(link.poll()) == "ready"
+    assert link.position() == 0
+    link.init(TABLE)
+    link.move(2000)  # 0.27 s: still running at the next poll
+    assert link.poll().state == "busy"
+    stopped = wait_stopped(link, 2000)
+    assert (stopped.state, stopped.code) == ("stopped", 0x38)
+    assert str(stopped) == "stopped: normal stop at the commanded position (0x38)"
+    assert link.poll().state == "ready"
+    assert link.position() == 2000
+    link.move(120, ccw=True)
+    assert wait_stopped(link, 120).code == 0x38
+    assert link.position() == 1880
+    assert link.stats["resends"] == 0
+
+
+def test_stop_halts_a_move_midway(link: Link, pty_chip: tuple[SerialChip, str]) -> None:
+    link.init(TABLE)
+    link.move(100_000)
+    time.sleep(0.1)
+    link.stop()
+    held = link.position()
+    assert 0 < held < 100_000
+    time.sleep(0.05)
+    assert link.position() == held == pty_chip[0].position
+    assert (link.poll().code, link.end_status()) == (0x37, 0x37)
+
+
+def test_errors_reads_the_count_and_the_code(link: Link,
+                                             pty_chip: tuple[SerialChip, str]) -> None:
+    report = link.errors()
+    assert (report.error_count, report.error_code, report.error_text) == (0, 0, "no error")
+    with pytest.raises(ChipRefused, match=r"slave 5: move: the chip refused it: state error "
+                                          r"\(B5 43\)") as refused:
+        link.move(100)  # no table yet
+    assert refused.value.code == 0x43
+    pty_chip[0].checksum_errors = 2  # as if two damaged frames had reached it
+    report = link.errors()
+    assert (report.error_count, report.error_code, report.error_text) == (2, 0x43,
+                                                                          "state error")
+
+
+def test_a_refused_init_names_the_chips_answer(link: Link) -> None:
+    with pytest.raises(ChipRefused, match=r"init: the chip refused it: parameter error"):
+        link.init(InitTable(Clock.internal("8MHz"), "linear", 450, 400, 2000))
+
+
+def test_a_free_curve_has_no_serial_form(link: Link) -> None:
+    table = FreeCurveTable(Clock.internal("8MHz"), (400, 800), (100, 100))
+    with pytest.raises(UnsupportedError, match="no serial form"):
+        link.init(table)  # type: ignore[arg-type]
+
+
+def test_a_silent_slave_times_out_after_the_retries(pty_chip: tuple[SerialChip, str]) -> None:
+    with Link(pty_chip[1], ADDRESS + 1, timeout_s=0.05, retries=2) as other:
+        with pytest.raises(LinkTimeout, match=r"^slave 6: poll: no reply within 0.05 s "
+                                              r"\(3 attempts\)$"):
+            other.poll()
+        assert other.stats["attempts"] == 3
+
+
+def test_a_missing_port_is_one_line() -> None:
+    with pytest.raises(LinkError, match=r"^/nonexistent/tty: cannot open the serial port: "):
+        Link("/nonexistent/tty", ADDRESS)
+
+
+def test_link_over_loop_transport() -> None:
+    chip = SerialChip(ADDRESS)
+    link = Link(LoopSerial(chip), ADDRESS, timeout_s=0.2)
+    link.init(TABLE)
+    link.move(2000)
+    assert chip.busy
+    assert wait_stopped(link, 2000).code == 0x38
+    assert link.position() == 2000
+
+
+# --- replies the link must not believe ----------------------------------------------------
+
+class Scripted:
+    """A port whose replies are given in advance, one per write."""
+
+    def __init__(self, replies: list[bytes]) -> None:
+        self.replies = list(replies)
+        self.sent: list[bytes] = []
+        self.timeout: float | None = 0.05
+        self._buffer = b""
+
+    def write(self, data: bytes) -> int:
+        self.sent.append(bytes(data))
+        self._buffer += self.replies.pop(0) if self.replies else b""
+        return len(data)
+
+    def read(self, size: int = 1) -> bytes:
+        out, self._buffer = self._buffer[:size], self._buffer[size:]
+        return out
+
+    def reset_input_buffer(self) -> None:
+        self._buffer = b""
+
+    def close(self) -> None:
+        pass
+
+
+def position_reply(value: int, address: int = ADDRESS) -> bytes:
+    return encode_frame("data", address, b"\x00" + value.to_bytes(4, "big", signed=True))
+
+
+def test_a_bad_checksum_is_resent_and_the_good_reply_taken() -> None:
+    good = position_reply(1234)
+    bad = good[:-1] + bytes([good[-1] ^ 0x01])
+    port = Scripted([bad, good])
+    assert Link(port, ADDRESS, retries=1).position() == 1234
+    assert len(port.sent) == 2 and port.sent[0] == port.sent[1]
+
+
+@pytest.mark.parametrize(("reply", "why"), [
+    (position_reply(7)[:-1] + b"0", "checksum mismatch"),
+    (position_reply(7, address=4), "a reply from slave 4"),
+    (b"12" + position_reply(7), "2 stray byte(s) before control byte"),
+    (position_reply(7)[:5] + b"G" + position_reply(7)[6:], "not an ASCII hex character"),
+    (encode_frame("ready", ADDRESS, b""), "unexpected ready reply"),
+    (b"\xC5" + position_reply(7)[1:], "not a control byte"),
+])
+def test_garbled_replies_are_never_believed(reply: bytes, why: str) -> None:
+    port = Scripted([reply] * 3)
+    with pytest.raises(GarbledReply, match=r"^slave 5: position: .*" + why.replace("(", r"\(")
+                       .replace(")", r"\)") + r".* \(3 attempts\)$"):
+        Link(port, ADDRESS, retries=2).position()
+    assert len(port.sent) == 3
+
+
+def test_a_short_reply_is_a_timeout() -> None:
+    with pytest.raises(LinkTimeout, match=r"reply cut short: 4 of 12 characters"):
+        Link(Scripted([position_reply(7)[:5]]), ADDRESS, retries=0).position()
+
+
+def test_an_unknown_special_reply_is_reported_as_such() -> None:
+    port = Scripted([encode_frame("special", ADDRESS, b"\x99")])
+    with pytest.raises(UnknownReply, match=r"^slave 5: poll: unknown special reply 0x99"):
+        Link(port, ADDRESS).poll()
+
+
+def test_command_error_47_is_resent_then_reported() -> None:
+    refusal = encode_frame("special", ADDRESS, b"\x47")
+    with pytest.raises(ChipRefused, match=r"command error 47 .* \(2 attempts\)"):
+        Link(Scripted([refusal, refusal]), ADDRESS, retries=1).stop()
+    assert Link(Scripted([refusal, encode_frame("ready", ADDRESS, b"")]), ADDRESS,
+                retries=1).stop() is None
+
+
+def test_error_replies_accept_the_printed_ready_byte_and_a_data_byte() -> None:
+    count = encode_frame("ready", ADDRESS, b"\x01\x02")      # §18-11 as printed: 90 + a
+    code = encode_frame("data", ADDRESS, b"\x43")            # a data reply (A0 + a)
+    report = Link(Scripted([count, code]), ADDRESS).errors()
+    assert (report.error_count, report.error_code) == (0x0102, 0x43)
+
+
+# --- lost replies: nothing lost, nothing done twice ----------------------------------------
+
+class PassThrough:
+    """A port wrapper: everything goes to `port` unless a subclass says otherwise."""
+
+    def __init__(self, port: Any) -> None:
+        self.port = port
+
+    @property
+    def timeout(self) -> float | None:
+        return self.port.timeout  # type: ignore[no-any-return]
+
+    @timeout.setter
+    def timeout(self, value: float | None) -> None:
+        self.port.timeout = value
+
+    def write(self, data: bytes) -> int:
+        return self.port.write(data)  # type: ignore[no-any-return]
+
+    def read(self, size: int = 1) -> bytes:
+        return self.port.read(size)  # type: ignore[no-any-return]
+
+    def reset_input_buffer(self) -> None:
+        self.port.reset_input_buffer()
+
+    def close(self) -> None:
+        self.port.close()
+
+
+class DropReplies(PassThrough):
+    """Drops the chip's reply to chosen writes (counted from 0)."""
+
+    def __init__(self, port: Any, drop: set[int]) -> None:
+        super().__init__(port)
+        self.drop, self.writes = drop, 0
+
+    def write(self, data: bytes) -> int:
+        n = self.port.write(data)
+        if self.writes in self.drop:
+            # Wait for the reply's first byte however slow the machine, then swallow
+            # the rest: the master sees nothing.
+            timeout = self.port.timeout
+            self.port.timeout = 5.0
+            assert self.port.read(1), "the chip did not answer"
+            self.port.timeout = 0.05
+            while self.port.read(64):
+                pass
+            self.port.timeout = timeout
+        self.writes += 1
+        return n  # type: ignore[no-any-return]
+
+
+def test_a_move_whose_reply_is_lost_is_not_sent_twice(pty_chip: tuple[SerialChip, str]) -> None:
+    chip, path = pty_chip
+    port = DropReplies(serial.Serial(path, timeout=0.1), drop={2})  # init, position, MOVE
+    with Link(port, ADDRESS, timeout_s=0.3) as link:
+        link.init(TABLE)
+        link.move(200)
+        assert sum(line.startswith("move:") for line in chip.log) == 1
+        assert link.stats["timeouts"] >= 1
+        assert wait_stopped(link, 200).code == 0x38
+        assert link.position() == 200
+    port.close()
+
+
+def test_a_lost_stop_report_is_recovered_from_the_end_status(
+        pty_chip: tuple[SerialChip, str]) -> None:
+    chip, path = pty_chip
+    port = DropReplies(serial.Serial(path, timeout=0.1), drop={3})  # init, position, move, POLL
+    with Link(port, ADDRESS, timeout_s=0.3) as link:
+        link.init(TABLE)
+        link.move(100)
+        time.sleep(move_s(100) + 0.02)
+        stopped = link.poll()   # the chip's A0 38 is lost; the resent poll gets ready
+        assert (stopped.state, stopped.code) == ("stopped", 0x38)
+        assert "poll: stop report 0x38" in chip.log
+        assert link.poll().state == "ready"
+    port.close()
+
+
+# --- a noisy line ---------------------------------------------------------------------------
+
+class NoisyLine(PassThrough):
+    """Between master and chip: each byte, either way, has a bit flipped or is dropped
+    with the given probabilities (a seeded generator: the same faults each run)."""
+
+    def __init__(self, port: Any, seed: int, flip: float, drop: float) -> None:
+        super().__init__(port)
+        self.rng, self.flip, self.drop = random.Random(seed), flip, drop
+        self.faults = 0
+
+    def _noise(self, data: bytes) -> bytes:
+        out = bytearray()
+        for byte in data:
+            roll = self.rng.random()
+            if roll < self.drop:
+                self.faults += 1
+                continue
+            if roll < self.drop + self.flip:
+                self.faults += 1
+                byte ^= 1 << self.rng.randrange(8)
+            out.append(byte)
+        return bytes(out)
+
+    def write(self, data: bytes) -> int:
+        self.port.write(self._noise(data))
+        return len(data)
+
+    def read(self, size: int = 1) -> bytes:
+        return self._noise(self.port.read(size))
+
+
+@pytest.mark.parametrize("seed", [1, pytest.param(2, marks=pytest.mark.slow),
+                                  pytest.param(3, marks=pytest.mark.slow)])
+def test_a_noisy_line_loses_and_misreads_nothing(pty_chip: tuple[SerialChip, str],
+                                                 seed: int) -> None:
+    chip, path = pty_chip
+    noisy = NoisyLine(serial.Serial(path, timeout=0.1), seed, flip=0.02, drop=0.02)
+    link = Link(noisy, ADDRESS, timeout_s=0.15, retries=10)
+    link.init(TABLE)
+    assert chip.table == TABLE
+    expected = 0
+    rng = random.Random(seed)
+    for _ in range(6):
+        pulses, ccw = rng.randint(20, 150), rng.random() < 0.4
+        link.move(pulses, ccw=ccw)
+        expected += -pulses if ccw else pulses
+        time.sleep(move_s(pulses) + 0.01)
+        assert link.poll() == PollReply("stopped", 0x38, "normal stop at the commanded position")
+        assert link.position() == expected == chip.position
+        assert link.poll().state == "ready"
+        before = chip.error_count
+        report = link.errors()
+        assert before <= report.error_count <= chip.error_count
+    assert sum(line.startswith("move:") for line in chip.log) == 6  # no move twice
+    assert noisy.faults >= 5 and link.stats["resends"] > 0 and chip.error_count > 0
+    noisy.close()
+
+
+# --- the commands: `stepramp link …` and `stepramp emulate --pty` ----------------------------
+
+def run_cli(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
+    from verify.cli import main
+
+    code = main(argv)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_cli_link_runs_every_command(pty_chip: tuple[SerialChip, str], tmp_path: Path,
+                                     capsys: pytest.CaptureFixture[str]) -> None:
+    chip, path = pty_chip
+    base = ["link", "--port", path, "--address", str(ADDRESS)]
+    table = tmp_path / "init.json"
+    table.write_text('{"format": "stepramp.table/1", "device": "ppmc312", "kind": "init", '
+                     '"clock": "8MHz", "shape": "linear", "start_rate": 10000, '
+                     '"high_rate": 400, "accel_pulses": 2000}')
+    assert run_cli([*base, "poll"], capsys) == (0, "slave 5: ready\n", "")
+    code, out, err = run_cli([*base, "move", "--pulses", "100"], capsys)
+    assert (code, out) == (1, "")
+    assert err == "stepramp link: slave 5: move: the chip refused it: state error (B5 43)\n"
+    assert run_cli([*base, "init", str(table)], capsys) == (
+        0, "slave 5: init accepted: linear, start rate 10000, high rate 400, 2000 accel/decel "
+           "pulses\n", "")
+    assert chip.table is not None
+    assert run_cli([*base, "move", "--pulses", "100000", "--ccw"], capsys) == (
+        0, "slave 5: move of 100000 pulses CCW started\n", "")
+    assert run_cli([*base, "poll"], capsys) == (0, "slave 5: busy\n", "")
+    assert run_cli([*base, "stop"], capsys) == (0, "slave 5: pulse output stopped\n", "")
+    assert run_cli([*base, "poll"], capsys) == (
+        0, "slave 5: stopped: stopped by the immediate-stop command (0x37)\n", "")
+    assert run_cli([*base, "position"], capsys) == (
+        0, f"slave 5: position {chip.position} pulses\n", "")
+    assert chip.position < 0
+    assert run_cli([*base, "errors"], capsys) == (
+        0, "slave 5: 0 line error(s) (framing, overrun and checksum); last error code 0x43 "
+           "(state error)\n", "")
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["--address", "16", "poll"], "address: 16 (0x10) is outside the allowed range 0..15"),
+    (["--address", "6", "--timeout-s", "0.05", "--retries", "0", "poll"],
+     "slave 6: poll: no reply within 0.05 s (1 attempt)"),
+    (["--address", "5", "init", "{examples}/free-curve-nema17.json"], "no serial form"),
+])
+def test_cli_link_bad_input_is_one_line_exit_2(pty_chip: tuple[SerialChip, str], argv: list[str],
+                                               message: str,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    examples = str(Path(__file__).resolve().parents[1] / "examples")
+    argv = [a.replace("{examples}", examples) for a in argv]
+    code, out, err = run_cli(["link", "--port", pty_chip[1], *argv], capsys)
+    assert (code, out) == (2, "")
+    assert err.startswith("stepramp link: ") and message in err and err.count("\n") == 1
+
+
+def test_cli_emulate_serves_a_pty_until_sigterm(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[1]
+    env = dict(os.environ, PYTHONPATH=str(root))
+    link_path = tmp_path / "chip.tty"
+    proc = subprocess.Popen([sys.executable, "-m", "verify.cli", "emulate", "--pty",
+                             "--address", "9", "--link", str(link_path), "--log"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    try:
+        assert proc.stdout is not None
+        first = proc.stdout.readline()
+        assert first.startswith("PPMC-312 slave 9 (ASCII serial mode) on /dev/")
+        assert first.rstrip().endswith(f"(link {link_path})")
+        assert link_path.is_symlink()
+        assert run_cli(["link", "--port", str(link_path), "--address", "9", "position"],
+                       capsys) == (0, "slave 9: position 0 pulses\n", "")
+        assert proc.stdout.readline() == "position: 0\n"  # --log: one line per frame
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        code = proc.wait(timeout=10)
+    assert code == 0
+    assert not link_path.exists()

@@ -1,0 +1,298 @@
+"""The PPMC-312 ASCII-mode slave model (profiles/ppmc312/serial_chip.py) against manual §13–19.
+
+Replies are checked with the ASCII codec (ascii.decode_frame) and against the
+control bytes the manual prints (80/90/A0/B0 + address); moves against the
+execution model (execution.simulate_move), on a clock the test sets.
+"""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from profiles.errors import FieldRangeError
+from profiles.ppmc312.ascii import (
+    END_CODE_REPLY,
+    ERROR_CODE_REPLY,
+    ERROR_COUNT_REPLY,
+    POSITION_REPLY,
+    SERIAL_END_STATUS_READ,
+    SERIAL_ERROR_CODE_READ,
+    SERIAL_ERROR_COUNT_READ,
+    SERIAL_POSITION_READ,
+    SERIAL_POSITION_SET,
+    SERIAL_STOP,
+    SPECIAL_REPLY,
+    decode_frame,
+    encode_frame,
+    encode_serial_init,
+    encode_serial_move,
+)
+from profiles.ppmc312.clock import Clock
+from profiles.ppmc312.execution import simulate_move
+from profiles.ppmc312.serial_chip import COMMANDS, LoopSerial, SerialChip, command_of
+from profiles.ppmc312.table import InitTable
+
+ADDRESS = 3
+TABLE = InitTable(Clock.internal("8MHz"), "linear", 10_000, 400, 2000)
+
+
+class Clock_:
+    def __init__(self) -> None:
+        self.t = 100.0
+
+    def __call__(self) -> float:
+        return self.t
+
+
+@pytest.fixture
+def clock() -> Clock_:
+    return Clock_()
+
+
+@pytest.fixture
+def chip(clock: Clock_) -> SerialChip:
+    return SerialChip(ADDRESS, clock_s=clock)
+
+
+def poll(chip: SerialChip) -> bytes:
+    return chip.receive(encode_frame("poll", ADDRESS, b""))
+
+
+def command(chip: SerialChip, payload: bytes) -> bytes:
+    return chip.receive(encode_frame("command", ADDRESS, payload))
+
+
+READY = bytes([0x90 + ADDRESS]) + b"6C"   # §19-1: 90 + a, checksum ~(0x93) & 0x7F
+BUSY = bytes([0x80 + ADDRESS]) + b"7C"    # §19-2: 80 + a
+
+
+def special(code: int) -> bytes:
+    return encode_frame("special", ADDRESS, bytes([code]))
+
+
+# --- the command table ---------------------------------------------------------------
+
+def test_command_codes_are_disjoint_and_cover_the_manuals_examples() -> None:
+    for code in range(256):
+        matches = [name for name, mask, value, _ in COMMANDS if code & mask == value]
+        assert len(matches) <= 1, (hex(code), matches)
+    # Payload sizes (code byte included) as the §15–18 tables print them.
+    assert command_of(0x0A) == ("init", 8)                     # 0000 FO CLK + 7 bytes
+    assert command_of(0x83) == ("accel/decel move", 7)         # 83 CW
+    assert command_of(0xA3) == ("accel/decel move", 7)         # A3 CCW
+    assert command_of(0x62) == ("position read", 1)            # 0 1 P 0 0010, P = encoder
+    assert command_of(0x43) == ("position set", 5)
+    assert command_of(0x79) == ("event setting", 10)           # 9 data bytes, fixed
+    assert command_of(0x4C) == ("error count read", 1)
+    assert command_of(0xBA) == ("high-speed origin return", 3)  # 1 0 DIR IDX 1010
+    assert command_of(0x50) is None and command_of(0x01 | 0x60) is None
+
+
+def test_address_is_range_checked() -> None:
+    with pytest.raises(FieldRangeError, match=r"address: 16 \(0x10\) is outside"):
+        SerialChip(16)
+
+
+# --- polls and moves --------------------------------------------------------------------
+
+def test_poll_is_ready_then_busy_during_a_move_then_the_stop_report(chip: SerialChip,
+                                                                   clock: Clock_) -> None:
+    assert poll(chip) == READY
+    assert command(chip, bytes.fromhex("4C")) == encode_frame("ready", ADDRESS, b"\x00\x00")
+    assert chip.receive(encode_serial_init(TABLE, ADDRESS)) == READY
+    assert chip.receive(encode_serial_move(ADDRESS, 2000)) == READY
+    run = simulate_move(TABLE, 2000)
+    end = run.first_pulse_latency_s + run.duration_s
+    assert poll(chip) == BUSY
+    clock.t += end - 1e-6
+    assert poll(chip) == BUSY
+    clock.t += 2e-6
+    # §19-14: A0 + a, end code 38 (normal stop at the commanded position), once.
+    report = poll(chip)
+    assert report[0] == 0xA0 + ADDRESS
+    assert decode_frame(report, from_slave=True).payload == b"\x38"
+    assert poll(chip) == READY
+    assert chip.position == 2000
+
+
+def test_position_follows_the_execution_model_and_ccw_counts_down(chip: SerialChip,
+                                                                  clock: Clock_) -> None:
+    chip.receive(encode_serial_init(TABLE, ADDRESS))
+    chip.receive(encode_serial_move(ADDRESS, 5000, ccw=True))
+    run = simulate_move(TABLE, 5000)
+    for t_s in (0.0, 0.05, 0.2, 0.4):
+        clock.t = 100.0 + run.first_pulse_latency_s + t_s
+        reply = command(chip, SERIAL_POSITION_READ.encode(encoder=0))
+        assert reply[0] == 0xA0 + ADDRESS
+        fields = POSITION_REPLY.decode(decode_frame(reply, from_slave=True).payload)
+        assert fields == {"source": 0, "position": -int(run.position_at(t_s))}
+    assert -5000 < chip.position < 0
+
+
+def test_stop_holds_the_counter_and_reports_immediate_stop(chip: SerialChip,
+                                                          clock: Clock_) -> None:
+    chip.receive(encode_serial_init(TABLE, ADDRESS))
+    chip.receive(encode_serial_move(ADDRESS, 20_000))
+    clock.t += 0.3
+    held = chip.position
+    assert 0 < held < 20_000
+    assert command(chip, SERIAL_STOP.encode()) == READY
+    clock.t += 1.0
+    assert chip.position == held
+    assert decode_frame(poll(chip), from_slave=True).payload == b"\x37"
+    assert decode_frame(command(chip, b"\x40"), from_slave=True).payload == b"\x37"
+
+
+def test_position_set_and_encoder_position(chip: SerialChip) -> None:
+    assert command(chip, SERIAL_POSITION_SET.encode(encoder=0, position=-1234)) == READY
+    assert chip.position == -1234
+    assert command(chip, SERIAL_POSITION_READ.encode(encoder=1)) == special(0x47)
+
+
+# --- refusals ----------------------------------------------------------------------------
+
+def test_the_manuals_init_example_is_parsed_and_refused_by_the_rate_rules(
+        chip: SerialChip) -> None:
+    # §13-4 example: start 0x1122 below high 0x5566 → parameter error (start ≤ high).
+    frame = bytes([0x90 + ADDRESS]) + b"0011225566abcdef"
+    frame += f"{~(sum(frame)) & 0x7F:02X}".encode()
+    assert chip.receive(frame) == special(0x42)
+    assert chip.table is None
+    assert command(chip, SERIAL_ERROR_CODE_READ.encode()) == encode_frame("ready", ADDRESS,
+                                                                          b"\x42")
+
+
+def test_move_needs_a_table_and_an_idle_chip(chip: SerialChip) -> None:
+    assert chip.receive(encode_serial_move(ADDRESS, 100)) == special(0x43)
+    chip.receive(encode_serial_init(TABLE, ADDRESS))
+    assert chip.receive(encode_serial_move(ADDRESS, 100_000)) == READY
+    assert chip.receive(encode_serial_move(ADDRESS, 100)) == special(0x43)
+    assert chip.receive(encode_serial_init(TABLE, ADDRESS)) == special(0x43)
+    # A high rate outside the table's range: the execution model's parameter error.
+    chip.receive(SERIAL_STOP_FRAME)
+    assert chip.receive(encode_serial_move(ADDRESS, 100, high_rate=20_000)) == special(0x42)
+
+
+SERIAL_STOP_FRAME = encode_frame("command", ADDRESS, SERIAL_STOP.encode())
+
+
+def test_undefined_and_unmodelled_commands_are_command_errors(chip: SerialChip) -> None:
+    assert command(chip, b"\x50") == special(0x47)
+    assert chip.error_code == 0x47
+    assert command(chip, b"\xC0") == special(0x47)   # excitation on: documented, not modelled
+    assert chip.log[-1] == "refused 0x47: excitation on (0xC0) is not modelled"
+    assert chip.error_count == 0
+
+
+# --- line faults ---------------------------------------------------------------------------
+
+def test_a_bad_checksum_is_answered_and_counted(chip: SerialChip) -> None:
+    frame = bytearray(encode_frame("poll", ADDRESS, b""))
+    frame[-1] ^= 0x01
+    assert chip.receive(bytes(frame)) == special(0x47)
+    assert (chip.checksum_errors, chip.error_count, chip.error_code) == (1, 1, 0)
+    assert command(chip, SERIAL_ERROR_COUNT_READ.encode()) == encode_frame("ready", ADDRESS,
+                                                                           b"\x00\x01")
+
+
+def test_lowercase_hex_is_accepted(chip: SerialChip) -> None:
+    payload = b"\x43\xff\xff\xff\xfe"
+    upper = encode_frame("command", ADDRESS, payload)
+    lower = upper[:1] + payload.hex().encode()
+    lower += f"{~(lower[0] + sum(lower[1:])) & 0x7F:02X}".encode()
+    assert chip.receive(lower) == READY
+    assert chip.position == -2
+
+
+def test_a_frame_cut_short_is_a_framing_error_and_the_next_frame_is_answered(
+        chip: SerialChip) -> None:
+    frame = encode_frame("command", ADDRESS, SERIAL_POSITION_READ.encode(encoder=0))
+    assert chip.receive(frame[:3]) == b""
+    assert poll(chip) == READY
+    assert (chip.framing_errors, chip.error_count) == (1, 1)
+
+
+def test_characters_outside_a_frame_count_once_per_run(chip: SerialChip) -> None:
+    assert chip.receive(b"0123") == b""
+    assert poll(chip) == READY
+    assert chip.receive(b"45") == b""
+    assert chip.framing_errors == 2
+
+
+def test_frames_for_other_slaves_are_ignored(chip: SerialChip) -> None:
+    assert chip.receive(encode_frame("poll", ADDRESS + 1, b"")) == b""
+    assert chip.receive(encode_serial_move(ADDRESS + 1, 100)) == b""
+    assert chip.error_count == 0
+    assert poll(chip) == READY
+
+
+def test_slave_types_and_bit6_are_framing_errors(chip: SerialChip) -> None:
+    assert chip.receive(encode_frame("special", ADDRESS, b"\x47")) == b""
+    assert chip.receive(b"\xC3" + b"6C") == b""
+    assert chip.framing_errors == 2
+    assert poll(chip) == READY
+
+
+def test_error_count_saturates(chip: SerialChip) -> None:
+    chip.framing_errors, chip.checksum_errors = 0xFFF0, 0x20
+    assert command(chip, SERIAL_ERROR_COUNT_READ.encode()) == encode_frame("ready", ADDRESS,
+                                                                           b"\xff\xff")
+
+
+@given(st.lists(st.integers(1, 9), min_size=1, max_size=40))
+def test_any_split_of_the_stream_gives_the_same_replies(cuts: list[int]) -> None:
+    stream = (encode_serial_init(TABLE, ADDRESS) + encode_frame("poll", ADDRESS, b"")
+              + encode_frame("command", ADDRESS, SERIAL_POSITION_SET.encode(encoder=0,
+                                                                            position=77))
+              + encode_frame("command", ADDRESS, SERIAL_POSITION_READ.encode(encoder=0)))
+    whole = SerialChip(ADDRESS, clock_s=lambda: 0.0).receive(stream)
+    pieces = SerialChip(ADDRESS, clock_s=lambda: 0.0)
+    out, at = b"", 0
+    for cut in cuts * 20:
+        out += pieces.receive(stream[at:at + cut])
+        at += cut
+    out += pieces.receive(stream[at:])
+    assert out == whole
+    assert whole == READY + READY + READY + encode_frame(
+        "data", ADDRESS, POSITION_REPLY.encode(source=0, position=77))
+
+
+def test_loop_transport_answers_like_the_chip() -> None:
+    port = LoopSerial(SerialChip(ADDRESS), timeout=0.5)
+    port.write(encode_frame("poll", ADDRESS, b""))
+    assert port.read(3) == READY
+
+
+# --- the serial frames the link and the chip share: one description, both ways ----------------
+
+@given(st.integers(0, 15), st.integers(0, 1), st.integers(-(1 << 31), (1 << 31) - 1))
+def test_position_frames_round_trip(address: int, encoder: int, position: int) -> None:
+    for frame, values, kind in (
+            (SERIAL_POSITION_SET, {"encoder": encoder, "position": position}, "command"),
+            (POSITION_REPLY, {"source": encoder, "position": position}, "data")):
+        wire = encode_frame(kind, address, frame.encode(values))
+        parsed = decode_frame(wire, from_slave=kind == "data")
+        assert (parsed.kind, parsed.address) == (kind, address)
+        assert frame.decode(parsed.payload) == values
+
+
+@given(st.integers(0, 15), st.integers(0, 0xFFFF), st.integers(0, 0xFF))
+def test_error_and_end_code_replies_round_trip(address: int, count: int, code: int) -> None:
+    for frame, values in ((ERROR_COUNT_REPLY, {"error_count": count}),
+                          (ERROR_CODE_REPLY, {"error_code": code}),
+                          (END_CODE_REPLY, {"end_code": code}),
+                          (SPECIAL_REPLY, {"code": code})):
+        wire = encode_frame("ready", address, frame.encode(values))
+        assert frame.decode(decode_frame(wire, from_slave=True).payload) == values
+
+
+def test_serial_command_codes_are_the_manuals() -> None:
+    # §16-1 stop 80, §18-1 position read 42 / 62 (P), §18-2 set 43 / 63, §18-6 40,
+    # §18-10 41, §18-11 4C.
+    assert SERIAL_STOP.encode() == b"\x80"
+    assert [SERIAL_POSITION_READ.encode(encoder=p) for p in (0, 1)] == [b"\x42", b"\x62"]
+    assert SERIAL_POSITION_SET.encode(encoder=1, position=-1) == b"\x63\xff\xff\xff\xff"
+    assert (SERIAL_END_STATUS_READ.encode(), SERIAL_ERROR_CODE_READ.encode(),
+            SERIAL_ERROR_COUNT_READ.encode()) == (b"\x40", b"\x41", b"\x4c")

@@ -1,0 +1,77 @@
+"""`stepramp link …`: talk to a PPMC-312 slave over its serial line (ASCII mode)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from ._common import EXIT_FINDINGS, EXIT_OK, number, positive_int
+
+
+def add_subparser(sub: Any) -> None:
+    link = sub.add_parser("link", help="send commands to a PPMC-312 slave over RS-485 "
+                                       "(ASCII serial mode)")
+    link.add_argument("--port", required=True,
+                      help="serial port: a device (/dev/ttyUSB0, COM3) or a pyserial URL")
+    link.add_argument("--baud", type=int, default=19_200, choices=(19_200, 38_400, 83_333),
+                      help="line speed [bit/s], 8N1 (default 19200)")
+    link.add_argument("--address", type=positive_int, required=True,
+                      help="slave address 0-15")
+    link.add_argument("--timeout-s", type=number, default=0.2,
+                      help="wait for each reply [s] (default 0.2)")
+    link.add_argument("--retries", type=positive_int, default=3,
+                      help="resends of one command after a timeout or a damaged frame "
+                           "(default 3)")
+    lsub = link.add_subparsers(dest="link_command", required=True, metavar="COMMAND")
+    init = lsub.add_parser("init", help="send an init table (linear or S-curve, LE=0)")
+    init.add_argument("table", metavar="TABLE", help="an init table file (stepramp.table/1)")
+    move = lsub.add_parser("move", help="start an accel/decel move")
+    move.add_argument("--pulses", type=positive_int, required=True,
+                      help="move length [pulses], 1..0xFFFFFFFF")
+    move.add_argument("--ccw", action="store_true", help="direction CCW (default CW)")
+    move.add_argument("--high-rate", type=positive_int, default=0,
+                      help="high-rate override, a rate divisor (0 = the table's)")
+    lsub.add_parser("poll", help="busy, ready, or why pulse output stopped")
+    lsub.add_parser("position", help="the pulse position counter [pulses]")
+    lsub.add_parser("errors", help="the line error count and the last error code")
+    lsub.add_parser("stop", help="stop pulse output at once")
+    link.set_defaults(func=_do_link)
+
+
+def _do_link(args: argparse.Namespace) -> int:
+    from profiles.ppmc312.link import ChipRefused, Link
+
+    with Link(args.port, args.address, baud=args.baud, timeout_s=args.timeout_s,
+              retries=args.retries) as link:
+        try:
+            print(f"slave {args.address}: {_run(link, args)}")
+        except ChipRefused as refused:
+            print(f"stepramp link: {refused}", file=sys.stderr)
+            return EXIT_FINDINGS
+    return EXIT_OK
+
+
+def _run(link: Any, args: argparse.Namespace) -> str:
+    command = args.link_command
+    if command == "init":
+        from profiles.ppmc312.table import InitTable, load_table
+
+        table = load_table(args.table)
+        link.init(table)  # refuses a free curve: it has no serial form
+        assert isinstance(table, InitTable)
+        return (f"init accepted: {table.shape}, start rate {table.start_rate}, high rate "
+                f"{table.high_rate}, {table.accel_pulses} accel/decel pulses")
+    if command == "move":
+        link.move(args.pulses, ccw=args.ccw, high_rate=args.high_rate)
+        return f"move of {args.pulses} pulses {'CCW' if args.ccw else 'CW'} started"
+    if command == "poll":
+        return str(link.poll())
+    if command == "position":
+        return f"position {link.position()} pulses"
+    if command == "errors":
+        report = link.errors()
+        return (f"{report.error_count} line error(s) (framing, overrun and checksum); "
+                f"last error code 0x{report.error_code:02X} ({report.error_text})")
+    link.stop()
+    return "pulse output stopped"

@@ -1,0 +1,491 @@
+"""Interactive free-curve design in a notebook: `designer(motor)`.
+
+Sliders set the move and the load (move length, safety factor, load inertia,
+load torque, clock, stage budget) and a picker the motor; every change replans
+the table (`plan_free_curve`) and redraws, in one figure, the staircase the chip
+runs against the exact continuous optimum, the stall margin of every stage and
+the rotor's load angle (`verify.physics.load_angle_check`). The slow references
+(toppra, ruckig, casadi) are solved on a button; another button writes the
+table and its upload files.
+
+The computation (`design`) is separate from the widgets so a bench can time it
+(bench/bench_designer.py). Widgets (ipywidgets) and matplotlib are imported
+only when a designer is built.
+
+The load torque slider sets the motor's `load_torque_nm` (signed: > 0 opposes
+forward motion); the load angle is followed in the direction the load opposes
+(forward when it is zero).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from profiles.errors import FieldRangeError, StepRampError
+from profiles.motor import Motor, bundled_motor_paths, load_motor
+from profiles.ppmc312.clock import INTERNAL_HZ, Clock
+from profiles.ppmc312.execution import Execution, simulate_move
+from profiles.ppmc312.planner import Plan, plan_free_curve
+
+AUTO_CLOCK = "auto"
+PULSES_RANGE = (10, 1_000_000)
+SLOW_REFERENCES = ("toppra", "ruckig", "casadi")
+
+
+@dataclass(frozen=True)
+class Settings:
+    """What the sliders set. `load_inertia_kgm2` adds to the motor's inertia;
+    `load_torque_nm` replaces the motor's (None: the motor file's own)."""
+
+    pulses: int = 10_000
+    safety_factor: float = 0.6
+    load_inertia_kgm2: float = 0.0
+    load_torque_nm: float | None = None
+    clock: str = AUTO_CLOCK
+    max_stages: int = 127
+
+
+@dataclass
+class Design:
+    """One recomputation: the plan, its execution, the exact optimum, the stall margins,
+    the load angle, and how long each part took (`timings_ms`)."""
+
+    settings: Settings
+    motor: Motor
+    plan: Plan
+    execution: Execution
+    exact: Any                     # verify.references.Reference
+    margins: dict[str, Any]
+    physics: Any                   # verify.physics.PhysicsResult or None
+    timings_ms: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def ratio(self) -> float:
+        return float(self.execution.duration_s / self.exact.duration_s)
+
+    def summary(self) -> str:
+        table = self.plan.table
+        lines = [
+            f"{self.motor.name or 'motor'}: {self.settings.pulses} pulses, "
+            f"{len(table.rates)} stages, clock {table.clock.name}, LE={int(table.separate)}",
+            f"move {self.execution.duration_s * 1e3:.3f} ms; exact optimum "
+            f"{self.exact.duration_s * 1e3:.3f} ms; ratio {self.ratio:.4f}",
+            f"smallest stall margin {self.margins['min']:.3f} (≥ 1 is stall-safe)",
+        ]
+        if self.physics is not None:
+            lines.append(f"load angle: worst {self.physics.worst_angle_deg:+.1f}° electrical "
+                         f"(peak 90°, pole slip 180°): {_verdict(self.physics)}")
+        total = sum(self.timings_ms.values())
+        lines.append(f"recomputed in {total:.0f} ms ("
+                     + ", ".join(f"{k} {v:.0f}" for k, v in self.timings_ms.items()) + ")")
+        return "\n".join(lines)
+
+
+def loaded_motor(motor: Motor, settings: Settings) -> Motor:
+    """`motor` with the settings' safety factor, extra inertia and load torque."""
+    if not 0 <= settings.load_inertia_kgm2 <= 1e3:
+        raise FieldRangeError("load_inertia_kgm2", settings.load_inertia_kgm2, 0, 1e3)
+    load = motor.load_torque_nm if settings.load_torque_nm is None else settings.load_torque_nm
+    return dataclasses.replace(
+        motor, safety_factor=settings.safety_factor,
+        inertia_kgm2=motor.inertia_kgm2 + settings.load_inertia_kgm2, load_torque_nm=load)
+
+
+def design(motor: Motor, settings: Settings, *, load_angle: bool = True) -> Design:
+    """Plan and judge one setting (what every slider change runs)."""
+    from verify.references import exact_optimum
+    from verify.stall import stall_margins
+
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    loaded = loaded_motor(motor, settings)
+    clock = None if settings.clock == AUTO_CLOCK else Clock.internal(settings.clock)
+    plan = plan_free_curve(loaded, clock=clock, max_stages=settings.max_stages,
+                           pulses=settings.pulses)
+    execution = simulate_move(plan.table, settings.pulses)
+    t1 = time.perf_counter()
+    exact = exact_optimum(loaded, settings.pulses)
+    t2 = time.perf_counter()
+    margins = stall_margins(plan.table, loaded)
+    t3 = time.perf_counter()
+    physics = None
+    if load_angle:
+        from verify.physics import load_angle_check
+
+        # T_L > 0 opposes forward motion: follow the direction the load hinders.
+        physics = load_angle_check(execution, loaded,
+                                   direction=-1 if loaded.load_torque_nm < 0 else 1)
+    t4 = time.perf_counter()
+    timings.update(plan=(t1 - t0) * 1e3, exact=(t2 - t1) * 1e3, margins=(t3 - t2) * 1e3,
+                   load_angle=(t4 - t3) * 1e3)
+    return Design(settings, loaded, plan, execution, exact, margins, physics, timings)
+
+
+def write_design(result: Design, out_dir: str | Path, stem: str) -> list[Path]:
+    """The table (JSON) and its upload files (hex, bin, C header), each written whole."""
+    from profiles.ppmc312 import encode_table
+    from profiles.ppmc312.files import render
+    from profiles.ppmc312.table import dump_table
+    from verify.output import write_output
+
+    folder = Path(out_dir)
+    blocks = encode_table(result.plan.table)
+    files = [(folder / f"{stem}.table.json", dump_table(result.plan.table).encode()),
+             (folder / f"{stem}.upload.hex", render(blocks, "hex")),
+             (folder / f"{stem}.upload.bin", render(blocks, "bin")),
+             (folder / f"{stem}.upload.h", render(blocks, "c"))]
+    for path, data in files:
+        write_output(str(path), data)
+    return [path for path, _ in files]
+
+
+# --- the figure ----------------------------------------------------------------------------
+class DesignFigure:
+    """One figure kept across changes (its lines are updated, never rebuilt, and the layout
+    is fixed: redrawing is what a slider change costs): speed against time (staircase,
+    exact, any slow references), stall margin per stage, load angle against time."""
+
+    MAX_POINTS = 1500  # the lag trace is drawn as a min/max envelope of this many bins
+
+    def __init__(self, *, dpi: int = 72) -> None:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+
+        self.dpi = dpi
+        self.fig = Figure(figsize=(9.0, 7.5))
+        FigureCanvasAgg(self.fig)
+        self.fig.subplots_adjust(left=0.09, right=0.98, top=0.96, bottom=0.07, hspace=0.55)
+        self.ax_v, self.ax_m, self.ax_l = self.fig.subplots(3, 1, height_ratios=[3, 2, 2])
+        self.ax_v.set(xlabel="time [ms]", ylabel="speed [pps]")
+        self.ax_m.set(xlabel="stage (0 = fastest)", ylabel="stall margin")
+        self.ax_m.set_yscale("log")
+        from matplotlib.ticker import FuncFormatter, LogLocator, NullLocator
+
+        # Plain numbers (1, 2, 5 …) read better than 10^0 on a margin axis.
+        self.ax_m.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+        self.ax_m.yaxis.set_minor_locator(NullLocator())
+        self.ax_m.yaxis.set_major_formatter(FuncFormatter(lambda y, _pos: f"{y:g}"))
+        self.ax_m.axhline(1.0, color="k", lw=1, ls="--", label="stall limit")
+        self.ax_l.set(xlabel="time [ms]", ylabel="load angle [° el.]")
+        for sign in (1, -1):
+            self.ax_l.axhline(90 * sign, color="k", lw=1, ls="--")
+        for ax in (self.ax_v, self.ax_m, self.ax_l):
+            ax.grid(alpha=0.3)
+        self.table_line, = self.ax_v.step([], [], where="post", color="tab:red", lw=1.5)
+        self.ref_lines: dict[str, Any] = {}
+        self.margin_lines = {
+            side: self.ax_m.plot([], [], marker=marker, ls="none", ms=3, color=color,
+                                 label=side)[0]
+            for side, marker, color in (("accel", "o", "tab:red"),
+                                        ("decel", "s", "tab:orange"))}
+        self.ax_m.legend(fontsize=7, ncols=3, loc="upper left")
+        self.lag_line, = self.ax_l.plot([], [], color="tab:blue", lw=1.0)
+
+    def update(self, result: Design, slow: dict[str, Any] | None = None) -> bytes:
+        """Show `result` (and `slow` references); the PNG."""
+        import numpy as np
+
+        from verify.plot import _STYLE
+
+        t, _, v = result.execution.edges()
+        self.table_line.set_data(t * 1e3, v)
+        self.table_line.set_label(f"table ({len(result.plan.table.rates)} stages, "
+                                  f"{result.execution.duration_s * 1e3:.2f} ms)")
+        refs = {"exact": result.exact, **(slow or {})}
+        for name in list(self.ref_lines):
+            if name not in refs:
+                self.ref_lines.pop(name).remove()
+        for name, ref in refs.items():
+            if name not in self.ref_lines:
+                color, ls = _STYLE.get(name, ("k", "-"))
+                self.ref_lines[name], = self.ax_v.plot([], [], color=color, ls=ls, lw=1.1)
+            line = self.ref_lines[name]
+            line.set_data(ref.t_s * 1e3, ref.v_pps)
+            line.set_label(f"{name} ({ref.duration_s * 1e3:.2f} ms)")
+        top_ms = max(float(t[-1]), *(float(r.t_s[-1]) for r in refs.values())) * 1e3
+        self.ax_v.set_xlim(0, 1.02 * top_ms)
+        self.ax_v.set_ylim(0, 1.3 * float(np.max(v)))
+        self.ax_v.set_title(f"{result.settings.pulses} pulses: table / exact = "
+                            f"{result.ratio:.3f}", fontsize=10)
+        self.ax_v.legend(loc="upper center", ncols=3, fontsize=7)
+
+        shown = []
+        for side, line in self.margin_lines.items():
+            m = np.asarray(result.margins[side], float)
+            line.set_data(np.arange(len(m)), np.where(np.isfinite(m), m, np.nan))
+            shown.append(m[np.isfinite(m)])
+        finite = np.concatenate(shown)
+        lo = min(0.8, 0.8 * float(finite.min())) if finite.size else 0.8
+        hi = max(2.0, 1.5 * float(finite.max())) if finite.size else 2.0
+        self.ax_m.set_xlim(-1, len(result.plan.table.rates))
+        self.ax_m.set_ylim(lo, hi)
+        self.ax_m.set_title(f"stall margin per stage: smallest {result.margins['min']:.3f}",
+                            fontsize=10)
+
+        ph = result.physics
+        if ph is not None:
+            lag_t, angle = _envelope(ph.lag_t_s * 1e3, ph.angle_deg, self.MAX_POINTS)
+            self.lag_line.set_data(lag_t, angle)
+            self.ax_l.set_xlim(0, max(float(lag_t[-1]), 1e-3) if len(lag_t) else 1.0)
+            span = max(100.0, 1.1 * float(np.max(np.abs(angle)))) if len(angle) else 100.0
+            self.ax_l.set_ylim(-span, span)
+            self.ax_l.set_title(f"load angle: worst {ph.worst_angle_deg:+.1f}° (peak ±90°): "
+                                f"{_verdict(ph)}", fontsize=10)
+        else:
+            self.lag_line.set_data([], [])
+            self.ax_l.set_title("load angle: off", fontsize=10)
+        buf = io.BytesIO()
+        self.fig.savefig(buf, format="png", dpi=self.dpi)
+        return buf.getvalue()
+
+
+def _envelope(t: Any, y: Any, bins: int) -> tuple[Any, Any]:
+    """At most 2·bins points keeping each bin's min and max (the peaks survive)."""
+    import numpy as np
+
+    n = len(t)
+    if n <= 2 * bins:
+        return t, y
+    edges = np.linspace(0, n, bins + 1).astype(int)
+    lo = np.minimum.reduceat(y, edges[:-1])
+    hi = np.maximum.reduceat(y, edges[:-1])
+    tt = np.repeat(t[edges[:-1]], 2)
+    yy = np.column_stack([lo, hi]).ravel()
+    return tt, yy
+
+
+def render_figure(result: Design, slow: dict[str, Any] | None = None) -> bytes:
+    """PNG of one design (a fresh `DesignFigure`)."""
+    return DesignFigure().update(result, slow)
+
+
+# --- the widget -------------------------------------------------------------------------------
+def bundled_motors() -> dict[str, Motor]:
+    """The shipped motors by file stem (the picker's choices)."""
+    return {path.stem.removeprefix("motor-"): load_motor(path) for path in bundled_motor_paths()}
+
+
+class Designer:
+    """The widget: `controls` (sliders and pickers by name), `buttons`, `image` (the figure
+    PNG), `summary`, `status`; `result` is the latest `Design`. Display it in a notebook
+    (it shows its widget); setting a control from code recomputes as dragging it does."""
+
+    def __init__(self, motor: Motor | None = None, *, pulses: int = 10_000,
+                 out_dir: str | Path = ".", motors: dict[str, Motor] | None = None,
+                 load_angle: bool = True) -> None:
+        try:
+            import ipywidgets as w
+        except ImportError:
+            raise StepRampError("the designer needs ipywidgets: pip install "
+                                "'stepramp[notebook]'") from None
+
+        self.motors = dict(motors) if motors is not None else bundled_motors()
+        if motor is not None:
+            same = motor.to_json()
+            name = next((k for k, m in self.motors.items() if m.to_json() == same), None)
+            if name is None:
+                name = motor.name or "motor"
+                self.motors = {name: motor, **self.motors}
+            self.motors[name] = motor
+        else:
+            name = next(iter(self.motors))
+        self.out_dir = Path(out_dir)
+        self.load_angle = load_angle
+        self.result: Design | None = None
+        self.slow: dict[str, Any] = {}
+        self.written: list[Path] = []
+        self.draw_ms = 0.0
+        self._held = False
+        self._figure: DesignFigure | None = None
+        base = self.motors[name]
+        lo, hi = PULSES_RANGE
+        if not lo <= pulses <= hi:
+            raise FieldRangeError("pulses", pulses, lo, hi)
+        style = {"description_width": "11em"}
+        layout = w.Layout(width="34em")
+
+        def slider(cls: Callable[..., Any], **kw: Any) -> Any:
+            return cls(continuous_update=False, style=style, layout=layout, **kw)
+
+        self.controls: dict[str, Any] = {
+            "motor": w.Dropdown(options=list(self.motors), value=name, description="motor",
+                                style=style, layout=layout),
+            "pulses": slider(w.IntSlider, value=pulses, min=lo, max=200_000, step=10,
+                             description="move [pulses]"),
+            "safety_factor": slider(w.FloatSlider, value=base.safety_factor, min=0.1, max=1.0,
+                                    step=0.01, description="safety factor"),
+            "load_inertia_kgm2": slider(w.FloatSlider, value=0.0, min=0.0,
+                                        max=10 * base.inertia_kgm2,
+                                        step=base.inertia_kgm2 / 20, readout_format=".2e",
+                                        description="load inertia [kg·m²]"),
+            "load_torque_nm": slider(w.FloatSlider, value=min(max(
+                                     base.load_torque_nm, -_torque_span(base)),
+                                     _torque_span(base)), min=-_torque_span(base),
+                                     max=_torque_span(base), step=_torque_span(base) / 100,
+                                     readout_format=".3f",
+                                     description="load torque [N·m]"),
+            "clock": w.Dropdown(options=[AUTO_CLOCK, *INTERNAL_HZ], value=AUTO_CLOCK,
+                                description="clock", style=style, layout=layout),
+            "max_stages": slider(w.IntSlider, value=127, min=2, max=127,
+                                 description="stage budget"),
+        }
+        self.buttons: dict[str, Any] = {
+            "references": w.Button(description="solve toppra, ruckig, casadi",
+                                   layout=w.Layout(width="17em")),
+            "write": w.Button(description="write table + upload files",
+                              layout=w.Layout(width="17em")),
+        }
+        self.image = w.Image(format="png")
+        self.summary = w.HTML()
+        self.status = w.HTML()
+        self.controls["motor"].observe(self._motor_changed, names="value")
+        for key, control in self.controls.items():
+            if key != "motor":
+                control.observe(lambda _change: self.recompute(), names="value")
+        self.buttons["references"].on_click(lambda _b: self.solve_references())
+        self.buttons["write"].on_click(lambda _b: self.write())
+        self.widget = w.HBox([
+            w.VBox([*self.controls.values(), w.HBox(list(self.buttons.values())),
+                    self.summary, self.status]),
+            self.image])
+        self.recompute()
+
+    # --- actions ---------------------------------------------------------------------------
+    @property
+    def settings(self) -> Settings:
+        c = self.controls
+        return Settings(pulses=int(c["pulses"].value), safety_factor=float(
+            c["safety_factor"].value), load_inertia_kgm2=float(c["load_inertia_kgm2"].value),
+            load_torque_nm=float(c["load_torque_nm"].value), clock=str(c["clock"].value),
+            max_stages=int(c["max_stages"].value))
+
+    @property
+    def motor(self) -> Motor:
+        return self.motors[self.controls["motor"].value]
+
+    def recompute(self) -> None:
+        """Replan and redraw for the controls' current values (slow references dropped)."""
+        if self._held:
+            return
+        self.slow = {}
+        try:
+            result = design(self.motor, self.settings, load_angle=self.load_angle)
+        except StepRampError as e:
+            self._say(f"no table for these settings: {e}", error=True)
+            return
+        self.result = result
+        self._show()
+        self._say("slow references: press “solve toppra, ruckig, casadi”")
+
+    def solve_references(self) -> None:
+        """toppra, ruckig and casadi on the current move (seconds, not milliseconds)."""
+        from verify.references import references
+
+        if self.result is None:
+            return
+        self._say("solving toppra, ruckig, casadi …")
+        refs = references(self.result.motor, self.result.settings.pulses,
+                          include=SLOW_REFERENCES)
+        self.slow = {k: r for k, r in refs.items() if k != "exact"}
+        self._show()
+        self._say("references: " + ", ".join(
+            f"{k} {r.duration_s * 1e3:.2f} ms" for k, r in self.slow.items()))
+
+    def write(self) -> list[Path]:
+        """Write the current table and its upload files into `out_dir`."""
+        if self.result is None:
+            return []
+        stem = f"design-{_slug(self.controls['motor'].value)}-{self.result.settings.pulses}"
+        try:
+            self.written = write_design(self.result, self.out_dir, stem)
+        except StepRampError as e:
+            self._say(str(e), error=True)
+            return []
+        self._say("wrote " + ", ".join(str(p) for p in self.written))
+        return self.written
+
+    # --- display ---------------------------------------------------------------------------
+    def _motor_changed(self, change: dict[str, Any]) -> None:
+        base = self.motor
+        c = self.controls
+        # One recompute for the whole motor switch, not one per slider it resets.
+        self._held = True
+        try:
+            c["safety_factor"].value = base.safety_factor
+            c["load_inertia_kgm2"].max = 10 * base.inertia_kgm2
+            c["load_inertia_kgm2"].step = base.inertia_kgm2 / 20
+            c["load_inertia_kgm2"].value = 0.0
+            span = _torque_span(base)
+            c["load_torque_nm"].max = span
+            c["load_torque_nm"].min = -span
+            c["load_torque_nm"].step = span / 100
+            c["load_torque_nm"].value = min(max(base.load_torque_nm, -span), span)
+        finally:
+            self._held = False
+        self.recompute()
+
+    def _show(self) -> None:
+        assert self.result is not None
+        t0 = time.perf_counter()
+        if self._figure is None:
+            self._figure = DesignFigure()
+        self.image.value = self._figure.update(self.result, self.slow)
+        self.draw_ms = (time.perf_counter() - t0) * 1e3
+        text = self.result.summary() + f"\nfigure drawn in {self.draw_ms:.0f} ms"
+        self.summary.value = "<pre style='line-height:1.3'>" + _escape(text) + "</pre>"
+
+    def _say(self, text: str, *, error: bool = False) -> None:
+        color = "#b00" if error else "#444"
+        self.status.value = f"<span style='color:{color}'>{_escape(text)}</span>"
+
+    def snapshot(self) -> Any:
+        """A static copy (figure and summary) for viewers without a live kernel."""
+        import base64
+
+        from IPython.display import HTML
+
+        png = base64.b64encode(self.image.value).decode("ascii")
+        return HTML(f"<div class='stepramp-designer-snapshot'>{self.summary.value}"
+                    f"<img alt='designer figure' src='data:image/png;base64,{png}'/></div>")
+
+    def _repr_mimebundle_(self, **kwargs: Any) -> Any:
+        return self.widget._repr_mimebundle_(**kwargs)
+
+
+def designer(motor: Motor | None = None, **kw: Any) -> Designer:
+    """The interactive designer for `motor` (default: the first bundled motor)."""
+    return Designer(motor, **kw)
+
+
+def _torque_span(motor: Motor) -> float:
+    """Load torque slider range: up to half the usable torque at standstill."""
+    return float(0.5 * motor.safety_factor * motor.torque_nm(0.0))
+
+
+def _verdict(physics: Any) -> str:
+    if physics.slipped:
+        return "SLIPS A POLE"
+    return "stable" if physics.stable else "UNSTABLE (past the 90° peak)"
+
+
+def _slug(name: str) -> str:
+    """A file-name-safe form of a motor's name."""
+    import re
+
+    return re.sub(r"[^A-Za-z0-9.]+", "-", name).strip("-") or "motor"
+
+
+def _escape(text: str) -> str:
+    import html
+
+    return html.escape(text)
+
+
+__all__: Sequence[str] = ("Design", "DesignFigure", "Designer", "Settings", "design", "designer",
+                          "loaded_motor", "render_figure", "write_design")
