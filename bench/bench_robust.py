@@ -6,8 +6,8 @@
   −20 % torque (torque_scale 0.8..1), the robust table's move time over the
   nominal table's (both planned with the load angle ≤ 75°, both for the same
   move), and whether the nominal table survives the box;
-- load-angle simulations per second: the scalar model (profiles.rotor, one
-  motor at a time) against the batched one (profiles.rotor_batch, 1000 samples
+- load-angle simulations per second: the scalar model (profiles.motor.rotor, one
+  motor at a time) against the batched one (profiles.motor.rotor_batch, 1000 samples
   in one numpy RK4) on the same execution, measured in the same run;
 - sweep throughput: jobs per second in-process and on 2 local worker processes
   (per worker), on the same catalogue.
@@ -25,11 +25,11 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from profiles.motor import Motor, bundled_motor_paths  # noqa: E402
+from profiles.motor.tolerance import corners, samples  # noqa: E402
 from profiles.ppmc312.criterion import all_length_problems  # noqa: E402
 from profiles.ppmc312.execution import simulate_move  # noqa: E402
 from profiles.ppmc312.load_angle import worst_load_angle  # noqa: E402
 from profiles.ppmc312.planner import PlanError, plan_free_curve  # noqa: E402
-from profiles.tolerance import corners, samples  # noqa: E402
 from verify.robust import sample_peaks  # noqa: E402
 from verify.sweep import jobs_of, run_sweep  # noqa: E402
 

@@ -21,13 +21,13 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from profiles.datasheet import Datasheet, Drive, motor_from_datasheet, pullout_torque_nm
-from profiles.loads import lead_screw
+from profiles.motor.datasheet import Datasheet, Drive, motor_from_datasheet, pullout_torque_nm
+from profiles.motor.loads import lead_screw
 from profiles.motor import Motor, bundled_motor_paths, load_motor
 from profiles.ppmc312 import decode_upload, encode_free_curve
 from profiles.ppmc312.files import parse_upload, render
 from profiles.ppmc312.planner import plan_free_curve
-from profiles.units import machine_to_pps, pps_to_machine
+from profiles.motor.units import machine_to_pps, pps_to_machine
 
 # The datasheet (SI units) and the drive's settings.
 datasheet = Datasheet(step_angle_deg=1.8, holding_torque_nm=0.45, rated_current_a=1.5,

@@ -13,7 +13,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from profiles.datasheet import (
+from profiles.errors import FieldRangeError, FormatError
+from profiles.motor import Motor
+from profiles.motor.datasheet import (
     Datasheet,
     Drive,
     curve_from_csv,
@@ -22,10 +24,8 @@ from profiles.datasheet import (
     pullout_torque_nm,
     start_pps_estimate,
 )
-from profiles.errors import FieldRangeError, FormatError
-from profiles.loads import lead_screw
-from profiles.motor import Motor
-from profiles.motor_schema import schema_problems
+from profiles.motor.loads import lead_screw
+from profiles.motor.schema import schema_problems
 
 NEMA17 = Datasheet(step_angle_deg=1.8, holding_torque_nm=0.45, rated_current_a=1.5,
                    resistance_ohm=1.8, inductance_h=3.2e-3, rotor_inertia_kgm2=5.7e-6,

@@ -7,7 +7,7 @@ import math
 import pytest
 
 from profiles.errors import FieldRangeError, FormatError
-from profiles.loads import (
+from profiles.motor.loads import (
     belt,
     combine,
     direct,

@@ -10,10 +10,10 @@ from typing import Any
 
 import pytest
 
-from profiles.datasheet import Datasheet, Drive, motor_from_datasheet
-from profiles.loads import disc
 from profiles.motor import _OPTIONAL, _REQUIRED, Motor, bundled_motor_paths
-from profiles.motor_schema import pointer, problems, schema, schema_problems
+from profiles.motor.datasheet import Datasheet, Drive, motor_from_datasheet
+from profiles.motor.loads import disc
+from profiles.motor.schema import pointer, problems, schema, schema_problems
 
 jsonschema = pytest.importorskip("jsonschema")
 

@@ -1,4 +1,4 @@
-"""verify.physics and profiles.rotor: the load angle (electrical degrees) in what the chip runs."""
+"""verify.physics and profiles.motor.rotor: the load angle (electrical degrees) of executions."""
 
 from __future__ import annotations
 
@@ -182,3 +182,22 @@ def test_unstable_verdict_names_the_shortest_unstable_move(path) -> None:  # typ
     assert not v.safe and v.first_unstable_pulses is not None
     assert v.worst_angle_deg >= PEAK_DEG and v.margin_deg <= 0
     assert not load_angle_check(simulate_move(fast, v.first_unstable_pulses), motor).stable
+
+
+def test_a_verdict_that_would_take_too_long_is_refused_in_one_line(
+        monkeypatch: pytest.MonkeyPatch, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    # the step budget of one verdict, lowered so that an ordinary table exhausts it: the
+    # answer is a one-line refusal (the CLI's exit 2), never a hang
+    from profiles.errors import StepRampError
+    from profiles.ppmc312 import load_angle
+    from profiles.ppmc312.table import dump_table
+    from verify.cli import main
+
+    monkeypatch.setattr(load_angle, "MAX_VERDICT_STEPS", 2_000)
+    table = ramp(400, 4000, 40, 100)
+    with pytest.raises(StepRampError, match="too stiff, or too lightly damped"):
+        judge_executions(table, nema17())
+    path = tmp_path / "t.table.json"
+    path.write_text(dump_table(table))
+    motor = next(p for p in bundled_motor_paths() if "nema17" in p.name)
+    assert main(["check", str(path), "--motor", str(motor)]) == 2

@@ -10,9 +10,9 @@ from typing import Any
 import pytest
 
 from profiles.motor import load_motor
+from profiles.motor.tolerance import worst_case_motor
 from profiles.ppmc312.criterion import all_length_problems
 from profiles.ppmc312.planner import plan_free_curve
-from profiles.tolerance import worst_case_motor
 from verify import cli
 from verify.sweep import COLUMNS, jobs_of, run_sweep
 

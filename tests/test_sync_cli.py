@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from profiles import alink
-from profiles.alink_sync import (
+from profiles.alink.sync import (
     MODE_SIG_STA,
     is_stall_safe,
     plan_line_sync,

@@ -13,13 +13,8 @@ import pytest
 
 from profiles.errors import FormatError, StepRampError
 from profiles.motor import Motor, load_motor
-from profiles.ppmc312.criterion import all_length_problems
-from profiles.ppmc312.execution import simulate_move
-from profiles.ppmc312.load_angle import worst_load_angle
-from profiles.ppmc312.planner import plan_free_curve
-from profiles.ppmc312.table import dump_table
-from profiles.rotor_batch import batch_rotor, follow_batch
-from profiles.tolerance import (
+from profiles.motor.rotor_batch import batch_rotor, follow_batch
+from profiles.motor.tolerance import (
     box,
     clopper_pearson_upper,
     corners,
@@ -27,6 +22,11 @@ from profiles.tolerance import (
     samples,
     worst_case_motor,
 )
+from profiles.ppmc312.criterion import all_length_problems
+from profiles.ppmc312.execution import simulate_move
+from profiles.ppmc312.load_angle import worst_load_angle
+from profiles.ppmc312.planner import plan_free_curve
+from profiles.ppmc312.table import dump_table
 from verify import cli
 from verify.robust import judge_box, sample_peaks
 
@@ -137,8 +137,8 @@ def test_batched_model_matches_the_scalar_one() -> None:
         assert peaks[i] == pytest.approx(scalar, abs=0.5), (i, params)
     # one rotor with nominal values is the scalar model step for step
     run = simulate_move(table, n)
+    from profiles.motor.rotor import rotor_of
     from profiles.ppmc312.load_angle import spans_of
-    from profiles.rotor import rotor_of
     plain = motor_with()
     r = rotor_of(plain)
     res = follow_batch(batch_rotor(plain, {}), spans_of(run, r, r.step_s())[:-1],
@@ -214,8 +214,8 @@ def test_check_cli_over_the_box(tmp_path: Path, capsys: pytest.CaptureFixture[st
 @pytest.mark.parametrize("holding", [None, 0.33])
 def test_batched_peak_torque_is_the_scalar_rotors(holding: float | None) -> None:
     """Both ways of the batched T_pk (one scaled curve; per-rotor curves capped at the
-    holding torque) against profiles.rotor for each sample."""
-    from profiles.rotor import rotor_of
+    holding torque) against profiles.motor.rotor for each sample."""
+    from profiles.motor.rotor import rotor_of
 
     m = replace(motor_with(tolerances=FULL_BOX), holding_torque_nm=holding)
     params = sample_params(m, 7, seed=2)

@@ -9,7 +9,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from profiles.errors import FormatError
-from profiles.units import (
+from profiles.motor.units import (
     OZF_IN_NM,
     curve_speed_to_pps,
     machine_to_pps,

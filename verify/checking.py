@@ -111,7 +111,7 @@ def robust_findings(table: FreeCurveTable, motor: Motor, *, pulses: Iterable[int
     Monte Carlo sample (verify.robust)."""
     from dataclasses import replace
 
-    from profiles.tolerance import worst_case_motor
+    from profiles.motor.tolerance import worst_case_motor
     from verify.robust import judge_box
     from verify.stall import check_stall
 

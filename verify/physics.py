@@ -1,6 +1,6 @@
 """The physical verdict: the rotor's load angle in every execution the chip runs.
 
-The model is `profiles.rotor` (load angle in electrical degrees: the restoring
+The model is `profiles.motor.rotor` (load angle in electrical degrees: the restoring
 torque peaks at 90° at the unscaled pull-out torque of the speed, the rotor slips
 a pole at 180°); `profiles.ppmc312.load_angle` runs it on every execution of a
 table. A move is physically safe when its worst |load angle| stays below 90° (the
@@ -15,10 +15,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from profiles.motor import Motor
+from profiles.motor.rotor import PEAK_DEG, SLIP_DEG, TARGET_DEG, check_step, follow, rotor_of
 from profiles.ppmc312.execution import Execution
 from profiles.ppmc312.load_angle import spans_of, worst_load_angle
 from profiles.ppmc312.table import FreeCurveTable, InitTable
-from profiles.rotor import PEAK_DEG, SLIP_DEG, TARGET_DEG, check_step, follow, rotor_of
 
 
 @dataclass(frozen=True)

@@ -1,11 +1,11 @@
 """`resonance-dwell` findings: dwells of a table's executions inside the motor's
-resonance bands (the rules: profiles.resonance)."""
+resonance bands (the rules: profiles.motor.resonance)."""
 
 from __future__ import annotations
 
 from profiles.motor import Motor
+from profiles.motor.resonance import forbidden_dwells
 from profiles.ppmc312.table import FreeCurveTable
-from profiles.resonance import forbidden_dwells
 
 from .findings import Finding
 

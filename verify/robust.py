@@ -1,11 +1,11 @@
-"""Judging a table over a motor's tolerance box (profiles.tolerance).
+"""Judging a table over a motor's tolerance box (profiles.motor.tolerance).
 
 - the criterion: on `worst_case_motor`, which is exact over the whole box
   (docs/manual-notes.md, "Tolerance box: the binding corner");
 - the load angle: over every execution at every corner of the box (the scalar
   model of profiles.ppmc312.load_angle), and over a seeded Monte Carlo sample
   of the box on the executions that are worst at some corner (the batched model
-  of profiles.rotor_batch: one numpy RK4 for all samples);
+  of profiles.motor.rotor_batch: one numpy RK4 for all samples);
 - the stall probability: samples past the 90° peak, with the exact
   Clopper–Pearson one-sided 95 % upper bound (0 of N → 1 − 0.05^(1/N) ≈ 3/N).
 """
@@ -18,13 +18,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from profiles.motor import Motor
+from profiles.motor.rotor import PEAK_DEG, rotor_of
+from profiles.motor.rotor_batch import batch_rotor, follow_batch
+from profiles.motor.tolerance import clopper_pearson_upper, corners, sample_params
 from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.load_angle import spans_of, worst_load_angle
 from profiles.ppmc312.table import FreeCurveTable
 from profiles.progress import Progress, report
-from profiles.rotor import PEAK_DEG, rotor_of
-from profiles.rotor_batch import batch_rotor, follow_batch
-from profiles.tolerance import clopper_pearson_upper, corners, sample_params
 
 DEFAULT_SAMPLES = 1000
 CONFIDENCE = 0.95

@@ -64,9 +64,9 @@ def run_job(job: Job) -> dict[str, Any]:
 
 def judge(table: Any, motor: Any, samples: int, seed: int) -> dict[str, Any]:
     """Both judges over every move length (and the tolerance box)."""
+    from profiles.motor.tolerance import worst_case_motor
     from profiles.ppmc312.criterion import all_length_problems
     from profiles.ppmc312.load_angle import worst_load_angle
-    from profiles.tolerance import worst_case_motor
     from verify.robust import judge_box
 
     criterion_ok = not all_length_problems(table, worst_case_motor(motor))

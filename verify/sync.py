@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from profiles import alink_sync
+from profiles.alink import sync as alink_sync
 from profiles.axes import AxesFile
 from profiles.errors import FormatError
 from profiles.motor import Motor

@@ -1,6 +1,6 @@
 """The load angle over every execution the chip can run with a table.
 
-The model is `profiles.rotor`; this module runs it on the chip's executions
+The model is `profiles.motor.rotor`; this module runs it on the chip's executions
 (profiles.ppmc312.execution): every move length is covered the way the criterion
 covers it, through the table's move families: each family's shortest and longest
 move (a trapezoid's longest: a cruise long enough to settle; longer cruises repeat
@@ -17,17 +17,28 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from ..errors import FieldRangeError
 from ..motor import Motor
-from ..rotor import PEAK_DEG, Rotor, Trace, check_step, follow, rotor_of, settle_s
+from ..motor.rotor import (
+    PEAK_DEG,
+    Rotor,
+    StepBudget,
+    Trace,
+    check_step,
+    follow,
+    rotor_of,
+    settle_s,
+)
 from .execution import Execution, move_families, simulate_move
 from .init_model import as_free_curve
 from .table import FreeCurveTable, InitTable
 
 REJOIN_TOL_DEG = 0.05
+MAX_VERDICT_STEPS = 8_000_000   # RK4 steps for every execution of one verdict (≈ 40 s)
 SETTLE_CRUISE_PERIODS = 10
 
 
@@ -55,13 +66,14 @@ def worst_load_angle(table: FreeCurveTable | InitTable, motor: Motor, *,
     if not runs:
         raise FieldRangeError("move lengths to judge", 0, 1, 0xFFFFFFFF)
     directions = (1, -1) if motor.load_torque_nm else (1,)
+    budget = StepBudget(MAX_VERDICT_STEPS)
     worst = (-1.0, 0, 1)
     unstable: list[int] = []
     slipped = False
     for direction in directions:
         rotor = rotor_of(motor, direction=direction)
         step = rotor.step_s() if max_step_s is None else min(rotor.step_s(), max_step_s)
-        shared = _Shared(rotor, step, max(runs, key=lambda e: len(e.segments)))
+        shared = _Shared(rotor, step, max(runs, key=lambda e: len(e.segments)), budget)
         for run in runs:
             peak_deg, slip = shared.worst_deg(run)
             slipped |= slip
@@ -100,11 +112,11 @@ class _Shared:
     """A reference execution integrated once; others start where their commands part from
     it and stop where they rejoin it (same remaining commands, same state)."""
 
-    def __init__(self, rotor: Rotor, step: float, reference: Execution) -> None:
-        self.rotor, self.step = rotor, step
+    def __init__(self, rotor: Rotor, step: float, reference: Execution,
+                 budget: StepBudget) -> None:
+        self.rotor, self.step, self.budget = rotor, step, budget
         self.ref_key = _key(reference)
-        self.ref = follow(rotor, spans_of(reference, rotor, step), step_s=step,
-                          trace=Trace(record=False))
+        self.ref = self._follow(spans_of(reference, rotor, step))
         peaks = np.asarray([*self.ref.span_max, 0.0])
         self.suffix_max = np.maximum.accumulate(peaks[::-1])[::-1]  # worst from span k on
         self.tol_l = math.radians(REJOIN_TOL_DEG) / rotor.c_e
@@ -116,8 +128,7 @@ class _Shared:
         key = _key(run)
         ref, rk = self.ref, self.ref_key
         if ref.slipped:
-            full = follow(self.rotor, spans_of(run, self.rotor, self.step), step_s=self.step,
-                          trace=Trace(record=False))
+            full = self._follow(spans_of(run, self.rotor, self.step))
             return self._deg(max(full.span_max)), full.slipped
         head = 0
         while head < min(len(key), len(rk)) and key[head] == rk[head]:
@@ -146,10 +157,16 @@ class _Shared:
             return False
 
         prev = spans[head - 1][1] if head else 0.0
-        part = follow(self.rotor, spans[head:], step_s=self.step, state=state,
-                      previous_pps=prev, trace=Trace(record=False), stop=stop)
+        part = self._follow(spans[head:], state=state, previous_pps=prev, stop=stop)
         worst = max([before, *part.span_max, *rejoin])
         return self._deg(worst), part.slipped
+
+    def _follow(self, spans: list[tuple[float, float]], **kw: Any) -> Trace:
+        """One execution's integration, counted against the verdict's step budget."""
+        trace = follow(self.rotor, spans, step_s=self.step,
+                       trace=Trace(record=False, budget=self.budget), **kw)
+        self.budget.used += trace.steps
+        return trace
 
     def _deg(self, lag_pulses: float) -> float:
         return math.degrees(lag_pulses * self.rotor.c_e)

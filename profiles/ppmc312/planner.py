@@ -38,7 +38,7 @@ import numpy as np
 
 from ..errors import FieldRangeError, PlanError, require_int
 from ..motor import Motor
-from ..resonance import band_edges_rates, stage_allowed, top_allowed
+from ..motor.resonance import band_edges_rates, stage_allowed, top_allowed
 from ..result import PlanResult
 from .clock import INTERNAL_HZ, MAX_OUTPUT_PPS, Clock
 from .criterion import switch_safe
@@ -667,14 +667,14 @@ def plan_free_curve(motor: Motor, *, clock: Clock | None = None, max_stages: int
     load-angle model on every execution and tightened until its worst angle is within
     that (see `tighten`). A motor with `tolerances` gets one table safe over its whole
     box: the criterion on the box's worst-case capability (exact over the box,
-    profiles.tolerance), the load angle judged at every corner."""
+    profiles.motor.tolerance), the load angle judged at every corner."""
     def make(m: Motor) -> Plan:
         return _plan(m, clock, max_stages, pulses, separate_decel, grid="adaptive",
                      refine=True, label="planner")
 
     if not motor.tolerances:
         return make(motor) if load_angle_deg is None else tighten(motor, make, load_angle_deg)
-    from ..tolerance import corners, worst_case_motor
+    from ..motor.tolerance import corners, worst_case_motor
 
     worst = worst_case_motor(motor)
     if load_angle_deg is None:
@@ -697,7 +697,7 @@ def tighten(motor: Motor, make: Callable[[Motor], Plan], load_angle_deg: float, 
     a step feeds on). Refuses when no round gets below the 90° peak. `judges`: judge
     the load angle on each of these motors (a tolerance box's corners) and take the
     worst, instead of on `motor`."""
-    from ..rotor import PEAK_DEG
+    from ..motor.rotor import PEAK_DEG
     from .load_angle import worst_load_angle
 
     if not 1.0 <= load_angle_deg <= PEAK_DEG:

@@ -103,7 +103,7 @@ class AxisMove:
 
 class SyncTimes:
     """The times of a plan whose axes each have `duration_s` and `fastest_s` (PPMC-312
-    tables here, A-Link settings in profiles.alink_sync)."""
+    tables here, A-Link settings in profiles.alink.sync)."""
 
     axes: tuple[Any, ...]
 

@@ -11,8 +11,8 @@ from ._common import EXIT_OK, EXIT_UNUSABLE, number, positive_int
 
 
 def add_subparser(sub: Any) -> None:
-    from profiles.loads import LOAD_HELP
-    from profiles.units import SPEED_UNITS, TORQUE_UNITS
+    from profiles.motor.loads import LOAD_HELP
+    from profiles.motor.units import SPEED_UNITS, TORQUE_UNITS
 
     motor = sub.add_parser("motor", help="motor files: from a datasheet or curve, and checks")
     msub = motor.add_subparsers(dest="motor_command", required=True, metavar="SUBCOMMAND")
@@ -70,7 +70,9 @@ _DATASHEET_OPTS = ("holding_torque_nm", "rated_current_a", "resistance_ohm", "in
 
 
 def _do_new(args: argparse.Namespace) -> int:
-    from profiles.datasheet import (
+    from profiles.errors import FormatError
+    from profiles.motor import Motor
+    from profiles.motor.datasheet import (
         Datasheet,
         Drive,
         Mechanics,
@@ -79,9 +81,7 @@ def _do_new(args: argparse.Namespace) -> int:
         motor_from_datasheet,
         motor_object,
     )
-    from profiles.errors import FormatError
-    from profiles.loads import loads_from_specs
-    from profiles.motor import Motor
+    from profiles.motor.loads import loads_from_specs
     from profiles.reading import read_bytes
     from verify.output import write_output
 
@@ -140,7 +140,7 @@ def dump_motor(obj: dict[str, Any]) -> str:
 
 def _do_check(args: argparse.Namespace) -> int:
     from profiles.errors import StepRampError
-    from profiles.motor_schema import problems
+    from profiles.motor.schema import problems
     from profiles.reading import read_json
 
     bad = False

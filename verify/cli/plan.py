@@ -18,7 +18,7 @@ from ._common import (
     progress_bar,
 )
 
-TARGET_DEG = 75.0  # profiles.rotor.TARGET_DEG, kept here so --help needs no import
+TARGET_DEG = 75.0  # profiles.motor.rotor.TARGET_DEG, kept here so --help needs no import
 OPTIONS = {"pulses": "--pulses", "max_stages": "--max-stages",
            "load angle target [°]": "--load-angle"}
 
@@ -116,7 +116,7 @@ def _judge(table: Any, motor: Any) -> dict[str, Any]:
     if motor.tolerances:
         # over the tolerance box: the criterion at its worst case (exact), the load angle
         # at every corner (`stepramp check --motor` adds the Monte Carlo samples)
-        from profiles.tolerance import worst_case_motor
+        from profiles.motor.tolerance import worst_case_motor
         from verify.robust import judge_box
 
         findings = check_stall(stages, worst_case_motor(motor))

@@ -17,7 +17,7 @@ from ._common import (
     pulse_list,
 )
 
-TARGET_DEG = 75.0  # profiles.rotor.TARGET_DEG, kept here so --help needs no import
+TARGET_DEG = 75.0  # profiles.motor.rotor.TARGET_DEG, kept here so --help needs no import
 
 
 def add_subparser(sub: Any) -> None:

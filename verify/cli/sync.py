@@ -34,7 +34,7 @@ def add_subparser(sub: Any) -> None:
 
 
 def _do_sync(args: argparse.Namespace) -> int:
-    from profiles.alink_sync import AlinkSyncPlan
+    from profiles.alink.sync import AlinkSyncPlan
     from profiles.axes import load_axes
     from profiles.errors import FormatError
     from profiles.ppmc312 import sync as ppmc_sync
@@ -76,7 +76,7 @@ def _do_sync(args: argparse.Namespace) -> int:
         write_output(None, json.dumps(report, indent=1) + "\n")
     else:
         write_output(None, _text(report))
-    from profiles.rotor import PEAK_DEG
+    from profiles.motor.rotor import PEAK_DEG
 
     bad = (report["finish_spread_s"] > report["finish_spread_tolerance_s"]
            or any(a.get("stall_findings", 0) or a.get("stall_safe") is False

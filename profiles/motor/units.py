@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 import re
 
-from .errors import FieldRangeError, FormatError
+from ..errors import FieldRangeError, FormatError
 
 G_MPS2 = 9.80665                      # standard gravity (kgf definition)
 OZF_IN_NM = 0.028349523125 * G_MPS2 * 0.0254   # 1 oz·in = 7.0615518e-3 N·m

@@ -34,7 +34,10 @@ from typing import Literal
 
 import numpy as np
 
-from .alink import (
+from ..errors import AlinkSyncError
+from ..motor import Motor
+from ..ppmc312.sync import SyncTimes, envelope_motor, line_deviation_times
+from . import (
     PARA_RANGE,
     PPS2_PER_INV_PARA,
     STEPS_MAX,
@@ -43,9 +46,6 @@ from .alink import (
     multiplier,
     plan_settings,
 )
-from .errors import AlinkSyncError
-from .motor import Motor
-from .ppmc312.sync import SyncTimes, envelope_motor, line_deviation_times
 
 Mode = Literal["time", "line"]
 LINE_HIGH_CANDIDATES = 24   # leader high speeds tried (the fastest multiples)

@@ -11,10 +11,10 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
-from .errors import FieldRangeError, StepRampError
-from .motor import _OPTIONAL, _REQUIRED, Motor
+from ..errors import FieldRangeError, StepRampError
+from .model import _OPTIONAL, _REQUIRED, Motor
 
-SCHEMA_PATH = Path(__file__).parent / "data" / "motor.schema.json"
+SCHEMA_PATH = Path(__file__).parent.parent / "data" / "motor.schema.json"
 Problem = tuple[str, str]   # (JSON pointer, message)
 
 

@@ -34,9 +34,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import FieldRangeError, FormatError, require_int
+from ..errors import FieldRangeError, FormatError, require_int
 from .loads import Contribution, combine
-from .motor import FORMAT
+from .model import FORMAT
 
 SQRT2 = math.sqrt(2.0)
 

@@ -19,8 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from .errors import FieldRangeError, FormatError, is_number, require_int
-from .reading import read_json
+from ..errors import FieldRangeError, FormatError, is_number, require_int
+from ..reading import read_json
 
 FORMAT = "stepramp.motor/1"
 _REQUIRED = {"format", "steps_per_rev", "pullout_torque", "inertia_kgm2", "safety_factor",
@@ -254,7 +254,7 @@ def load_motor(path: str | Path) -> Motor:
 
 def bundled_motor_paths() -> list[Path]:
     """The example motors shipped with stepramp."""
-    return sorted((Path(__file__).parent / "data").glob("motor-*.json"))
+    return sorted((Path(__file__).parent.parent / "data").glob("motor-*.json"))
 
 
 def _read_tolerances(obj: Any) -> tuple[tuple[str, float, float], ...]:

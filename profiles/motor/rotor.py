@@ -36,8 +36,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import FieldRangeError, StepRampError
-from .motor import Motor
+from ..errors import FieldRangeError, StepRampError
+from .model import Motor
 
 SLIP_DEG = 180.0                  # the rotor slips a pole
 PEAK_DEG = 90.0                   # the restoring torque peaks: the stable side ends
@@ -45,7 +45,7 @@ TARGET_DEG = 75.0                 # what planners aim at: 15° of margin to the 
 SETTLE_TOL_DEG = 0.05             # oscillation range that counts as settled
 STEPS_PER_NATURAL_PERIOD = 50
 MAX_SETTLE_PERIODS = 400          # give up waiting for an undamped rotor to settle
-MAX_RK4_STEPS = 20_000_000
+MAX_RK4_STEPS = 2_000_000        # one execution (≈ 10 s of Python): a budget, not a hang
 
 
 @dataclass(frozen=True)
@@ -110,6 +110,19 @@ class Trace:
     slip_time_s: float | None = None
     steps: int = 0
     record: bool = True       # keep every step (figures); False keeps boundaries only
+    budget: StepBudget | None = None  # shared by the executions of one verdict
+
+
+@dataclass
+class StepBudget:
+    """RK4 steps a whole verdict may take: a stiff rotor on a long table would otherwise
+    keep a check busy for minutes; it is refused with a reason instead."""
+
+    limit: int
+    used: int = 0
+
+    def left(self) -> int:
+        return self.limit - self.used
 
 
 def follow(rotor: Rotor, spans: list[tuple[float, float]], *, step_s: float,
@@ -160,6 +173,7 @@ def _segment(rotor: Rotor, out: Trace, t0: float, dur: float, v: float, L: float
         return a - math.copysign(fr, a)
 
     peak = abs(L)
+    limit = MAX_RK4_STEPS if out.budget is None else min(MAX_RK4_STEPS, out.budget.left())
     lo = hi = L
     count = windows = 0
     for i in range(1, n + 1):
@@ -192,10 +206,12 @@ def _segment(rotor: Rotor, out: Trace, t0: float, dur: float, v: float, L: float
                 break
             lo = hi = L
             count = 0
-        if out.steps >= MAX_RK4_STEPS:
-            raise StepRampError(f"load-angle model: more than {MAX_RK4_STEPS} RK4 steps of "
-                                f"{h:.3g} s and the lag still oscillates at t = {t:.6g} s; "
-                                "raise the motor's damping_ratio")
+        if out.steps >= limit:
+            raise StepRampError(f"load-angle model: more than {limit} RK4 steps of {h:.3g} s "
+                                f"(natural period {period:.3g} s) by t = {t:.6g} s: this rotor "
+                                "is too stiff, or too lightly damped, for a verdict in "
+                                "reasonable time; check the motor's inertia and damping_ratio, "
+                                "or judge fewer move lengths (--pulses)")
     return L, s, peak
 
 

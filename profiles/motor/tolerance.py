@@ -29,8 +29,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .errors import FormatError
-from .motor import TOLERANCE_KEYS, Motor
+from ..errors import FormatError
+from .model import TOLERANCE_KEYS, Motor
 
 
 @dataclass(frozen=True)

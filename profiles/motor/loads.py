@@ -24,7 +24,7 @@ import math
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
-from .errors import FieldRangeError, FormatError
+from ..errors import FieldRangeError, FormatError
 from .units import G_MPS2
 
 STEEL_KG_M3 = 7850.0

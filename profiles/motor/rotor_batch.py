@@ -1,7 +1,7 @@
-"""The load-angle model of `profiles.rotor`, integrated for many motors at once.
+"""The load-angle model of `profiles.motor.rotor`, integrated for many motors at once.
 
 The same equation, the same command (spans of constant speed, then rest) and the
-same fixed-step RK4 as `profiles.rotor.follow`, with every motor parameter an
+same fixed-step RK4 as `profiles.motor.rotor.follow`, with every motor parameter an
 array over S motors (a tolerance box's samples or corners): one numpy step
 advances all of them. Differences from the scalar model, both on the safe side
 of accuracy: the step is the smallest of the motors' steps (each motor's own
@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import StepRampError
-from .motor import Motor
+from ..errors import StepRampError
+from .model import Motor
 from .rotor import (
     MAX_RK4_STEPS,
     MAX_SETTLE_PERIODS,
@@ -78,7 +78,7 @@ class BatchRotor:
 def batch_rotor(motor: Motor, params: dict[str, np.ndarray], *, direction: int = 1) -> BatchRotor:
     """The rotors of `motor` with the given parameter arrays (keys from
     profiles.motor.TOLERANCE_KEYS, each of one length; missing ones stay nominal),
-    exactly as `profiles.rotor.rotor_of` builds one."""
+    exactly as `profiles.motor.rotor.rotor_of` builds one."""
     size = len(next(iter(params.values()))) if params else 1
 
     def get(key: str) -> np.ndarray:

@@ -19,9 +19,9 @@ from typing import Any
 
 import numpy as np
 
-from .motor import Motor
-from .ppmc312.execution import move_families
-from .ppmc312.table import FreeCurveTable
+from ..ppmc312.execution import move_families
+from ..ppmc312.table import FreeCurveTable
+from .model import Motor
 
 
 def in_bands(speed_pps: Any, bands: tuple[tuple[float, float], ...]) -> np.ndarray:
