@@ -3,9 +3,11 @@
     python bench/bench_ppmc312.py [--seconds 1.0]
 
 - table checks per second on random valid 127-stage free curves
-  (goal ≥ 20 000 on one core), against a reference measured in the same run:
+  (goal ≥ 40 000 on one core), against a reference measured in the same run:
   json round-trip of the same table, the least a tool must do to read one;
-- encode + decode (+ chip-emulator acceptance) per second;
+- encode + decode of the same tables' uploads per second (goal ≥ 20 000), and
+  with chip-emulator acceptance;
+- every upload file format: render + parse per second;
 - cold start of `stepramp check` on one table (goal ≤ 0.3 s), against a bare
   `python -c pass` measured in the same run.
 """
@@ -42,12 +44,13 @@ def random_table(rng: random.Random, stages: int = 127) -> FreeCurveTable:
 
 def rate(fn: Callable[[FreeCurveTable], object], tables: list[FreeCurveTable],
          seconds: float) -> float:
-    n, start = 0, time.perf_counter()
+    # Process CPU time: on a shared machine wall time also counts other processes.
+    n, start = 0, time.process_time()
     while True:
         for t in tables:
             fn(t)
         n += len(tables)
-        elapsed = time.perf_counter() - start
+        elapsed = time.process_time() - start
         if elapsed >= seconds:
             return n / elapsed
 
@@ -72,8 +75,8 @@ def main() -> None:
     ref = rate(lambda t: table_from_json(json.loads(json.dumps(t.to_json()))), tables,
                args.seconds)
     checks = rate(check_table, tables, args.seconds)
-    print(f"table checks/s (127 stages):      {checks:10.0f}   goal ≥ 20000 "
-          f"{'OK' if checks >= 20000 else 'MISSED'}")
+    print(f"table checks/s (127 stages):      {checks:10.0f}   goal ≥ 40000 "
+          f"{'OK' if checks >= 40000 else 'MISSED'}")
     print(f"  reference json load/s:          {ref:10.0f}   ratio checks/ref {checks / ref:.2f}")
 
     def codec(t: FreeCurveTable) -> None:
@@ -84,7 +87,8 @@ def main() -> None:
 
     rt = rate(codec, tables, args.seconds)
     em = rate(accept, tables, args.seconds)
-    print(f"encode+decode/s:                  {rt:10.0f}   ratio to json load {rt / ref:.2f}")
+    print(f"encode+decode/s:                  {rt:10.0f}   goal ≥ 20000 "
+          f"{'OK' if rt >= 20000 else 'MISSED'}; ratio to json load {rt / ref:.2f}")
     print(f"encode+emulated upload/s:         {em:10.0f}   ratio to json load {em / ref:.2f}")
 
     with tempfile.TemporaryDirectory() as tmp:

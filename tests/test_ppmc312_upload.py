@@ -579,3 +579,38 @@ def test_upload_dispatch_errors_name_block_and_byte(blocks: list[str], says: str
 def test_encode_table_ascii_defaults_to_address_0() -> None:
     table = InitTable(C8, "linear", 1000, 100, 0x1000)
     assert encode_table(table, to="ascii") == [serial.encode_serial_init(table, 0)]
+
+
+def _outcome(fn: object, *args: object) -> object:
+    try:
+        return fn(*args)  # type: ignore[operator]
+    except StepRampError as e:
+        return (type(e).__name__, str(e))
+
+
+@SETTINGS
+@given(mutated_uploads())
+def test_bulk_decode_equals_the_block_by_block_walk(blocks: list[bytes]) -> None:
+    """The bulk path (sections unpacked at once) and the block-by-block walk it falls
+    back to agree on every upload: the same table or the same error."""
+    from unittest import mock
+
+    from profiles.ppmc312 import upload
+
+    fast = _outcome(decode_free_curve, blocks)
+    with mock.patch.object(upload, "_decode_sections", return_value=None):
+        slow = _outcome(decode_free_curve, blocks)
+    assert fast == slow
+
+
+@SETTINGS
+@given(free_curves(), st.integers(3, 30))
+def test_bulk_encode_equals_the_block_by_block_path(table: FreeCurveTable, max_data: int
+                                                    ) -> None:
+    from unittest import mock
+
+    from profiles.ppmc312 import upload
+
+    fast = encode_free_curve(table, max_data=max_data)
+    with mock.patch.object(upload, "_encode_sections", return_value=None):
+        assert encode_free_curve(table, max_data=max_data) == fast

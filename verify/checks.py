@@ -35,9 +35,8 @@ init
 from __future__ import annotations
 
 import math
-from operator import lt, mul
-
-import numpy as np
+from itertools import compress, repeat
+from operator import add, le, lt, mul
 
 from profiles.errors import FormatError
 from profiles.ppmc312.clock import MAX_OUTPUT_PPS
@@ -201,28 +200,43 @@ def _short_stages(side: str, field: str, ticks: list[int], rates: tuple[int, ...
     n = len(ticks)
     if n < 2:
         return []
-    # A short stage is under 1/10 of at least one neighbour: look for such a pair first.
-    tenfold = [10 * x for x in ticks]
-    if not (any(map(lt, tenfold, ticks[1:])) or any(map(lt, tenfold[1:], ticks))):
-        return []
-    t = np.asarray(ticks, dtype=float)
-    neighbour_mean = np.empty(n)
-    neighbour_mean[0], neighbour_mean[-1] = t[1], t[-2]
-    neighbour_mean[1:-1] = (t[:-2] + t[2:]) / 2.0
-    if n > 2:  # stage 0 is cruise-like (below): stage 1's only neighbour is stage 2
-        neighbour_mean[1] = t[2]
-    out = []
     # Stage 0 (the fastest) runs straight on into the cruise at the same rate, so its
     # own length does not matter: planners give it the minimum on purpose, or (LE=1
-    # decel) extra pulses that keep every triangle's switch safe.
-    for i in np.flatnonzero(t < SHORT_STAGE_FRACTION * neighbour_mean).tolist():
-        if i == 0:
+    # decel) extra pulses that keep every triangle's switch safe. It is never reported,
+    # and (being cruise-like) is no neighbour: stage 1's only neighbour is stage 2.
+    # Candidates first, in C: 20·t_i ≤ t_(i−1) + t_(i+1) (10·t_i ≤ the one neighbour of
+    # stage 1 and of the last stage) holds whenever the float test below does (ticks
+    # < 2**41, so its rounding is far below one tick); most tables have none.
+    last = n - 1
+    candidates = [1] if n > 2 and 10 * ticks[1] <= ticks[2] else []
+    candidates += compress(range(2, last), map(le, map(mul, ticks[2:-1], repeat(20)),
+                                                map(add, ticks[1:], ticks[3:])))
+    if 10 * ticks[last] <= ticks[last - 1]:
+        candidates.append(last)
+    if not candidates:
+        return []
+    # A short stage is under 1/10 of at least one neighbour: without such a pair, none.
+    after = ticks[1:]
+    if not (any(map(lt, map(mul, ticks, repeat(10)), after))
+            or any(map(lt, map(mul, after, repeat(10)), ticks))):
+        return []
+    out = []
+    for i in candidates:
+        # The neighbours' mean as floats, exactly as numpy computed it before (the sums
+        # are below 2**53, so exact).
+        if i == last:
+            mean = float(ticks[i - 1])
+        elif i == 1:
+            mean = float(ticks[2])
+        else:
+            mean = (ticks[i - 1] + ticks[i + 1]) / 2.0
+        target = SHORT_STAGE_FRACTION * mean
+        if not ticks[i] < target:
             continue
-        target = SHORT_STAGE_FRACTION * neighbour_mean[i]
         need = math.ceil(target / rates[i]) if rates[i] > 0 else 2
         out.append(Finding("warning", "stage-short",
                            f"{side} stage {i} lasts {ticks[i]} ticks, under 1/10 of its "
-                           f"neighbours' mean {neighbour_mean[i]:.0f} ticks: raise {field}[{i}] "
+                           f"neighbours' mean {mean:.0f} ticks: raise {field}[{i}] "
                            f"to ≥ {need} or merge the stage into a neighbour", None, i))
     return out
 

@@ -199,7 +199,12 @@ def block_list(blocks: Any) -> list[bytes]:
     if isinstance(blocks, bytes | bytearray | memoryview | str) or not isinstance(
             blocks, list | tuple):
         raise DecodeError(f"expected a list of blocks, got {type(blocks).__name__}")
+    if _BYTES_ONLY.issuperset(map(type, blocks)):
+        return list(blocks)
     return [block_bytes(b, i) for i, b in enumerate(blocks)]
+
+
+_BYTES_ONLY = frozenset((bytes,))
 
 
 def check_length_byte(block: bytes, index: int | None, *, hi: int = MAX_BLOCK_DATA) -> int:

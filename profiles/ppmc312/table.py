@@ -213,6 +213,9 @@ def _int(obj: dict[str, Any], key: str) -> int:
     return v
 
 
+_INT_ONLY = frozenset((int,))
+
+
 def _int_field(label: str, v: Any, hi: int) -> int:
     if not is_number(v, integral=True):
         raise FormatError(f"{label}: expected an integer, got {v!r}")
@@ -222,4 +225,9 @@ def _int_field(label: str, v: Any, hi: int) -> int:
 
 
 def _ints(name: str, values: Any, hi: int) -> tuple[int, ...]:
+    # Fast path for the common case (plain ints in range); anything else is looked at
+    # one value at a time, for the error naming the first bad entry.
+    if isinstance(values, tuple | list) and _INT_ONLY.issuperset(map(type, values)) and (
+            not values or (min(values) >= 0 and max(values) <= hi)):
+        return tuple(values)
     return tuple(_int_field(f"{name}[{i}]", v, hi) for i, v in enumerate(values))

@@ -26,7 +26,7 @@ from ..errors import (
     UnsupportedError,
     require_int,
 )
-from ..fields import Array, Frame
+from ..fields import Frame
 from . import ascii as serial
 from .clock import Clock
 from .frames import (
@@ -72,12 +72,6 @@ def _sections(table: FreeCurveTable) -> list[tuple[str, Frame, tuple[int, ...]]]
     return out
 
 
-def _item_size(frame: Frame) -> int:
-    last = frame.fields[-1]
-    assert isinstance(last, Array)  # parameter/item blocks end in their entries
-    return last.item.size
-
-
 def encode_free_curve(table: FreeCurveTable, *, max_data: int = MAX_BLOCK_DATA) -> list[bytes]:
     """Command block then parameter blocks of at most `max_data` data bytes each."""
     if not isinstance(table, FreeCurveTable):
@@ -90,15 +84,55 @@ def encode_free_curve(table: FreeCurveTable, *, max_data: int = MAX_BLOCK_DATA) 
                                              decel_stages=len(table.decel))
     else:
         command = FC_COMMAND_COMMON.encode(mode, accel_stages=len(table.accel_pulses))
+    fast = _encode_sections(table, max_data)
+    if fast is not None:
+        return [command, *fast]
+    # A value the wire cannot carry: encode block by block for the error naming it.
     chunks: list[tuple[Frame, tuple[int, ...]]] = []
     for _name, frame, items in _sections(table):
-        per_block = max_data // _item_size(frame)
+        per_block = max_data // frame.item.size
         chunks += [(frame, items[i:i + per_block]) for i in range(0, len(items), per_block)]
     blocks = [command]
     for k, (frame, items) in enumerate(chunks):
         blocks.append(frame.encode(last=int(k == len(chunks) - 1),
-                                   length=len(items) * _item_size(frame), items=list(items)))
+                                   length=len(items) * frame.item.size, items=list(items)))
     return blocks
+
+
+def _encode_sections(table: FreeCurveTable, max_data: int) -> list[bytes] | None:
+    """The parameter blocks, each section's items packed at once and cut into blocks
+    (the frames' own packers and prefixes); None if an item does not fit its field."""
+    out: list[bytes] = []
+    last_frame = RATE_BLOCK
+    for _name, frame, items in _sections(table):
+        data = frame.pack_items(items)
+        if data is None:
+            return None
+        step = max_data // frame.item.size * frame.item.size
+        whole = len(data) - len(data) % step
+        head = _prefix(frame, 0, step)
+        out += [head + data[i:i + step] for i in range(0, whole, step)]
+        if whole < len(data):
+            out.append(_prefix(frame, 0, len(data) - whole) + data[whole:])
+        last_frame = frame
+    if out:  # the last block executes: header 01
+        n = len(_prefix(last_frame, 0, 1))
+        out[-1] = _prefix(last_frame, 1, len(out[-1]) - n) + out[-1][n:]
+    return out
+
+
+# Encoded block prefixes (header, length) and decoded ones, per frame: few distinct
+# values, so each is built by its frame once.
+_PREFIXES: dict[tuple[int, int, int], bytes] = {}
+_READ_PREFIXES: dict[int, dict[bytes, dict[str, Any] | None]] = {}
+
+
+def _prefix(frame: Frame, last: int, length: int) -> bytes:
+    key = (id(frame), last, length)
+    prefix = _PREFIXES.get(key)
+    if prefix is None:
+        prefix = _PREFIXES[key] = frame.encode_fixed({"last": last, "length": length})
+    return prefix
 
 
 def decode_free_curve(blocks: Sequence[bytes], *, extck_hz: float | None = None) -> FreeCurveTable:
@@ -121,6 +155,10 @@ def decode_free_curve(blocks: Sequence[bytes], *, extck_hz: float | None = None)
     due = [("rate", RATE_BLOCK, max(accel_n, decel_n or 0)), ("accel", ACCEL_BLOCK, accel_n)]
     if decel_n is not None:
         due.append(("decel", DECEL_BLOCK, decel_n))
+    fast = _decode_sections(blocks, due)
+    if fast is not None:
+        return FreeCurveTable(clock, fast[0], fast[1], fast[2] if decel_n is not None else None)
+    # Something is wrong: walk the blocks one by one for the error that names it.
     got: dict[str, list[int]] = {name: [] for name, _f, _n in due}
     section = 0
     for index in range(1, len(blocks)):
@@ -133,7 +171,7 @@ def decode_free_curve(blocks: Sequence[bytes], *, extck_hz: float | None = None)
         length = check_length_byte(block, index)
         if length == 0:
             raise DecodeError("a parameter block with no data", block=index, byte=1)
-        size = _item_size(frame)
+        size = frame.item.size
         if length % size:
             raise DecodeError(f"{length} data bytes is not a whole number of {size}-byte "
                               f"{name} entries: an entry is split across blocks",
@@ -161,6 +199,47 @@ def decode_free_curve(blocks: Sequence[bytes], *, extck_hz: float | None = None)
                           "missing (no last block with header 01)", block=len(blocks), byte=0)
     return FreeCurveTable(clock, tuple(got["rate"]), tuple(got["accel"]),
                           tuple(got["decel"]) if decel_n is not None else None)
+
+
+def _decode_sections(blocks: list[bytes], due: list[tuple[str, Frame, int]]
+                     ) -> tuple[tuple[int, ...], ...] | None:
+    """Every section's entries from well-formed parameter blocks (each block's header and
+    length read by its frame, each section's entries unpacked at once), or None if
+    anything is out of place."""
+    out: list[tuple[int, ...]] = []
+    index, n_blocks = 1, len(blocks)
+    for number, (_name, frame, count) in enumerate(due):
+        size = frame.item.size
+        known = _READ_PREFIXES.setdefault(id(frame), {})
+        n = len(_prefix(frame, 0, 1))
+        need = count * size
+        parts = []
+        while need > 0:
+            if index >= n_blocks:
+                return None
+            block = blocks[index]
+            head = block[:n]
+            fixed = known.get(head)
+            if fixed is None:
+                fixed = frame.decode_fixed(head)
+                if fixed is None:
+                    return None
+                known[head] = fixed
+            length = fixed["length"]
+            if len(block) != n + length or length % size or length > need:
+                return None
+            need -= length
+            if fixed["last"] != (need == 0 and number == len(due) - 1):
+                return None
+            parts.append(block[n:])
+            index += 1
+        items = frame.unpack_items(b"".join(parts))
+        if items is None:
+            return None
+        out.append(tuple(items))
+    if index != n_blocks:
+        return None
+    return tuple(out)
 
 
 def _param_header(block: bytes, index: int) -> None:
@@ -289,7 +368,7 @@ def encode_table_read_response(table: FreeCurveTable) -> list[bytes]:
         parts.append((READ_DECEL, table.decel_pulses))
     chunks: list[tuple[Frame, tuple[int, ...], int]] = []
     for frame, items in parts:
-        size = _read_item_size(frame)
+        size = frame.item.size
         per = READ_DATA_BYTES // size
         chunks += [(frame, items[i:i + per], size) for i in range(0, len(items), per)]
     out = [first]
@@ -297,10 +376,6 @@ def encode_table_read_response(table: FreeCurveTable) -> list[bytes]:
         out.append(frame.encode(next=int(k == len(chunks) - 1), length=1 + len(items) * size,
                                 items=list(items)))
     return out
-
-
-def _read_item_size(frame: Frame) -> int:
-    return _item_size(frame)
 
 
 def decode_table_read(blocks: Sequence[bytes], *, clock: Clock) -> FreeCurveTable:
