@@ -1,0 +1,361 @@
+"""File formats: one `Format` record per format, one `FormatTable` per device.
+
+Learned from cantools (`database/can/formats/`: one module per format, each with
+load and dump, dispatched from one table): a device module lists its formats in
+a `FormatTable`; each `Format` has a `render` (items → file bytes) and a `parse`
+(file bytes → items), so every file stepramp writes can be read back and
+checked. `FormatTable.detect` tells the formats apart by content (the file
+name's extension only breaks ties).
+
+Integrity. The device protocols carry little or no check (the PPMC-312
+parallel upload none at all), so the files carry one the wire lacks:
+a CRC-32 of the payload in the text formats (a comment line), JSON (a field)
+and C (a comment and a constant), Intel HEX its record checksums. `parse`
+verifies it and raises `CorruptedError` on a mismatch; a file without one
+(hand-made) parses with `Parsed.integrity == "absent"`, for a warning. Raw
+binary has no room for a check (it must be exactly the bytes the device
+takes): `integrity == "none"`.
+
+The helpers below (CRC-32, hex text, Intel HEX, C identifiers, provenance) are
+shared by the device tables.
+"""
+
+from __future__ import annotations
+
+import re
+import zlib
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Generic, Literal, TypeVar
+
+from .errors import CorruptedError, DecodeError, FieldRangeError, FormatError
+
+T = TypeVar("T")
+
+# verified: the file's check matched; absent: the format has a check but this
+# file carries none (hand-made); none: the format has no room for one (bin).
+Integrity = Literal["verified", "absent", "none"]
+
+
+@dataclass(frozen=True)
+class Provenance:
+    """Where a file came from, for the comment a C header (and text files) carry."""
+
+    command: str | None = None            # the command line that wrote it
+    lines: tuple[str, ...] = ()           # device-specific: motor, clock, stages, totals
+
+    @property
+    def tool(self) -> str:
+        return f"stepramp {tool_version()}"
+
+
+@dataclass(frozen=True)
+class RenderOptions:
+    name: str | None = None               # C: prefix of the include guard and every symbol
+    base_address: int = 0                 # Intel HEX: address of the first byte
+    provenance: Provenance = field(default_factory=Provenance)
+
+
+@dataclass(frozen=True)
+class Parsed(Generic[T]):
+    items: list[T]
+    format: str
+    integrity: Integrity
+    detail: str = ""                      # what was verified, or why nothing was
+
+
+@dataclass(frozen=True)
+class Format(Generic[T]):
+    name: str
+    description: str
+    extensions: tuple[str, ...]
+    render: Callable[[Sequence[T], RenderOptions], bytes]
+    parse: Callable[[bytes], Parsed[T]]
+    sniff: Callable[[bytes], bool]         # does this content look like the format?
+    binary: bool = False
+
+
+class FormatTable(Generic[T]):
+    """A device's formats, in detection order, with aliases (old names kept working)."""
+
+    def __init__(self, device: str, formats: Sequence[Format[T]],
+                 aliases: dict[str, str] | None = None) -> None:
+        self.device = device
+        self.formats = {f.name: f for f in formats}
+        self.aliases = dict(aliases or {})
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Every accepted `--format` value, aliases included."""
+        return (*self.formats, *self.aliases)
+
+    def get(self, name: str) -> Format[T]:
+        key = self.aliases.get(name, name)
+        if key not in self.formats:
+            raise FormatError(f"format: {name!r} is not one of {', '.join(self.names)}")
+        return self.formats[key]
+
+    def for_path(self, path: str | Path | None) -> Format[T] | None:
+        """The format a file name's extension names, if it names one."""
+        if path is None:
+            return None
+        suffix = Path(str(path)).suffix.lower()
+        for f in self.formats.values():
+            if suffix in f.extensions:
+                return f
+        return None
+
+    def detect(self, data: bytes, path: str | Path | None = None) -> Format[T]:
+        """The format of `data`: by content; the extension breaks a tie."""
+        matches = [f for f in self.formats.values() if f.sniff(data)]
+        if not matches:
+            raise DecodeError(f"not a {self.device} file in any known format "
+                              f"({', '.join(self.formats)})")
+        by_name = self.for_path(path)
+        return by_name if by_name in matches else matches[0]
+
+    def render(self, items: Sequence[T], fmt: str,
+               options: RenderOptions | None = None) -> bytes:
+        return self.get(fmt).render(items, options or RenderOptions())
+
+    def parse(self, data: bytes, path: str | Path | None = None,
+              fmt: str | None = None) -> Parsed[T]:
+        if not isinstance(data, bytes | bytearray | memoryview):
+            raise FormatError(f"parse needs bytes, got {type(data).__name__}")
+        raw = bytes(data)
+        if raw.startswith(b"\xef\xbb\xbf"):  # a UTF-8 byte-order mark from a text editor
+            raw = raw[3:]
+        if not raw.strip():
+            raise DecodeError("empty file")
+        chosen = self.get(fmt) if fmt is not None else self.detect(raw, path)
+        return chosen.parse(raw)
+
+
+def tool_version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("stepramp")
+    except PackageNotFoundError:  # pragma: no cover - running from a bare checkout
+        return "unknown"
+
+
+# --- CRC-32 -------------------------------------------------------------------------
+def crc32(payload: bytes) -> int:
+    """CRC-32 as zlib, PNG and Ethernet compute it (polynomial 0x04C11DB7, reflected,
+    initial and final XOR 0xFFFFFFFF): 0xCBF43926 for b"123456789"."""
+    return zlib.crc32(payload) & 0xFFFFFFFF
+
+
+def crc_hex(payload: bytes) -> str:
+    return f"{crc32(payload):08X}"
+
+
+_CRC_COMMENT = re.compile(r"\bcrc32\s+(?:0x)?([0-9A-Fa-f]{8})\b")
+
+
+def crc_comment(payload: bytes) -> str:
+    """The text formats' check line (after `#`)."""
+    return f"crc32 {crc_hex(payload)}: CRC-32 of the {len(payload)} bytes above"
+
+
+def find_crc_comment(comments: Sequence[str]) -> str | None:
+    """The CRC given in a comment line, if any (the last one wins)."""
+    found = None
+    for text in comments:
+        m = _CRC_COMMENT.search(text)
+        if m:
+            found = m.group(1).upper()
+    return found
+
+
+def verify_crc(payload: bytes, claimed: str | None, where: str) -> tuple[Integrity, str]:
+    """Compare a file's CRC with its payload: `CorruptedError` on a mismatch."""
+    if claimed is None:
+        return "absent", (f"{where} carries no CRC-32 (a hand-made file?): its bytes "
+                          "cannot be verified")
+    actual = crc_hex(payload)
+    if claimed.upper() != actual:
+        raise CorruptedError(f"{where} says CRC-32 {claimed.upper()}, the content gives "
+                             f"{actual}: the file changed after it was written")
+    return "verified", f"CRC-32 {actual} of {len(payload)} bytes verified"
+
+
+# --- hex text -------------------------------------------------------------------------
+_HEX_DIGITS = frozenset("0123456789abcdefABCDEF")
+
+
+def hex_line(data: bytes) -> str:
+    return data.hex(" ").upper()
+
+
+def hex_bytes(content: str, where: str) -> bytes:
+    """Bytes from hex digit pairs, spaces allowed between pairs; errors name the column."""
+    out = bytearray()
+    column = 0
+    for token in content.split():
+        column = content.index(token, column)
+        for k, ch in enumerate(token):
+            if ch not in _HEX_DIGITS:
+                raise DecodeError(f"{where}, column {column + k + 1}: {ch!r} is not a hex digit")
+        if len(token) % 2:
+            raise DecodeError(f"{where}, column {column + 1}: {token!r} has an odd number of "
+                              "hex digits (two a byte)")
+        out += bytes.fromhex(token)
+        column += len(token)
+    return bytes(out)
+
+
+def text_of(raw: bytes) -> str:
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise DecodeError(f"neither text nor a binary file (byte 0x{raw[e.start]:02X})",
+                          byte=e.start) from None
+
+
+def first_content_line(raw: bytes) -> str:
+    """The first non-blank line of a text file, stripped ('' for binary or empty)."""
+    try:
+        text = raw[:4096].decode("utf-8", errors="strict")
+    except UnicodeDecodeError as e:
+        text = raw[:e.start].decode("utf-8")
+        if not text.strip():
+            return ""
+    for line in text.splitlines():
+        if line.strip():
+            return line.strip()
+    return ""
+
+
+# --- Intel HEX ------------------------------------------------------------------------
+IHEX_RECORD_BYTES = 16
+IHEX_ADDRESS_MAX = 0xFFFFFFFF
+
+
+def _ihex_record(kind: int, address: int, data: bytes) -> str:
+    body = bytes([len(data), address >> 8 & 0xFF, address & 0xFF, kind]) + data
+    return ":" + body.hex().upper() + f"{-sum(body) & 0xFF:02X}"
+
+
+def render_ihex(payload: bytes, base_address: int) -> bytes:
+    """Intel HEX (I32HEX): 16-byte data records from `base_address`, an extended linear
+    address record (04) wherever the upper 16 address bits change, the EOF record."""
+    if isinstance(base_address, bool) or not isinstance(base_address, int) or not (
+            0 <= base_address <= IHEX_ADDRESS_MAX - max(len(payload) - 1, 0)):
+        raise FieldRangeError("base address", base_address, 0,
+                              IHEX_ADDRESS_MAX - max(len(payload) - 1, 0))
+    lines = []
+    upper = None
+    pos = 0
+    while pos < len(payload):
+        address = base_address + pos
+        if address >> 16 != upper:
+            upper = address >> 16
+            lines.append(_ihex_record(0x04, 0, upper.to_bytes(2, "big")))
+        # A record never crosses a 64 KiB boundary (its address is 16 bits).
+        n = min(IHEX_RECORD_BYTES, len(payload) - pos, 0x10000 - (address & 0xFFFF))
+        lines.append(_ihex_record(0x00, address & 0xFFFF, payload[pos:pos + n]))
+        pos += n
+    lines.append(_ihex_record(0x01, 0, b""))
+    return ("\n".join(lines) + "\n").encode("ascii")
+
+
+def parse_ihex(raw: bytes) -> tuple[bytes, int]:
+    """The contiguous payload of an Intel HEX file and its start address. Every
+    record's checksum is verified (`CorruptedError`); the data must be one run
+    without gaps or overlaps, ended by the EOF record."""
+    text = text_of(raw)
+    base = 0
+    start: int | None = None
+    payload = bytearray()
+    ended = False
+    for number, line in enumerate(text.splitlines(), start=1):
+        line = line.strip()
+        if not line:
+            continue
+        where = f"line {number}"
+        if ended:
+            raise DecodeError(f"{where}: data after the end-of-file record")
+        if not line.startswith(":"):
+            raise DecodeError(f"{where}: an Intel HEX record starts with ':'")
+        body = hex_bytes(line[1:], where)
+        if len(body) < 5 or len(body) != 5 + body[0]:
+            raise CorruptedError(f"{where}: the record is {len(body)} bytes, its length byte "
+                                 f"says {5 + body[0] if body else 5}")
+        if sum(body) & 0xFF:
+            want = -sum(body[:-1]) & 0xFF
+            raise CorruptedError(f"{where}: record checksum {body[-1]:02X}, the record gives "
+                                 f"{want:02X}")
+        kind, address, data = body[3], int.from_bytes(body[1:3], "big"), body[4:-1]
+        if kind == 0x00:
+            full = base + address
+            if start is None:
+                start = full
+            elif full != start + len(payload):
+                raise DecodeError(f"{where}: data at 0x{full:08X}, expected 0x"
+                                  f"{start + len(payload):08X} (the upload is one run of "
+                                  "bytes, without gaps)")
+            payload += data
+        elif kind == 0x01:
+            ended = True
+        elif kind in (0x02, 0x04):  # extended segment (× 16) / linear (× 65536) address
+            if len(data) != 2:
+                raise DecodeError(f"{where}: an extended address record carries 2 bytes")
+            base = int.from_bytes(data, "big") << (4 if kind == 0x02 else 16)
+        elif kind in (0x03, 0x05):
+            pass  # start addresses: nothing to upload
+        else:
+            raise DecodeError(f"{where}: record type {kind:02X} is not Intel HEX (00-05)")
+    if not ended:
+        raise CorruptedError("no end-of-file record (:00000001FF): the file is truncated")
+    if start is None:
+        raise DecodeError("the Intel HEX file holds no data records")
+    return bytes(payload), start
+
+
+def looks_like_ihex(raw: bytes) -> bool:
+    return first_content_line(raw).startswith(":")
+
+
+# --- C ----------------------------------------------------------------------------------
+_C_IDENTIFIER = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
+C_NAME_MAX = 40  # + "_block_lengths" stays within C99's 63 significant characters
+C_KEYWORDS = frozenset("""auto break case char const continue default do double else enum
+extern float for goto if inline int long register restrict return short signed sizeof static
+struct switch typedef union unsigned void volatile while _Bool _Complex _Imaginary""".split())
+
+
+def c_name(name: str) -> str:
+    """`name` if it can prefix C symbols: a letter, then letters, digits, underscores."""
+    if not isinstance(name, str) or not _C_IDENTIFIER.match(name) or name in C_KEYWORDS \
+            or len(name) > C_NAME_MAX:
+        raise FormatError(f"--name {name!r}: a C prefix is a letter followed by letters, "
+                          f"digits or underscores, at most {C_NAME_MAX} characters, not a C "
+                          "keyword (e.g. x_axis)")
+    return name
+
+
+def c_name_for(path: str | Path | None, default: str = "stepramp") -> str:
+    """A C prefix from an output file name (`x-axis.upload.h` → `x_axis_upload`)."""
+    if path is None:
+        return default
+    stem = Path(str(path)).name.split(".")[0]
+    name = re.sub(r"[^A-Za-z0-9_]", "_", stem).strip("_")[:C_NAME_MAX]
+    if not name or not name[0].isalpha() or name in C_KEYWORDS:
+        return default
+    return name
+
+
+def c_comment(lines: Sequence[str]) -> str:
+    """A C block comment holding `lines` (made ASCII, never closing early)."""
+    safe = [line.encode("ascii", "backslashreplace").decode("ascii").replace("*/", "* /")
+            for line in lines]
+    return "/* " + "\n * ".join(safe) + "\n */"
+
+
+def looks_like_c(raw: bytes) -> bool:
+    line = first_content_line(raw)
+    return line.startswith(("/*", "//", "#ifndef", "#include", "#define", "#pragma",
+                            "static ", "const "))
