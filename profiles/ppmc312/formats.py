@@ -103,7 +103,7 @@ _ASCII_HEX = frozenset(b"0123456789ABCDEFabcdef")
 
 def split_payload(raw: bytes) -> list[bytes]:
     """The blocks in raw upload bytes (byte offsets in errors are offsets in `raw`)."""
-    blocks = []
+    blocks: list[bytes] = []
     pos = 0
     while pos < len(raw):
         head = raw[pos]
