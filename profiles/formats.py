@@ -138,7 +138,7 @@ def tool_version() -> str:
     try:
         return version("stepramp")
     except PackageNotFoundError:  # pragma: no cover - running from a bare checkout
-        return "unknown"
+        return "unknown (not installed: pip install -e .)"
 
 
 # --- CRC-32 -------------------------------------------------------------------------
@@ -173,8 +173,7 @@ def find_crc_comment(comments: Sequence[str]) -> str | None:
 def verify_crc(payload: bytes, claimed: str | None, where: str) -> tuple[Integrity, str]:
     """Compare a file's CRC with its payload: `CorruptedError` on a mismatch."""
     if claimed is None:
-        return "absent", (f"{where} carries no CRC-32 (a hand-made file?): its bytes "
-                          "cannot be verified")
+        return "absent", "no CRC-32 in the file (hand-made?): its bytes cannot be verified"
     actual = crc_hex(payload)
     if claimed.upper() != actual:
         raise CorruptedError(f"{where} says CRC-32 {claimed.upper()}, the content gives "

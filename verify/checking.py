@@ -142,20 +142,28 @@ def load_checkable(path: str, extck_hz: float | None = None
     raw = read_bytes(path)
     if looks_like_table_json(raw):
         return table_from_json(parse_json(raw, path)), []
+    from profiles.errors import CorruptedError
     from profiles.ppmc312.emulator import accept_upload
-    from profiles.ppmc312.files import parse_upload
+    from profiles.ppmc312.formats import parse
     from profiles.ppmc312.upload import decode_upload
 
-    require_shallow_json(raw, path)  # a JSON upload is parsed by files.parse_upload
-    blocks = parse_upload(raw)
+    require_shallow_json(raw, path)  # a JSON upload is parsed by formats.parse
+    try:
+        parsed = parse(raw, path)
+    except CorruptedError as e:  # the file's own check failed: a verdict, not unusable input
+        return None, [Finding("error", "upload-corrupted", str(e))]
+    # A file without a check (hand-made, or bin: no room for one) is judged, with a warning.
+    integrity = ([] if parsed.integrity == "verified" else
+                 [Finding("warning", "upload-unchecked", f"{parsed.format} file: {parsed.detail}")])
+    blocks = parsed.items
     if blocks and blocks[0][:1] in (b"\x02", b"\x03"):  # parallel blocks: ask the chip model
         verdict = accept_upload(blocks)
         if not verdict.ok:
             # F0 carries a parameter-error code; F1/F6 (state, size) are the code themselves.
             code = verdict.error_code if verdict.response_code == 0xF0 else verdict.response_code
             return None, [Finding("error", "chip-rejects-upload", verdict.message,
-                                  chip_code=code, stage=None)]
-    return decode_upload(blocks, extck_hz=extck_hz), []
+                                  chip_code=code, stage=None), *integrity]
+    return decode_upload(blocks, extck_hz=extck_hz), integrity
 
 
 def looks_like_table_json(raw: bytes) -> bool:

@@ -136,8 +136,8 @@ def split_payload(raw: bytes) -> list[bytes]:
 
 def _parse_bin(raw: bytes) -> Parsed[bytes]:
     return Parsed(split_payload(raw), "bin", "none",
-                  "a bin file is the raw upload bytes, with no room for a check: corruption "
-                  "cannot be detected")
+                  "the raw upload bytes, with no room for a check: corruption cannot be "
+                  "detected")
 
 
 def _looks_like_bin(raw: bytes) -> bool:

@@ -80,6 +80,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SystemExit as e:  # --help/--version (0) or a usage error (printed, 2)
         return EXIT_OK if e.code in (0, None) else EXIT_UNUSABLE
     command = args.command  # the group for alink/mc200 ("stepramp mc200: …"), as before
+    args.argv = args_list  # the command line, for the provenance files carry
     try:
         return int(args.func(args))
     except StepRampError as e:

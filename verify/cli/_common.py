@@ -8,6 +8,7 @@ square brackets after the quantity.
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
@@ -151,10 +152,43 @@ class VersionAction(argparse.Action):
 
 
 def version() -> str:
-    from importlib.metadata import PackageNotFoundError
-    from importlib.metadata import version as installed
+    from profiles.formats import tool_version
 
-    try:
-        return installed("stepramp")
-    except PackageNotFoundError:
-        return "unknown (not installed: pip install -e .)"
+    return tool_version()
+
+
+def add_file_format_options(parser: argparse.ArgumentParser) -> None:
+    """--format, --name and --base-address for the commands that write PPMC-312 upload
+    files (the formats of `profiles.ppmc312.formats`)."""
+    from profiles.ppmc312.formats import FORMATS
+
+    described = "; ".join(f"{f.name}: {f.description}" for f in FORMATS.formats.values())
+    parser.add_argument("--format", choices=FORMATS.names, default=None,
+                        help=f"file format ({described}; hex is text's old name). Default: "
+                             "from OUT's extension (.bin, .ihex, .h, .json, .bus; .hex is "
+                             "text), else text")
+    parser.add_argument("--name", metavar="PREFIX",
+                        help="with --format c: prefix of the include guard and every symbol, "
+                             "a C identifier (default: from OUT's file name, else stepramp)")
+    parser.add_argument("--base-address", type=positive_int, default=0, metavar="ADDR",
+                        help="with --format ihex: address of the first byte, 0..0xFFFFFFFF "
+                             "(default 0)")
+
+
+def render_upload(args: argparse.Namespace, blocks: list[bytes], table: Any = None,
+                  motor: str | None = None) -> bytes:
+    """The upload file the format options ask for, with its provenance."""
+    from profiles.errors import FormatError
+    from profiles.formats import RenderOptions, c_name_for
+    from profiles.ppmc312.formats import FORMATS, provenance
+
+    fmt = FORMATS.get(args.format or getattr(FORMATS.for_path(args.output), "name", "text")).name
+    if args.name is not None and fmt != "c":
+        raise FormatError(f"--name names the symbols of a C header; the format is {fmt}")
+    if args.base_address and fmt != "ihex":
+        raise FormatError(f"--base-address places Intel HEX data; the format is {fmt}")
+    command = "stepramp " + " ".join(shlex.quote(a) for a in getattr(args, "argv", []))
+    options = RenderOptions(name=args.name if args.name is not None else c_name_for(args.output),
+                            base_address=args.base_address,
+                            provenance=provenance(table, command=command, motor=motor))
+    return FORMATS.render(blocks, fmt, options)

@@ -3,14 +3,17 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
 from ._common import CLOCK_NAMES, EXIT_OK, clock_or_extck, fields_as_options, number
 
 
 def add_subparser(sub: Any) -> None:
-    d = sub.add_parser("decode", help="decode an upload file (hex or bin) back into a table")
-    d.add_argument("upload", metavar="UPLOAD", help="an upload file (hex, bin or json)")
+    d = sub.add_parser("decode", help="decode an upload file (any format) back into a table")
+    d.add_argument("upload", metavar="UPLOAD",
+                   help="an upload file: text (hex), bin, ihex, c, json or bus, told apart by "
+                        "content; its CRC-32 (or Intel HEX checksums) is verified")
     d.add_argument("--extck-hz", type=number,
                    help="external clock frequency of an EXTCK upload [Hz]")
     d.add_argument("--table-read", action="store_true",
@@ -27,17 +30,21 @@ def add_subparser(sub: Any) -> None:
 
 
 def _do_decode(args: argparse.Namespace) -> int:
-    from profiles.ppmc312.files import parse_upload
+    from profiles.ppmc312.formats import parse
     from profiles.ppmc312.table import Table, dump_table
     from profiles.reading import read_bytes, require_shallow_json
     from verify.output import write_output
 
     raw = read_bytes(args.upload)
-    require_shallow_json(raw, args.upload)  # a JSON upload is parsed by files.parse_upload
-    blocks = parse_upload(raw)
+    require_shallow_json(raw, args.upload)  # a JSON upload is parsed by formats.parse
+    parsed = parse(raw, args.upload)  # a failed check: CorruptedError
     table: Table
     with fields_as_options({"extck_hz": "--extck-hz"}):
-        table = _decode(args, blocks)
+        table = _decode(args, parsed.items)
+    # Decoded, but nothing vouches for the bytes (a table-read answer is a capture from
+    # the bus, never a file stepramp wrote: no check is expected there).
+    if parsed.integrity != "verified" and not args.table_read:
+        print(f"stepramp decode: warning: {args.upload}: {parsed.detail}", file=sys.stderr)
     write_output(args.output, dump_table(table))
     return EXIT_OK
 

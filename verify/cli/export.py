@@ -6,7 +6,14 @@ import argparse
 import sys
 from typing import Any
 
-from ._common import EXIT_FINDINGS, EXIT_OK, fields_as_options, positive_int
+from ._common import (
+    EXIT_FINDINGS,
+    EXIT_OK,
+    add_file_format_options,
+    fields_as_options,
+    positive_int,
+    render_upload,
+)
 
 
 def add_subparser(sub: Any) -> None:
@@ -17,8 +24,10 @@ def add_subparser(sub: Any) -> None:
                         "(default parallel)")
     e.add_argument("--address", type=positive_int, default=0,
                    help="ASCII slave address 0-15 (default 0)")
-    e.add_argument("--format", choices=("hex", "bin", "c", "json", "bus"), default="hex",
-                   help="file format (default hex: spaced hex text, one block a line)")
+    add_file_format_options(e)
+    e.add_argument("--motor", metavar="M.json",
+                   help="the motor the table was planned for: named in the file's provenance "
+                        "comment (C header)")
     e.add_argument("--max-block-data", type=positive_int, default=30,
                    help="data bytes per parameter block, 3-30 (default 30)")
     e.add_argument("--force", action="store_true", help="export even a table with errors")
@@ -27,7 +36,6 @@ def add_subparser(sub: Any) -> None:
 
 
 def _do_export(args: argparse.Namespace) -> int:
-    from profiles.ppmc312.files import render
     from profiles.ppmc312.table import load_table
     from profiles.ppmc312.upload import encode_table
     from verify.checks import check_table
@@ -46,5 +54,10 @@ def _do_export(args: argparse.Namespace) -> int:
     with fields_as_options({"address": "--address", "max_data": "--max-block-data"}):
         blocks = encode_table(table, to=args.to, address=args.address,
                               max_data=args.max_block_data)
-    write_output(args.output, render(blocks, args.format))
+    motor = None
+    if args.motor:
+        from profiles.motor import load_motor
+
+        motor = load_motor(args.motor).name or args.motor
+    write_output(args.output, render_upload(args, blocks, table, motor))
     return EXIT_OK

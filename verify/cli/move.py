@@ -5,7 +5,13 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ._common import EXIT_OK, fields_as_options, positive_int
+from ._common import (
+    EXIT_OK,
+    add_file_format_options,
+    fields_as_options,
+    positive_int,
+    render_upload,
+)
 
 
 def add_subparser(sub: Any) -> None:
@@ -21,8 +27,7 @@ def add_subparser(sub: Any) -> None:
                    help="parallel bus block or ASCII serial frame (default parallel)")
     m.add_argument("--address", type=positive_int, default=0,
                    help="ASCII slave address 0-15 (default 0)")
-    m.add_argument("--format", choices=("hex", "bin", "c", "json", "bus"), default="hex",
-                   help="file format (default hex)")
+    add_file_format_options(m)
     m.add_argument("-o", "--output", metavar="OUT", help="write the file here (default stdout)")
     m.set_defaults(func=_do_move)
 
@@ -30,7 +35,6 @@ def add_subparser(sub: Any) -> None:
 def _do_move(args: argparse.Namespace) -> int:
     from profiles.errors import FormatError
     from profiles.ppmc312.ascii import encode_serial_move
-    from profiles.ppmc312.files import render
     from profiles.ppmc312.upload import encode_move
     from verify.output import write_output
 
@@ -45,5 +49,5 @@ def _do_move(args: argparse.Namespace) -> int:
             blocks = [encode_move(args.pulses, ccw=args.ccw, high_rate=args.high_rate,
                                   override=args.override is not None,
                                   trigger=args.override or 0)]
-    write_output(args.output, render(blocks, args.format))
+    write_output(args.output, render_upload(args, blocks))
     return EXIT_OK
