@@ -226,7 +226,7 @@ def test_plan_init_table_exports_as_ascii(capsys: pytest.CaptureFixture[str], tm
     assert run(capsys, "check", out, "--motor", MOTOR)[0] == 0
     code, frame_hex, _ = run(capsys, "export", out, "--to", "ascii", "--address", "2")
     assert code == 0
-    assert decode_serial_init(bytes.fromhex(frame_hex.strip())) == table
+    assert decode_serial_init(bytes.fromhex(frame_hex.splitlines()[0])) == table
 
 
 def test_plan_kind_refusals_name_the_options(capsys: pytest.CaptureFixture[str]) -> None:
