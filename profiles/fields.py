@@ -423,17 +423,24 @@ def _pack_run(item: UInt, items: Any) -> bytes:
             return struct.pack(f"{end}{n}{code}", *items)
         except struct.error:
             raise _Invalid from None
+    if size == 3 and item.lo == 0 and item.hi is None:
+        # No 3-byte struct code: pack 4 bytes each (struct refuses negatives and values
+        # above 32 bits), check the top bytes are zero, and drop them.
+        try:
+            wide = struct.pack(f"{end}{n}I", *items)
+        except struct.error:
+            raise _Invalid from None
+        top = 0 if item.order == "big" else 3
+        if wide[top::4].count(0) != n:
+            raise _Invalid
+        out = bytearray(3 * n)
+        for k in range(3):
+            out[k::3] = wide[k + 1 - top // 3::4]
+        return bytes(out)
     if min(items) < item.lo or max(items) > item.max:
         raise _Invalid
     if code is not None:
         return struct.pack(f"{end}{n}{code}", *items)
-    if size == 3:  # no 3-byte struct code: pack 4 bytes each and drop the top byte
-        wide = struct.pack(f"{end}{n}I", *items)
-        out = bytearray(3 * n)
-        skip = 1 if item.order == "big" else 0
-        for k in range(3):
-            out[k::3] = wide[k + skip::4]
-        return bytes(out)
     return b"".join(v.to_bytes(size, item.order) for v in items)
 
 

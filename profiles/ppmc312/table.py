@@ -61,6 +61,18 @@ class FreeCurveTable:
             raise FormatError(f"rates: {len(self.rates)} entries, but the longer pulse list has "
                               f"{longest} stages; give one rate per stage of the longer side")
 
+    @classmethod
+    def from_wire(cls, clock: Clock, rates: tuple[int, ...], accel_pulses: tuple[int, ...],
+                  decel_pulses: tuple[int, ...] | None) -> FreeCurveTable:
+        """A table from decoded upload fields, not validated again: the decoder's frames
+        have already refused every value wider than its field (2-byte rates, 3-byte
+        counts, 1-byte stage counts) and give one rate per stage of the longer side."""
+        table = object.__new__(cls)
+        for name, value in (("clock", clock), ("rates", rates),
+                            ("accel_pulses", accel_pulses), ("decel_pulses", decel_pulses)):
+            object.__setattr__(table, name, value)
+        return table
+
     def _lists(self) -> list[tuple[str, tuple[int, ...]]]:
         out = [("rates", self.rates), ("accel_pulses", self.accel_pulses)]
         if self.decel_pulses is not None:

@@ -157,7 +157,8 @@ def decode_free_curve(blocks: Sequence[bytes], *, extck_hz: float | None = None)
         due.append(("decel", DECEL_BLOCK, decel_n))
     fast = _decode_sections(blocks, due)
     if fast is not None:
-        return FreeCurveTable(clock, fast[0], fast[1], fast[2] if decel_n is not None else None)
+        return FreeCurveTable.from_wire(clock, fast[0], fast[1],
+                                        fast[2] if decel_n is not None else None)
     # Something is wrong: walk the blocks one by one for the error that names it.
     got: dict[str, list[int]] = {name: [] for name, _f, _n in due}
     section = 0
