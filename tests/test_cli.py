@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import json
-import zlib
 import subprocess
 import sys
+import zlib
 from pathlib import Path
 
 import pytest
@@ -194,8 +194,8 @@ def test_move_command_bytes(capsys: pytest.CaptureFixture[str]) -> None:
     # the manual's bus example order (§5-6): last byte first, header last
     assert out.splitlines()[-5:-1] == ["DWR 40", "DWR 82", "DWR 08", "DWR 03"]
     code, out, _ = run(capsys, "move", "--pulses", "5000", "--high-rate", "300")
-    assert decode_move(bytes.fromhex(out.splitlines()[0])) == {"pulses": 5000, "ccw": False, "high_rate": 300,
-                                               "override": False, "trigger": 0}
+    assert decode_move(bytes.fromhex(out.splitlines()[0])) == {
+        "pulses": 5000, "ccw": False, "high_rate": 300, "override": False, "trigger": 0}
     code, out, _ = run(capsys, "move", "--pulses", "5000", "--to", "ascii", "--address", "2")
     assert decode_serial_move(bytes.fromhex(out.splitlines()[0]))["pulses"] == 5000
     assert run(capsys, "move", "--pulses", "0")[0] == 2

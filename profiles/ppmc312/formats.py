@@ -25,6 +25,7 @@ import json
 import re
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..errors import CorruptedError, DecodeError, FormatError
 from ..formats import (
@@ -49,8 +50,9 @@ from ..formats import (
     verify_crc,
 )
 from .frames import HDR_CODE_EXEC, MAX_BLOCK_BYTES, block_list
-from .table import FreeCurveTable, InitTable, Table
-from .upload import bus_writes
+
+if TYPE_CHECKING:
+    from .table import Table
 
 
 def _blocks(blocks: Sequence[bytes]) -> list[bytes]:
@@ -278,6 +280,8 @@ def _looks_like_json(raw: bytes) -> bool:
 
 # --- bus writes -----------------------------------------------------------------------------
 def _render_bus(blocks: Sequence[bytes], options: RenderOptions) -> bytes:
+    from .upload import bus_writes  # here, so reading the format table stays light
+
     items = _blocks(blocks)
     lines = [f"{reg} {value:02X}" for b in items for reg, value in bus_writes(b)]
     lines.append("# " + crc_comment(b"".join(items)))
@@ -373,6 +377,8 @@ def parse_upload(data: bytes) -> list[bytes]:
 def provenance(table: Table | None = None, *, command: str | None = None,
                motor: str | None = None) -> Provenance:
     """The provenance comment lines for an upload of `table`."""
+    from .table import FreeCurveTable, InitTable
+
     lines = []
     if motor:
         lines.append(f"motor: {motor}")
