@@ -73,19 +73,30 @@ def _render_text(blocks: Sequence[bytes], options: RenderOptions) -> bytes:
     return ("\n".join(lines) + "\n").encode("ascii")
 
 
-def _parse_text(raw: bytes) -> Parsed[bytes]:
-    blocks, comments = [], []
+def _content_lines(raw: bytes) -> tuple[list[tuple[int, str]], list[str]]:
+    """(line number, content) of every line with content, and the `#` comments."""
+    lines, comments = [], []
     for number, line in enumerate(text_of(raw).splitlines(), start=1):
         content, _, comment = line.partition("#")
         if comment:
             comments.append(comment)
         if content.strip():
-            blocks.append(hex_bytes(content, f"line {number}"))
-    if not blocks:
-        raise DecodeError("the upload file holds no blocks (only blanks and comments)")
+            lines.append((number, content))
+    return lines, comments
+
+
+def _with_crc_comment(blocks: list[bytes], comments: list[str], fmt: str) -> Parsed[bytes]:
     integrity, detail = verify_crc(b"".join(blocks), find_crc_comment(comments),
                                    "the crc32 comment")
-    return Parsed(blocks, "text", integrity, detail)
+    return Parsed(blocks, fmt, integrity, detail)
+
+
+def _parse_text(raw: bytes) -> Parsed[bytes]:
+    lines, comments = _content_lines(raw)
+    blocks = [hex_bytes(content, f"line {number}") for number, content in lines]
+    if not blocks:
+        raise DecodeError("the upload file holds no blocks (only blanks and comments)")
+    return _with_crc_comment(blocks, comments, "text")
 
 
 def _looks_like_text(raw: bytes) -> bool:
@@ -292,14 +303,9 @@ def _parse_bus(raw: bytes) -> Parsed[bytes]:
     """Blocks from register writes: each block is WCR 20, WAR 20 − size, then its bytes
     written to DWR last byte first (manual §5-6)."""
     writes: list[tuple[int, str, int]] = []
-    comments = []
-    for number, line in enumerate(text_of(raw).splitlines(), start=1):
-        content, _, comment = line.partition("#")
-        if comment:
-            comments.append(comment)
+    lines, comments = _content_lines(raw)
+    for number, content in lines:
         parts = content.split()
-        if not parts:
-            continue
         if len(parts) != 2 or parts[0] not in ("WCR", "WAR", "DWR"):
             raise DecodeError(f"line {number}: expected 'WCR|WAR|DWR XX', got {content.strip()!r}")
         byte = hex_bytes(parts[1], f"line {number}")
@@ -327,9 +333,7 @@ def _parse_bus(raw: bytes) -> Parsed[bytes]:
         k += 2 + size
     if not blocks:
         raise DecodeError("the bus file holds no register writes")
-    integrity, detail = verify_crc(b"".join(blocks), find_crc_comment(comments),
-                                   "the crc32 comment")
-    return Parsed(blocks, "bus", integrity, detail)
+    return _with_crc_comment(blocks, comments, "bus")
 
 
 def _looks_like_bus(raw: bytes) -> bool:
