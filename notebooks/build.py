@@ -319,7 +319,7 @@ from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312 import decode_upload, encode_free_curve
 from profiles.ppmc312.ascii import decode_serial_init, encode_serial_init
-from profiles.ppmc312.files import parse_upload, render
+from profiles.ppmc312.formats import parse, parse_upload, render
 from profiles.ppmc312.execution import simulate_move
 from verify.references import exact_optimum
 
@@ -351,6 +351,11 @@ for fmt, path in files.items():
     show(path)
 print(f"\\n{len(blocks)} blocks, {sum(map(len, blocks))} bytes")"""),
     ("code", """\
+# Every file carries a CRC-32 of the blocks (the parallel bus itself has no check):
+# parse verifies it and says so.
+for fmt, path in files.items():
+    print(f"{path.name}: {parse(path.read_bytes()).detail}")
+
 # Hex file: parse the blocks back and decode the table.
 parsed = parse_upload(files["hex"].read_bytes())
 assert parsed == blocks
@@ -368,6 +373,8 @@ print(f"C header: {len(c_blocks)} arrays equal to the blocks")
 # Bus writes: per block WCR 20, WAR 20 − length, then DWR last byte first.
 bus_blocks, data = [], []
 for line in files["bus"].read_text().splitlines():
+    if line.startswith("#"):  # the CRC-32 line
+        continue
     reg, value = line.split()
     if reg == "WCR":
         data = []
