@@ -3,6 +3,9 @@ docs/manual-notes.md), shown on the codecs: the claims the docs make, as tests."
 
 from __future__ import annotations
 
+from pathlib import Path
+
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -65,3 +68,44 @@ def test_parallel_upload_has_no_check_a_flip_is_another_legal_table() -> None:
     assert accept_upload(flipped).ok
     other = decode_free_curve(flipped)
     assert other.clock.name == "1MHz" and other.rates == table.rates
+
+
+# --- what check and decode say about a file's own check --------------------------------
+def test_check_and_decode_report_a_corrupted_file(tmp_path: Path,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    from profiles.ppmc312.clock import Clock
+    from profiles.ppmc312.formats import render
+    from profiles.ppmc312.table import FreeCurveTable
+    from profiles.ppmc312.upload import encode_free_curve
+    from verify.checking import check_file, load_checkable
+    from verify.cli import main
+
+    blocks = encode_free_curve(FreeCurveTable(Clock.internal("8MHz"), (400, 800, 2000),
+                                              (100, 50, 20)))
+    good = render(blocks, "json")
+    doc = json.loads(good)
+    doc["blocks"][1] = doc["blocks"][1].replace("01 90", "01 91")  # rate 400 → 401
+    bad = tmp_path / "bad.upload.json"
+    bad.write_text(json.dumps(doc))
+    table, findings = load_checkable(str(bad))
+    assert table is None and [(f.severity, f.rule) for f in findings] == [
+        ("error", "upload-corrupted")]
+    assert "corrupted" in findings[0].message
+    assert not check_file(str(bad)).ok and check_file(str(bad)).error is None  # exit 1
+    assert main(["check", str(bad)]) == 1
+    assert main(["decode", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("stepramp decode: corrupted: the crc32 field says CRC-32")
+    assert len(err.splitlines()) == 1
+
+    # the same blocks without a check: judged, with the warning
+    for name, data in (("hand.upload.json", json.dumps({"blocks": doc["blocks"][:1] + json.loads(
+            good)["blocks"][1:]}).encode()), ("raw.upload.bin", render(blocks, "bin"))):
+        path = tmp_path / name
+        path.write_bytes(data)
+        table, findings = load_checkable(str(path))
+        assert table is not None
+        assert [(f.severity, f.rule) for f in findings] == [("warning", "upload-unchecked")]
+        assert main(["check", str(path)]) == 0
