@@ -51,6 +51,14 @@ class DecodeError(StepRampError, ValueError):
         super().__init__(prefix + message)
 
 
+class CorruptedError(DecodeError):
+    """A file whose own check (CRC-32, Intel HEX record checksum) does not match its
+    content: the bytes changed after stepramp wrote them."""
+
+    def __init__(self, message: str, *, block: int | None = None, byte: int | None = None) -> None:
+        super().__init__(f"corrupted: {message}", block=block, byte=byte)
+
+
 class UnsupportedError(StepRampError, ValueError):
     """A request the device cannot express at all (e.g. a free curve over serial)."""
 
@@ -181,11 +189,3 @@ def _show(value: object) -> str:
 class OutputError(StepRampError, OSError):
     """An output file that cannot be written (verify/output.py): names OUT as the user
     wrote it, never a temp file, and the reason, in one line."""
-
-
-class CorruptedError(DecodeError):
-    """A file whose own check (CRC-32, Intel HEX record checksum) does not match its
-    content: the bytes changed after stepramp wrote them."""
-
-    def __init__(self, message: str, *, block: int | None = None, byte: int | None = None) -> None:
-        super().__init__(f"corrupted: {message}", block=block, byte=byte)
