@@ -344,7 +344,10 @@ def argv_case(rnd: random.Random, folder: Path, index: int | None = None) -> Out
         elif a == "PERIOD":
             argv.append(rnd.choice(["1000", "10", "9.99", "1000001", "nan", "0", "-5", "x"]))
         elif a == "PATH":
-            argv.append(rnd.choice([*PATH_NAMES, str(folder)]))
+            name = rnd.choice([*PATH_NAMES, str(folder)])
+            # relative names live in the case's folder, never in the working directory
+            relative = name not in ("", "-") and not name.startswith("/")
+            argv.append(str(folder / name) if relative else name)
         else:
             argv.append(_fill(a, folder, None))
     before = set(os.listdir(folder))

@@ -49,6 +49,7 @@ from ..formats import (
     text_of,
     verify_crc,
 )
+from ..reading import parse_json
 from .frames import HDR_CODE_EXEC, MAX_BLOCK_BYTES, block_list
 
 if TYPE_CHECKING:
@@ -257,13 +258,8 @@ def _render_json(blocks: Sequence[bytes], options: RenderOptions) -> bytes:
 
 
 def _parse_json(raw: bytes) -> Parsed[bytes]:
-    try:
-        obj = json.loads(text_of(raw))
-    except json.JSONDecodeError as e:
-        raise DecodeError(f"not valid JSON (line {e.lineno}, column {e.colno}: {e.msg})"
-                          ) from None
-    except RecursionError:
-        raise DecodeError("not a JSON upload: nested too deeply") from None
+    # the one JSON reader: depth, number size and NaN caps (profiles.reading)
+    obj = parse_json(raw, "the JSON upload")
     if not isinstance(obj, dict) or "blocks" not in obj or not set(obj) <= {"blocks", "crc32"} \
             or not isinstance(obj["blocks"], list):
         raise FormatError('a JSON upload is {"blocks": ["02 04 01 …", …], "crc32": "…"}')
