@@ -97,7 +97,8 @@ def test_hook_definition() -> None:
         "the hook's entry needs the `stepramp` console script"
     files = re.compile(hook["files"])
     for selected in ("good.table.json", "fw/ramps/x.table.json", "out/x.upload.hex",
-                     "x.upload.bin"):
+                     "x.upload.bin", "x.upload.ihex", "x.upload.json", "x.upload.h",
+                     "x.upload.bus"):
         assert files.search(selected), selected
     for ignored in ("package.json", "x.table.json.bak", "x.upload.c", ".table.json",
                     "motor-nema17.json", "x.upload.hex.orig"):
