@@ -6,7 +6,7 @@ import argparse
 import sys
 from typing import Any
 
-from ._common import EXIT_FINDINGS, EXIT_OK, number, positive_int
+from ._common import EXIT_FINDINGS, EXIT_OK, add_move_options, number, positive_int
 
 
 def add_subparser(sub: Any) -> None:
@@ -27,11 +27,7 @@ def add_subparser(sub: Any) -> None:
     init = lsub.add_parser("init", help="send an init table (linear or S-curve, LE=0)")
     init.add_argument("table", metavar="TABLE", help="an init table file (stepramp.table/1)")
     move = lsub.add_parser("move", help="start an accel/decel move")
-    move.add_argument("--pulses", type=positive_int, required=True,
-                      help="move length [pulses], 1..0xFFFFFFFF")
-    move.add_argument("--ccw", action="store_true", help="direction CCW (default CW)")
-    move.add_argument("--high-rate", type=positive_int, default=0,
-                      help="high-rate override, a rate divisor (0 = the table's)")
+    add_move_options(move)
     lsub.add_parser("poll", help="busy, ready, or why pulse output stopped")
     lsub.add_parser("position", help="the pulse position counter [pulses]")
     lsub.add_parser("errors", help="the line error count and the last error code")

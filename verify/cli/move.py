@@ -8,6 +8,7 @@ from typing import Any
 from ._common import (
     EXIT_OK,
     add_file_format_options,
+    add_move_options,
     fields_as_options,
     positive_int,
     render_upload,
@@ -16,11 +17,7 @@ from ._common import (
 
 def add_subparser(sub: Any) -> None:
     m = sub.add_parser("move", help="the accel/decel move command (82) bytes")
-    m.add_argument("--pulses", type=positive_int, required=True,
-                   help="move length [pulses], 1..0xFFFFFFFF")
-    m.add_argument("--ccw", action="store_true", help="direction CCW (default CW)")
-    m.add_argument("--high-rate", type=positive_int, default=0,
-                   help="high-rate override, a rate divisor (0 = the table's)")
+    add_move_options(m)
     m.add_argument("--override", type=int, choices=(1, 3), metavar="TRG",
                    help="register as an override with trigger TRG (1 or 3), parallel only")
     m.add_argument("--to", choices=("parallel", "ascii"), default="parallel",
