@@ -7,11 +7,11 @@ C and bus files carry, Intel HEX carries its record checksums.
 
 | format | file | check |
 |---|---|---|
-| `text` (alias `hex`) | one block per line, hex byte pairs | `# crc32 XXXXXXXX` comment line |
+| `text` (alias `hex`) | one block per line, hex byte pairs | `# crc32 9C3B2A11` comment line (hex) |
 | `bin` | the raw bytes | none: no room (it must be exactly the bytes the chip takes) |
 | `ihex` | Intel HEX of the payload from `base_address` | record checksums, EOF record |
 | `c` | a C header, symbols prefixed by `name` | comment and `NAME_CRC32` constant |
-| `json` | `{"blocks": [...], "crc32": "XXXXXXXX"}` | the `crc32` field |
+| `json` | `{"blocks": [...], "crc32": "9C3B2A11"}` | the `crc32` field |
 | `bus` | the host's register writes (WCR, WAR, DWR) | `# crc32` comment line |
 
 Binary parallel blocks self-delimit by their length byte; an ASCII frame
