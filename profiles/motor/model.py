@@ -35,6 +35,8 @@ TOLERANCE_KEYS = ("inertia_kgm2", "friction_torque_nm", "load_torque_nm", "torqu
 DEFAULT_PHASES = 2
 DEFAULT_ROTOR_TEETH = 50        # the 1.8° (2-phase) and 0.72° (5-phase) hybrid rotor
 DEFAULT_DAMPING_RATIO = 0.1
+MAX_TORQUE_NM = 1e6
+MAX_SPEED_PPS = 1e9
 
 
 @dataclass(frozen=True)
@@ -76,6 +78,10 @@ class Motor:
             raise FormatError("pullout_torque: speeds must start at 0 and strictly increase")
         if np.any(t < 0) or not np.all(np.isfinite(t)):
             raise FormatError("pullout_torque: torques must be finite and ≥ 0")
+        # physical bounds keep the capability's arithmetic finite (1e6 N·m, 1e9 pps)
+        if np.any(t > MAX_TORQUE_NM) or v[-1] > MAX_SPEED_PPS:
+            raise FormatError(f"pullout_torque: torques up to {MAX_TORQUE_NM:g} N·m and "
+                              f"speeds up to {MAX_SPEED_PPS:g} pps")
         _positive("steps_per_rev", self.steps_per_rev, 1, 10_000_000)
         _positive("inertia_kgm2", self.inertia_kgm2, 1e-12, 1e3)
         if not 0 < self.safety_factor <= 1:

@@ -7,7 +7,7 @@ C and bus files carry, Intel HEX carries its record checksums.
 
 | format | file | check |
 |---|---|---|
-| `text` (alias `hex`) | one block per line, hex byte pairs | `# crc32 9C3B2A11` comment line (hex) |
+| `text` (alias `hex`) | one block per line, hex byte pairs | `# crc32 9C3B2A11` comment line |
 | `bin` | the raw bytes | none: no room (it must be exactly the bytes the chip takes) |
 | `ihex` | Intel HEX of the payload from `base_address` | record checksums, EOF record |
 | `c` | a C header, symbols prefixed by `name` | comment and `NAME_CRC32` constant |
