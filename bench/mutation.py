@@ -287,12 +287,23 @@ def run_module(key: str, timeout: float, only: set[int] | None) -> dict[str, obj
     baseline = run_one(name, path, ast.unparse(ast.parse(source)), tests, timeout * 4)
     if baseline != "survived":
         raise SystemExit(f"{key}: the tests fail on the unmutated module ({baseline})")
-    counts = {"killed": 0, "timeout": 0, "survived": 0, "equivalent": 0}
-    survivors: list[tuple[Site, str]] = []
+    verdicts: list[tuple[Site, str]] = []
     for site in all_sites:
         if only is not None and site.index not in only:
             continue
         verdict = run_one(name, path, mutant(source, site.index), tests, timeout)
+        verdicts.append((site, verdict))
+        print(f"  {key} #{site.index} line {site.line}: {site.what}: {verdict}", flush=True,
+              file=sys.stderr)
+    return score(key, verdicts)
+
+
+def score(key: str, verdicts: list[tuple[Site, str]]) -> dict[str, object]:
+    """Counts and score of one module's verdicts: a survivor listed in EQUIVALENT counts
+    as equivalent (left out of the score), with its reason."""
+    counts = {"killed": 0, "timeout": 0, "survived": 0, "equivalent": 0}
+    survivors: list[tuple[Site, str]] = []
+    for site, verdict in verdicts:
         reason = EQUIVALENT.get((key, site.line, site.what))
         if verdict == "survived" and reason is not None:
             counts["equivalent"] += 1
@@ -301,12 +312,9 @@ def run_module(key: str, timeout: float, only: set[int] | None) -> dict[str, obj
             counts[verdict] += 1
             if verdict == "survived":
                 survivors.append((site, "SURVIVED"))
-        print(f"  {key} #{site.index} line {site.line}: {site.what}: {verdict}", flush=True,
-              file=sys.stderr)
-    total = sum(counts.values())
-    scored = total - counts["equivalent"]
-    score = (counts["killed"] + counts["timeout"]) / scored if scored else 1.0
-    return {"module": key, "mutants": total, **counts, "score": score,
+    scored = len(verdicts) - counts["equivalent"]
+    return {"module": key, "mutants": len(verdicts), **counts,
+            "score": (counts["killed"] + counts["timeout"]) / scored if scored else 1.0,
             "survivors": survivors}
 
 
@@ -325,23 +333,8 @@ def rescore(lines: list[str], reruns: list[str]) -> list[dict[str, object]]:
     results = []
     for key in MODULES:
         mine = [v for (k, _), v in sorted(verdicts.items()) if k == key]
-        if not mine:
-            continue
-        counts = {"killed": 0, "timeout": 0, "survived": 0, "equivalent": 0}
-        survivors: list[tuple[Site, str]] = []
-        for site, verdict in mine:
-            reason = EQUIVALENT.get((key, site.line, site.what))
-            if verdict == "survived" and reason is not None:
-                counts["equivalent"] += 1
-                survivors.append((site, f"equivalent: {reason}"))
-            else:
-                counts[verdict] += 1
-                if verdict == "survived":
-                    survivors.append((site, "SURVIVED"))
-        scored = len(mine) - counts["equivalent"]
-        results.append({"module": key, "mutants": len(mine), **counts,
-                        "score": (counts["killed"] + counts["timeout"]) / scored if scored
-                        else 1.0, "survivors": survivors})
+        if mine:
+            results.append(score(key, mine))
     return results
 
 
