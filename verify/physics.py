@@ -17,7 +17,7 @@ import numpy as np
 from profiles.motor import Motor
 from profiles.motor.rotor import PEAK_DEG, SLIP_DEG, TARGET_DEG, check_step, follow, rotor_of
 from profiles.ppmc312.execution import Execution
-from profiles.ppmc312.load_angle import spans_of, worst_load_angle
+from profiles.ppmc312.load_angle import WorstAngle, spans_of, worst_load_angle
 from profiles.ppmc312.table import FreeCurveTable, InitTable
 
 
@@ -72,15 +72,9 @@ def load_angle_check(execution: Execution, motor: Motor, *, max_step_s: float | 
 
 
 @dataclass(frozen=True)
-class PhysicsVerdict:
-    """The load angle over the executions judged (all move lengths, or the given ones)."""
-
-    worst_angle_deg: float       # |angle|, the worst over every execution and direction
-    worst_pulses: int            # the move length where it happens
-    worst_direction: int
-    first_unstable_pulses: int | None   # shortest move length past 90° (None: none)
-    slipped: bool                # some execution slips a pole (≥ 180°)
-    executions: int              # executions integrated
+class PhysicsVerdict(WorstAngle):
+    """The load angle over the executions judged (all move lengths, or the given ones):
+    the model's `WorstAngle` read as a verdict."""
 
     @property
     def margin_deg(self) -> float:
@@ -113,9 +107,8 @@ def judge_executions(table: FreeCurveTable | InitTable, motor: Motor, *,
                      max_step_s: float | None = None) -> PhysicsVerdict:
     """The load angle over every execution the chip can run with `table` (or over the
     moves of the given lengths), both directions when the motor has a load torque."""
-    w = worst_load_angle(table, motor, pulses=pulses, max_step_s=max_step_s)
-    return PhysicsVerdict(w.worst_angle_deg, w.worst_pulses, w.worst_direction,
-                          w.first_unstable_pulses, w.slipped, w.executions)
+    return PhysicsVerdict(**vars(worst_load_angle(table, motor, pulses=pulses,
+                                                  max_step_s=max_step_s)))
 
 
 __all__ = ["PEAK_DEG", "SLIP_DEG", "TARGET_DEG", "PhysicsResult", "PhysicsVerdict",

@@ -696,7 +696,8 @@ def tighten(motor: Motor, make: Callable[[Motor], Plan], load_angle_deg: float, 
     by 0.85 each round (smaller steps, gentler slopes, a softer start: what ringing after
     a step feeds on). Refuses when no round gets below the 90° peak. `judges`: judge
     the load angle on each of these motors (a tolerance box's corners) and take the
-    worst, instead of on `motor`."""
+    worst, instead of on `motor`. The plan's `extras["worst_load_angle_deg"]` is that
+    verdict, so callers need not judge the table again."""
     from ..motor.rotor import PEAK_DEG
     from .load_angle import worst_load_angle
 
@@ -718,7 +719,8 @@ def tighten(motor: Motor, make: Callable[[Motor], Plan], load_angle_deg: float, 
                 + (f" (tightened ×{scale:.3g}: safety factor, jump and start speed)"
                    if scale < 1 else ""))
         plan = replace(plan, info=plan.info + note, solve_s=time.perf_counter() - t0,
-                       binds=plan.binds if scale == 1.0 else "load angle (tightened)")
+                       binds=plan.binds if scale == 1.0 else "load angle (tightened)",
+                       extras={**plan.extras, "worst_load_angle_deg": worst})
         if best is None or worst < best[0]:
             best = (worst, plan)
         return worst, plan

@@ -87,7 +87,8 @@ def _do_plan(args: argparse.Namespace) -> int:
             table, summary = _duty_cycle(args, motor)
         else:
             table, summary = _free(args, motor)
-    verdict = _judge(table, motor)
+    # the planner's own load-angle verdict, if it judged: the summary reports it below
+    verdict = _judge(table, motor, summary.pop("worst_load_angle_deg", None))
     summary.update(verdict)
     if not verdict["safe"]:
         # never write a table that is unsafe for some move length the chip can run
@@ -105,15 +106,23 @@ def _do_plan(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _judge(table: Any, motor: Any) -> dict[str, Any]:
+def _judge(table: Any, motor: Any, judged_deg: float | None = None) -> dict[str, Any]:
     """Both judges over every move length the chip can run with `table` (over the
-    motor's tolerance box when it has one)."""
+    motor's tolerance box when it has one). `judged_deg`: the worst load angle the
+    planner's tightening already found over the same executions (and corners), which
+    is not computed twice; tightening never returns a table past the 90° peak."""
     from profiles.ppmc312.init_model import as_free_curve
     from verify.physics import judge_executions
     from verify.stall import check_stall
 
     stages = as_free_curve(table)
-    if motor.tolerances:
+    if judged_deg is not None:
+        from profiles.motor.rotor import PEAK_DEG
+        from profiles.motor.tolerance import worst_case_motor
+
+        findings = check_stall(stages, worst_case_motor(motor) if motor.tolerances else motor)
+        safe_physics, worst_deg, describe = judged_deg < PEAK_DEG, judged_deg, ""
+    elif motor.tolerances:
         # over the tolerance box: the criterion at its worst case (exact), the load angle
         # at every corner (`stepramp check --motor` adds the Monte Carlo samples)
         from profiles.motor.tolerance import worst_case_motor
@@ -144,7 +153,8 @@ def _free(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, Any]]:
                            pulses=args.pulses, separate_decel=args.separate_decel,
                            load_angle_deg=args.load_angle)
     table = plan.table
-    return table, {"stages": len(table.rates), "clock": table.clock.name,
+    return table, {"worst_load_angle_deg": plan.extras.get("worst_load_angle_deg"),
+                   "stages": len(table.rates), "clock": table.clock.name,
                    "separate_decel": table.separate, "pulses": plan.pulses,
                    "move_time_s": plan.duration_s, "solve_s": plan.solve_s, "info": plan.info}
 
@@ -157,7 +167,8 @@ def _duty_cycle(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, An
                                   separate_decel=args.separate_decel,
                                   load_angle_deg=args.load_angle)
     table = plan.table
-    return table, {"stages": len(table.rates), "clock": table.clock.name,
+    return table, {"worst_load_angle_deg": plan.extras.get("worst_load_angle_deg"),
+                   "stages": len(table.rates), "clock": table.clock.name,
                    "separate_decel": table.separate, "weighted_time_s": plan.duration_s,
                    "move_times_s": {str(n): t for n, t in times.items()},
                    "solve_s": plan.solve_s, "info": plan.info}
