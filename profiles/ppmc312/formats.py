@@ -36,6 +36,7 @@ from ..formats import (
     RenderOptions,
     c_comment,
     c_name,
+    content_lines,
     crc_comment,
     crc_hex,
     find_crc_comment,
@@ -74,18 +75,6 @@ def _render_text(blocks: Sequence[bytes], options: RenderOptions) -> bytes:
     return ("\n".join(lines) + "\n").encode("ascii")
 
 
-def _content_lines(raw: bytes) -> tuple[list[tuple[int, str]], list[str]]:
-    """(line number, content) of every line with content, and the `#` comments."""
-    lines, comments = [], []
-    for number, line in enumerate(text_of(raw).splitlines(), start=1):
-        content, _, comment = line.partition("#")
-        if comment:
-            comments.append(comment)
-        if content.strip():
-            lines.append((number, content))
-    return lines, comments
-
-
 def _with_crc_comment(blocks: list[bytes], comments: list[str], fmt: str) -> Parsed[bytes]:
     integrity, detail = verify_crc(b"".join(blocks), find_crc_comment(comments),
                                    "the crc32 comment")
@@ -93,7 +82,7 @@ def _with_crc_comment(blocks: list[bytes], comments: list[str], fmt: str) -> Par
 
 
 def _parse_text(raw: bytes) -> Parsed[bytes]:
-    lines, comments = _content_lines(raw)
+    lines, comments = content_lines(raw)
     blocks = [hex_bytes(content, f"line {number}") for number, content in lines]
     if not blocks:
         raise DecodeError("the upload file holds no blocks (only blanks and comments)")
@@ -299,7 +288,7 @@ def _parse_bus(raw: bytes) -> Parsed[bytes]:
     """Blocks from register writes: each block is WCR 20, WAR 20 − size, then its bytes
     written to DWR last byte first (manual §5-6)."""
     writes: list[tuple[int, str, int]] = []
-    lines, comments = _content_lines(raw)
+    lines, comments = content_lines(raw)
     for number, content in lines:
         parts = content.split()
         if len(parts) != 2 or parts[0] not in ("WCR", "WAR", "DWR"):
