@@ -1,6 +1,7 @@
 """Judging one file as `stepramp check` does: a table file, or an upload file asked
 first what the chip would answer, then the chip rules and (with a motor) the
-stall criterion. One `FileResult` per file; a file that cannot be read as a
+stall criterion; an MC-200 stream or A-Link settings file by its device's rules
+(verify/device_checks.py). One `FileResult` per file; a file that cannot be read as a
 table is a result with `error` set, never an exception."""
 
 from __future__ import annotations
@@ -34,6 +35,9 @@ def check_file(path: str, motor: Motor | None = None, extck_hz: float | None = N
     from verify.checks import check_table
 
     try:
+        device = _device_result(path, motor is not None)
+        if device is not None:
+            return device
         table, chip_findings = load_checkable(path, extck_hz)
         findings = list(chip_findings)
         notes: list[str] = []
@@ -67,6 +71,23 @@ def check_file(path: str, motor: Motor | None = None, extck_hz: float | None = N
     findings = dedupe(findings)
     ok = not any(f.severity == "error" for f in findings)
     return FileResult(path=path, ok=ok, findings=findings, notes=notes, details=details)
+
+
+def _device_result(path: str, motor: bool) -> FileResult | None:
+    """The result for an MC-200 stream or A-Link settings file (None for the others)."""
+    from profiles.reading import read_bytes
+    from verify.device_checks import check_device_file
+
+    found = check_device_file(read_bytes(path), path)
+    if found is None:
+        return None
+    device, findings = found
+    names = {"mc200": "MC-200 stream", "alink": "A-Link settings"}
+    notes = [f"{names[device]} file"] + (
+        ["--motor judges PPMC-312 tables only: not this file's stall safety"] if motor else [])
+    findings = dedupe(findings)
+    return FileResult(path=path, ok=not any(f.severity == "error" for f in findings),
+                      findings=findings, notes=notes)
 
 
 def stall_findings(table: FreeCurveTable, motor: Motor, *, pulses: Iterable[int] | None = None,
