@@ -149,6 +149,17 @@ def _looks_like_hex(raw: bytes) -> bool:
 
 
 # --- bin ----------------------------------------------------------------------------------
+def _looks_like_bin(raw: bytes) -> bool:
+    # Not text, and packets most of whose byte 11 has bit 7 set (the checksum's
+    # forced bit 15): a text file with one control character in it is no stream (a
+    # flipped bit in a JSON file's brace must not make it one), a bin file with one bad
+    # checksum byte still is (that packet is then reported, not the whole file refused).
+    if len(raw) < PACKET_SIZE or not looks_like_binary(raw):
+        return False
+    marked = np.frombuffer(raw, dtype=np.uint8)[PACKET_SIZE - 1::PACKET_SIZE] & 0x80
+    return 2 * int(np.count_nonzero(marked)) >= len(marked)
+
+
 def _render_bin(chunks: Iterable[bytes], options: RenderOptions) -> Iterator[bytes]:
     yield from _Counted(chunks)
 
@@ -311,7 +322,7 @@ def _format(name: str, description: str, extensions: tuple[str, ...],
 
 FORMATS: FormatTable[bytes] = FormatTable("MC-200 stream", [
     _format("bin", "the packets back to back, raw (no check: no room)", (".bin",),
-            _render_bin, _parse_bin, looks_like_binary, binary=True),
+            _render_bin, _parse_bin, _looks_like_bin, binary=True),
     _format("json", 'JSON {"period_us", "duration_s", "pulses", "packets": [...], "crc32"}',
             (".json",), _render_json, _parse_json, _looks_like_json),
     _format("ihex", "Intel HEX of the packets back to back (record checksums)",
