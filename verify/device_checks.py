@@ -82,8 +82,8 @@ def stream_findings(r: StreamReading) -> list[Finding]:
     if r.bad_count:
         shown = "; ".join(f"packet {i}: {why}" for i, why in r.bad_packets)
         out.append(Finding("error", "mc200-packet",
-                           f"{r.bad_count} packet(s) fail their own check (checksum, reserved "
-                           f"bits), read as lost by the driver: {shown}"))
+                           f"{r.bad_count} packet(s) fail their own check (checksum, bits that "
+                           f"must be 0), read as lost by the driver: {shown}"))
     if len(r.driver_ids) > 1:
         out.append(Finding("warning", "mc200-driver-ids",
                            f"packets for drivers {', '.join(map(str, r.driver_ids))}: each "
