@@ -24,7 +24,7 @@ from profiles.alink.formats import (
     render,
     settings_of,
 )
-from profiles.errors import CorruptedError, DecodeError, FormatError, StepRampError
+from profiles.errors import DecodeError, FormatError, StepRampError
 from profiles.formats import Provenance, RenderOptions
 
 SETTINGS = settings(max_examples=80, deadline=None,

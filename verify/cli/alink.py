@@ -122,7 +122,9 @@ def _do_settings(args: argparse.Namespace) -> int:
 def _do_read(args: argparse.Namespace) -> int:
     import sys
 
+    from profiles.alink import settings_from_commands
     from profiles.alink.formats import document, parse
+    from profiles.errors import StepRampError
     from profiles.reading import json_text, read_bytes
     from verify.output import write_output
 
@@ -133,11 +135,18 @@ def _do_read(args: argparse.Namespace) -> int:
     if args.format == "json":
         write_output(None, json_text(doc))
         return EXIT_OK
-    lines = ([f"settings: start {doc['start_pps']} pps, high {doc['high_pps']} pps, MAX_SPEED "
-              f"{doc['max_pps'] or 'not set'}, multiplier ×{doc['multiplier']}, UP_TIME para "
-              f"{doc['up_time_para']} ({doc['accel_ms_per_kpps']:g} ms/kpps = "
-              f"{doc['accel_pps2']:.6g} pps²), {'S-curve' if doc['s_curve'] else 'linear'}"]
-             if "multiplier" in doc else ["settings: none (not the five settings commands)"])
+    if "multiplier" in doc:
+        lines = [f"settings: start {doc['start_pps']} pps, high {doc['high_pps']} pps, "
+                 f"MAX_SPEED {doc['max_pps'] or 'not set'}, multiplier ×{doc['multiplier']}, "
+                 f"UP_TIME para {doc['up_time_para']} ({doc['accel_ms_per_kpps']:g} ms/kpps = "
+                 f"{doc['accel_pps2']:.6g} pps²), {'S-curve' if doc['s_curve'] else 'linear'}"]
+    else:
+        try:  # why the commands program no settings the unit runs as given
+            settings_from_commands(parsed.items)
+            why = "?"  # pragma: no cover - document() found none
+        except StepRampError as e:
+            why = str(e)
+        lines = [f"settings: none the unit runs as given ({why}; stepramp check says more)"]
     lines += [f"{c.name:10s} func {c.func:2d} para {c.para:8d}  pair {c.pair}  "
               + " ".join(f"0x{w:04X}" for w in c.words)
               + ("" if c.address is None else f"  at 0x{c.address:03X}")
