@@ -149,8 +149,9 @@ def command_findings(commands: list[Command]) -> list[Finding]:
                                "does not run it"))
         elif c.pair == previous:
             out.append(Finding("error", "alink-pair-code",
-                               f"command {k} ({c.name}): pair code {c.pair} again: the unit "
-                               "takes it for the command before, repeated, and ignores it"))
+                               f"command {k} ({c.name}): pair code {c.pair} again: the sender "
+                               "must change it for every command (manual 10-4 (3)); the unit "
+                               "cannot tell this one from the one before"))
         previous = c.pair
     last: dict[int, Command] = {}
     for c in commands:
