@@ -464,6 +464,56 @@ def c_comment(lines: Sequence[str]) -> str:
     return "/* " + "\n * ".join(safe) + "\n */"
 
 
+def c_values(row: str, where: str, hi: int) -> list[int]:
+    """The integers of one C initializer list (`0x12, 7, …`; a `u` suffix allowed),
+    each 0..`hi`; errors name `where`."""
+    values = []
+    for t in (t.strip() for t in row.split(",")):
+        if not t:
+            continue
+        try:
+            value = int(t.rstrip("uU"), 0)
+        except ValueError:
+            raise DecodeError(f"{where}: {t!r} is not a C integer") from None
+        if not 0 <= value <= hi:
+            raise DecodeError(f"{where}: {t} is not a " + ("byte (0..0xFF)" if hi == 0xFF else
+                                                            f"{hi.bit_length()}-bit word"))
+        values.append(value)
+    return values
+
+
+_C_ROW = re.compile(r"\{([^{}]*)\}")
+
+
+def c_rows(text: str, array: re.Pattern[str], example: str) -> tuple[str, list[str]]:
+    """The prefix (`array`'s group 1) and the rows `{…}` of the first 2-D array
+    `array` finds in a C header, comments dropped; `example` shows what was looked for."""
+    m = array.search(text)
+    if m is None:
+        raise DecodeError(f"a C header declares {example} (as stepramp writes); none found")
+    end = text.find("};", m.end())
+    if end < 0:
+        raise CorruptedError(f"{m.group(1)}: the array is not closed by '}};': the file is "
+                             "truncated")
+    body = re.sub(r"/\*.*?\*/", "", text[m.end():end], flags=re.S)
+    return m.group(1), [row.group(1) for row in _C_ROW.finditer(body)]
+
+
+def c_define(text: str, macro: str, value: str = r"(\d+)\b") -> str | None:
+    """The value of the last `#define MACRO value` in `text` (`value`: its regex with one
+    group), if any."""
+    found = None
+    for m in re.finditer(rf"#define\s+{re.escape(macro)}\s+{value}", text):
+        found = m.group(1)
+    return found
+
+
+def c_crc(text: str, macro: str) -> str | None:
+    """The CRC-32 a header's `#define MACRO_CRC32 0x…UL` gives, as 8 hex digits."""
+    found = c_define(text, f"{macro}_CRC32", r"0x([0-9A-Fa-f]{1,8})[uUlL]*\b")
+    return None if found is None else f"{int(found, 16):08X}"
+
+
 def looks_like_c(raw: bytes) -> bool:
     line = first_content_line(raw)
     return line.startswith(("/*", "//", "#ifndef", "#include", "#define", "#pragma",

@@ -38,7 +38,11 @@ from ..formats import (
     Parsed,
     RenderOptions,
     c_comment,
+    c_crc,
+    c_define,
     c_name,
+    c_rows,
+    c_values,
     content_lines,
     crc_hex,
     find_crc_comment,
@@ -319,46 +323,24 @@ def _render_c(commands: Sequence[Command], options: RenderOptions) -> bytes:
 
 
 _C_ARRAY = re.compile(r"\b([A-Za-z][A-Za-z0-9_]*)_words\s*\[[^\]]*\]\s*\[\s*3\s*\]\s*=\s*\{")
-_C_ROW = re.compile(r"\{([^{}]*)\}")
 
 
 def _parse_c(raw: bytes) -> Parsed[Command]:
     text = text_of(raw)
-    m = _C_ARRAY.search(text)
-    if m is None:
-        raise DecodeError("a C settings header declares NAME_words[N][3] = {{0x…, 0x…, 0x…}, "
-                          "…} (as stepramp alink settings --format c writes); none found")
-    name, end = m.group(1), text.find("};", m.end())
-    if end < 0:
-        raise CorruptedError(f"{name}_words is not closed by '}};': the file is truncated")
-    body = re.sub(r"/\*.*?\*/", "", text[m.end():end], flags=re.S)
+    name, body = c_rows(text, _C_ARRAY, "NAME_words[N][3] = {{0x…, 0x…, 0x…}, …}")
     rows: list[tuple[str, Words, None]] = []
-    for k, row in enumerate(_C_ROW.finditer(body)):
+    for k, row in enumerate(body):
         where = f"{name}_words[{k}]"
-        tokens = [t.strip() for t in row.group(1).split(",") if t.strip()]
-        if len(tokens) != 3:
-            raise DecodeError(f"{where}: {len(tokens)} values, a command is 3 words")
-        values = []
-        for t in tokens:
-            try:
-                value = int(t.rstrip("uU"), 0)
-            except ValueError:
-                raise DecodeError(f"{where}: {t!r} is not a C integer") from None
-            if not 0 <= value <= 0xFFFF:
-                raise DecodeError(f"{where}: {t} is not a 16-bit word")
-            values.append(value)
+        values = c_values(row, where, 0xFFFF)
+        if len(values) != 3:
+            raise DecodeError(f"{where}: {len(values)} values, a command is 3 words")
         rows.append((where, (values[0], values[1], values[2]), None))
     macro = name.upper()
-    for c in re.finditer(r"#define\s+([A-Za-z][A-Za-z0-9_]*)_COMMAND_COUNT\s+(\d+)\b", text):
-        if c.group(1) == macro and int(c.group(2)) != len(rows):
-            raise CorruptedError(f"{macro}_COMMAND_COUNT is {c.group(2)}, the header holds "
-                                 f"{len(rows)} commands")
-    claimed = None
-    for c in re.finditer(r"#define\s+([A-Za-z][A-Za-z0-9_]*)_CRC32\s+0x([0-9A-Fa-f]{1,8})"
-                         r"[uUlL]*\b", text):
-        if c.group(1) == macro:
-            claimed = f"{int(c.group(2), 16):08X}"
-    return _parsed("c", rows, claimed, f"{macro}_CRC32")
+    count = c_define(text, f"{macro}_COMMAND_COUNT")
+    if count is not None and int(count) != len(rows):
+        raise CorruptedError(f"{macro}_COMMAND_COUNT is {count}, the header holds {len(rows)} "
+                             "commands")
+    return _parsed("c", rows, c_crc(text, macro), f"{macro}_CRC32")
 
 
 # --- the table ----------------------------------------------------------------------------------

@@ -38,7 +38,11 @@ from ..formats import (
     RenderOptions,
     RunningCrc,
     c_comment,
+    c_crc,
+    c_define,
     c_name,
+    c_rows,
+    c_values,
     chunked,
     content_lines,
     find_crc_comment,
@@ -248,56 +252,27 @@ def _render_c(chunks: Iterable[bytes], options: RenderOptions) -> Iterator[bytes
         "", f"#endif /* {macro}_H */", ""]).encode("ascii")
 
 
-_C_ARRAY = re.compile(r"\b([A-Za-z][A-Za-z0-9_]*)_packets\s*\[\s*(\d*)\s*\]\s*\[\s*12\s*\]"
+_C_ARRAY = re.compile(r"\b([A-Za-z][A-Za-z0-9_]*)_packets\s*\[\s*\d*\s*\]\s*\[\s*12\s*\]"
                       r"\s*=\s*\{")
-_C_ROW = re.compile(r"\{([^{}]*)\}")
-
-
-def _c_packets(raw: bytes) -> tuple[str, bytes, str]:
-    """(prefix, payload, text) of a C stream header."""
-    text = text_of(raw)
-    m = _C_ARRAY.search(text)
-    if m is None:
-        raise DecodeError("a C stream header declares NAME_packets[][12] = {{0x.., …}, …} (as "
-                          "stepramp mc200 stream --format c writes); none found")
-    name, end = m.group(1), text.find("};", m.end())
-    if end < 0:
-        raise CorruptedError(f"{name}_packets is not closed by '}};': the file is truncated")
-    out = bytearray()
-    for k, row in enumerate(_C_ROW.finditer(text, m.end(), end)):
-        where = f"{name}_packets[{k}]"
-        tokens = [t.strip() for t in row.group(1).split(",") if t.strip()]
-        if len(tokens) != PACKET_SIZE:
-            raise DecodeError(f"{where}: {len(tokens)} values, a packet is {PACKET_SIZE} bytes")
-        for t in tokens:
-            try:
-                value = int(t, 0)
-            except ValueError:
-                raise DecodeError(f"{where}: {t!r} is not a C integer") from None
-            if not 0 <= value <= 0xFF:
-                raise DecodeError(f"{where}: {t} is not a byte (0..0xFF)")
-            out.append(value)
-    count = len(out) // PACKET_SIZE
-    declared = m.group(2)
-    if declared and int(declared) != count:
-        raise CorruptedError(f"{name}_packets is declared [{declared}], the header holds "
-                             f"{count} packets")
-    for c in re.finditer(r"#define\s+([A-Za-z][A-Za-z0-9_]*)_PACKET_COUNT\s+(\d+)\b", text):
-        if c.group(1) == name.upper() and int(c.group(2)) != count:
-            raise CorruptedError(f"{c.group(1)}_PACKET_COUNT is {c.group(2)}, the header holds "
-                                 f"{count} packets")
-    return name, bytes(out), text
 
 
 def _parse_c(raw: bytes) -> Parsed[bytes]:
-    name, payload, text = _c_packets(raw)
-    claimed = None
-    for m in re.finditer(r"#define\s+([A-Za-z][A-Za-z0-9_]*)_CRC32\s+0x([0-9A-Fa-f]{1,8})"
-                         r"[uUlL]*\b", text):
-        if m.group(1) == name.upper():
-            claimed = f"{int(m.group(2), 16):08X}"
-    integrity, detail = verify_crc(payload, claimed, f"{name.upper()}_CRC32")
-    return Parsed(split_packets(payload), "c", integrity, detail)
+    text = text_of(raw)
+    name, rows = c_rows(text, _C_ARRAY, "NAME_packets[][12] = {{0x.., …}, …}")
+    out = bytearray()
+    for k, row in enumerate(rows):
+        values = c_values(row, f"{name}_packets[{k}]", 0xFF)
+        if len(values) != PACKET_SIZE:
+            raise DecodeError(f"{name}_packets[{k}]: {len(values)} values, a packet is "
+                              f"{PACKET_SIZE} bytes")
+        out += bytes(values)
+    macro = name.upper()
+    count = c_define(text, f"{macro}_PACKET_COUNT")
+    if count is not None and int(count) != len(rows):
+        raise CorruptedError(f"{macro}_PACKET_COUNT is {count}, the header holds {len(rows)} "
+                             "packets")
+    integrity, detail = verify_crc(bytes(out), c_crc(text, macro), f"{macro}_CRC32")
+    return Parsed(split_packets(bytes(out)), "c", integrity, detail)
 
 
 # --- Intel HEX ----------------------------------------------------------------------------
