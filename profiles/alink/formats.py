@@ -276,10 +276,11 @@ def _parse_json(raw: bytes) -> Parsed[Command]:
     parsed = _parsed("json", rows, claimed, "the crc32 field", addresses)
     said = {k: obj[k] for k in SETTINGS_KEYS if k in obj}
     if said:  # the settings the document states must be the ones its words program
-        settings = settings_of(parsed.items)
-        if settings is None:
+        try:
+            settings = settings_from_commands(parsed.items)
+        except StepRampError as e:
             raise CorruptedError(f"the document states settings ({', '.join(said)}) but its "
-                                 "commands are not the five settings commands")
+                                 f"commands program none ({e})") from None
         actual = settings_document(settings, [])
         for key, value in said.items():
             if value != actual[key]:
