@@ -268,3 +268,18 @@ def test_examples_are_told_apart() -> None:
     for path in root.iterdir():
         want = "mc200" if ".mc200." in path.name else "alink" if ".alink." in path.name else None
         assert device_of(path.read_bytes()) == want, path
+
+
+@pytest.mark.slow
+def test_a_stream_file_may_be_longer_than_other_inputs(tmp_path: Path) -> None:
+    """A long move's stream passes the 16 MiB every other input is held to (a 4 M-pulse
+    stream's C header is 31 MB); any other file that long is still refused."""
+    from profiles.reading import MAX_INPUT_BYTES
+
+    hold = STREAM[-12:]
+    path = tmp_path / "long.mc200.bin"
+    path.write_bytes(STREAM + hold * ((MAX_INPUT_BYTES - len(STREAM)) // 12 + 10))
+    assert _rules(path) == [("warning", "mc200-unchecked")]
+    other = tmp_path / "long.txt"
+    other.write_bytes(b"02 03 01 00 03\n" * (MAX_INPUT_BYTES // 15 + 1))
+    assert "more than the" in (check_file(str(other)).error or "")

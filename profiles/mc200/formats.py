@@ -60,6 +60,9 @@ from ..reading import parse_json
 from .codec import PACKET_SIZE, hex_lines
 
 C_NAME_DEFAULT = "stepramp_mc200"
+# Stream files run long (a 4 M-pulse move at 50 µs: 31 MB of C header), past the 16 MiB
+# any other input may have (profiles.reading): readers of stream files allow this much.
+STREAM_FILE_MAX_BYTES = 256 * 1024 * 1024
 JSON_HEADER_KEYS = ("period_us", "duration_s", "pulses")
 
 
@@ -355,5 +358,5 @@ def is_stream_file(raw: bytes) -> bool:
                 and np.all(rows[:, 11] & 0x80))
 
 
-__all__ = ["FORMATS", "is_stream_file", "parse", "payload_of", "render", "render_chunks",
+__all__ = ["FORMATS", "STREAM_FILE_MAX_BYTES", "is_stream_file", "parse", "payload_of", "render", "render_chunks",
            "split_packets"]
