@@ -4,13 +4,11 @@ the settings come back from the commands, a changed file is reported as corrupte
 from __future__ import annotations
 
 import json
-import shutil
-import subprocess
 import zlib
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from file_checks import assert_one_line_error, compile_and_run, flip_verdicts, needs_cc
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
@@ -24,7 +22,7 @@ from profiles.alink.formats import (
     render,
     settings_of,
 )
-from profiles.errors import DecodeError, FormatError, StepRampError
+from profiles.errors import FormatError, StepRampError
 from profiles.formats import Provenance, RenderOptions
 
 SETTINGS = settings(max_examples=80, deadline=None,
@@ -145,7 +143,6 @@ def test_settings_of_other_commands_is_none_and_text_lists_them_alone() -> None:
 
 
 # --- C --------------------------------------------------------------------------------------
-CC = shutil.which("gcc") or shutil.which("cc")
 MAIN_C = r"""
 #include <stdio.h>
 #include <string.h>
@@ -174,22 +171,14 @@ int main(void) {
 """
 
 
-@pytest.mark.skipif(CC is None, reason="no C compiler on this machine")
+@needs_cc
 def test_two_headers_compile_together_and_verify_their_crc(tmp_path: Path) -> None:
-    assert CC is not None
     other = A.settings_commands(A.quantise_settings(800, 40000, 2.5, 60000, s_curve=True),
                                 slave_address=7, axis=1)
     prov = Provenance("stepramp alink settings '*/' --name x_axis", ())
-    (tmp_path / "x_axis.h").write_bytes(render(COMMANDS, "c", RenderOptions(
-        name="x_axis", provenance=prov)))
-    (tmp_path / "y_axis.h").write_bytes(render(other, "c", RenderOptions(name="y_axis")))
-    (tmp_path / "main.c").write_text(MAIN_C)
-    exe = tmp_path / "replay"
-    build = subprocess.run([CC, "-std=c99", "-Wall", "-Wextra", "-Werror", "-o", str(exe),
-                            str(tmp_path / "main.c")], capture_output=True, text=True,
-                           timeout=60)
-    assert build.returncode == 0, build.stderr
-    out = subprocess.run([str(exe)], capture_output=True, text=True, timeout=10)
+    out = compile_and_run(tmp_path, {
+        "x_axis.h": render(COMMANDS, "c", RenderOptions(name="x_axis", provenance=prov)),
+        "y_axis.h": render(other, "c", RenderOptions(name="y_axis"))}, MAIN_C)
     assert out.returncode == 0, out.returncode  # 3/4: a CRC constant the C code disagrees with
     assert out.stdout.splitlines() == [" ".join(f"{w:04X}" for w in c.words) for c in other]
 
@@ -227,10 +216,7 @@ def test_format_table() -> None:
      b" {0x4115, 0x4000, 0x4000},\n};\n", "corrupted: A_COMMAND_COUNT is 2"),
 ])
 def test_parse_errors(data: bytes, words: str) -> None:
-    with pytest.raises(StepRampError, match=words) as err:
-        parse(data)
-    assert isinstance(err.value, DecodeError | FormatError)
-    assert "\n" not in str(err.value)
+    assert_one_line_error(parse, data, words)
 
 
 @SETTINGS
@@ -259,28 +245,15 @@ def test_hand_made_files_without_a_check_are_read_with_integrity_absent() -> Non
 
 
 # --- integrity --------------------------------------------------------------------------------
-def _flips(data: bytes) -> Iterator[bytes]:
-    for i in range(len(data)):
-        for bit in range(8):
-            yield data[:i] + bytes([data[i] ^ (1 << bit)]) + data[i + 1:]
-
-
 SAMPLE = [COMMANDS, A.settings_commands(A.quantise_settings(800, 40000, 2.5, 60000,
                                                             s_curve=True), slave_address=7)]
 
 
 @pytest.mark.parametrize("fmt", ALL)
 def test_every_single_bit_flip_is_caught(fmt: str) -> None:
-    """Flip each bit of each file: refused or read back as the same commands; never as
-    other commands (JSON: nor other settings than its words program)."""
-    caught = same = 0
-    for commands in SAMPLE:
-        for data in _flips(render(commands, fmt, RenderOptions(name="axis"))):
-            try:
-                got = parse(data).items
-            except StepRampError:
-                caught += 1
-                continue
-            assert [c.words for c in got] == [c.words for c in commands]
-            same += 1
+    """Flip each bit of each file: refused or read back as the same command words;
+    never as other commands."""
+    caught, same = flip_verdicts(
+        ((render(c, fmt, RenderOptions(name="axis")), [x.words for x in c]) for c in SAMPLE),
+        lambda data: [x.words for x in parse(data).items])
     assert caught > same / 4  # text and C: most flips hit comments and names

@@ -5,19 +5,18 @@ from __future__ import annotations
 
 import io
 import json
-import shutil
-import subprocess
 import zlib
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from file_checks import assert_one_line_error, compile_and_run, flip_verdicts, needs_cc
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from intelhex import IntelHex
 
 from profiles import mc200 as M
-from profiles.errors import CorruptedError, DecodeError, FormatError, StepRampError
+from profiles.errors import CorruptedError, FormatError, StepRampError
 from profiles.formats import Provenance, RenderOptions
 from profiles.mc200.formats import FORMATS, is_stream_file, parse, render, render_chunks
 
@@ -137,7 +136,6 @@ def test_stream_render_chunks_passes_the_move_and_options() -> None:
 
 
 # --- C --------------------------------------------------------------------------------------
-CC = shutil.which("gcc") or shutil.which("cc")
 MAIN_C = r"""
 #include <stdio.h>
 #include "x_axis.h"
@@ -168,21 +166,13 @@ int main(void) {
 """
 
 
-@pytest.mark.skipif(CC is None, reason="no C compiler on this machine")
+@needs_cc
 def test_two_headers_compile_together_and_verify_their_crc(tmp_path: Path) -> None:
-    assert CC is not None
     other = [M.HostPacket(1, True, 0, -5, "position").encode(), PACKETS[3]]
     prov = Provenance("stepramp mc200 stream '*/ x' -o x_axis.h", ("profile: µ test",))
-    (tmp_path / "x_axis.h").write_bytes(render(PACKETS, "c", RenderOptions(
-        name="x_axis", provenance=prov)))
-    (tmp_path / "y_axis.h").write_bytes(render(other, "c", RenderOptions(name="y_axis")))
-    (tmp_path / "main.c").write_text(MAIN_C)
-    exe = tmp_path / "replay"
-    build = subprocess.run([CC, "-std=c99", "-Wall", "-Wextra", "-Werror", "-o", str(exe),
-                            str(tmp_path / "main.c")], capture_output=True, text=True,
-                           timeout=60)
-    assert build.returncode == 0, build.stderr
-    out = subprocess.run([str(exe)], capture_output=True, text=True, timeout=10)
+    out = compile_and_run(tmp_path, {
+        "x_axis.h": render(PACKETS, "c", RenderOptions(name="x_axis", provenance=prov)),
+        "y_axis.h": render(other, "c", RenderOptions(name="y_axis"))}, MAIN_C)
     assert out.returncode == 0, out.returncode  # 3/4/5: a constant the C code disagrees with
     assert out.stdout.splitlines() == [p.hex(" ").upper() for p in other]
 
@@ -234,10 +224,7 @@ def test_format_table() -> None:
     (b"static const uint8_t a_packets[][12] = {\n", "truncated"),
 ])
 def test_parse_errors(data: bytes, words: str) -> None:
-    with pytest.raises(StepRampError, match=words) as err:
-        parse(data)
-    assert isinstance(err.value, DecodeError | FormatError)
-    assert "\n" not in str(err.value)
+    assert_one_line_error(parse, data, words)
 
 
 @SETTINGS
@@ -268,26 +255,12 @@ def test_hand_made_files_without_a_check_are_read_with_integrity_absent() -> Non
 SAMPLE = [PACKETS[:6], PACKETS[-3:], [M.HostPacket(3, False, 1, 0x0F0F0F0F, "raw").encode()]]
 
 
-def _flips(data: bytes) -> Iterator[bytes]:
-    for i in range(len(data)):
-        for bit in range(8):
-            yield data[:i] + bytes([data[i] ^ (1 << bit)]) + data[i + 1:]
-
-
 @pytest.mark.parametrize("fmt", [f for f in ALL if f != "bin"])
 def test_every_single_bit_flip_is_caught(fmt: str) -> None:
     """Flip each bit of each file: refused (corrupted or malformed) or read back as the
     same packets (a flip in a comment, a space, a digit's case); never other packets."""
-    caught = same = 0
-    for packets in SAMPLE:
-        for data in _flips(render(packets, fmt, RenderOptions(name="axis"))):
-            try:
-                got = parse(data).items
-            except StepRampError:
-                caught += 1
-                continue
-            assert got == packets
-            same += 1
+    caught, same = flip_verdicts(((render(p, fmt, RenderOptions(name="axis")), p)
+                                  for p in SAMPLE), lambda data: parse(data).items)
     assert caught > same / 2
 
 
