@@ -358,5 +358,5 @@ def is_stream_file(raw: bytes) -> bool:
                 and np.all(rows[:, 11] & 0x80))
 
 
-__all__ = ["FORMATS", "STREAM_FILE_MAX_BYTES", "is_stream_file", "parse", "payload_of", "render", "render_chunks",
-           "split_packets"]
+__all__ = ["FORMATS", "STREAM_FILE_MAX_BYTES", "is_stream_file", "parse", "payload_of", "render",
+           "render_chunks", "split_packets"]

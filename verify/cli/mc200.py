@@ -103,7 +103,8 @@ def _do_decode(args: argparse.Namespace) -> int:
     from profiles.reading import json_text, read_bytes
     from verify.output import write_output
 
-    parsed = parse(read_bytes(args.file, limit=STREAM_FILE_MAX_BYTES), args.file)  # a failed check: "corrupted: …"
+    # a failed check: CorruptedError, one line "corrupted: …"
+    parsed = parse(read_bytes(args.file, limit=STREAM_FILE_MAX_BYTES), args.file)
     packets = mc200.decode_stream(b"".join(parsed.items), args.direction)
     if parsed.integrity != "verified":  # decoded, but nothing vouches for the bytes
         print(f"stepramp mc200: warning: {args.file}: {parsed.detail}", file=sys.stderr)
