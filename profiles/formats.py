@@ -32,7 +32,7 @@ from __future__ import annotations
 import re
 import zlib
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Generic, Literal, TypeVar
 
@@ -65,6 +65,9 @@ class RenderOptions:
     # device fields a format writes ahead of the items: the JSON document's other keys
     # (e.g. an MC-200 stream's period_us), a settings file's summary lines
     header: Mapping[str, Any] = field(default_factory=dict)
+    # items a chunk-wise render will be given, when known ahead (a C header can then
+    # declare its array's size before the rows); None: unknown
+    count: int | None = None
 
 
 @dataclass(frozen=True)
@@ -96,7 +99,10 @@ def chunked(render_chunks: ChunkRender, payload: Callable[[Sequence[T]], bytes]
     """The whole-list `render` of a streaming format: its `render_chunks` of the one
     chunk `payload(items)` (one renderer, so a streamed file equals a whole one)."""
     def render(items: Sequence[T], options: RenderOptions) -> bytes:
-        return b"".join(render_chunks([payload(items)], options))
+        data = payload(items)
+        if options.count is None:
+            options = replace(options, count=len(items))
+        return b"".join(render_chunks([data], options))
 
     return render
 

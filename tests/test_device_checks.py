@@ -178,7 +178,7 @@ def test_mc200_stream_cli_writes_every_format(tmp_path: Path) -> None:
         assert main(["mc200", "decode", str(path)]) == 0
         assert _rules(path) == []
     assert b"stepramp mc200 stream --vmax 8000" in (tmp_path / "s.h").read_bytes()
-    assert b"x_axis_packets[][12]" in (tmp_path / "s.txt").read_bytes()
+    assert b"x_axis_packets[X_AXIS_PACKET_COUNT][12]" in (tmp_path / "s.txt").read_bytes()
     assert main([*args, "--name", "x"]) == 2  # --name is for C
     assert main([*args, "--base-address", "16", "--format", "hex"]) == 2
 

@@ -7,6 +7,7 @@ import io
 import json
 import zlib
 from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -58,8 +59,9 @@ def test_every_format_round_trips_whole_and_chunked(packets: list[bytes], fmt: s
     options = RenderOptions(name="axis", base_address=base,
                             header={"period_us": 50, "duration_s": 0.5, "pulses": 7})
     data = render(packets, fmt, options)
-    # chunk-wise (any chunking, empty chunks too) is the same file
-    assert b"".join(render_chunks(_chunks(packets, sizes), fmt, options)) == data
+    # chunk-wise (any chunking, empty chunks too) is the same file, the count known ahead
+    assert b"".join(render_chunks(_chunks(packets, sizes), fmt,
+                                  replace(options, count=len(packets)))) == data
     parsed = parse(data)  # detected by content
     assert parsed.items == packets
     assert parsed.format == fmt
@@ -187,6 +189,17 @@ def test_c_header_names_and_counts() -> None:
         parse(wrong.encode())
     with pytest.raises(FormatError, match="--name"):
         render(PACKETS, "c", RenderOptions(name="int"))
+
+
+def test_c_array_size_when_the_count_is_known_ahead() -> None:
+    whole = render(PACKETS, "c", RenderOptions(name="x")).decode()
+    assert (f"#define X_PACKET_COUNT {len(PACKETS)}\n"
+            "static const uint8_t x_packets[X_PACKET_COUNT][12] = {") in whole
+    streamed = b"".join(render_chunks(iter([PAYLOAD]), "c", RenderOptions(name="x"))).decode()
+    assert "x_packets[][12] = {" in streamed and f"X_PACKET_COUNT {len(PACKETS)}" in streamed
+    assert parse(whole.encode()).items == parse(streamed.encode()).items == PACKETS
+    with pytest.raises(FormatError, match=f"{len(PACKETS)} packets, 5 were announced"):
+        b"".join(render_chunks(iter([PAYLOAD]), "c", RenderOptions(count=5)))
 
 
 # --- detection and errors ---------------------------------------------------------------------

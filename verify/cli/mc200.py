@@ -55,6 +55,8 @@ def add_subparser(sub: Any) -> None:
 
 
 def _do_stream(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
     from profiles import mc200
     from profiles.errors import FormatError
     from profiles.formats import Provenance
@@ -87,6 +89,8 @@ def _do_stream(args: argparse.Namespace) -> int:
                      f"{args.period_us:g} us to driver {args.driver_id}"))
         fmt, options = file_format(args, FORMATS, prov, default="hex",
                                    c_default=C_NAME_DEFAULT)
+        # known ahead, so a C header declares its array's size before the rows
+        options = replace(options, count=mc200.packet_count(duration_s, args.period_us))
         # chunk by chunk: memory stays one chunk however long the move (issue 13)
         write_output(args.output, mc200.render_chunks(chunks, fmt, period_us=args.period_us,
                                                       duration_s=duration_s,
