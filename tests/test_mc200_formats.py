@@ -300,3 +300,21 @@ def test_ppmc312_files_are_not_streams() -> None:
                    [encode_init(InitTable(clock, "linear", 0x2710, 0x190, 0x7D0))]):
         for fmt in PPMC.formats:
             assert not is_stream_file(PPMC.render(blocks, fmt)), fmt
+
+
+def test_a_stream_is_told_by_its_packets() -> None:
+    """Reserved bytes set (the Frame does not read them) with the checksum right, or
+    a checksum damaged with the reserved bytes clear: still packets. Both at once, or
+    bit 7 of byte 11 clear: not a stream of packets."""
+    odd = bytearray(PACKETS[5])
+    odd[1] = 0x01
+    odd[10:12] = M.checksum(bytes(odd)).to_bytes(2, "little")
+    damaged = bytearray(PACKETS[6])
+    damaged[10] ^= 0x01
+    assert is_stream_file(render([*PACKETS[:5], bytes(odd), bytes(damaged)], "hex"))
+    both = bytearray(odd)
+    both[10] ^= 0x01
+    assert not is_stream_file(render([*PACKETS[:5], bytes(both)], "hex"))
+    unmarked = bytearray(PACKETS[5])
+    unmarked[11] &= 0x7F
+    assert not is_stream_file(render([*PACKETS[:5], bytes(unmarked)], "hex"))

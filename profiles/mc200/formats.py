@@ -57,7 +57,7 @@ from ..formats import (
     verify_crc,
 )
 from ..reading import parse_json
-from .codec import PACKET_SIZE, hex_lines
+from .codec import PACKET_SIZE, checksums, hex_lines
 
 C_NAME_DEFAULT = "stepramp_mc200"
 # Stream files run long (a 4 M-pulse move at 50 µs: 31 MB of C header), past the 16 MiB
@@ -340,10 +340,12 @@ def is_stream_file(raw: bytes) -> bool:
     """Whether `raw` holds MC-200 host packets in one of the table's formats, to tell
     the devices' files apart (nothing is verified here). JSON by its "packets" key, C
     by its NAME_packets[…][12] array; hex text, bin and Intel HEX by the packets
-    themselves: 12 bytes each (one a line in text), the reserved bytes 1 and 2 zero
-    and bit 7 of byte 11 set (the checksum's forced bit 15). A PPMC-312 block never
-    looks so: a 12-byte parallel block has its length 10 in byte 1, an ASCII frame
-    hex digits."""
+    themselves: 12 bytes each (one a line in text), bit 7 of byte 11 set (the
+    checksum's forced bit 15), and the reserved bytes 1 and 2 zero or the checksum
+    right (a packet damaged in one of the two is still a packet). A PPMC-312 block
+    never looks so: a 12-byte parallel block has its length 10 in byte 1, an ASCII
+    frame hex digits (and neither sums to an MC-200 checksum but by a 1 in 32768
+    chance)."""
     try:
         fmt = FORMATS.detect(raw).name
         if fmt == "json":
@@ -359,8 +361,9 @@ def is_stream_file(raw: bytes) -> bool:
     if not payload or len(payload) % PACKET_SIZE:
         return False
     rows = np.frombuffer(payload, dtype=np.uint8).reshape(-1, PACKET_SIZE)
-    return bool(np.all(rows[:, 1] == 0) and np.all(rows[:, 2] == 0)
-                and np.all(rows[:, 11] & 0x80))
+    reserved_clear = (rows[:, 1] == 0) & (rows[:, 2] == 0)
+    summed = (rows[:, 10] | rows[:, 11].astype(np.int64) << 8) == checksums(rows)
+    return bool(np.all(rows[:, 11] & 0x80) and np.all(reserved_clear | summed))
 
 
 __all__ = ["FORMATS", "STREAM_FILE_MAX_BYTES", "is_stream_file", "parse", "payload_of", "render",
