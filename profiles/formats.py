@@ -72,7 +72,7 @@ class RenderOptions:
 
 @dataclass(frozen=True)
 class Parsed(Generic[T]):
-    items: list[T]
+    items: Sequence[T]
     format: str
     integrity: Integrity
     detail: str = ""                      # what was verified, or why nothing was
@@ -275,17 +275,48 @@ def text_of(raw: bytes) -> str:
                           byte=e.start) from None
 
 
-def content_lines(raw: bytes) -> tuple[list[tuple[int, str]], list[str]]:
+def content_lines(raw: bytes | str, first: int = 1) -> tuple[list[tuple[int, str]], list[str]]:
     """(line number, content) of every line of a text file with content, and the text
-    of its `#` comments."""
+    of its `#` comments; `first` numbers the first line (for `text_chunks`)."""
     lines, comments = [], []
-    for number, line in enumerate(text_of(raw).splitlines(), start=1):
+    text = raw if isinstance(raw, str) else text_of(raw)
+    for number, line in enumerate(text.splitlines(), start=first):
         content, _, comment = line.partition("#")
         if comment:
             comments.append(comment)
         if content.strip():
             lines.append((number, content))
     return lines, comments
+
+
+TEXT_CHUNK_BYTES = 1 << 20
+
+
+def text_chunks(raw: bytes, size: int = TEXT_CHUNK_BYTES) -> Iterator[tuple[int, str]]:
+    """The text of `raw` in whole lines, about `size` bytes at a time, each chunk with the
+    number of its first line: a reader of a long text file (an MC-200 stream of millions
+    of lines) holds one chunk's lines, not the file's. Chunks end after a newline, so a
+    character is never cut; line numbers count newlines (a file whose lines end in a
+    lone CR is one chunk)."""
+    pos, number = 0, 1
+    while pos < len(raw):
+        cut = raw.find(b"\n", min(pos + size, len(raw)) - 1)
+        end = len(raw) if cut < 0 else cut + 1
+        chunk = raw[pos:end]
+        try:
+            text = chunk.decode("utf-8")
+        except UnicodeDecodeError as e:
+            raise DecodeError(f"neither text nor a binary file (byte 0x{chunk[e.start]:02X})",
+                              byte=pos + e.start) from None
+        yield number, text
+        number += chunk.count(b"\n")
+        pos = end
+
+
+def _text_lines(raw: bytes) -> Iterator[tuple[int, str]]:
+    """The numbered lines of a text file, a chunk at a time (memory: one chunk)."""
+    for first, text in text_chunks(raw):
+        yield from enumerate(text.splitlines(), start=first)
 
 
 _CONTROL = re.compile(rb"[\x00-\x08\x0e-\x1f\x7f]")
@@ -381,12 +412,11 @@ def parse_ihex(raw: bytes) -> tuple[bytes, int]:
     """The contiguous payload of an Intel HEX file and its start address. Every
     record's checksum is verified (`CorruptedError`); the data must be one run
     without gaps or overlaps, ended by the EOF record."""
-    text = text_of(raw)
     base = 0
     start: int | None = None
     payload = bytearray()
     ended = False
-    for number, line in enumerate(text.splitlines(), start=1):
+    for number, line in _text_lines(raw):
         line = line.strip()
         if not line:
             continue

@@ -318,3 +318,100 @@ def test_a_stream_is_told_by_its_packets() -> None:
     unmarked = bytearray(PACKETS[5])
     unmarked[11] &= 0x7F
     assert not is_stream_file(render([*PACKETS[:5], bytes(unmarked)], "hex"))
+
+
+# --- long streams: read a chunk at a time, decoded a chunk at a time -------------------------
+def test_parsed_packets_are_a_view_of_the_payload() -> None:
+    from profiles.mc200.formats import Packets, payload_of_parsed
+
+    packets = [M.HostPacket(0, True, 0, v, "position").encode() for v in range(5)]
+    parsed = parse(render(packets, "bin"))
+    items = parsed.items
+    assert isinstance(items, Packets) and len(items) == 5
+    assert items == packets and list(items) == packets and items[-1] == packets[4]
+    assert items[1:3] == packets[1:3] and items != packets[:4] and items != packets[::-1]
+    with pytest.raises(IndexError):
+        items[5]
+    assert payload_of_parsed(parsed) is items.payload == b"".join(packets)
+
+
+@pytest.mark.parametrize("fmt", ["hex", "ihex"])
+def test_long_text_files_are_read_in_chunks_with_true_line_numbers(
+        fmt: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    import profiles.formats as F
+
+    # chunks of ~100 bytes: a few lines each; the answer must not change, and an error
+    # deep in the file names its line
+    packets = [M.HostPacket(0, True, 0, v, "position").encode() for v in range(40)]
+    data = render(packets, fmt)
+    whole = parse(data)
+    monkeypatch.setattr(F, "TEXT_CHUNK_BYTES", 100)
+    monkeypatch.setattr(F.text_chunks, "__defaults__", (100,))
+    assert [len(t) for _, t in F.text_chunks(data)][:3] != [len(data.decode())]
+    assert parse(data) == whole
+    lines = data.decode().splitlines()
+    lines[30] = lines[30][:-2] + "zz"
+    with pytest.raises(StepRampError, match="line 31"):
+        parse(("\n".join(lines) + "\n").encode(), fmt=fmt)
+
+
+def test_text_chunks_number_lines_and_locate_a_bad_byte() -> None:
+    from profiles.errors import DecodeError
+    from profiles.formats import text_chunks
+
+    raw = b"".join(b"line %d\n" % k for k in range(1, 201))
+    chunks = list(text_chunks(raw, size=64))
+    assert len(chunks) > 10 and "".join(t for _, t in chunks) == raw.decode()
+    for first, text in chunks:
+        assert text.startswith(f"line {first}\n")
+    bad = raw[:1000] + b"\xff" + raw[1000:]
+    with pytest.raises(DecodeError, match="byte 1000"):
+        list(text_chunks(bad, size=64))
+
+
+@pytest.mark.parametrize("fmt", ["json", "c"])
+def test_json_and_c_streams_past_16_mib_are_refused_in_one_line(
+        fmt: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    import profiles.mc200.formats as MF
+
+    packets = [M.HostPacket(0, True, 0, v, "position").encode() for v in range(20)]
+    data = render(packets, fmt)
+    monkeypatch.setattr(MF, "MAX_INPUT_BYTES", len(data) - 1)  # the cap, made small
+    assert is_stream_file(data)  # still told apart, by its head
+    with pytest.raises(FormatError, match=rf"a {fmt} stream file of {len(data)} bytes: .*"
+                                          "write long streams as hex, bin or ihex"):
+        parse(data)
+
+
+@pytest.mark.parametrize("direction", ["host", "driver"])
+def test_decoded_lines_are_the_whole_listing_a_chunk_at_a_time(direction: str) -> None:
+    from dataclasses import asdict
+
+    from profiles.reading import json_text
+
+    packets = [M.HostPacket(0, True, 0, 5, "position"),
+               M.HostPacket(1, True, 2, M.MAGIC_DEFAULT, "raw"),
+               M.HostPacket(1, True, 0, float("nan"), "velocity"),
+               M.HostPacket(1, True, 0, 2.5, "velocity")]
+    raw = M.encode_stream(packets)
+    decoded = M.decode_stream(raw, direction)  # type: ignore[arg-type]
+    rows = [asdict(p) for p in decoded]
+    for size in (1, 2, 4096):
+        listing = "".join(M.decoded_lines(raw, direction, "json",  # type: ignore[arg-type]
+                                          rows_per_chunk=size))
+        assert listing == json_text({"direction": direction, "packets": rows})
+        text = "".join(M.decoded_lines(raw, direction, "text",  # type: ignore[arg-type]
+                                       rows_per_chunk=size))
+        assert text.splitlines()[1].startswith("     1  driver_id=1 ")
+        assert len(text.splitlines()) == 4
+    assert len(json.loads(listing)["packets"]) == 4
+
+
+def test_a_bad_last_packet_stops_the_listing_before_its_first_line() -> None:
+    good = M.HostPacket(0, True, 0, 5, "position").encode()
+    bad = good[:10] + bytes([good[10] ^ 1]) + good[11:]
+    raw = good * 3 + bad
+    with pytest.raises(StepRampError, match="block 3"):
+        M.decoded_lines(raw, "host")  # raises on the call: nothing was listed
+    with pytest.raises(StepRampError, match="block 3"):
+        M.decoded_lines(raw, "driver")

@@ -17,6 +17,7 @@ because these files have shapes a PPMC-312 file never has: see
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Literal
 
 from profiles.errors import CorruptedError, StepRampError
@@ -63,7 +64,7 @@ def _integrity(prefix: str, fmt: str, integrity: str, detail: str) -> list[Findi
 
 # --- MC-200 -----------------------------------------------------------------------------------
 def mc200_findings(raw: bytes, path: str) -> list[Finding]:
-    from profiles.mc200.formats import parse
+    from profiles.mc200.formats import parse, payload_of_parsed
     from profiles.mc200.model import read_stream
 
     try:
@@ -71,7 +72,7 @@ def mc200_findings(raw: bytes, path: str) -> list[Finding]:
     except CorruptedError as e:  # a verdict on the file, not unusable input
         return [Finding("error", "mc200-corrupted", str(e))]
     out = _integrity("mc200", parsed.format, parsed.integrity, parsed.detail)
-    return out + stream_findings(read_stream(b"".join(parsed.items)))
+    return out + stream_findings(read_stream(payload_of_parsed(parsed)))
 
 
 def stream_findings(r: StreamReading) -> list[Finding]:
@@ -136,7 +137,7 @@ def alink_findings(raw: bytes, path: str) -> list[Finding]:
     return out + command_findings(parsed.items)
 
 
-def command_findings(commands: list[Command]) -> list[Finding]:
+def command_findings(commands: Sequence[Command]) -> list[Finding]:
     """The unit's rules on a list of `Command`s: pair codes, then the settings they leave."""
     from profiles.alink import FUNC_ACCEL_PARA, FUNC_SPEED_PPS, Cmd
 

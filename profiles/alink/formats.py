@@ -132,7 +132,7 @@ def _render_text(commands: Sequence[Command], options: RenderOptions) -> bytes:
     return ("\n".join(lines) + "\n").encode("utf-8")
 
 
-_ROW = re.compile(r"\s*([A-Z][A-Z0-9_]*)\s+func\s+(\d+)\s+para\s+(-?\d+)\s+"
+_ROW = re.compile(r"\s*([A-Z][A-Z0-9_]*)\s+func\s+(\d{1,9})\s+para\s+(-?\d{1,12})\s+"
                   r"0x([0-9A-Fa-f]{4})\s+0x([0-9A-Fa-f]{4})\s+0x([0-9A-Fa-f]{4})\s*\Z")
 _SUMMARY = re.compile(r"\s*(multiplier ×|warning: |[a-z][a-z0-9_]*: )")
 
@@ -384,7 +384,7 @@ def render_settings(doc: dict[str, Any], fmt: str, options: RenderOptions | None
 def commands_of_document(doc: dict[str, Any]) -> list[Command]:
     """The `Command`s a `settings_document` lists (decoded from their words)."""
     rows, addresses = _json_rows(doc)
-    return _parsed("document", rows, None, "", addresses).items
+    return list(_parsed("document", rows, None, "", addresses).items)
 
 
 def is_settings_file(raw: bytes) -> bool:

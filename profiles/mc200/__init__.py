@@ -27,9 +27,11 @@ from .codec import (
     checksum,
     checksums,
     decode_stream,
+    decoded_lines,
     encode_positions,
     encode_stream,
     hex_lines,
+    iter_decode,
     render_hex,
 )
 from .model import (
@@ -99,9 +101,11 @@ __all__ = [
     "checksum",
     "checksums",
     "decode_stream",
+    "decoded_lines",
     "encode_positions",
     "encode_stream",
     "hex_lines",
+    "iter_decode",
     "iter_positions",
     "mode_switch",
     "packet_count",

@@ -10,7 +10,7 @@ Choices where the manual is silent or contradicts itself: docs/manual-notes.md.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, replace
 from typing import Literal
 
@@ -36,7 +36,16 @@ def checksum(data: bytes) -> int:
 def checksums(rows: np.ndarray) -> np.ndarray:
     """`checksum` of every row of an (n, ≥ 10) uint8 array at once."""
     words = np.ascontiguousarray(rows[:, :10]).view("<u2")
-    return (words.sum(axis=1, dtype=np.int64) & 0x7FFF) | 0x8000
+    # int32: five 16-bit words sum below 2**19 (half the memory of int64 on long streams)
+    return (words.sum(axis=1, dtype=np.int32) & 0x7FFF) | 0x8000
+
+
+def packet_faults(rows: np.ndarray) -> np.ndarray:
+    """Per packet of an (n, 12) uint8 array: True where the host Frame refuses it (bad
+    checksum, bits 7, 5, 4 of byte 7 set, mode-switch field > 3; the reserved bytes
+    are not read): the Frame's rules, vectorised."""
+    crc = rows[:, 10].astype(np.int32) | rows[:, 11].astype(np.int32) << 8
+    return (crc != checksums(rows)) | (rows[:, 7] & 0xB0 != 0) | (rows[:, 0] & 0x07 > 3)
 
 
 _HOST_HEADER = Bits("header", 1, (Bit("driver_id", 4, 4), Bit("servo", 3),
@@ -205,20 +214,31 @@ def decode_stream(data: bytes | str, direction: Direction = "host", *,
     """Packets from binary or hex text (`render_hex` output). Binary is recognised by
     bytes ≥ 0x80: every packet's byte 11 has bit 7 set, hex text never does. Host
     packets are decoded with the control mode in force, following mode switches."""
+    return list(iter_decode(_stream_bytes(data), direction, mode=mode,  # type: ignore[return-value]
+                            magic=magic))
+
+
+def iter_decode(raw: bytes, direction: Direction = "host", *, mode: Mode = "position",
+                magic: int = MAGIC_DEFAULT) -> Iterator[HostPacket | DriverPacket]:
+    """The packets of `raw` (packets back to back) one at a time, as `decode_stream`
+    reads them: a stream of millions is decoded in constant memory. The length is
+    checked before the first packet."""
     if direction not in ("host", "driver"):
         raise FormatError(f"direction: {direction!r} is not 'host' or 'driver'")
-    raw = _stream_bytes(data)
     if len(raw) % PACKET_SIZE:
         whole = len(raw) // PACKET_SIZE
         raise DecodeError(f"{len(raw)} bytes is not a whole number of {PACKET_SIZE}-byte "
                           "packets", block=whole, byte=len(raw) - whole * PACKET_SIZE)
-    chunks = [raw[i:i + PACKET_SIZE] for i in range(0, len(raw), PACKET_SIZE)]
-    if direction == "driver":
-        return [DriverPacket.decode(c, block=i) for i, c in enumerate(chunks)]
-    out: list[HostPacket] = []
+    return _decode_host(raw, mode, magic) if direction == "host" else (
+        DriverPacket.decode(raw[k:k + PACKET_SIZE], block=k // PACKET_SIZE)
+        for k in range(0, len(raw), PACKET_SIZE))
+
+
+def _decode_host(raw: bytes, mode: Mode, magic: int) -> Iterator[HostPacket]:
     in_force: Mode = mode
     armed: int | None = None
-    for i, c in enumerate(chunks):
+    for i, k in enumerate(range(0, len(raw), PACKET_SIZE)):
+        c = raw[k:k + PACKET_SIZE]
         pkt = HostPacket.decode(c, mode=in_force, magic=magic, block=i)
         raw_value = int.from_bytes(c[3:7], "little")
         if armed is not None and raw_value == magic and pkt.mode_switch in (0, armed):
@@ -228,8 +248,56 @@ def decode_stream(data: bytes | str, direction: Direction = "host", *,
             armed = pkt.mode_switch
         else:
             armed = None
-        out.append(pkt)
-    return out
+        yield pkt
+
+
+def decoded_lines(raw: bytes, direction: Direction = "host", fmt: str = "text", *,
+                  rows_per_chunk: int = 4096) -> Iterator[str]:
+    """What `stepramp mc200 decode` prints for `raw` (packets back to back), a chunk of
+    packets at a time: `text` (one numbered line of field=value a packet) or `json`
+    (the text `json_text({"direction", "packets": [fields…]})` gives, NaN as null).
+    Memory is one chunk however long the stream. Every packet is judged before this
+    returns: a bad packet raises here, before any line is given."""
+    if fmt not in ("text", "json"):
+        raise FormatError(f"format: {fmt!r} is not 'text' or 'json'")
+    # A bad packet near the end must not leave half a listing behind its error. Host
+    # packets are judged at once by the Frame's rules vectorised (the first bad one
+    # decoded for its exact error), driver packets by decoding them.
+    packets = iter_decode(raw, direction)
+    if direction == "host":
+        faulty = np.flatnonzero(packet_faults(np.frombuffer(raw, np.uint8).reshape(-1, 12)))
+        if len(faulty):
+            k = int(faulty[0]) * PACKET_SIZE
+            HOST_FRAMES["raw"].decode(raw[k:k + PACKET_SIZE], block=int(faulty[0]))
+    else:
+        for _ in packets:
+            pass
+        packets = iter_decode(raw, direction)
+    return _lines(packets, direction, fmt, rows_per_chunk)
+
+
+def _lines(packets: Iterator[HostPacket | DriverPacket], direction: Direction, fmt: str,
+           rows_per_chunk: int) -> Iterator[str]:
+    from dataclasses import asdict
+
+    from ..reading import json_text
+
+    if fmt == "json":
+        yield f'{{\n "direction": {json_text(direction, indent=None).strip()},\n "packets": ['
+    sep = "\n"
+    rows: list[str] = []
+    for i, p in enumerate(packets):
+        if fmt == "json":
+            rows.append(sep + "  " + json_text(asdict(p)).rstrip("\n").replace("\n", "\n  "))
+            sep = ",\n"
+        else:
+            rows.append(f"{i:6d}  " + " ".join(f"{k}={v}" for k, v in asdict(p).items()) + "\n")
+        if len(rows) >= rows_per_chunk:
+            yield "".join(rows)
+            rows = []
+    yield "".join(rows)
+    if fmt == "json":
+        yield "\n ]\n}\n"
 
 
 def _stream_bytes(data: bytes | str) -> bytes:

@@ -26,11 +26,13 @@ import json
 import re
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
+from typing import overload
 
 import numpy as np
 
 from ..errors import CorruptedError, DecodeError, FormatError, StepRampError
 from ..formats import (
+    TEXT_CHUNK_BYTES,
     ChunkRender,
     Format,
     FormatTable,
@@ -53,10 +55,11 @@ from ..formats import (
     looks_like_ihex,
     parse_ihex,
     render_ihex_chunks,
+    text_chunks,
     text_of,
     verify_crc,
 )
-from ..reading import parse_json
+from ..reading import MAX_INPUT_BYTES, parse_json
 from .codec import PACKET_SIZE, checksums, hex_lines
 
 C_NAME_DEFAULT = "stepramp_mc200"
@@ -77,7 +80,52 @@ def payload_of(packets: Sequence[bytes]) -> bytes:
     return b"".join(bytes(p) for p in packets)
 
 
-def split_packets(payload: bytes) -> list[bytes]:
+class Packets(Sequence[bytes]):
+    """The packets of a parsed stream: a view of the payload (the packets back to back),
+    12 bytes an item. Millions of packets cost their payload, not an object each;
+    `payload` hands the bytes on whole (`read_stream`, `iter_decode`)."""
+
+    def __init__(self, payload: bytes) -> None:
+        self.payload = payload
+
+    def __len__(self) -> int:
+        return len(self.payload) // PACKET_SIZE
+
+    @overload
+    def __getitem__(self, index: int) -> bytes: ...
+    @overload
+    def __getitem__(self, index: slice) -> list[bytes]: ...
+
+    def __getitem__(self, index: int | slice) -> bytes | list[bytes]:
+        if isinstance(index, slice):
+            return [self[i] for i in range(*index.indices(len(self)))]
+        k = range(len(self))[index]  # IndexError past the end, negative from the end
+        return self.payload[k * PACKET_SIZE:(k + 1) * PACKET_SIZE]
+
+    def __iter__(self) -> Iterator[bytes]:
+        p = self.payload
+        return (p[i:i + PACKET_SIZE] for i in range(0, len(p), PACKET_SIZE))
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, Packets):
+            return self.payload == other.payload
+        if isinstance(other, list | tuple):
+            return len(other) == len(self) and all(map(bytes.__eq__, self, other))
+        return NotImplemented
+
+    __hash__ = None  # type: ignore[assignment]  # compared by content, like a list
+
+    def __repr__(self) -> str:
+        return f"Packets({len(self)} packets)"
+
+
+def payload_of_parsed(parsed: Parsed[bytes]) -> bytes:
+    """The packets of a parsed stream file back to back (no copy for `Packets`)."""
+    items = parsed.items
+    return items.payload if isinstance(items, Packets) else payload_of(items)
+
+
+def split_packets(payload: bytes) -> Packets:
     """The packets of a payload (a whole number of 12-byte packets)."""
     if len(payload) % PACKET_SIZE:
         whole = len(payload) // PACKET_SIZE
@@ -85,7 +133,7 @@ def split_packets(payload: bytes) -> list[bytes]:
                           "packets", block=whole, byte=len(payload) - whole * PACKET_SIZE)
     if not payload:
         raise DecodeError("the stream holds no packets")
-    return [payload[i:i + PACKET_SIZE] for i in range(0, len(payload), PACKET_SIZE)]
+    return Packets(bytes(payload))
 
 
 class _Counted:
@@ -122,23 +170,31 @@ def _render_hex(chunks: Iterable[bytes], options: RenderOptions) -> Iterator[byt
 
 
 def _hex_payload(raw: bytes) -> tuple[bytes, list[str]]:
-    """The packets of a hex file (one a line) and its comments."""
-    lines, comments = content_lines(raw)
-    if not lines:
-        raise DecodeError("the stream file holds no packets (only blanks and comments)")
-    # The fast path (millions of lines): 24 hex digits a line, read at once.
-    if all(len("".join(content.split())) == 2 * PACKET_SIZE for _, content in lines):
-        try:
-            return bytes.fromhex(" ".join(content for _, content in lines)), comments
-        except ValueError:
-            pass  # the slow path below names the line and column
+    """The packets of a hex file (one a line) and its comments, read a chunk of lines at
+    a time: a stream of millions of lines holds its payload, not a string per line."""
     out = bytearray()
-    for k, (number, content) in enumerate(lines):
-        packet = hex_bytes(content, f"line {number}")
-        if len(packet) != PACKET_SIZE:
-            raise DecodeError(f"line {number}: {len(packet)} bytes; a line holds one "
-                              f"{PACKET_SIZE}-byte packet", block=k)
-        out += packet
+    comments: list[str] = []
+    k = 0  # packets so far
+    for first, text in text_chunks(raw):
+        lines, notes = content_lines(text, first)
+        comments += notes
+        # The fast path: 24 hex digits a line, read at once.
+        if all(len("".join(content.split())) == 2 * PACKET_SIZE for _, content in lines):
+            try:
+                out += bytes.fromhex(" ".join(content for _, content in lines))
+                k += len(lines)
+                continue
+            except ValueError:
+                pass  # the slow path below names the line and column
+        for number, content in lines:
+            packet = hex_bytes(content, f"line {number}")
+            if len(packet) != PACKET_SIZE:
+                raise DecodeError(f"line {number}: {len(packet)} bytes; a line holds one "
+                                  f"{PACKET_SIZE}-byte packet", block=k)
+            out += packet
+            k += 1
+    if not out:
+        raise DecodeError("the stream file holds no packets (only blanks and comments)")
     return bytes(out), comments
 
 
@@ -194,6 +250,7 @@ def _render_json(chunks: Iterable[bytes], options: RenderOptions) -> Iterator[by
 
 
 def _json_packets(raw: bytes) -> tuple[bytes, object]:
+    _whole_reader_cap(raw, "json")
     # the one JSON reader: depth, number size and NaN caps (profiles.reading)
     obj = parse_json(raw, "the JSON stream")
     if not isinstance(obj, dict) or "packets" not in obj or not isinstance(obj["packets"], list) \
@@ -265,6 +322,7 @@ _C_ARRAY = re.compile(
 
 
 def _parse_c(raw: bytes) -> Parsed[bytes]:
+    _whole_reader_cap(raw, "c")
     text = text_of(raw)
     name, rows = c_rows(text, _C_ARRAY, "NAME_packets[N][12] = {{0x.., …}, …}")
     out = bytearray()
@@ -336,6 +394,21 @@ def parse(data: bytes, path: str | Path | None = None, fmt: str | None = None
     return FORMATS.parse(data, path, fmt)
 
 
+def _first_lines_end(raw: bytes) -> int:
+    cut = raw.find(b"\n", TEXT_CHUNK_BYTES)
+    return len(raw) if cut < 0 else cut + 1
+
+
+def _whole_reader_cap(raw: bytes, fmt: str) -> None:
+    """JSON and C are read whole (a JSON parser, C's brace rows): past the 16 MiB every
+    input may have, their memory would be many times the file's; long streams are read
+    in chunks from hex, bin or ihex."""
+    if len(raw) > MAX_INPUT_BYTES:
+        raise FormatError(f"a {fmt} stream file of {len(raw)} bytes: {fmt} stream files are "
+                          f"read up to {MAX_INPUT_BYTES} bytes (16 MiB); write long streams "
+                          "as hex, bin or ihex (read up to 256 MiB)")
+
+
 def is_stream_file(raw: bytes) -> bool:
     """Whether `raw` holds MC-200 host packets in one of the table's formats, to tell
     the devices' files apart (nothing is verified here). JSON by its "packets" key, C
@@ -348,14 +421,20 @@ def is_stream_file(raw: bytes) -> bool:
     chance)."""
     try:
         fmt = FORMATS.detect(raw).name
+        if fmt in ("json", "c") and len(raw) > MAX_INPUT_BYTES:
+            # too long to read whole here: its head tells, and parse says why it stops
+            head = raw[:_first_lines_end(raw)].decode("utf-8", "replace")
+            return (_C_ARRAY.search(head) is not None if fmt == "c" else
+                    '"packets"' in head and '"blocks"' not in head)
         if fmt == "json":
             obj = parse_json(raw, "the file")
             return isinstance(obj, dict) and "packets" in obj and "blocks" not in obj \
                 and "format" not in obj
         if fmt == "c":
             return _C_ARRAY.search(text_of(raw)) is not None
+        # hex text: its first chunk of lines tells (a long stream is read once, by parse)
         payload = (raw if fmt == "bin" else parse_ihex(raw)[0] if fmt == "ihex"
-                   else _hex_payload(raw)[0])
+                   else _hex_payload(raw[:_first_lines_end(raw)])[0])
     except StepRampError:
         return False
     if not payload or len(payload) % PACKET_SIZE:
@@ -366,5 +445,5 @@ def is_stream_file(raw: bytes) -> bool:
     return bool(np.all(rows[:, 11] & 0x80) and np.all(reserved_clear | summed))
 
 
-__all__ = ["FORMATS", "STREAM_FILE_MAX_BYTES", "is_stream_file", "parse", "payload_of", "render",
-           "render_chunks", "split_packets"]
+__all__ = ["FORMATS", "STREAM_FILE_MAX_BYTES", "Packets", "is_stream_file", "parse", "payload_of",
+           "payload_of_parsed", "render", "render_chunks", "split_packets"]

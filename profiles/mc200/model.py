@@ -22,7 +22,7 @@ from .codec import (
     DriverPacket,
     HostPacket,
     Mode,
-    checksums,
+    packet_faults,
 )
 
 SERVO_ON_COUNT = 3   # consecutive servo bits = 1 to turn on
@@ -200,14 +200,6 @@ class StreamReading:
 REPORT_MAX = 5  # examples kept of each kind of event
 
 
-def packet_faults(rows: np.ndarray) -> np.ndarray:
-    """Per packet of an (n, 12) uint8 array: True where the host Frame refuses it (bad
-    checksum, bits 7, 5, 4 of byte 7 set, mode-switch field > 3; the reserved bytes
-    are not read): the Frame's rules, vectorised."""
-    crc = rows[:, 10].astype(np.int64) | rows[:, 11].astype(np.int64) << 8
-    return (crc != checksums(rows)) | (rows[:, 7] & 0xB0 != 0) | (rows[:, 0] & 0x07 > 3)
-
-
 def read_stream(payload: bytes, *, mode: Mode = "position", magic: int = MAGIC_DEFAULT,
                 driver_id: int | None = None) -> StreamReading:
     """Feed a host stream (packets back to back) through `DriverModel` and say what it did.
@@ -247,7 +239,7 @@ def read_stream(payload: bytes, *, mode: Mode = "position", magic: int = MAGIC_D
             j = int(breaks[k]) if k < len(breaks) else n
             if model._mode == 1:
                 applied.append(positions[i:j])
-                applied_at.append(np.arange(i, j))
+                applied_at.append(np.arange(i, j, dtype=np.int32))  # n < 2**31
                 model._command = int(positions[j - 1])
             else:
                 model.consume(rows[j - 1].tobytes())
@@ -282,7 +274,7 @@ def read_stream(payload: bytes, *, mode: Mode = "position", magic: int = MAGIC_D
                     int(applied[-1][-1]) != value:
                 moved_while_off = i
             applied.append(positions[i:i + 1])
-            applied_at.append(np.arange(i, i + 1))
+            applied_at.append(np.arange(i, i + 1, dtype=np.int32))
         i += 1
     ids = tuple(sorted({int(x) for x in np.unique(rows[~faulty, 0] >> 4)}))
     reversals, reversal_count, hold, target = _positions_read(applied, applied_at, model, n)
@@ -298,9 +290,10 @@ def _positions_read(applied: list[np.ndarray], applied_at: list[np.ndarray],
     """Direction changes of the position commands applied, and the final hold."""
     if not applied:
         return (), 0, 0, None
-    p = np.concatenate(applied).astype(np.int64)
+    p = np.concatenate(applied)  # int32 commands
     at = np.concatenate(applied_at)
-    d = np.sign(np.diff(p))
+    # the sign of each step, as int8 (a difference of int32 could wrap)
+    d = (p[1:] > p[:-1]).view(np.int8) - (p[1:] < p[:-1]).view(np.int8)
     moving = np.flatnonzero(d)
     turns = moving[1:][d[moving[1:]] != d[moving[:-1]]]  # a step against the step before
     examples = []

@@ -349,7 +349,7 @@ def parse(data: bytes, path: str | Path | None = None, fmt: str | None = None
 
 def parse_upload(data: bytes) -> list[bytes]:
     """The blocks of an upload file (any format); a failed check raises `CorruptedError`."""
-    return parse(data).items
+    return list(parse(data).items)
 
 
 def provenance(table: Table | None = None, *, command: str | None = None,

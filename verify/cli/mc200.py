@@ -100,24 +100,16 @@ def _do_stream(args: argparse.Namespace) -> int:
 
 def _do_decode(args: argparse.Namespace) -> int:
     import sys
-    from dataclasses import asdict
 
     from profiles import mc200
-    from profiles.mc200.formats import STREAM_FILE_MAX_BYTES, parse
-    from profiles.reading import json_text, read_bytes
+    from profiles.mc200.formats import STREAM_FILE_MAX_BYTES, parse, payload_of_parsed
+    from profiles.reading import read_bytes
     from verify.output import write_output
 
     # a failed check: CorruptedError, one line "corrupted: …"
     parsed = parse(read_bytes(args.file, limit=STREAM_FILE_MAX_BYTES), args.file)
-    packets = mc200.decode_stream(b"".join(parsed.items), args.direction)
+    lines = mc200.decoded_lines(payload_of_parsed(parsed), args.direction, args.format)
     if parsed.integrity != "verified":  # decoded, but nothing vouches for the bytes
         print(f"stepramp mc200: warning: {args.file}: {parsed.detail}", file=sys.stderr)
-    rows = [asdict(p) for p in packets]
-    if args.format == "json":
-        # json_text: a float32 velocity field can hold NaN, which JSON cannot
-        write_output(None, json_text({"direction": args.direction, "packets": rows}))
-    else:
-        write_output(None, "".join(
-            f"{i:6d}  " + " ".join(f"{k}={v}" for k, v in row.items()) + "\n"
-            for i, row in enumerate(rows)))
+    write_output(None, lines)  # a chunk of packets at a time (a stream may run to millions)
     return EXIT_OK
