@@ -14,7 +14,7 @@ behaviour. Text inside f-strings (messages) is not mutated: the verdicts, codes 
 numbers are what the tests pin.
 
 Usage: python bench/mutation.py [MODULE …] [--timeout S] [--list] [--only N,N]
-(modules: upload, frames, checks, execution; default all). Kept out of the test suite:
+(modules: upload, frames, checks, execution, criterion, stall; default all). Kept out of the test suite:
 a full run takes minutes.
 """
 
@@ -44,6 +44,13 @@ MODULES: dict[str, tuple[str, list[str]]] = {
     "execution": ("profiles.ppmc312.execution", [
         "tests/test_execution.py",
         "tests/test_every_move.py::test_families_partition_every_length_and_fix_the_segment_rates"]),
+    "criterion": ("profiles.ppmc312.criterion", [
+        "tests/test_criterion_pins.py", "tests/test_stall.py",
+        "tests/test_every_move.py::test_a_downward_switch_is_caught_and_named_by_its_shortest_move",
+        "tests/test_every_move.py::test_all_length_verdict_equals_brute_force"]),
+    "stall": ("verify.stall", [
+        "tests/test_stall.py", "tests/test_stall_pins.py",
+        "tests/test_every_move.py::test_a_downward_switch_is_caught_and_named_by_its_shortest_move"]),
 }
 
 # (module key, line, mutation) → why the mutant cannot change what the module does.
@@ -232,7 +239,20 @@ def _run_child(name: str, path: Path, source: str, tests: list[str]) -> int:
 
 class _FastFirst:
     """Example-based tests before hypothesis ones: with -x, most mutants die in the
-    table-driven tests without paying for a property test's hundreds of examples."""
+    table-driven tests without paying for a property test's hundreds of examples; and
+    hypothesis never shrinks."""
+
+    def pytest_configure(self, config: object) -> None:
+        """No shrinking: after the suite's conftest has loaded its hypothesis profile and
+        before the test modules (and their @settings) are imported, the same profile
+        without the shrink phase becomes the default. A mutant needs only *a* failing
+        example; shrinking it (to report it) can take longer than every other test
+        together. The verdict is the same."""
+        from hypothesis import Phase, settings
+
+        settings.register_profile("mutation", settings.default,
+                                  phases=(Phase.explicit, Phase.reuse, Phase.generate))
+        settings.load_profile("mutation")
 
     def pytest_collection_modifyitems(self, items: list[object]) -> None:
         items.sort(key=lambda item: bool(getattr(getattr(item, "obj", None),
