@@ -14,8 +14,8 @@ behaviour. Text inside f-strings (messages) is not mutated: the verdicts, codes 
 numbers are what the tests pin.
 
 Usage: python bench/mutation.py [MODULE …] [--timeout S] [--list] [--only N,N]
-(modules: upload, frames, checks, execution, criterion, stall; default all). Kept out of the test suite:
-a full run takes minutes.
+(modules: upload, frames, checks, execution, criterion, stall; default all). Kept out of
+the test suite: a full run takes about an hour on a shared 2-core machine.
 """
 
 from __future__ import annotations

@@ -614,3 +614,20 @@ def test_bulk_encode_equals_the_block_by_block_path(table: FreeCurveTable, max_d
     fast = encode_free_curve(table, max_data=max_data)
     with mock.patch.object(upload, "_encode_sections", return_value=None):
         assert encode_free_curve(table, max_data=max_data) == fast
+
+
+@pytest.mark.parametrize("table, max_data, blocks", [c[1:] for c in GOLDEN_FREE_CURVES],
+                         ids=[c[0] for c in GOLDEN_FREE_CURVES])
+def test_well_formed_uploads_take_the_bulk_path(table: FreeCurveTable, max_data: int,
+                                                blocks: list[str]) -> None:
+    """The bulk paths are the ones that run on every well-formed upload: the block-by-block
+    walk (which checks each block's header with `_param_header`) is only for errors."""
+    from unittest import mock
+
+    from profiles.ppmc312 import upload
+
+    fast = upload._encode_sections(table, max_data)
+    assert fast is not None and [b.hex(" ") for b in fast] == blocks[1:]
+    wire = [bytes.fromhex(b) for b in blocks]
+    with mock.patch.object(upload, "_param_header", side_effect=AssertionError("slow path")):
+        assert decode_free_curve(wire, extck_hz=1e6) == table
