@@ -455,3 +455,37 @@ def test_segments_are_merged_and_contiguous(accel: list[int], data: st.DataObjec
     assert all(a != b for a, b in itertools.pairwise(keys)), keys
     assert sum(s.pulses for s in e.segments) == pulses
     assert all(a.end_tick == b.start_tick for a, b in itertools.pairwise(e.segments))
+
+
+# --- time queries at their exact edges (found by bench/mutation.py) -------------------------
+# A 2**20 Hz clock makes every dyadic instant exact in ticks (t · hz = the ticks written).
+DYADIC = Clock.extck(2.0**20)
+
+
+def test_the_snap_window_is_4_ulps_of_the_tick_count() -> None:
+    run = simulate_move(FreeCurveTable(DYADIC, (3, 7), (3, 4)), 20)  # first: 4 pulses at rate 7
+    ulp = float(np.spacing(21.0))  # the 3rd pulse ends at tick 21
+    at = [21.0, 21 - 4 * ulp, 21 - 5 * ulp, 21 + 4 * ulp]
+    assert list(run.position_at(np.array(at) / DYADIC.hz)) == [3, 3, 2, 3]
+
+
+def test_positions_just_after_the_start() -> None:
+    # a rate of 1: the first pulse ends at tick 1; the linear position runs from 0
+    run = simulate_move(FreeCurveTable(DYADIC, (1,), (3,)), 6)
+    assert list(run.position_at(np.array([0.0, 0.5, 1.0]) / DYADIC.hz)) == [0, 0, 1]
+    slow = simulate_move(FreeCurveTable(DYADIC, (3, 7), (3, 4)), 20)
+    assert list(slow.position_linear_at(np.array([0.0, 0.5, 7.0]) / DYADIC.hz)) == \
+        [0.0, 0.5 / 7, 1.0]
+
+
+def test_an_execution_without_segments_or_with_an_empty_one() -> None:
+    from profiles.ppmc312.execution import Segment
+
+    empty = Execution("trapezoid", 0, [], 0, DYADIC, 3, False)
+    assert empty.segment_accel_pps2().shape == (0,)
+    assert list(empty.position_at([0.0, 1.0])) == [0, 0]
+    # a segment of 0 pulses lasts no time: no slope from it (not a division by 0)
+    hollow = Execution("trapezoid", 0, [Segment("accel", 7, 0, 0), Segment("cruise", 3, 2, 0),
+                                        Segment("decel", 7, 1, 6)], 3, DYADIC, 3, False)
+    slopes = hollow.segment_accel_pps2()
+    assert slopes[0] == 0.0 and np.all(np.isfinite(slopes))
