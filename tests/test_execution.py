@@ -489,3 +489,24 @@ def test_an_execution_without_segments_or_with_an_empty_one() -> None:
                                         Segment("decel", 7, 1, 6)], 3, DYADIC, 3, False)
     slopes = hollow.segment_accel_pps2()
     assert slopes[0] == 0.0 and np.all(np.isfinite(slopes))
+
+
+def test_sample_edges_and_pulse_time_limits() -> None:
+    e = simulate_move(COMMON, 1000)
+    a = e.sample(1001)[3]
+    assert a[0] == pytest.approx((1e6 / 300 - 1e6 / 400) / 0.016)  # t = 0 is in the move
+    with pytest.raises(FieldRangeError) as err:
+        e.sample(10**8 + 1)
+    assert (err.value.lo, err.value.hi) == (2, 10**8)
+    # edges: each segment start plus the end, the last speed repeated (400 pps … 2500 pps)
+    t, x, v = e.edges()
+    assert list(x[-2:]) == [960.0, 1000.0] and list(v[-2:]) == [2500.0, 2500.0]
+    assert v[-3] == pytest.approx(1e6 / 300)
+    # pulse times: up to `limit` pulses, the limit named when refused
+    assert len(e.pulse_times_s(limit=1000)) == 1000
+    with pytest.raises(FieldRangeError) as err:
+        e.pulse_times_s(limit=999)
+    assert (err.value.value, err.value.lo, err.value.hi) == (1000, 0, 999)
+    with pytest.raises(FieldRangeError) as err:
+        simulate_move(COMMON, 10_000_001).pulse_times_s()
+    assert err.value.hi == 10_000_000
