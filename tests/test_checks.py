@@ -572,3 +572,28 @@ def test_accel_side_shorter_message() -> None:
     (f,) = [x for x in check_table(t) if x.rule == "decel-stage-count"]
     assert "accel uses only the 2 fastest rates (rates[0..1]) and starts/stops at rate 500" \
         in f.message
+
+
+@given(st.lists(st.integers(2, 3000), min_size=2, max_size=40), st.data())
+@settings(max_examples=300, deadline=None)
+def test_stage_short_is_exactly_the_rule_as_written(pulses: list[int],
+                                                    data: st.DataObject) -> None:
+    # The rule, spelled out one stage at a time in exact fractions (the check works in
+    # numpy with an integer pre-filter): stage i ≥ 1 lasts under 1/10 of the mean of its
+    # neighbours, stage 0 being no neighbour (stage 1 has stage 2 only, the last stage
+    # the one before it). Pulse counts in small steps hit the 1/10 boundary exactly.
+    from fractions import Fraction
+
+    n = len(pulses)
+    rates = sorted(data.draw(st.sets(st.integers(300, 3000), min_size=n, max_size=n)))
+    ticks = [p * r for p, r in zip(pulses, rates, strict=True)]
+    expected = []
+    for i in range(1, n):
+        neighbours = [ticks[j] for j in (i - 1, i + 1) if 1 <= j < n] if n > 2 else [ticks[0]]
+        mean = Fraction(sum(neighbours), len(neighbours))
+        if Fraction(ticks[i]) * 10 < mean:
+            expected.append(i)
+    found = [f for f in check_table(fc(rates, pulses)) if f.rule == "stage-short"]
+    assert [f.stage for f in found] == expected
+    for f in found:
+        assert f.message.startswith(f"accel stage {f.stage} lasts {ticks[f.stage]} ticks")

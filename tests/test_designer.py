@@ -4,6 +4,7 @@ in headless Chromium."""
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 import shutil
@@ -11,12 +12,9 @@ import subprocess
 from pathlib import Path
 from typing import Any
 
+import ipywidgets  # noqa: F401  (a [dev] dependency: missing, the suite fails)
 import numpy as np
 import pytest
-
-pytest.importorskip("ipywidgets")
-
-import itertools
 
 from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312 import decode_upload

@@ -365,9 +365,9 @@ def test_json_examples_load() -> None:
             jsonschema.validate(obj, schema)
             assert table.kind == obj["kind"], line
         elif obj["format"] == "stepramp.axes/1":
-            from profiles.axes import axes_from_json
+            import jsonschema
 
-            jsonschema = pytest.importorskip("jsonschema")
+            from profiles.axes import axes_from_json
             schema = json.loads((REPO / "profiles/data/axes.schema.json").read_text())
             jsonschema.validate(obj, schema)
             assert axes_from_json(obj, None, load_motors=False).axes, line

@@ -8,14 +8,13 @@ import copy
 import json
 from typing import Any
 
+import jsonschema  # a [dev] dependency: missing, the suite fails (never skips)
 import pytest
 
 from profiles.motor import _OPTIONAL, _REQUIRED, Motor, bundled_motor_paths
 from profiles.motor.datasheet import Datasheet, Drive, motor_from_datasheet
 from profiles.motor.loads import disc
 from profiles.motor.schema import pointer, problems, schema, schema_problems
-
-jsonschema = pytest.importorskip("jsonschema")
 
 
 def bundled() -> list[dict[str, Any]]:

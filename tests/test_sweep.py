@@ -62,7 +62,7 @@ def test_local_processes_give_the_same_rows(local_rows: list[dict[str, Any]]) ->
 
 
 def test_dask_cluster_gives_the_same_rows(local_rows: list[dict[str, Any]]) -> None:
-    distributed = pytest.importorskip("distributed")
+    import distributed
     with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
                                   dashboard_address=None) as cluster:
         jobs = jobs_of(catalogue(), [3000], samples=20, load_angle_deg=None)
@@ -80,7 +80,7 @@ def test_sweep_cli_csv_parquet_plot(tmp_path: Path, capsys: pytest.CaptureFixtur
     assert rows[0]["safe"] == "True" and float(rows[0]["worst_load_angle_deg"]) < 90
     assert fig.stat().st_size > 1000
     assert "1 safe, 0 not safe" in capsys.readouterr().err
-    pq = pytest.importorskip("pyarrow.parquet")
+    import pyarrow.parquet as pq
     pout = tmp_path / "r.parquet"
     assert cli.main([*args, "-o", str(pout)]) == 0
     table = pq.read_table(pout).to_pylist()

@@ -109,14 +109,12 @@ def robust_findings(table: FreeCurveTable, motor: Motor, *, pulses: Iterable[int
     """Both judges over `motor`'s tolerance box: the criterion on the box's worst-case
     capability (exact over the box), the load angle at every corner and over a seeded
     Monte Carlo sample (verify.robust)."""
-    from dataclasses import replace
-
     from profiles.motor.tolerance import worst_case_motor
     from verify.robust import judge_box
     from verify.stall import check_stall
 
     lengths = None if pulses is None else sorted(set(pulses))
-    out = [replace(f, message=f.message + " (at the tolerance box's worst case)")
+    out = [f.with_message(f.message + " (at the tolerance box's worst case)")
            for f in check_stall(table, worst_case_motor(motor), pulses=lengths)]
     if not physics or any(f.rule == "stall-order" for f in out):
         return out, None

@@ -35,8 +35,9 @@ init
 from __future__ import annotations
 
 import math
-from itertools import compress, repeat
-from operator import add, le, lt, mul
+from functools import partial
+
+import numpy as np
 
 from profiles.errors import FormatError
 from profiles.ppmc312.clock import MAX_OUTPUT_PPS
@@ -120,8 +121,11 @@ def _check_free_curve(t: FreeCurveTable) -> list[Finding]:
     if not rates:
         return out
 
-    # Rates: one min() answers "all fine" for the common case.
-    rmin = min(rates)
+    # One pass in C per rule answers "all fine" for the common case (fields bound every
+    # value below 2**24, every product below 2**40: int64 is exact).
+    rate_array = np.array(rates, dtype=np.int64)
+    increasing = bool((rate_array[1:] > rate_array[:-1]).all())
+    rmin = rates[0] if increasing else int(rate_array.min())
     if rmin <= 1 or hz / rmin > MAX_OUTPUT_PPS:
         fastest_ok, clk = min_rate_for(hz), t.clock.name
         for i, r in enumerate(rates):
@@ -133,7 +137,7 @@ def _check_free_curve(t: FreeCurveTable) -> list[Finding]:
                 out.append(Finding("error", "speed-max",
                                    f"rates[{i}] = {r} at {clk} gives {hz / r:.0f} pps > 2 Mpps: "
                                    f"raise it to ≥ {fastest_ok}", None, i))
-    if not all(map(lt, rates, rates[1:])):
+    if not increasing:
         for i in range(1, len(rates)):
             if rates[i] <= rates[i - 1]:
                 what = "repeats" if rates[i] == rates[i - 1] else "is faster than"
@@ -146,28 +150,29 @@ def _check_free_curve(t: FreeCurveTable) -> list[Finding]:
     for side, field, pulses in sides:
         if not pulses:
             continue
-        if min(pulses) < STAGE_PULSES_MIN:
+        pulse_array = np.array(pulses, dtype=np.int64)
+        if pulse_array.min() < STAGE_PULSES_MIN:
             for i, p in enumerate(pulses):
                 if p < STAGE_PULSES_MIN:
                     need = _pulses_needed(rates, i)
                     out.append(Finding("error", "pulses-min",
                                        f"{field}[{i}] = {p} is ≤ 1: raise it to ≥ {need}",
                                        0x19, i))
-        if max(pulses) > STAGE_PULSES_MAX:
+        if pulse_array.max() > STAGE_PULSES_MAX:
             for i, p in enumerate(pulses):
                 if p > STAGE_PULSES_MAX:
                     out.append(Finding("error", "pulses-field",
                                        f"{field}[{i}] = {p} exceeds 0xFFFFF ({STAGE_PULSES_MAX})"
                                        f": lower it to ≤ {STAGE_PULSES_MAX}", None, i))
-        total = sum(pulses)
+        total = int(pulse_array.sum())
         if total > SIDE_TOTAL_MAX:
             out.append(Finding("error", f"{side}-total-max",
                                f"{side} total {total} pulses exceeds 0xFFFFF "
                                f"({SIDE_TOTAL_MAX}): remove {total - SIDE_TOTAL_MAX} pulses "
                                f"from {field}", 0x1A))
-        # pulses × rate per stage (a side uses the fastest len(pulses) rates).
-        ticks = list(map(mul, pulses, rates))
-        if min(ticks) < MIN_STAGE_TICKS:
+        # pulses × rate per stage (a side uses the fastest len(pulses) rates)
+        ticks = pulse_array * rate_array[:len(pulses)]
+        if ticks.min() < MIN_STAGE_TICKS:
             clk = t.clock.name
             for i, (p, r) in enumerate(zip(pulses, rates, strict=False)):
                 if p * r < MIN_STAGE_TICKS and p > 1 and r > 1:
@@ -195,7 +200,7 @@ def _pulses_needed(rates: tuple[int, ...], i: int) -> int:
     return max(STAGE_PULSES_MIN, math.ceil(MIN_STAGE_TICKS / r)) if r > 0 else STAGE_PULSES_MIN
 
 
-def _short_stages(side: str, field: str, ticks: list[int], rates: tuple[int, ...]
+def _short_stages(side: str, field: str, ticks: np.ndarray, rates: tuple[int, ...]
                   ) -> list[Finding]:
     n = len(ticks)
     if n < 2:
@@ -203,42 +208,39 @@ def _short_stages(side: str, field: str, ticks: list[int], rates: tuple[int, ...
     # Stage 0 (the fastest) runs straight on into the cruise at the same rate, so its
     # own length does not matter: planners give it the minimum on purpose, or (LE=1
     # decel) extra pulses that keep every triangle's switch safe. It is never reported,
-    # and (being cruise-like) is no neighbour: stage 1's only neighbour is stage 2.
-    # Candidates first, in C: 20·t_i ≤ t_(i−1) + t_(i+1) (10·t_i ≤ the one neighbour of
-    # stage 1 and of the last stage) holds whenever the float test below does (ticks
-    # < 2**41, so its rounding is far below one tick); most tables have none.
+    # and (being cruise-like) is no neighbour: stage 1's only neighbour is stage 2, the
+    # last stage's only neighbour the one before it.
+    # Candidates in integers, one pass in C: 20·t_i ≤ t_(i−1) + t_(i+1) (10·t_i ≤ the one
+    # neighbour of stage 1 and of the last stage) holds whenever the exact test below
+    # does (ticks < 2**41: the float rounding is far below one tick); few stages pass.
     last = n - 1
     candidates = [1] if n > 2 and 10 * ticks[1] <= ticks[2] else []
-    candidates += compress(range(2, last), map(le, map(mul, ticks[2:-1], repeat(20)),
-                                                map(add, ticks[1:], ticks[3:])))
+    candidates += (np.flatnonzero(20 * ticks[2:-1] <= ticks[1:-2] + ticks[3:]) + 2).tolist()
     if 10 * ticks[last] <= ticks[last - 1]:
         candidates.append(last)
     if not candidates:
         return []
-    # A short stage is under 1/10 of at least one neighbour: without such a pair, none.
-    after = ticks[1:]
-    if not (any(map(lt, map(mul, ticks, repeat(10)), after))
-            or any(map(lt, map(mul, after, repeat(10)), ticks))):
-        return []
+    tick = ticks.tolist()
     out = []
     for i in candidates:
-        # The neighbours' mean as floats, exactly as numpy computed it before (the sums
-        # are below 2**53, so exact).
-        if i == last:
-            mean = float(ticks[i - 1])
-        elif i == 1:
-            mean = float(ticks[2])
-        else:
-            mean = (ticks[i - 1] + ticks[i + 1]) / 2.0
-        target = SHORT_STAGE_FRACTION * mean
-        if not ticks[i] < target:
-            continue
-        need = math.ceil(target / rates[i]) if rates[i] > 0 else 2
-        out.append(Finding("warning", "stage-short",
-                           f"{side} stage {i} lasts {ticks[i]} ticks, under 1/10 of its "
-                           f"neighbours' mean {mean:.0f} ticks: raise {field}[{i}] "
-                           f"to ≥ {need} or merge the stage into a neighbour", None, i))
+        # The neighbours' mean as floats, as the rule was first written (in numpy); the
+        # sums are below 2**53, so exact.
+        mean = float(tick[i - 1]) if i == last else (
+            float(tick[2]) if i == 1 else (tick[i - 1] + tick[i + 1]) / 2.0)
+        if tick[i] < SHORT_STAGE_FRACTION * mean:
+            # partial: the message is written only when read (a random table has ~9)
+            out.append(Finding("warning", "stage-short",
+                               partial(_short_message, side, field, i, tick[i], mean, rates[i]),
+                               None, i))
     return out
+
+
+def _short_message(side: str, field: str, i: int, ticks: int, mean: float, rate: int) -> str:
+    target = SHORT_STAGE_FRACTION * mean
+    need = math.ceil(target / rate) if rate > 0 else 2
+    return (f"{side} stage {i} lasts {ticks} ticks, under 1/10 of its neighbours' mean "
+            f"{mean:.0f} ticks: raise {field}[{i}] to ≥ {need} or merge the stage into a "
+            "neighbour")
 
 
 # --- init ------------------------------------------------------------------------
