@@ -510,3 +510,37 @@ def test_sample_edges_and_pulse_time_limits() -> None:
     with pytest.raises(FieldRangeError) as err:
         simulate_move(COMMON, 10_000_001).pulse_times_s()
     assert err.value.hi == 10_000_000
+
+
+def _rates(plan: list[tuple[str, int, int]]) -> list[tuple[str, int]]:
+    return [(phase, rate) for phase, rate, _ in plan]
+
+
+# LE=1, accel extra stages (fastest first) 2 then 30 pulses: the rate-difference is 32 and
+# the straight accel triangle enters its second extra stage at 31 = rate-difference − 1.
+EDGE_EXTRA = FreeCurveTable(MHZ1, (100, 200, 300, 400), (10, 20, 2, 30), (5, 6))
+
+
+@pytest.mark.parametrize("table", [COMMON, LONG_ACCEL, LONG_DECEL, EDGE_EXTRA],
+                         ids=["common", "long accel", "long decel", "edge extra"])
+def test_families_by_brute_force_on_pinned_tables(table: FreeCurveTable) -> None:
+    from profiles.ppmc312.execution import move_families
+
+    fams = move_families(table)
+    assert fams[0].lo == 1 and fams[-1].hi == MOVE_PULSES_MAX
+    top = table.accel_total + table.decel_total + 2
+    for fam in fams:
+        first = fam.execution()
+        assert fam.runs() == fam.runs(fam.lo) == runs(first)
+        for n in range(fam.lo, min(fam.hi, top) + 1):
+            assert _rates(runs(simulate_move(table, n))) == _rates(runs(first)), n
+        n = min(fam.hi, top)
+        assert fam.runs(n) == runs(simulate_move(table, n))
+    if table is EDGE_EXTRA:
+        assert 31 in [f.lo for f in fams]
+
+
+def test_a_rate_below_1_is_refused_naming_the_range() -> None:
+    with pytest.raises(FieldRangeError) as err:
+        simulate_move(FreeCurveTable(MHZ1, (0, 5), (2, 2)), 4)
+    assert (err.value.field, err.value.lo) == ("rates[0]", 1)
