@@ -500,6 +500,7 @@ def test_sample_edges_and_pulse_time_limits() -> None:
     assert (err.value.lo, err.value.hi) == (2, 10**8)
     # edges: each segment start plus the end, the last speed repeated (400 pps … 2500 pps)
     t, x, v = e.edges()
+    assert t[0] == 0.0 and t[-1] == e.duration_s
     assert list(x[-2:]) == [960.0, 1000.0] and list(v[-2:]) == [2500.0, 2500.0]
     assert v[-3] == pytest.approx(1e6 / 300)
     # pulse times: up to `limit` pulses, the limit named when refused
@@ -538,9 +539,24 @@ def test_families_by_brute_force_on_pinned_tables(table: FreeCurveTable) -> None
         assert fam.runs(n) == runs(simulate_move(table, n))
     if table is EDGE_EXTRA:
         assert 31 in [f.lo for f in fams]
+    # a boundary of no effect is merged: neighbours differ in their rates or their shape
+    for a, b in itertools.pairwise(fams):
+        assert _rates(a.runs()) != _rates(b.runs()) or a.shape != b.shape
+    # membership: whole numbers lo..hi only
+    fam = fams[1]
+    assert fam.lo in fam and fam.hi in fam and fam.lo - 1 not in fam and fam.hi + 1 not in fam
+    assert float(fam.lo) not in fam and "1" not in fam
 
 
 def test_a_rate_below_1_is_refused_naming_the_range() -> None:
     with pytest.raises(FieldRangeError) as err:
         simulate_move(FreeCurveTable(MHZ1, (0, 5), (2, 2)), 4)
     assert (err.value.field, err.value.lo) == ("rates[0]", 1)
+
+
+def test_a_move_that_cannot_accelerate_cruises_at_the_start_rate() -> None:
+    # high rate 250 is slower than the 2nd slowest stage (200): no acceleration; the move
+    # cruises at the slowest rate 300, whatever that stage's pulse count (1000 here)
+    table = FreeCurveTable(MHZ1, (100, 200, 300), (10, 20, 1000), (10, 20, 5))
+    for n in (50, 2000):
+        assert runs(simulate_move(table, n, high_rate=250)) == [("cruise", 300, n)]
