@@ -560,3 +560,15 @@ def test_a_move_that_cannot_accelerate_cruises_at_the_start_rate() -> None:
     table = FreeCurveTable(MHZ1, (100, 200, 300), (10, 20, 1000), (10, 20, 5))
     for n in (50, 2000):
         assert runs(simulate_move(table, n, high_rate=250)) == [("cruise", 300, n)]
+
+
+def test_pulse_times_csv_by_hand_and_its_limit() -> None:
+    from profiles.ppmc312.execution import pulse_times_csv
+
+    # 4 pulses, a triangle on the slower stage: 2 up and 2 down at rate 200 on 1 MHz
+    run = simulate_move(FreeCurveTable(MHZ1, (100, 200), (2, 2)), 4)
+    assert pulse_times_csv(run) == ("pulse,time_s\n1,0.000200000\n2,0.000400000\n"
+                                    "3,0.000600000\n4,0.000800000\n")
+    with pytest.raises(FieldRangeError) as err:
+        pulse_times_csv(simulate_move(COMMON, 10_000_001))
+    assert (err.value.lo, err.value.hi) == (1, 10_000_000)
