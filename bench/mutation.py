@@ -83,6 +83,9 @@ _ZERO_CRUISE = "a 0-pulse cruise is dropped by runs(): the same segments"
 _COUNT_ZERO = "with count 0 the loop only skips stages (take 0): the same plan, a little later"
 _TAKE_EQUAL = "p == count gives take = p = count either way"
 _CHUNK = "the chunk size only cuts the text into pieces; pulse_times_csv joins them"
+_CRUISE_LEN = ("the trapezoid judged runs the same stages with the same dwell counts whatever "
+               "its cruise (0, 1, 2 or 0xFFFFFFFF − a − d pulses): the cruise sits at the top "
+               "rate, a step of 0 on both sides")
 EQUIVALENT: dict[tuple[str, int, str], str] = {
     ("frames", 104, "1 → 0"): ("RESPONSE_HEADER is used one byte at a time through "
                                "pack_int/unpack_int, which never read its size"),
@@ -142,6 +145,13 @@ EQUIVALENT: dict[tuple[str, int, str], str] = {
     ("execution", 523, "1 → 2"): _CHUNK,
     ("execution", 523, "16 → 17"): _CHUNK,
     ("execution", 523, "16 → 15"): _CHUNK,
+    ("criterion", 113, "2 → 1"): ("with one segment np.diff is empty: every per-step array is "
+                                  "empty and the loop adds nothing"),
+    ("criterion", 116, "> → >="): ("a step of 0 is never a problem (bad_cap needs dv ≠ 0, "
+                                   "bad_jump |dv| > jump ≥ 0), so its side is never read"),
+    ("criterion", 151, "1 → 2"): _CRUISE_LEN,
+    ("criterion", 151, "1 → 0"): _CRUISE_LEN,
+    ("criterion", 151, "min → max"): _CRUISE_LEN,
 }
 
 

@@ -358,3 +358,36 @@ def test_which_tables_take_the_trapezoid_shortcut() -> None:
                                                    (200, 2, 2)))
     assert not _same_stages_switch_safe(FreeCurveTable(CLK, (9500, 14000, 26667), (50, 60, 80),
                                                        (50, 60)))
+
+
+def test_switch_safe_with_one_stage() -> None:
+    # one stage: no share to check; a decel-only move lasts ⌈(a + d) / a⌉ − 1 pulses
+    assert switch_safe(np.array([2]), np.array([1]))  # ⌈3 / 2⌉ − 1 = 1 ≤ 1
+    assert switch_safe(np.array([1]), np.array([5]))  # ⌈6 / 1⌉ − 1 = 5 ≤ 5
+    assert not switch_safe(np.array([3]), np.array([0]))  # no decel pulses at all
+    # one list for both sides is safe whatever its counts
+    assert _same_stages_switch_safe(FreeCurveTable(CLK, (9500, 14000), (50, 0)))
+
+
+def test_the_trapezoid_shortcut_is_taken_only_where_it_is_proven() -> None:
+    """Same stages on both sides, switch safe, no high-rate override and not asked to be
+    exhaustive: the trapezoid alone is judged; otherwise every family is."""
+    from unittest import mock
+
+    from profiles.ppmc312 import criterion
+
+    safe = FreeCurveTable(CLK, (9500, 14000, 26667), (50, 60, 80))
+    free = cast(Motor, StandIn(start_pps=300, top_pps=1e9, jump_pps=1e9, acc_k=1e9,
+                               dec_k=1e9))
+    no_families = mock.patch.object(criterion, "move_families",
+                                    side_effect=AssertionError("every family judged"))
+    no_trapezoid = mock.patch.object(criterion, "simulate_move",
+                                     side_effect=AssertionError("trapezoid shortcut"))
+    with no_families:
+        assert all_length_problems(safe, free) == []
+    for kw in ({"high_rate": 14000}, {"exhaustive": True}):
+        with no_trapezoid:
+            assert all_length_problems(safe, free, **kw) == []  # type: ignore[arg-type]
+    unsafe = FreeCurveTable(CLK, (1455, 1873, 2500), (40, 40, 40), (2, 2, 200))
+    with no_trapezoid:
+        all_length_problems(unsafe, free)
