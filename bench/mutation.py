@@ -86,6 +86,9 @@ _CHUNK = "the chunk size only cuts the text into pieces; pulse_times_csv joins t
 _CRUISE_LEN = ("the trapezoid judged runs the same stages with the same dwell counts whatever "
                "its cruise (0, 1, 2 or 0xFFFFFFFF − a − d pulses): the cruise sits at the top "
                "rate, a step of 0 on both sides")
+_INNER_GUARD = ("the inner where only keeps 0 out of the divisor where the outer where picks "
+                "inf anyway (need is never negative); the outer one's mutants are killed by "
+                "test_a_repeated_speed_has_no_step_and_an_infinite_margin")
 EQUIVALENT: dict[tuple[str, int, str], str] = {
     ("frames", 104, "1 → 0"): ("RESPONSE_HEADER is used one byte at a time through "
                                "pack_int/unpack_int, which never read its size"),
@@ -152,6 +155,11 @@ EQUIVALENT: dict[tuple[str, int, str], str] = {
     ("criterion", 151, "1 → 2"): _CRUISE_LEN,
     ("criterion", 151, "1 → 0"): _CRUISE_LEN,
     ("criterion", 151, "min → max"): _CRUISE_LEN,
+    ("stall", 50, "2 → 1"): "with one stage every [1:] slice is empty: the block assigns nothing",
+    ("stall", 71, "0 → -1"): _INNER_GUARD,
+    ("stall", 71, "> → >="): _INNER_GUARD,
+    ("stall", 130, "0 → -1"): "top-speed stays the first rule (−1 < 1)",
+    ("stall", 131, "6 → 7"): "jerk stays the last rule (7 > 5)",
 }
 
 

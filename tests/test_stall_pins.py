@@ -265,3 +265,37 @@ def test_shortest_failing_pulses() -> None:
     assert shortest_failing_pulses([jerk]) == 0  # a table rule: no move length
     assert shortest_failing_pulses([jerk, start("stop", 2, 250.0, 7),
                                     start("start", 2, 250.0, 3)]) == 3
+
+
+def test_order_is_judged_on_every_neighbouring_pair() -> None:
+    # the last pair out of order; rates 1 apart are in order (and a rate of 1 is a rate)
+    t = FreeCurveTable(CLK, (9500, 26667, 14000), (50, 60, 80))
+    assert [(f.rule, f.stage) for f in check_stall(t, MOTOR)] == [("stall-order", 2)]
+    t = FreeCurveTable(CLK, (9500, 1, 26667), (50, 60, 80))
+    assert [(f.rule, f.stage) for f in check_stall(t, MOTOR)] == [("stall-order", 1)]
+    # in order: judged (8 Mpps and 7.999 Mpps are far above the top 900 pps)
+    for rates in ((1, 2), (8000, 8001)):
+        t = FreeCurveTable(CLK, rates, (50, 60))
+        assert "stall-top-speed" in [f.rule for f in check_stall(t, MOTOR)], rates
+
+
+def test_a_repeated_speed_has_no_step_and_an_infinite_margin() -> None:
+    m = stall_margins(FreeCurveTable(CLK, (8000, 8000, 16000), (10, 10, 10)), MOTOR)
+    assert m["accel"][1] == np.inf and m["decel"][1] == np.inf
+
+
+def test_rule_order_beats_stage_order() -> None:
+    # every rule on a faster stage than the rule before it: only the rule order sorts them
+    t8 = FreeCurveTable(CLK, tuple(range(8000, 16001, 1000)), (10,) * 9)
+    probs = [StepProblem("jerk", "step", 0, (0, 0), 1, 1, 0.0, 1.0, 5, 1, "accel", 2e6, 1e6),
+             switch((10, 12), 3, 2, 500.0, 250.0),
+             step("decel", 2, 3, 1000.0, 500.0, dwell_pulses=5, dwell_stage=3,
+                  dwell_side="decel", need_pps2=5e4, cap_pps2=4e4),
+             step("accel", 5, 4, 500.0, 1000.0, dwell_pulses=5, dwell_stage=4,
+                  dwell_side="accel", need_pps2=5e4, cap_pps2=2.5e4),
+             step("jump", 5, 4, 250.0, 500.0),
+             start("stop", 6, 250.0, 3),
+             StepProblem("top-speed", "top", 9, (9, 9), 7, 7, 1000.0, 1000.0)]
+    assert [(f[1], f[2]) for f in found(probs, t8)] == [
+        ("stall-top-speed", 7), ("stall-start-speed", 6), ("stall-jump", 5),
+        ("stall-accel", 4), ("stall-decel", 3), ("stall-switch", 2), ("stall-jerk", 1)]
