@@ -299,3 +299,23 @@ def test_rule_order_beats_stage_order() -> None:
     assert [(f[1], f[2]) for f in found(probs, t8)] == [
         ("stall-top-speed", 7), ("stall-start-speed", 6), ("stall-jump", 5),
         ("stall-accel", 4), ("stall-decel", 3), ("stall-switch", 2), ("stall-jerk", 1)]
+
+
+def test_a_tiny_capability_still_names_a_count() -> None:
+    # 0.5 pps² is little but not nothing: ⌈500 · 500 / 0.5⌉ = 500000 pulses
+    p = step("accel", 1, 0, 500.0, 1000.0, dwell_pulses=5, dwell_stage=1, dwell_side="accel",
+             need_pps2=50000.0, cap_pps2=0.5)
+    assert "raise accel_pulses[1] from 5 to ≥ 500000" in found([p])[0][3]
+
+
+def test_a_switch_names_only_the_rules_it_breaks_at_their_boundary() -> None:
+    from test_criterion_pins import exact_limit
+
+    # |Δv| 250 exactly at the jump limit's tolerated bound, need exactly at the capability's
+    at_jump = cast(Motor, StandIn(start_pps=200.0, top_pps=900.0, jump_pps=exact_limit(250.0)))
+    edge = switch((10, 12), 1, 2, 500.0, 250.0, need=30000.0, cap=exact_limit(30000.0))
+    msg = found([edge], motor=at_jump)[0][3]
+    assert "above the largest jump" not in msg and "it needs" not in msg
+    # a need far below the capability is no reason either
+    low = switch((10, 12), 1, 2, 500.0, 250.0, need=30.0, cap=1e9)
+    assert "it needs" not in found([low])[0][3]
