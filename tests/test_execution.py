@@ -572,3 +572,10 @@ def test_pulse_times_csv_by_hand_and_its_limit() -> None:
     with pytest.raises(FieldRangeError) as err:
         pulse_times_csv(simulate_move(COMMON, 10_000_001))
     assert (err.value.lo, err.value.hi) == (1, 10_000_000)
+
+
+def test_edges_repeat_the_last_speed_not_the_first() -> None:
+    # LE=1, start at rate 300 (3333 pps), stop at rate 500 (2000 pps)
+    t, x, v = simulate_move(LONG_DECEL, 1000).edges()
+    assert v[0] == pytest.approx(1e6 / 300) and list(v[-2:]) == [2000.0, 2000.0]
+    assert x[-1] == 1000 and len(t) == len(x) == len(v)
