@@ -40,7 +40,7 @@ MODULES: dict[str, tuple[str, list[str]]] = {
                ["tests/test_ppmc312_upload.py", "tests/test_ppmc312_frames.py"]),
     "frames": ("profiles.ppmc312.frames",
                ["tests/test_ppmc312_frames.py", "tests/test_ppmc312_upload.py"]),
-    "checks": ("verify.checks", ["tests/test_checks.py"]),
+    "checks": ("verify.checks", ["tests/test_checks.py", "tests/test_checks_pins.py"]),
     "execution": ("profiles.ppmc312.execution", [
         "tests/test_execution.py",
         "tests/test_every_move.py::test_families_partition_every_length_and_fix_the_segment_rates"]),
@@ -441,8 +441,10 @@ def main() -> int:
                     help="run a random sample of N mutants per module (seeded): the score "
                          "is then an estimate")
     ap.add_argument("--seed", type=int, default=13, help="the sample's seed")
-    ap.add_argument("--rescore", metavar="LOG",
-                    help="no run: score the per-mutant lines of an earlier run's stderr")
+    ap.add_argument("--rescore", metavar="LOG", nargs="+",
+                    help="no run: score the per-mutant lines of earlier runs' stderr (later "
+                         "files win: bench/results/*.log lists each module's full run "
+                         "before its re-run of survivors)")
     ap.add_argument("--rerun", metavar="LOG", action="append",
                     help="with --rescore: later runs of some mutants (--only), which win")
     args = ap.parse_args()
@@ -457,7 +459,8 @@ def main() -> int:
                 print(f"{key} #{s.index} line {s.line}: {s.what}")
         return 0
     if args.rescore:
-        results = rescore(Path(args.rescore).read_text().splitlines(), args.rerun or [])
+        logs = [*args.rescore, *(args.rerun or [])]
+        results = rescore(Path(logs[0]).read_text().splitlines(), logs[1:])
         for line in _table(results):
             print(line)
         for r in results:
