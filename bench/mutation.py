@@ -89,6 +89,17 @@ _CRUISE_LEN = ("the trapezoid judged runs the same stages with the same dwell co
 _INNER_GUARD = ("the inner where only keeps 0 out of the divisor where the outer where picks "
                 "inf anyway (need is never negative); the outer one's mutants are killed by "
                 "test_a_repeated_speed_has_no_step_and_an_infinite_margin")
+_SORT_GUARD = "the guard only skips sorting a list of 0 or 1 findings, already in order"
+_KEY_NONE = ("the third key element of a finding without a stage is only ever compared with "
+             "another such finding's (the second element separates them from staged ones)")
+_PREFILTER = ("a pre-filter before the exact per-stage test: entering the loop more often "
+              "finds nothing more")
+_SIDE_IN_RATES = ("a side never has more stages than there are rates (FreeCurveTable refuses "
+                  "it): i < len(rates) always and the else value is never used")
+_AT_TENTH = ("the candidate test differs only at equality, where the neighbours' mean is "
+             "exactly 10·t and the exact test refuses the stage anyway: 0.1 · (10·t) rounds "
+             "to t (0.1's float error is 5.6e-17 relative, under half an ulp), and t < t is "
+             "false")
 EQUIVALENT: dict[tuple[str, int, str], str] = {
     ("frames", 104, "1 → 0"): ("RESPONSE_HEADER is used one byte at a time through "
                                "pack_int/unpack_int, which never read its size"),
@@ -160,6 +171,33 @@ EQUIVALENT: dict[tuple[str, int, str], str] = {
     ("stall", 71, "> → >="): _INNER_GUARD,
     ("stall", 130, "0 → -1"): "top-speed stays the first rule (−1 < 1)",
     ("stall", 131, "6 → 7"): "jerk stays the last rule (7 > 5)",
+    ("checks", 76, "1 → 0"): _SORT_GUARD,
+    ("checks", 76, "> → >="): _SORT_GUARD,
+    ("checks", 82, "1 → 2"): _KEY_NONE,
+    ("checks", 82, "1 → 0"): _KEY_NONE,
+    ("checks", 113, "< → <="): "the branch runs only when the two counts differ",
+    ("checks", 114, "<= → <"): ("n_short is the shorter side's count and rates has the "
+                                "longer side's: n_short < len(rates) whenever this runs"),
+    ("checks", 129, "1 → 2"): _PREFILTER + (" (with rmin 2 and ≤ 2 Mpps, the loop's limit "
+                                            "min_rate_for(hz) is 2: nothing is below it)"),
+    ("checks", 129, "> → >="): _PREFILTER + (" (at exactly 2 Mpps min_rate_for(hz) is rmin "
+                                             "itself)"),
+    ("checks", 154, "< → <="): _PREFILTER,
+    ("checks", 161, "> → >="): _PREFILTER,
+    ("checks", 175, "< → <="): _PREFILTER,
+    ("checks", 199, "< → <="): _SIDE_IN_RATES,
+    ("checks", 199, "0 → 1"): _SIDE_IN_RATES,
+    ("checks", 199, "0 → -1"): _SIDE_IN_RATES,
+    ("checks", 206, "2 → 1"): ("with one stage the only candidate test, 10·t0 ≤ t0, holds "
+                               "only for t0 = 0, and then 0 < 0.1·0 is false"),
+    ("checks", 217, "10 → 9"): _PREFILTER,
+    ("checks", 218, "20 → 19"): _PREFILTER,
+    ("checks", 219, "10 → 9"): _PREFILTER,
+    ("checks", 217, "<= → <"): _AT_TENTH,
+    ("checks", 218, "<= → <"): _AT_TENTH,
+    ("checks", 219, "<= → <"): _AT_TENTH,
+    ("checks", 260, "< → <="): ("the branch only sees values outside MIN..MAX, never MIN "
+                                "itself"),
 }
 
 
