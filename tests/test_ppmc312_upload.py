@@ -696,3 +696,17 @@ def test_bus_writes_range_names_1_to_32_bytes() -> None:
         bus_writes(b"")
     assert (e.value.lo, e.value.hi) == (1, 32)
     assert bus_writes(b"\x05") == [("WCR", 0x20), ("WAR", 0x1F), ("DWR", 5)]
+
+
+@pytest.mark.parametrize("table, max_data, blocks", [c[1:] for c in GOLDEN_FREE_CURVES],
+                         ids=[c[0] for c in GOLDEN_FREE_CURVES])
+def test_the_block_by_block_walk_decodes_every_golden_upload(
+        table: FreeCurveTable, max_data: int, blocks: list[str]) -> None:
+    """The walk the bulk path falls back to reads a well-formed upload to the same table
+    (LE=0 without a decel list, LE=1 with one)."""
+    from unittest import mock
+
+    from profiles.ppmc312 import upload
+
+    with mock.patch.object(upload, "_decode_sections", return_value=None):
+        assert decode_free_curve([bytes.fromhex(b) for b in blocks], extck_hz=1e6) == table
