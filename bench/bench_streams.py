@@ -1,6 +1,7 @@
 """Streamed outputs: peak memory does not grow with the stream's length.
 
-Runs `stepramp simulate --pulse-times` (and `mc200 stream` when given --mc200) as
+Runs `stepramp simulate --pulse-times` (and `mc200 stream` in every file format
+when given --mc200) as
 subprocesses at growing lengths and prints each run's peak RSS (the kernel's
 ru_maxrss of that child alone) next to the output size, and the ratio of the peak
 at the longest length to the peak at the shortest (1.0 = flat). Goal: a 4 M-pulse
@@ -51,11 +52,14 @@ def main() -> int:
               lambda n, out: [sys.executable, "-m", "verify.cli", "simulate", str(TABLE),
                               "--pulses", str(n), "--pulse-times", out])]
     if args.mc200:
-        cases.append(("mc200 stream --format bin",
-                      lambda n, out: [sys.executable, "-m", "verify.cli", "mc200", "stream",
-                                      "--vmax", "200000", "--amax", "2000000", "--jmax",
-                                      "50000000", "--pulses", str(n), "--period-us", "50",
-                                      "--format", "bin", "-o", out]))
+        # every stream format renders chunk-wise (its CRC-32 running): each should stay flat
+        for fmt in ("bin", "hex", "json", "c", "ihex"):
+            cases.append((f"mc200 stream --format {fmt}",
+                          lambda n, out, fmt=fmt: [
+                              sys.executable, "-m", "verify.cli", "mc200", "stream",
+                              "--vmax", "200000", "--amax", "2000000", "--jmax", "50000000",
+                              "--pulses", str(n), "--period-us", "50", "--format", fmt,
+                              "-o", out]))
     print("| stream | pulses | output MB | peak RSS MB |")
     print("|---|---|---|---|")
     ratios = []

@@ -81,13 +81,20 @@ def seeds() -> dict[str, bytes]:
         target = Path(tmp) / "init.hex"
         run_cli(["export", str(EXAMPLES / "init-linear.json"), "-o", str(target)])
         out["upload-init"] = target.read_bytes()
-        for fmt in ("hex", "bin"):
+        for fmt in ("hex", "bin", "json", "c", "ihex"):
             target = Path(tmp) / f"s.{fmt}"
             run_cli(["mc200", "stream", "--vmax", "20000", "--amax", "200000", "--jmax",
                      "5000000", "--pulses", "400", "--period-us", "1000", "--format", fmt,
                      "-o", str(target)])
             if target.exists():
                 out[f"mc200-{fmt}"] = target.read_bytes()
+        for fmt in ("text", "json", "hex", "c"):
+            target = Path(tmp) / f"a.{fmt}"
+            run_cli(["alink", "settings", "--start-pps", "500", "--high-pps", "10000",
+                     "--accel-ms-per-kpps", "20", "--address", "3", "--format", fmt,
+                     "-o", str(target)])
+            if target.exists():
+                out[f"alink-{fmt}"] = target.read_bytes()
     return out
 
 
@@ -275,6 +282,14 @@ FILE_COMMANDS: list[tuple[str, str, list[str]]] = [
     ("simulate", "table-init", ["simulate", "FILE", "--pulses", "3000", "--format", "json"]),
     ("mc200 decode", "mc200-hex", ["mc200", "decode", "FILE", "--format", "json"]),
     ("mc200 decode", "mc200-bin", ["mc200", "decode", "FILE", "--direction", "host"]),
+    ("mc200 decode", "mc200-c", ["mc200", "decode", "FILE"]),
+    ("mc200 decode", "mc200-ihex", ["mc200", "decode", "FILE", "--format", "json"]),
+    ("check", "mc200-json", ["check", "FILE"]),
+    ("check", "mc200-bin", ["check", "FILE", "--format", "json"]),
+    ("check", "alink-hex", ["check", "FILE"]),
+    ("check", "alink-json", ["check", "FILE"]),
+    ("alink read", "alink-text", ["alink", "read", "FILE"]),
+    ("alink read", "alink-c", ["alink", "read", "FILE", "--format", "json"]),
 ]
 
 ARGV_TEMPLATES: list[tuple[str, list[str]]] = [

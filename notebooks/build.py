@@ -295,8 +295,9 @@ decoded to show nothing was lost:
 - PPMC-312 free-curve upload: hex, C header and bus register writes;
 - PPMC-312 ASCII init frame (the best linear init table, LE=0: the serial
   command has no separate decel counts);
-- A-Link ALUM settings command words;
-- MC-200 SPI packet stream following the staircase.
+- A-Link ALUM settings command words, with the CRC-32 the words lack;
+- MC-200 SPI packet stream following the staircase, with the CRC-32 its packet
+  checksum cannot give.
 
 The files go to a temporary folder, removed by the last cell."""),
     ("code", """\
@@ -305,16 +306,11 @@ import tempfile
 from itertools import pairwise
 from pathlib import Path
 
-from profiles.alink import (
-    MODE_S_CURVE,
-    AlinkSettings,
-    Cmd,
-    parse_command,
-    plan_settings,
-    settings_commands,
-)
+from profiles.alink import plan_settings, settings_commands, settings_from_commands
+from profiles.alink import formats as alink_files
 from profiles.ppmc312.init_planner import plan_init
-from profiles.mc200 import decode_stream, encode_stream, render_hex, stream_move
+from profiles.mc200 import decode_stream, encode_stream, stream_move
+from profiles.mc200 import formats as mc200_files
 from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312 import decode_upload, encode_free_curve
@@ -412,7 +408,8 @@ print("decoded:", from_file)"""),
 ## A-Link ALUM settings
 
 The fastest stall-safe start speed, high speed and acceleration for this move
-(the unit ramps linearly), as command words with pair codes."""),
+(the unit ramps linearly), as command words with pair codes, in a settings file
+that carries a CRC-32 of the words (the A-Link protocol has no check)."""),
     ("code", """\
 alink = plan_settings(motor, pulses=PULSES)
 settings = alink.table
@@ -422,21 +419,15 @@ print(f"predicted move {alink.duration_s * 1e3:.2f} ms ({alink.extras['shape']})
       f"{ratio:.3f}× the exact optimum; bound by {alink.binds}")
 commands = settings_commands(settings)
 words_path = out / "alink-settings.txt"
-words_path.write_text("".join(f"{c.name:10s} " + " ".join(f"{w:04X}" for w in c.words) + "\\n"
-                              for c in commands))
-show(words_path)"""),
+words_path.write_bytes(alink_files.render(commands, "text"))
+show(words_path, lines=8)"""),
     ("code", """\
-values = {}
-for line, sent in zip(words_path.read_text().splitlines(), commands, strict=True):
-    name, *words = line.split()
-    cmd, func, para, pair = parse_command(*(int(w, 16) for w in words))
-    assert (cmd, func, para, pair) == (sent.cmd, sent.func, sent.para, sent.pair)
-    assert Cmd(cmd).name == name
-    values[Cmd(cmd)] = para
-    print(f"{name:10s} func {func:2d} para {para:7d} pair {pair}")
-rebuilt = AlinkSettings(start_pps=values[Cmd.L_SPEED], high_pps=values[Cmd.H_SPEED],
-                        accel_para=values[Cmd.UP_TIME], max_pps=values[Cmd.MAX_SPEED],
-                        s_curve=bool(values[Cmd.MODE] & MODE_S_CURVE))
+parsed = alink_files.parse(words_path.read_bytes())
+print(f"{parsed.format} file, {parsed.integrity}: {parsed.detail}")
+assert parsed.items == commands
+for c in parsed.items:
+    print(f"{c.name:10s} func {c.func:2d} para {c.para:7d} pair {c.pair}")
+rebuilt = settings_from_commands(parsed.items)
 assert rebuilt == settings
 print("settings rebuilt from the words:", rebuilt == settings)"""),
     ("md", """\
@@ -450,14 +441,16 @@ execution = simulate_move(plan.table, PULSES)
 packets = stream_move(execution.position_at, execution.duration_s, PULSES, period_us=250)
 stream_hex = out / "mc200-stream.hex"
 stream_bin = out / "mc200-stream.bin"
-stream_hex.write_text(render_hex(packets))
-stream_bin.write_bytes(encode_stream(packets))
+payload = encode_stream(packets)
+for path, fmt in ((stream_hex, "hex"), (stream_bin, "bin")):  # chunk-wise, as the CLI does
+    path.write_bytes(b"".join(mc200_files.render_chunks([payload], fmt)))
 show(stream_hex, lines=8)
 
-for path, data in ((stream_hex, stream_hex.read_text()), (stream_bin, stream_bin.read_bytes())):
-    back = decode_stream(data)
+for path in (stream_hex, stream_bin):
+    parsed = mc200_files.parse(path.read_bytes())
+    back = decode_stream(b"".join(parsed.items))
     assert back == packets, path.name
-    print(f"{path.name}: {len(back)} packets decoded equal")
+    print(f"{path.name}: {len(back)} packets decoded equal ({parsed.integrity})")
 positions = [p.value for p in back if p.value_kind == "position" and p.servo]
 assert positions[-1] == PULSES and positions == sorted(positions)
 steps = [b - a for a, b in pairwise(positions)]

@@ -18,16 +18,23 @@ takes): `integrity == "none"`.
 
 The helpers below (CRC-32, hex text, Intel HEX, C identifiers, provenance) are
 shared by the device tables.
+
+Streams. A format may also render chunk-wise (`Format.render_chunks`: the
+payload's bytes in chunks → the file's bytes in chunks), for files of millions
+of items (an MC-200 stream) whose memory must not grow with their length; its
+CRC-32 is then computed as the chunks go (`RunningCrc`) and written at the end.
+`render` of such a format is its `render_chunks` of the whole payload (`chunked`),
+so the two can never disagree.
 """
 
 from __future__ import annotations
 
 import re
 import zlib
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Generic, Literal, TypeVar
+from typing import Any, Generic, Literal, TypeVar
 
 from .errors import CorruptedError, DecodeError, FieldRangeError, FormatError
 
@@ -55,6 +62,12 @@ class RenderOptions:
     name: str | None = None               # C: prefix of the include guard and every symbol
     base_address: int = 0                 # Intel HEX: address of the first byte
     provenance: Provenance = field(default_factory=Provenance)
+    # device fields a format writes ahead of the items: the JSON document's other keys
+    # (e.g. an MC-200 stream's period_us), a settings file's summary lines
+    header: Mapping[str, Any] = field(default_factory=dict)
+    # items a chunk-wise render will be given, when known ahead (a C header can then
+    # declare its array's size before the rows); None: unknown
+    count: int | None = None
 
 
 @dataclass(frozen=True)
@@ -74,6 +87,24 @@ class Format(Generic[T]):
     parse: Callable[[bytes], Parsed[T]]
     sniff: Callable[[bytes], bool]         # does this content look like the format?
     binary: bool = False
+    # payload chunks → file chunks, for formats that stream (memory: one chunk)
+    render_chunks: ChunkRender | None = None
+
+
+ChunkRender = Callable[[Iterable[bytes], RenderOptions], Iterator[bytes]]
+
+
+def chunked(render_chunks: ChunkRender, payload: Callable[[Sequence[T]], bytes]
+            ) -> Callable[[Sequence[T], RenderOptions], bytes]:
+    """The whole-list `render` of a streaming format: its `render_chunks` of the one
+    chunk `payload(items)` (one renderer, so a streamed file equals a whole one)."""
+    def render(items: Sequence[T], options: RenderOptions) -> bytes:
+        data = payload(items)
+        if options.count is None:
+            options = replace(options, count=len(items))
+        return b"".join(render_chunks([data], options))
+
+    return render
 
 
 class FormatTable(Generic[T]):
@@ -119,6 +150,14 @@ class FormatTable(Generic[T]):
                options: RenderOptions | None = None) -> bytes:
         return self.get(fmt).render(items, options or RenderOptions())
 
+    def render_chunks(self, chunks: Iterable[bytes], fmt: str,
+                      options: RenderOptions | None = None) -> Iterator[bytes]:
+        """The file in format `fmt`, chunk by chunk, from the payload's chunks."""
+        chosen = self.get(fmt)
+        if chosen.render_chunks is None:
+            raise FormatError(f"format: {chosen.name} cannot be written chunk by chunk")
+        return chosen.render_chunks(chunks, options or RenderOptions())
+
     def parse(self, data: bytes, path: str | Path | None = None,
               fmt: str | None = None) -> Parsed[T]:
         if not isinstance(data, bytes | bytearray | memoryview):
@@ -157,7 +196,29 @@ _CRC_COMMENT = re.compile(r"\bcrc32\s+(?:0x)?([0-9A-Fa-f]{8})\b")
 
 def crc_comment(payload: bytes) -> str:
     """The text formats' check line (after `#`)."""
-    return f"crc32 {crc_hex(payload)}: CRC-32 of the {len(payload)} bytes above"
+    crc = RunningCrc()
+    crc.update(payload)
+    return crc.comment()
+
+
+class RunningCrc:
+    """CRC-32 (as `crc32`) and length of a payload fed in chunks (zlib's running value)."""
+
+    def __init__(self) -> None:
+        self.value = 0
+        self.length = 0
+
+    def update(self, chunk: bytes) -> None:
+        self.value = zlib.crc32(chunk, self.value)
+        self.length += len(chunk)
+
+    @property
+    def hex(self) -> str:
+        return f"{self.value & 0xFFFFFFFF:08X}"
+
+    def comment(self) -> str:
+        """The text formats' check line (after `#`)."""
+        return f"crc32 {self.hex}: CRC-32 of the {self.length} bytes above"
 
 
 def find_crc_comment(comments: Sequence[str]) -> str | None:
@@ -214,6 +275,33 @@ def text_of(raw: bytes) -> str:
                           byte=e.start) from None
 
 
+def content_lines(raw: bytes) -> tuple[list[tuple[int, str]], list[str]]:
+    """(line number, content) of every line of a text file with content, and the text
+    of its `#` comments."""
+    lines, comments = [], []
+    for number, line in enumerate(text_of(raw).splitlines(), start=1):
+        content, _, comment = line.partition("#")
+        if comment:
+            comments.append(comment)
+        if content.strip():
+            lines.append((number, content))
+    return lines, comments
+
+
+_CONTROL = re.compile(rb"[\x00-\x08\x0e-\x1f\x7f]")
+
+
+def looks_like_binary(raw: bytes) -> bool:
+    """Not a text file: a control character other than white space, or not UTF-8."""
+    if _CONTROL.search(raw):
+        return True
+    try:
+        raw.decode("utf-8")
+    except UnicodeDecodeError:
+        return True
+    return False
+
+
 def first_content_line(raw: bytes) -> str:
     """The first non-blank line of a text file, stripped ('' for binary or empty)."""
     try:
@@ -245,20 +333,48 @@ def render_ihex(payload: bytes, base_address: int) -> bytes:
             0 <= base_address <= IHEX_ADDRESS_MAX - max(len(payload) - 1, 0)):
         raise FieldRangeError("base address", base_address, 0,
                               IHEX_ADDRESS_MAX - max(len(payload) - 1, 0))
-    lines = []
-    upper = None
-    pos = 0
-    while pos < len(payload):
-        address = base_address + pos
-        if address >> 16 != upper:
-            upper = address >> 16
-            lines.append(_ihex_record(0x04, 0, upper.to_bytes(2, "big")))
-        # A record never crosses a 64 KiB boundary (its address is 16 bits).
-        n = min(IHEX_RECORD_BYTES, len(payload) - pos, 0x10000 - (address & 0xFFFF))
-        lines.append(_ihex_record(0x00, address & 0xFFFF, payload[pos:pos + n]))
-        pos += n
-    lines.append(_ihex_record(0x01, 0, b""))
-    return ("\n".join(lines) + "\n").encode("ascii")
+    return b"".join(render_ihex_chunks([payload], base_address))
+
+
+def render_ihex_chunks(chunks: Iterable[bytes], base_address: int) -> Iterator[bytes]:
+    """`render_ihex` of a payload given in chunks, the records of each chunk as they
+    are complete (a record is cut where the whole payload's would be, never at a
+    chunk's edge). A payload running past address 0xFFFFFFFF raises FieldRangeError
+    when it gets there."""
+    if isinstance(base_address, bool) or not isinstance(base_address, int) or not (
+            0 <= base_address <= IHEX_ADDRESS_MAX):
+        raise FieldRangeError("base address", base_address, 0, IHEX_ADDRESS_MAX)
+    upper: int | None = None
+    address = base_address
+    data = b""
+
+    def records(final: bool) -> Iterator[str]:
+        nonlocal upper, address, data
+        pos = 0
+        while pos < len(data):
+            # A record never crosses a 64 KiB boundary (its address is 16 bits).
+            full = min(IHEX_RECORD_BYTES, 0x10000 - (address & 0xFFFF))
+            n = min(full, len(data) - pos)
+            if n < full and not final:
+                break  # wait for the next chunk: the whole payload's record is longer
+            if address + n - 1 > IHEX_ADDRESS_MAX:
+                raise FieldRangeError("base address", base_address, 0, max(
+                    0, IHEX_ADDRESS_MAX - (address - base_address + n) + 1))
+            if address >> 16 != upper:
+                upper = address >> 16
+                yield _ihex_record(0x04, 0, upper.to_bytes(2, "big"))
+            yield _ihex_record(0x00, address & 0xFFFF, data[pos:pos + n])
+            pos += n
+            address += n
+        data = data[pos:]
+
+    for chunk in chunks:
+        data += bytes(chunk)
+        lines = list(records(final=False))
+        if lines:
+            yield ("\n".join(lines) + "\n").encode("ascii")
+    lines = [*records(final=True), _ihex_record(0x01, 0, b"")]
+    yield ("\n".join(lines) + "\n").encode("ascii")
 
 
 def parse_ihex(raw: bytes) -> tuple[bytes, int]:
@@ -352,6 +468,56 @@ def c_comment(lines: Sequence[str]) -> str:
     safe = [line.encode("ascii", "backslashreplace").decode("ascii").replace("*/", "* /")
             for line in lines]
     return "/* " + "\n * ".join(safe) + "\n */"
+
+
+def c_values(row: str, where: str, hi: int) -> list[int]:
+    """The integers of one C initializer list (`0x12, 7, …`; a `u` suffix allowed),
+    each 0..`hi`; errors name `where`."""
+    values = []
+    for t in (t.strip() for t in row.split(",")):
+        if not t:
+            continue
+        try:
+            value = int(t.rstrip("uU"), 0)
+        except ValueError:
+            raise DecodeError(f"{where}: {t!r} is not a C integer") from None
+        if not 0 <= value <= hi:
+            raise DecodeError(f"{where}: {t} is not a " + ("byte (0..0xFF)" if hi == 0xFF else
+                                                            f"{hi.bit_length()}-bit word"))
+        values.append(value)
+    return values
+
+
+_C_ROW = re.compile(r"\{([^{}]*)\}")
+
+
+def c_rows(text: str, array: re.Pattern[str], example: str) -> tuple[str, list[str]]:
+    """The prefix (`array`'s group 1) and the rows `{…}` of the first 2-D array
+    `array` finds in a C header, comments dropped; `example` shows what was looked for."""
+    m = array.search(text)
+    if m is None:
+        raise DecodeError(f"a C header declares {example} (as stepramp writes); none found")
+    end = text.find("};", m.end())
+    if end < 0:
+        raise CorruptedError(f"{m.group(1)}: the array is not closed by '}};': the file is "
+                             "truncated")
+    body = re.sub(r"/\*.*?\*/", "", text[m.end():end], flags=re.S)
+    return m.group(1), [row.group(1) for row in _C_ROW.finditer(body)]
+
+
+def c_define(text: str, macro: str, value: str = r"(\d+)\b") -> str | None:
+    """The value of the last `#define MACRO value` in `text` (`value`: its regex with one
+    group), if any."""
+    found = None
+    for m in re.finditer(rf"#define\s+{re.escape(macro)}\s+{value}", text):
+        found = m.group(1)
+    return found
+
+
+def c_crc(text: str, macro: str) -> str | None:
+    """The CRC-32 a header's `#define MACRO_CRC32 0x…UL` gives, as 8 hex digits."""
+    found = c_define(text, f"{macro}_CRC32", r"0x([0-9A-Fa-f]{1,8})[uUlL]*\b")
+    return None if found is None else f"{int(found, 16):08X}"
 
 
 def looks_like_c(raw: bytes) -> bool:

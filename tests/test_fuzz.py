@@ -19,7 +19,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from profiles import mc200
+from profiles.alink.formats import parse as alink_parse
 from profiles.errors import StepRampError
+from profiles.mc200.formats import parse as mc200_parse
 from profiles.motor import Motor
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.files import parse_upload
@@ -60,8 +62,12 @@ READERS: dict[str, tuple[str, Callable[[bytes], Any]]] = {
     "upload json": ("upload-json", lambda d: decode_upload(parse_upload(d))),
     "table read": ("table-read", lambda d: decode_table_read(parse_upload(d),
                                                              clock=Clock.internal("8MHz"))),
-    "mc200 hex": ("mc200-hex", lambda d: mc200.decode_stream(d, "host")),
+    "mc200 hex": ("mc200-hex", lambda d: mc200.decode_stream(d.partition(b"#")[0], "host")),
     "mc200 bin": ("mc200-bin", lambda d: mc200.decode_stream(d, "driver")),
+    "mc200 file": ("mc200-c", lambda d: mc200.read_stream(b"".join(mc200_parse(d).items))),
+    "mc200 json": ("mc200-json", lambda d: mc200_parse(d)),
+    "alink text": ("alink-text", lambda d: alink_parse(d)),
+    "alink json": ("alink-json", lambda d: alink_parse(d)),
 }
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import struct
+import zlib
 
 import numpy as np
 import pytest
@@ -328,12 +329,17 @@ def test_render_chunks_match_the_whole_file_formats() -> None:
         return b"".join(M.render_chunks(chunks, fmt, period_us=1000, duration_s=duration,
                                         pulses=1500))
 
-    assert render("bin") == M.encode_stream(packets)
-    assert render("hex").decode() == M.render_hex(packets)
+    payload = M.encode_stream(packets)
+    crc = f"{zlib.crc32(payload):08X}"  # zlib's, independent of stepramp's running CRC
+    assert render("bin") == payload
+    # the hex file of before the formats table, plus the check line
+    assert render("hex").decode() == M.render_hex(packets) + (
+        f"# crc32 {crc}: CRC-32 of the {len(payload)} bytes above\n")
     import json
 
     want = json.dumps({"period_us": 1000, "duration_s": duration, "pulses": 1500,
-                       "packets": [p.encode().hex(" ").upper() for p in packets]}, indent=1)
+                       "packets": [p.encode().hex(" ").upper() for p in packets],
+                       "crc32": crc}, indent=1)
     assert render("json").decode() == want + "\n"
     with pytest.raises(FormatError, match="format"):
         list(M.render_chunks([], "csv", period_us=1000, duration_s=1.0, pulses=1))

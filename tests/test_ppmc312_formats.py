@@ -6,12 +6,17 @@ from __future__ import annotations
 import io
 import json
 import re
-import shutil
-import subprocess
 import zlib
 from pathlib import Path
 
 import pytest
+from file_checks import (
+    assert_one_line_error,
+    compile_and_run,
+    flip_verdicts,
+    flips,
+    needs_cc,
+)
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from intelhex import IntelHex
@@ -204,8 +209,6 @@ def test_comment_cannot_end_early() -> None:
     assert text.count("*/") == 2  # the header comment's end and the guard's #endif comment
 
 
-CC = shutil.which("gcc") or shutil.which("cc")
-
 MAIN_C = r"""
 #include <stdio.h>
 #include "x_axis.h"
@@ -243,19 +246,12 @@ int main(void) {
 """
 
 
-@pytest.mark.skipif(CC is None, reason="no C compiler on this machine")
+@needs_cc
 def test_two_headers_compile_together_and_verify_their_crc(tmp_path: Path) -> None:
-    assert CC is not None
     other = [encode_init(InitTable(CLOCK, "s_curve", 0x2710, 0x190, 0x7D0))]
-    (tmp_path / "x_axis.h").write_bytes(render(BLOCKS, "c", RenderOptions(name="x_axis")))
-    (tmp_path / "y_axis.h").write_bytes(render(other, "c", RenderOptions(name="y_axis")))
-    (tmp_path / "main.c").write_text(MAIN_C)
-    exe = tmp_path / "replay"
-    build = subprocess.run([CC, "-std=c99", "-Wall", "-Wextra", "-Werror", "-o", str(exe),
-                            str(tmp_path / "main.c")], capture_output=True, text=True,
-                           timeout=60)
-    assert build.returncode == 0, build.stderr
-    out = subprocess.run([str(exe)], capture_output=True, text=True, timeout=10)
+    out = compile_and_run(tmp_path, {"x_axis.h": render(BLOCKS, "c", RenderOptions(name="x_axis")),
+                                     "y_axis.h": render(other, "c", RenderOptions(name="y_axis"))},
+                          MAIN_C)
     assert out.returncode == 0, out.returncode  # 3/4: a CRC constant the C code disagrees with
     x, y = out.stdout.split("--\n")
     assert x.splitlines() == [b.hex(" ").upper() for b in BLOCKS]
@@ -309,10 +305,7 @@ def test_binary_ascii_frames_split_at_control_bytes() -> None:
     (b"WCR 20\nWXR 1F\n", "WCR\\|WAR\\|DWR"),
 ])
 def test_parse_errors(data: bytes, words: str) -> None:
-    with pytest.raises(StepRampError, match=words) as err:
-        parse_upload(data)
-    assert isinstance(err.value, DecodeError | FormatError)
-    assert "\n" not in str(err.value)
+    assert_one_line_error(parse_upload, data, words)
 
 
 @SETTINGS
@@ -336,28 +329,14 @@ SAMPLE = [
 ]
 
 
-def _flips(data: bytes) -> list[bytes]:
-    return [data[:i] + bytes([data[i] ^ (1 << bit)]) + data[i + 1:]
-            for i in range(len(data)) for bit in range(8)]
-
-
 @pytest.mark.parametrize("fmt", [f for f in ALL if f != "bin"])
 def test_every_single_bit_flip_is_caught(fmt: str) -> None:
     """Flip each bit of each file in turn: the file is refused (corrupted or malformed)
     or reads back as the same blocks (a flip in a comment, a space, a digit's case);
     never as a different upload."""
-    caught = same = 0
-    for blocks in SAMPLE:
-        if fmt not in formats_for(blocks):
-            continue
-        for data in _flips(render(blocks, fmt, RenderOptions(name="axis"))):
-            try:
-                got = parse(data).items
-            except StepRampError:
-                caught += 1
-                continue
-            assert got == blocks
-            same += 1
+    caught, same = flip_verdicts(((render(b, fmt, RenderOptions(name="axis")), b)
+                                  for b in SAMPLE if fmt in formats_for(b)),
+                                 lambda data: parse(data).items)
     assert caught > same / 2  # many flips hit the bytes (C: more hit its comments, syntax)
 
 
@@ -365,7 +344,7 @@ def test_the_crc_detects_every_single_bit_flip_of_the_payload() -> None:
     for blocks in SAMPLE:
         payload = b"".join(blocks)
         good = crc32(payload)
-        assert all(crc32(flipped) != good for flipped in _flips(payload))
+        assert all(crc32(flipped) != good for flipped in flips(payload))
 
 
 def test_bin_has_no_check_a_flip_reads_as_another_table() -> None:

@@ -1,6 +1,7 @@
 """Judging one file as `stepramp check` does: a table file, or an upload file asked
 first what the chip would answer, then the chip rules and (with a motor) the
-stall criterion. One `FileResult` per file; a file that cannot be read as a
+stall criterion; an MC-200 stream or A-Link settings file by its device's rules
+(verify/device_checks.py). One `FileResult` per file; a file that cannot be read as a
 table is a result with `error` set, never an exception."""
 
 from __future__ import annotations
@@ -34,6 +35,9 @@ def check_file(path: str, motor: Motor | None = None, extck_hz: float | None = N
     from verify.checks import check_table
 
     try:
+        device = _device_result(path, motor is not None)
+        if device is not None:
+            return device
         table, chip_findings = load_checkable(path, extck_hz)
         findings = list(chip_findings)
         notes: list[str] = []
@@ -67,6 +71,29 @@ def check_file(path: str, motor: Motor | None = None, extck_hz: float | None = N
     findings = dedupe(findings)
     ok = not any(f.severity == "error" for f in findings)
     return FileResult(path=path, ok=ok, findings=findings, notes=notes, details=details)
+
+
+def _device_result(path: str, motor: bool) -> FileResult | None:
+    """The result for an MC-200 stream or A-Link settings file (None for the others)."""
+    from profiles.mc200.formats import STREAM_FILE_MAX_BYTES
+    from profiles.reading import MAX_INPUT_BYTES, read_bytes
+    from verify.device_checks import check_device_file
+
+    # MC-200 streams may be longer than other inputs: read up to their cap, and hold
+    # every other file to the usual one (as load_checkable would).
+    raw = read_bytes(path, limit=STREAM_FILE_MAX_BYTES)
+    found = check_device_file(raw, path)
+    if found is None:
+        if len(raw) > MAX_INPUT_BYTES:
+            read_bytes(path)  # the usual one-line "more than … bytes" error
+        return None
+    device, findings = found
+    names = {"mc200": "MC-200 stream", "alink": "A-Link settings"}
+    notes = [f"{names[device]} file"] + (
+        ["--motor judges PPMC-312 tables only: not this file's stall safety"] if motor else [])
+    findings = dedupe(findings)
+    return FileResult(path=path, ok=not any(f.severity == "error" for f in findings),
+                      findings=findings, notes=notes)
 
 
 def stall_findings(table: FreeCurveTable, motor: Motor, *, pulses: Iterable[int] | None = None,

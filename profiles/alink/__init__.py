@@ -2,7 +2,8 @@
 
 - `model`: speeds, the multiplier, settings the unit runs unchanged, the move-time model;
 - `planner`: the fastest stall-safe settings for a motor (`plan_settings`);
-- `codec`: command words, responses and the memory map, each described once as a Frame.
+- `codec`: command words, responses and the memory map, each described once as a Frame;
+- `formats`: settings files (text, json, hex, c) with their CRC-32, read back.
 
 Every public name is importable from `profiles.alink` directly.
 """
@@ -23,7 +24,6 @@ from .codec import (
     READBACK_FRAME,
     READBACK_STATUS_BITS,
     RESPONSE_FRAME,
-    SETTINGS_FORMATS,
     STATUS_BITS,
     AlinkResponse,
     Cmd,
@@ -33,16 +33,18 @@ from .codec import (
     PairCode,
     command_address,
     command_name,
+    command_rows,
     decode_nak_cause,
     decode_response,
     form,
     next_pair,
     parse_command,
-    render_settings,
     settings_commands,
     settings_document,
+    settings_from_commands,
     status_address,
 )
+from .formats import SETTINGS_FORMATS, render_settings
 from .model import (
     BANDS_BY_HIGH,
     BANDS_BY_MAX,
@@ -117,6 +119,7 @@ __all__ = [
     "accel_pps2",
     "command_address",
     "command_name",
+    "command_rows",
     "decode_nak_cause",
     "decode_response",
     "form",
@@ -131,6 +134,7 @@ __all__ = [
     "render_settings",
     "settings_commands",
     "settings_document",
+    "settings_from_commands",
     "status_address",
     "unit_applies",
 ]

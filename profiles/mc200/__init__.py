@@ -3,9 +3,10 @@
 - `codec`: the checksum, one Frame per packet layout, `HostPacket` / `DriverPacket`,
   byte streams (encode, hex, decode);
 - `model`: the host's sequences (servo on/off, mode switch, SPI-error reset) and
-  `DriverModel`, the driver's reading of them;
+  `DriverModel`, the driver's reading of them (`read_stream`: a whole stream);
 - `stream`: streaming a move, lazily (`stream_chunks`, `render_chunks`), with
-  `stream_move` / `stream_bytes` for small moves, and `ruckig_profile`.
+  `stream_move` / `stream_bytes` for small moves, and `ruckig_profile`;
+- `formats`: the stream files (hex, bin, json, c, ihex) with their CRC-32, read back.
 
 Every public name is importable from `profiles.mc200` directly.
 """
@@ -37,7 +38,9 @@ from .model import (
     SERVO_ON_COUNT,
     DriverModel,
     DriverState,
+    StreamReading,
     mode_switch,
+    read_stream,
     servo_off,
     servo_on,
     spi_error_reset,
@@ -91,6 +94,7 @@ __all__ = [
     "Mode",
     "PositionFn",
     "StreamFormat",
+    "StreamReading",
     "ValueKind",
     "checksum",
     "checksums",
@@ -102,6 +106,7 @@ __all__ = [
     "mode_switch",
     "packet_count",
     "plan_stream",
+    "read_stream",
     "render_chunks",
     "render_hex",
     "render_stream",

@@ -4,7 +4,8 @@
 jerk-limited move); `stream_chunks` yields the packets of a move as bytes, a
 chunk at a time, so a stream of millions of packets never sits in memory (issue
 13: a 4 M-pulse stream stays far below 200 MB); `render_chunks` turns them into
-the hex, bin or json file text, also a chunk at a time. `stream_move`,
+a file of the stream's format table (`formats`: hex, bin, json, c, ihex), also a
+chunk at a time. `stream_move`,
 `plan_stream` (packet objects), `stream_bytes` (all bytes) and `render_stream`
 are conveniences for small moves.
 
@@ -14,16 +15,18 @@ it, ending exactly at the target.
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from typing import TYPE_CHECKING, Literal
+from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import FieldRangeError, FormatError, require_int, require_number
+from ..formats import RenderOptions
 from ..progress import report
-from .codec import PACKET_SIZE, HostPacket, encode_positions, encode_stream, hex_lines
+from .codec import PACKET_SIZE, HostPacket, encode_positions, encode_stream
+from .formats import FORMATS
 from .model import SEQUENCE_MAX, mode_switch, servo_on
 
 if TYPE_CHECKING:
@@ -37,8 +40,8 @@ MAX_STREAM_PACKETS = 20_000_000
 HOLD_PACKETS_MIN = 5
 CHUNK_PACKETS = 1 << 16  # 786 kB of packets per chunk: memory is this, not the move
 OBJECT_CHUNK_PACKETS = 20_000  # packet objects encoded between progress reports (~0.3 s)
-StreamFormat = Literal["hex", "bin", "json"]
-STREAM_FORMATS: tuple[StreamFormat, ...] = ("hex", "bin", "json")
+StreamFormat = str  # a name of `formats.FORMATS` (hex, bin, json, c, ihex; text = hex)
+STREAM_FORMATS: tuple[str, ...] = FORMATS.names
 
 
 def stream_profile(pulses: int, *, motor: Motor | None = None, v_max_pps: float | None = None,
@@ -189,47 +192,31 @@ def sample_positions(position_at: PositionFn, duration_s: float, pulses: int,
     return np.concatenate(list(iter_positions(position_at, duration_s, pulses, period_s)))
 
 
-def render_chunks(chunks: Iterable[bytes], fmt: StreamFormat, *, period_us: float,
-                  duration_s: float, pulses: int) -> Iterator[bytes]:
-    """A stream file, a chunk at a time: `bin` (the packets), `hex` (one packet per
-    line, as `render_hex`) or `json` (the same text `json.dumps(…, indent=1)` gives for
-    {"period_us", "duration_s", "pulses", "packets": [hex lines]})."""
-    if fmt == "bin":
-        yield from chunks
-        return
-    if fmt == "hex":
-        for chunk in chunks:
-            yield hex_lines(chunk).encode()
-        return
-    if fmt != "json":
-        raise FormatError(f"format: {fmt!r} is not one of {', '.join(STREAM_FORMATS)}")
-    head = json.dumps({"period_us": period_us, "duration_s": duration_s, "pulses": pulses},
-                      indent=1)
-    yield (head[:-2] + ',\n "packets": [').encode()
-    sep = "\n"
-    for chunk in chunks:
-        if not chunk:
-            continue
-        rows = hex_lines(chunk).splitlines()
-        yield (sep + ",\n".join(f'  "{r}"' for r in rows)).encode()
-        sep = ",\n"
-    yield ("\n ]\n}\n" if sep != "\n" else "]\n}\n").encode()
+def render_chunks(chunks: Iterable[bytes], fmt: str, *, period_us: float,
+                  duration_s: float, pulses: int,
+                  options: RenderOptions | None = None) -> Iterator[bytes]:
+    """A stream file, a chunk at a time, in any format of the stream's format table
+    (`profiles.mc200.formats`: hex, bin, json, c, ihex), the move's period, duration
+    and length in the JSON document; `options` names the C symbols, the Intel HEX
+    address and the provenance. The format is checked before the first chunk."""
+    header = {"period_us": period_us, "duration_s": duration_s, "pulses": pulses}
+    return FORMATS.render_chunks(chunks, fmt, replace(options or RenderOptions(),
+                                                      header=header))
 
 
 def render_stream(packets: Sequence[HostPacket], fmt: str, *, period_us: float,
                   duration_s: float, pulses: int,
                   progress: Progress | None = None) -> str | bytes:
     """`render_chunks` of packet objects, whole (small moves): bytes for `bin`, text for
-    `hex` and `json`. `progress` hears (packets encoded, packets)."""
+    the others. `progress` hears (packets encoded, packets)."""
     from ..progress import chunks
 
-    if fmt not in STREAM_FORMATS:
-        raise FormatError(f"format: {fmt!r} is not one of {', '.join(STREAM_FORMATS)}")
+    FORMATS.get(fmt)  # a bad format fails before any packet is encoded
     parts = (encode_stream(packets[r.start:r.stop])
              for r in chunks(len(packets), OBJECT_CHUNK_PACKETS, progress))
-    data = b"".join(render_chunks(parts, fmt, period_us=period_us,  # type: ignore[arg-type]
-                                  duration_s=duration_s, pulses=pulses))
-    return data if fmt == "bin" else data.decode()
+    data = b"".join(render_chunks(parts, fmt, period_us=period_us, duration_s=duration_s,
+                                  pulses=pulses))
+    return data if FORMATS.get(fmt).binary else data.decode()
 
 
 def packet_count(duration_s: float, period_us: float, hold_packets: int = 10) -> int:

@@ -35,7 +35,10 @@ from ..formats import (
     Provenance,
     RenderOptions,
     c_comment,
+    c_crc,
     c_name,
+    c_values,
+    content_lines,
     crc_comment,
     crc_hex,
     find_crc_comment,
@@ -74,18 +77,6 @@ def _render_text(blocks: Sequence[bytes], options: RenderOptions) -> bytes:
     return ("\n".join(lines) + "\n").encode("ascii")
 
 
-def _content_lines(raw: bytes) -> tuple[list[tuple[int, str]], list[str]]:
-    """(line number, content) of every line with content, and the `#` comments."""
-    lines, comments = [], []
-    for number, line in enumerate(text_of(raw).splitlines(), start=1):
-        content, _, comment = line.partition("#")
-        if comment:
-            comments.append(comment)
-        if content.strip():
-            lines.append((number, content))
-    return lines, comments
-
-
 def _with_crc_comment(blocks: list[bytes], comments: list[str], fmt: str) -> Parsed[bytes]:
     integrity, detail = verify_crc(b"".join(blocks), find_crc_comment(comments),
                                    "the crc32 comment")
@@ -93,7 +84,7 @@ def _with_crc_comment(blocks: list[bytes], comments: list[str], fmt: str) -> Par
 
 
 def _parse_text(raw: bytes) -> Parsed[bytes]:
-    lines, comments = _content_lines(raw)
+    lines, comments = content_lines(raw)
     blocks = [hex_bytes(content, f"line {number}") for number, content in lines]
     if not blocks:
         raise DecodeError("the upload file holds no blocks (only blanks and comments)")
@@ -204,7 +195,6 @@ def _render_c(blocks: Sequence[bytes], options: RenderOptions) -> bytes:
 
 
 _C_ARRAY = re.compile(r"\b([A-Za-z][A-Za-z0-9_]*)_block_(\d+)\s*\[\s*\]\s*=\s*\{([^}]*)\}")
-_C_CRC = re.compile(r"#define\s+([A-Za-z][A-Za-z0-9_]*)_CRC32\s+0x([0-9A-Fa-f]{1,8})[uUlL]*\b")
 _C_COUNT = re.compile(r"#define\s+([A-Za-z][A-Za-z0-9_]*)_BLOCK_COUNT\s+(\d+)\b")
 
 
@@ -221,16 +211,7 @@ def _parse_c(raw: bytes) -> Parsed[bytes]:
             raise DecodeError(f"{prefix}_block_{index}: one header holds one upload (symbols "
                               f"{name}_…)")
         where = f"{prefix}_block_{index}"
-        tokens = [t.strip() for t in body.split(",") if t.strip()]
-        values = []
-        for t in tokens:
-            try:
-                value = int(t, 0)
-            except ValueError:
-                raise DecodeError(f"{where}: {t!r} is not a C integer") from None
-            if not 0 <= value <= 0xFF:
-                raise DecodeError(f"{where}: {t} is not a byte (0..0xFF)")
-            values.append(value)
+        values = c_values(body, where, 0xFF)
         if int(index) in found:
             raise DecodeError(f"{where} is declared twice")
         found[int(index)] = bytes(values)
@@ -242,10 +223,7 @@ def _parse_c(raw: bytes) -> Parsed[bytes]:
         if m.group(1) == name.upper() and int(m.group(2)) != len(blocks):
             raise CorruptedError(f"{m.group(1)}_BLOCK_COUNT is {m.group(2)}, the header holds "
                                  f"{len(blocks)} blocks")
-    claimed = None
-    for m in _C_CRC.finditer(text):
-        if m.group(1) == name.upper():
-            claimed = f"{int(m.group(2), 16):08X}"
+    claimed = c_crc(text, name.upper())
     integrity, detail = verify_crc(b"".join(blocks), claimed, f"{name.upper()}_CRC32")
     return Parsed(blocks, "c", integrity, detail)
 
@@ -299,7 +277,7 @@ def _parse_bus(raw: bytes) -> Parsed[bytes]:
     """Blocks from register writes: each block is WCR 20, WAR 20 − size, then its bytes
     written to DWR last byte first (manual §5-6)."""
     writes: list[tuple[int, str, int]] = []
-    lines, comments = _content_lines(raw)
+    lines, comments = content_lines(raw)
     for number, content in lines:
         parts = content.split()
         if len(parts) != 2 or parts[0] not in ("WCR", "WAR", "DWR"):

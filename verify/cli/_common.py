@@ -166,38 +166,61 @@ def version() -> str:
     return tool_version()
 
 
-def add_file_format_options(parser: argparse.ArgumentParser) -> None:
-    """--format, --name and --base-address for the commands that write PPMC-312 upload
-    files (the formats of `profiles.ppmc312.formats`)."""
-    from profiles.ppmc312.formats import FORMATS
+def add_file_format_options(parser: argparse.ArgumentParser, formats: Any = None, *,
+                            default: str = "text", c_default: str = "stepramp") -> None:
+    """--format, --name and (formats with ihex) --base-address for the commands that
+    write files of a format table (`profiles.formats.FormatTable`; default the PPMC-312
+    upload's, `profiles.ppmc312.formats`)."""
+    if formats is None:
+        from profiles.ppmc312.formats import FORMATS as formats
 
-    described = "; ".join(f"{f.name}: {f.description}" for f in FORMATS.formats.values())
-    parser.add_argument("--format", choices=FORMATS.names, default=None,
-                        help=f"file format ({described}; hex is text's old name). Default: "
-                             "from OUT's extension (.bin, .ihex, .h, .json, .bus; .hex is "
-                             "text), else text")
+    described = "; ".join(f"{f.name}: {f.description}" for f in formats.formats.values())
+    extensions = ", ".join(f"{'/'.join(f.extensions)} {f.name}"
+                           for f in formats.formats.values())
+    aliases = "".join(f"; {a} is {t}'s other name" for a, t in formats.aliases.items())
+    parser.add_argument("--format", choices=formats.names, default=None,
+                        help=f"file format ({described}{aliases}). Default: from OUT's "
+                             f"extension ({extensions}), else {default}")
     parser.add_argument("--name", metavar="PREFIX",
                         help="with --format c: prefix of the include guard and every symbol, "
-                             "a C identifier (default: from OUT's file name, else stepramp)")
-    parser.add_argument("--base-address", type=positive_int, default=0, metavar="ADDR",
-                        help="with --format ihex: address of the first byte, 0..0xFFFFFFFF "
-                             "(default 0)")
+                             "a C identifier (default: from OUT's file name, else "
+                             f"{c_default})")
+    if "ihex" in formats.formats:
+        parser.add_argument("--base-address", type=positive_int, default=0, metavar="ADDR",
+                            help="with --format ihex: address of the first byte, "
+                                 "0..0xFFFFFFFF (default 0)")
+
+
+def file_format(args: argparse.Namespace, formats: Any, provenance: Any, *,
+                default: str = "text", c_default: str = "stepramp") -> tuple[str, Any]:
+    """The format the options (or OUT's extension) ask for and its `RenderOptions`;
+    --name and --base-address are refused for formats they do not apply to."""
+    from profiles.errors import FormatError
+    from profiles.formats import RenderOptions, c_name_for
+
+    fmt = formats.get(args.format or getattr(formats.for_path(args.output), "name",
+                                             default)).name
+    base_address = getattr(args, "base_address", 0)
+    if args.name is not None and fmt != "c":
+        raise FormatError(f"--name names the symbols of a C header; the format is {fmt}")
+    if base_address and fmt != "ihex":
+        raise FormatError(f"--base-address places Intel HEX data; the format is {fmt}")
+    options = RenderOptions(name=args.name if args.name is not None
+                            else c_name_for(args.output, c_default),
+                            base_address=base_address, provenance=provenance)
+    return fmt, options
+
+
+def command_line(args: argparse.Namespace) -> str:
+    """The command line that ran, for the provenance a file carries."""
+    return "stepramp " + " ".join(shlex.quote(a) for a in getattr(args, "argv", []))
 
 
 def render_upload(args: argparse.Namespace, blocks: list[bytes], table: Any = None,
                   motor: str | None = None) -> bytes:
     """The upload file the format options ask for, with its provenance."""
-    from profiles.errors import FormatError
-    from profiles.formats import RenderOptions, c_name_for
     from profiles.ppmc312.formats import FORMATS, provenance
 
-    fmt = FORMATS.get(args.format or getattr(FORMATS.for_path(args.output), "name", "text")).name
-    if args.name is not None and fmt != "c":
-        raise FormatError(f"--name names the symbols of a C header; the format is {fmt}")
-    if args.base_address and fmt != "ihex":
-        raise FormatError(f"--base-address places Intel HEX data; the format is {fmt}")
-    command = "stepramp " + " ".join(shlex.quote(a) for a in getattr(args, "argv", []))
-    options = RenderOptions(name=args.name if args.name is not None else c_name_for(args.output),
-                            base_address=args.base_address,
-                            provenance=provenance(table, command=command, motor=motor))
+    fmt, options = file_format(args, FORMATS, provenance(table, command=command_line(args),
+                                                         motor=motor))
     return FORMATS.render(blocks, fmt, options)

@@ -5,7 +5,15 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ._common import EXIT_OK, fields_as_options, number, positive_int
+from ._common import (
+    EXIT_OK,
+    add_file_format_options,
+    command_line,
+    fields_as_options,
+    file_format,
+    number,
+    positive_int,
+)
 
 # Settings given by hand are checked field by field: the user typed these options.
 EXPLICIT = {"start_pps": "--start-pps", "high_pps": "--high-pps",
@@ -14,6 +22,8 @@ ADDRESSING = {"slave_address": "--address", "axis": "--axis", "pulses": "--pulse
 
 
 def add_subparser(sub: Any) -> None:
+    from profiles.alink.formats import C_NAME_DEFAULT, FORMATS
+
     alink = sub.add_parser("alink", help="A-Link ALUM settings and command words")
     asub = alink.add_subparsers(dest="alink_command", required=True, metavar="COMMAND")
     s = asub.add_parser("settings", help="settings (and their command words) for a move")
@@ -33,10 +43,18 @@ def add_subparser(sub: Any) -> None:
                    help="axis of the 2-axis unit (default 0)")
     s.add_argument("--duplex", choices=("full", "half"), default="full",
                    help="link duplex, sets the memory map (default full)")
-    s.add_argument("--format", choices=("text", "json", "hex", "c"), default="text",
-                   help="output format (default text)")
+    add_file_format_options(s, FORMATS, default="text", c_default=C_NAME_DEFAULT)
     s.add_argument("-o", "--output", metavar="OUT", help="write the output here (default stdout)")
     s.set_defaults(func=_do_settings)
+
+    r = asub.add_parser("read", help="read a settings file back (any format of alink "
+                                     "settings): its settings and commands")
+    r.add_argument("file", metavar="FILE",
+                   help="a settings file: text, json, hex or c, told apart by content; its "
+                        "CRC-32 is verified")
+    r.add_argument("--format", choices=("text", "json"), default="text",
+                   help="output format (default text)")
+    r.set_defaults(func=_do_read)
 
     d = asub.add_parser("decode", help="decode a status/DATA1/DATA2 triple")
     d.add_argument("words", nargs=3, metavar="WORD", help="16-bit words, hex (0x…) or decimal")
@@ -51,7 +69,9 @@ def add_subparser(sub: Any) -> None:
 
 def _do_settings(args: argparse.Namespace) -> int:
     from profiles import alink
+    from profiles.alink.formats import C_NAME_DEFAULT, FORMATS
     from profiles.errors import FormatError
+    from profiles.formats import Provenance
     from verify.output import write_output
 
     explicit = (args.start_pps, args.high_pps, args.accel_ms_per_kpps)
@@ -92,8 +112,46 @@ def _do_settings(args: argparse.Namespace) -> int:
     with fields_as_options(ADDRESSING):
         commands = alink.settings_commands(settings, slave_address=args.address,
                                            axis=args.axis, duplex=args.duplex)
+    fmt, options = file_format(args, FORMATS, Provenance(command_line(args)), default="text",
+                               c_default=C_NAME_DEFAULT)
     doc = alink.settings_document(settings, commands, summary=summary, warnings=warnings)
-    write_output(args.output, alink.render_settings(doc, args.format))
+    write_output(args.output, alink.render_settings(doc, fmt, options))
+    return EXIT_OK
+
+
+def _do_read(args: argparse.Namespace) -> int:
+    import sys
+
+    from profiles.alink import settings_from_commands
+    from profiles.alink.formats import document, parse
+    from profiles.errors import StepRampError
+    from profiles.reading import json_text, read_bytes
+    from verify.output import write_output
+
+    parsed = parse(read_bytes(args.file), args.file)  # a failed check: "corrupted: …"
+    if parsed.integrity != "verified":
+        print(f"stepramp alink: warning: {args.file}: {parsed.detail}", file=sys.stderr)
+    doc = document(parsed.items)
+    if args.format == "json":
+        write_output(None, json_text(doc))
+        return EXIT_OK
+    if "multiplier" in doc:
+        lines = [f"settings: start {doc['start_pps']} pps, high {doc['high_pps']} pps, "
+                 f"MAX_SPEED {doc['max_pps'] or 'not set'}, multiplier ×{doc['multiplier']}, "
+                 f"UP_TIME para {doc['up_time_para']} ({doc['accel_ms_per_kpps']:g} ms/kpps = "
+                 f"{doc['accel_pps2']:.6g} pps²), {'S-curve' if doc['s_curve'] else 'linear'}"]
+    else:
+        try:  # why the commands program no settings the unit runs as given
+            settings_from_commands(parsed.items)
+            why = "?"  # pragma: no cover - document() found none
+        except StepRampError as e:
+            why = str(e)
+        lines = [f"settings: none the unit runs as given ({why}; stepramp check says more)"]
+    lines += [f"{c.name:10s} func {c.func:2d} para {c.para:8d}  pair {c.pair}  "
+              + " ".join(f"0x{w:04X}" for w in c.words)
+              + ("" if c.address is None else f"  at 0x{c.address:03X}")
+              for c in parsed.items]
+    write_output(None, "\n".join(lines) + "\n")
     return EXIT_OK
 
 

@@ -1,0 +1,65 @@
+"""What the format tests of every device share: single-bit flips of a file, the
+one-line parse errors, and compiling C headers with the system's compiler."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+from collections.abc import Callable, Iterable, Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from profiles.errors import DecodeError, FormatError, StepRampError
+
+CC = shutil.which("gcc") or shutil.which("cc")
+needs_cc = pytest.mark.skipif(CC is None, reason="no C compiler on this machine")
+
+
+def flips(data: bytes) -> Iterator[bytes]:
+    """`data` with one bit flipped, for every bit in turn."""
+    for i in range(len(data)):
+        for bit in range(8):
+            yield data[:i] + bytes([data[i] ^ (1 << bit)]) + data[i + 1:]
+
+
+def flip_verdicts(files: Iterable[tuple[bytes, Any]], read: Callable[[bytes], Any]
+                  ) -> tuple[int, int]:
+    """Flip every bit of every (file, what it reads as): each flipped file must be
+    refused or read as the same thing, never as another. (refused, read the same)."""
+    caught = same = 0
+    for data, want in files:
+        for flipped in flips(data):
+            try:
+                got = read(flipped)
+            except StepRampError:
+                caught += 1
+                continue
+            assert got == want
+            same += 1
+    return caught, same
+
+
+def assert_one_line_error(read: Callable[[bytes], Any], data: bytes, words: str) -> None:
+    """`read(data)` raises a one-line DecodeError or FormatError matching `words`."""
+    with pytest.raises(StepRampError, match=words) as err:
+        read(data)
+    assert isinstance(err.value, DecodeError | FormatError)
+    assert "\n" not in str(err.value)
+
+
+def compile_and_run(folder: Path, files: dict[str, bytes], main_c: str
+                    ) -> subprocess.CompletedProcess[str]:
+    """Write the headers and main.c into `folder`, build with every warning an error,
+    run the program; a failed build fails the test with the compiler's message."""
+    assert CC is not None
+    for name, data in files.items():
+        (folder / name).write_bytes(data)
+    (folder / "main.c").write_text(main_c)
+    exe = folder / "replay"
+    build = subprocess.run([CC, "-std=c99", "-Wall", "-Wextra", "-Werror", "-o", str(exe),
+                            str(folder / "main.c")], capture_output=True, text=True,
+                           timeout=60)
+    assert build.returncode == 0, build.stderr
+    return subprocess.run([str(exe)], capture_output=True, text=True, timeout=10)

@@ -1,0 +1,285 @@
+"""`stepramp check`, `mc200 decode` and `alink read` on MC-200 stream and A-Link settings
+files: the device is told by content, the file's check and the device's rules become
+findings, and PPMC-312 files are judged exactly as before."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from profiles import alink as A
+from profiles import mc200 as M
+from profiles.errors import StepRampError
+from profiles.formats import RenderOptions
+from profiles.mc200.formats import render as render_stream
+from profiles.mc200.model import read_stream
+from verify.checking import check_file
+from verify.cli import main
+from verify.device_checks import device_of
+
+SETTINGS = settings(max_examples=60, deadline=None,
+                    suppress_health_check=[HealthCheck.too_slow])
+
+
+def _packets(data: bytes) -> list[bytes]:
+    return [data[i:i + 12] for i in range(0, len(data), 12)]
+
+
+POSITION_AT, DURATION = M.ruckig_profile(600, 8000.0, 8e4, 8e6)
+STREAM = M.stream_bytes(POSITION_AT, DURATION, 600, period_us=2000)
+SETTINGS_COMMANDS = A.settings_commands(A.quantise_settings(500, 10000, 20))
+
+
+def _rules(path: Path) -> list[tuple[str, str]]:
+    result = check_file(str(path))
+    assert result.error is None, result.error
+    return [(f.severity, f.rule) for f in result.findings]
+
+
+# --- the driver's reading of a stream ----------------------------------------------------------
+@st.composite
+def host_sequences(draw: st.DrawFn) -> bytes:
+    """Sequences of servo on/off, mode switches (right, broken, other magic), position
+    commands (runs of plain ones), resets, other driver ids and corrupted packets."""
+    out: list[bytes] = []
+    for _ in range(draw(st.integers(1, 12))):
+        kind = draw(st.sampled_from(["on", "off", "switch", "broken", "run", "reset", "other",
+                                     "bad"]))
+        if kind == "on":
+            out += [p.encode() for p in M.servo_on(0, draw(st.integers(3, 4)),
+                                                   value=draw(st.integers(-5, 5)))]
+        elif kind == "off":
+            out += [p.encode() for p in M.servo_off(0, draw(st.integers(1, 6)) + 4)][
+                :draw(st.integers(1, 6))]
+        elif kind == "switch":
+            out += [p.encode() for p in M.mode_switch(0, draw(st.sampled_from(M.MODES)))]
+        elif kind == "broken":
+            out.append(M.mode_switch(0, "velocity")[0].encode())
+        elif kind == "run":
+            start = draw(st.integers(-1000, 1000))
+            steps = draw(st.lists(st.integers(-3, 5), min_size=1, max_size=20))
+            servo = draw(st.booleans())
+            out += [M.HostPacket(0, servo, 0, start + int(s), "position").encode()
+                    for s in np.cumsum(steps)]
+        elif kind == "reset":
+            out += [p.encode() for p in M.spi_error_reset(0)]
+        elif kind == "other":
+            out.append(M.HostPacket(5, True, 0, 77, "position").encode())
+        else:
+            packet = bytearray(M.HostPacket(0, True, 0, 9, "position").encode())
+            packet[draw(st.integers(0, 11))] ^= 1 << draw(st.integers(0, 7))
+            out.append(bytes(packet))
+    return b"".join(out)
+
+
+@SETTINGS
+@given(host_sequences(), st.none() | st.just(0))
+def test_read_stream_is_the_model_fed_packet_by_packet(data: bytes,
+                                                       driver_id: int | None) -> None:
+    """The run-at-once shortcut changes nothing: the final state equals feeding every
+    packet the Frame accepts through DriverModel, one by one."""
+    model = M.DriverModel(driver_id=driver_id)
+    bad = 0
+    for packet in _packets(data):
+        try:
+            M.HostPacket.decode(packet, mode="position")
+        except StepRampError:
+            bad += 1
+            continue
+        model.consume(packet)
+    reading = read_stream(data, driver_id=driver_id)
+    assert repr(reading.state) == repr(model.state)  # repr: a velocity command may be NaN
+    assert reading.bad_count == bad
+
+
+def test_read_stream_of_a_planned_stream() -> None:
+    r = read_stream(STREAM)
+    assert (r.servo_on_at, r.mode_switches, r.spi_errors, r.reversal_count) == (2, ((4, 1),),
+                                                                                (), 0)
+    assert r.target == 600 and r.hold == 11  # the last command and the 10 hold packets
+
+
+# --- check: MC-200 -------------------------------------------------------------------------------
+def test_check_a_planned_stream_in_every_format(tmp_path: Path) -> None:
+    for fmt in ("hex", "json", "c", "ihex", "bin"):
+        path = tmp_path / f"s.{fmt}"
+        path.write_bytes(render_stream(_packets(STREAM), fmt))
+        assert device_of(path.read_bytes()) == "mc200"
+        want = [("warning", "mc200-unchecked")] if fmt == "bin" else []
+        assert _rules(path) == want, fmt
+        assert main(["check", str(path)]) == 0
+
+
+def test_check_reports_what_the_driver_makes_of_a_stream(tmp_path: Path) -> None:
+    path = tmp_path / "s.bin"
+    flipped = bytearray(STREAM)
+    flipped[12 * 60 + 3] ^= 0x80  # position ±128: passes the packet checksum
+    path.write_bytes(bytes(flipped))
+    assert _rules(path) == [("warning", "mc200-unchecked"),
+                            ("warning", "mc200-position-reversal")]
+
+    flipped[12 * 61 + 4] ^= 0x01  # a flip the packet checksum sees
+    path.write_bytes(bytes(flipped))
+    assert ("error", "mc200-packet") in _rules(path)
+    assert main(["check", str(path)]) == 1
+
+    path.write_bytes(STREAM[:-12 * 8])  # the hold cut short
+    assert _rules(path) == [("warning", "mc200-unchecked"), ("error", "mc200-hold")]
+
+    broken = STREAM[:12 * 3] + M.mode_switch(0, "position")[0].encode() + STREAM[12 * 5:]
+    path.write_bytes(broken)  # the second magic packet missing: SPI error
+    rules = _rules(path)
+    assert ("error", "mc200-spi-error") in rules and ("error", "mc200-hold") in rules
+
+    from dataclasses import replace
+
+    path.write_bytes(b"".join(replace(p, servo=False).encode()  # servo bit never set
+                              for p in M.decode_stream(STREAM)))
+    assert _rules(path) == [("warning", "mc200-unchecked"), ("error", "mc200-servo"),
+                            ("warning", "mc200-servo-off"), ("error", "mc200-hold")]
+
+
+def test_stream_file_corrupted_and_hand_made(tmp_path: Path,
+                                             capsys: pytest.CaptureFixture[str]) -> None:
+    text = render_stream(_packets(STREAM), "hex").decode().splitlines()
+    text[30] = text[30][:-1] + ("1" if text[30][-1] != "1" else "2")
+    bad = tmp_path / "bad.mc200.hex"
+    bad.write_text("\n".join(text) + "\n")
+    assert _rules(bad) == [("error", "mc200-corrupted")]
+    assert main(["check", str(bad)]) == 1
+    capsys.readouterr()
+    assert main(["mc200", "decode", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("stepramp mc200: corrupted: the crc32 comment says CRC-32")
+    assert len(err.splitlines()) == 1
+
+    hand = tmp_path / "hand.mc200.hex"
+    hand.write_text("\n".join(line for line in render_stream(_packets(STREAM), "hex").decode()
+                              .splitlines() if not line.startswith("#")) + "\n")
+    assert _rules(hand) == [("warning", "mc200-unchecked")]
+    assert main(["mc200", "decode", str(hand), "--format", "json"]) == 0
+    out, err = capsys.readouterr()
+    assert len(json.loads(out)["packets"]) == len(STREAM) // 12
+    assert err.startswith(f"stepramp mc200: warning: {hand}: no CRC-32 in the file")
+
+
+def test_mc200_stream_cli_writes_every_format(tmp_path: Path) -> None:
+    args = ["mc200", "stream", "--vmax", "8000", "--amax", "80000", "--jmax", "8000000",
+            "--pulses", "600", "--period-us", "2000"]
+    for name, extra in (("s.h", []), ("s.ihex", ["--base-address", "0x1000"]),
+                        ("s.json", []), ("s.txt", ["--format", "c", "--name", "x_axis"])):
+        path = tmp_path / name
+        assert main([*args, "-o", str(path), *extra]) == 0
+        assert main(["mc200", "decode", str(path)]) == 0
+        assert _rules(path) == []
+    assert b"stepramp mc200 stream --vmax 8000" in (tmp_path / "s.h").read_bytes()
+    assert b"x_axis_packets[X_AXIS_PACKET_COUNT][12]" in (tmp_path / "s.txt").read_bytes()
+    assert main([*args, "--name", "x"]) == 2  # --name is for C
+    assert main([*args, "--base-address", "16", "--format", "hex"]) == 2
+
+
+# --- check: A-Link ------------------------------------------------------------------------------
+def _write(tmp_path: Path, name: str, commands: list[A.Command], fmt: str = "hex") -> Path:
+    from profiles.alink.formats import render
+
+    path = tmp_path / name
+    path.write_bytes(render(commands, fmt))
+    return path
+
+
+def test_check_settings_files(tmp_path: Path) -> None:
+    for fmt in ("text", "json", "hex", "c"):
+        path = _write(tmp_path, f"a.{fmt}", SETTINGS_COMMANDS, fmt)
+        assert device_of(path.read_bytes()) == "alink"
+        assert _rules(path) == [], fmt
+    w = A.CommandWriter()
+    nak = [w.put(A.Cmd.MAX_SPEED, 1, 5000), w.put(A.Cmd.MODE, 0, 5),
+           w.put(A.Cmd.H_SPEED, 1, 8000), w.put(A.Cmd.L_SPEED, 1, 9000),
+           w.put(A.Cmd.UP_TIME, 2, 2001)]
+    assert _rules(_write(tmp_path, "nak.hex", nak)) == [("error", "alink-nak"),
+                                                        ("warning", "alink-corrected")]
+    w = A.CommandWriter()
+    over = [w.put(A.Cmd.MAX_SPEED, 1, 5000), w.put(A.Cmd.MODE, 0, 4),
+            w.put(A.Cmd.H_SPEED, 1, 8000), w.put(A.Cmd.L_SPEED, 1, 500),
+            w.put(A.Cmd.UP_TIME, 2, 2000)]
+    assert _rules(_write(tmp_path, "over.hex", over)) == [("error", "alink-mode"),
+                                                          ("error", "alink-nak")]
+    w = A.CommandWriter()
+    part = [w.put(A.Cmd.H_SPEED, 1, 200_000)]
+    assert _rules(_write(tmp_path, "part.hex", part)) == [("warning", "alink-incomplete")]
+    w = A.CommandWriter()
+    rng = [w.put(A.Cmd.H_SPEED, 1, 200_000), w.put(A.Cmd.L_SPEED, 1, 500),
+           w.put(A.Cmd.UP_TIME, 2, 2000)]
+    assert ("error", "alink-range") in _rules(_write(tmp_path, "range.hex", rng))
+
+
+def test_check_pair_codes(tmp_path: Path) -> None:
+    first, second = SETTINGS_COMMANDS[:2]
+    repeat = A.Command(second.name, second.cmd, second.func, second.para,
+                       tuple(w & 0x3FFF | first.pair << 14 for w in second.words),  # type: ignore[arg-type]
+                       first.pair)
+    noop = A.Command(second.name, second.cmd, second.func, second.para,
+                     tuple(w & 0x3FFF for w in second.words), 0)  # type: ignore[arg-type]
+    assert _rules(_write(tmp_path, "r.hex", [first, repeat])) == [("error", "alink-pair-code"),
+                                                                  ("warning", "alink-incomplete")]
+    assert _rules(_write(tmp_path, "n.hex", [first, noop]))[0] == ("error", "alink-pair-code")
+
+
+def test_alink_read_and_corrupted_settings(tmp_path: Path,
+                                           capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["alink", "settings", "--start-pps", "500", "--high-pps", "10000",
+                 "--accel-ms-per-kpps", "20", "--address", "3", "--format", "json", "-o",
+                 str(tmp_path / "a.json")]) == 0
+    capsys.readouterr()
+    assert main(["alink", "read", str(tmp_path / "a.json"), "--format", "json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["start_pps"] == 500 and doc["commands"][0]["address"] == "0x086"
+    path = _write(tmp_path, "a.h", SETTINGS_COMMANDS, "c")
+    path.write_text(path.read_text().replace("0x4112", "0x4113"))  # L_SPEED → H_SPEED
+    assert _rules(path) == [("error", "alink-corrupted")]
+    assert main(["alink", "read", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("stepramp alink: corrupted: STEPRAMP_ALINK_CRC32 says CRC-32")
+
+
+# --- PPMC-312 files keep priority --------------------------------------------------------------
+@SETTINGS
+@given(st.lists(st.integers(0, 0xFFFF), min_size=2, max_size=20),
+       st.sampled_from(["text", "bin", "ihex", "c", "json", "bus"]), st.integers(3, 30))
+def test_ppmc312_uploads_are_never_claimed(rates: list[int], fmt: str, max_data: int) -> None:
+    from profiles.ppmc312.clock import Clock
+    from profiles.ppmc312.formats import render
+    from profiles.ppmc312.table import FreeCurveTable
+    from profiles.ppmc312.upload import encode_free_curve
+
+    table = FreeCurveTable(Clock.internal("8MHz"), tuple(rates), tuple(range(1, len(rates) + 1)))
+    data = render(encode_free_curve(table, max_data=max_data), fmt,
+                  RenderOptions(name="axis"))
+    assert device_of(data) is None
+
+
+def test_examples_are_told_apart() -> None:
+    root = Path(__file__).resolve().parents[1] / "examples"
+    for path in root.iterdir():
+        want = "mc200" if ".mc200." in path.name else "alink" if ".alink." in path.name else None
+        assert device_of(path.read_bytes()) == want, path
+
+
+@pytest.mark.slow
+def test_a_stream_file_may_be_longer_than_other_inputs(tmp_path: Path) -> None:
+    """A long move's stream passes the 16 MiB every other input is held to (a 4 M-pulse
+    stream's C header is 31 MB); any other file that long is still refused."""
+    from profiles.reading import MAX_INPUT_BYTES
+
+    hold = STREAM[-12:]
+    path = tmp_path / "long.mc200.bin"
+    path.write_bytes(STREAM + hold * ((MAX_INPUT_BYTES - len(STREAM)) // 12 + 10))
+    assert _rules(path) == [("warning", "mc200-unchecked")]
+    other = tmp_path / "long.txt"
+    other.write_bytes(b"02 03 01 00 03\n" * (MAX_INPUT_BYTES // 15 + 1))
+    assert "more than the" in (check_file(str(other)).error or "")
