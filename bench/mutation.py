@@ -13,9 +13,14 @@ equivalent), where `EQUIVALENT` lists, with the reason, each mutant that cannot 
 behaviour. Text inside f-strings (messages) is not mutated: the verdicts, codes and
 numbers are what the tests pin.
 
+Hypothesis never shrinks in a mutant's run (a failing example is enough to kill it).
+
 Usage: python bench/mutation.py [MODULE …] [--timeout S] [--list] [--only N,N]
-(modules: upload, frames, checks, execution; default all). Kept out of the test suite:
-a full run takes minutes.
+(modules: upload, frames, checks, execution, criterion, stall; default all). Kept out of
+the test suite: the full run (1 318 mutants) takes about 16 minutes on a shared 2-core
+machine. Its per-mutant lines (stderr) are kept in bench/results/; scores are
+recomputed from them without running anything:
+    python bench/mutation.py --rescore bench/results/full.log bench/results/full.rerun.log
 """
 
 from __future__ import annotations
@@ -40,55 +45,164 @@ MODULES: dict[str, tuple[str, list[str]]] = {
                ["tests/test_ppmc312_upload.py", "tests/test_ppmc312_frames.py"]),
     "frames": ("profiles.ppmc312.frames",
                ["tests/test_ppmc312_frames.py", "tests/test_ppmc312_upload.py"]),
-    "checks": ("verify.checks", ["tests/test_checks.py"]),
+    "checks": ("verify.checks", ["tests/test_checks.py", "tests/test_checks_pins.py"]),
     "execution": ("profiles.ppmc312.execution", [
         "tests/test_execution.py",
         "tests/test_every_move.py::test_families_partition_every_length_and_fix_the_segment_rates"]),
+    "criterion": ("profiles.ppmc312.criterion", [
+        "tests/test_criterion_pins.py", "tests/test_stall.py",
+        "tests/test_every_move.py::test_a_downward_switch_is_caught_and_named_by_its_shortest_move",
+        "tests/test_every_move.py::test_all_length_verdict_equals_brute_force"]),
+    "stall": ("verify.stall", [
+        "tests/test_stall.py", "tests/test_stall_pins.py",
+        "tests/test_every_move.py::test_a_downward_switch_is_caught_and_named_by_its_shortest_move"]),
 }
 
 # (module key, line, mutation) → why the mutant cannot change what the module does.
+# Keyed by line: re-check the keys when a module's lines move (a stale key is reported
+# as SURVIVED, never silently kept). The checks entries follow verify/checks.py as of
+# the lazy finding messages (main 45fab7f).
+_PREFIX_LEN = ("every parameter-block prefix (header, length) is 2 bytes whatever header "
+               "and length it is built for: n is 2 either way")
+_UNUSED_CLIP_TOP = ("idx = searchsorted(side='right') − 1 is at most len − 1 (the clip's top "
+                    "never acts: max(…, 0) only matters without segments, where every caller "
+                    "returns before using idx); its bottom only acts for t < 0 (idx −1), "
+                    "which every caller masks (position 0, speed 0, accel 0)")
+_BEFORE_START = ("within < 0 only for t < 0 (the segment found starts after t), and the next "
+                 "line maps every t ≤ 0 to 0")
+_AT_ZERO = ("for ticks in (−1, 0] the segment is the first and ⌊ticks / rate⌋ is clipped to "
+            "0: the position is 0 without the mask")
+_AT_END = ("at ticks == the move's ticks the last segment's own formula gives all its pulses "
+           "(before + count = pulses): the mask changes nothing there")
+_MERGED = ("breakpoints past a_total + d_total + 1 are all trapezoids with a cruise, the same "
+           "segment rates: move_families merges them into the last family")
+_RATE_DIFF_KNOWN = "the extra breakpoint c + 1 = rate_diff it lets in is already in the set"
+_ONE_STAGE = "a single stage has no partial sums from its slow end either way (counts[:-1] empty)"
+_EMPTY_SIDE = "_up/_down of an empty side is empty whatever the count"
+_NO_SHARED = ("a_sh + d_sh = 0 makes a_total + d_total = rate_diff, so the trapezoid branch "
+              "takes every move that reaches this line: the else value is never used")
+_LEVEL = ("_no_accel gets the cruise rate, already ≥ the high rate > acc[-2] rate: its max with "
+          "acc[-2]'s rate, and (rates ascending, as the chip runs them) with acc[0]'s rate or "
+          "the slowest stage's index, is the cruise rate unchanged")
+_ZERO_CRUISE = "a 0-pulse cruise is dropped by runs(): the same segments"
+_COUNT_ZERO = "with count 0 the loop only skips stages (take 0): the same plan, a little later"
+_TAKE_EQUAL = "p == count gives take = p = count either way"
+_CHUNK = "the chunk size only cuts the text into pieces; pulse_times_csv joins them"
+_CRUISE_LEN = ("the trapezoid judged runs the same stages with the same dwell counts whatever "
+               "its cruise (0, 1, 2 or 0xFFFFFFFF − a − d pulses): the cruise sits at the top "
+               "rate, a step of 0 on both sides")
+_INNER_GUARD = ("the inner where only keeps 0 out of the divisor where the outer where picks "
+                "inf anyway (need is never negative); the outer one's mutants are killed by "
+                "test_a_repeated_speed_has_no_step_and_an_infinite_margin")
 _SORT_GUARD = "the guard only skips sorting a list of 0 or 1 findings, already in order"
 _KEY_NONE = ("the third key element of a finding without a stage is only ever compared with "
              "another such finding's (the second element separates them from staged ones)")
 _PREFILTER = ("a pre-filter before the exact per-stage test: entering the loop more often "
               "finds nothing more")
-_NO_ACCEL_LEVEL = ("_no_accel is always handed the cruise rate, already max(high rate, start "
-                   "rate) (_sides): its own max with the start rate changes nothing")
+_SIDE_IN_RATES = ("a side never has more stages than there are rates (FreeCurveTable refuses "
+                  "it): i < len(rates) always and the else value is never used")
+_AT_TENTH = ("the candidate test differs only at equality, where the neighbours' mean is "
+             "exactly 10·t and the exact test refuses the stage anyway: 0.1 · (10·t) rounds "
+             "to t (0.1's float error is 5.6e-17 relative, under half an ulp), and t < t is "
+             "false")
 EQUIVALENT: dict[tuple[str, int, str], str] = {
-    ("checks", 75, "1 → 0"): _SORT_GUARD,
-    ("checks", 75, "> → >="): _SORT_GUARD,
-    ("checks", 81, "1 → 2"): _KEY_NONE,
-    ("checks", 81, "1 → 0"): _KEY_NONE,
-    ("checks", 112, "< → <="): "the branch runs only when the two counts differ",
-    ("checks", 113, "<= → <"): ("n_short is the shorter side's count and rates has the "
-                                "longer side's: n_short < len(rates) whenever this runs"),
-    ("checks", 125, "1 → 2"): _PREFILTER,
-    ("checks", 125, "> → >="): _PREFILTER,
-    ("checks", 136, "1 → 0"): _PREFILTER + " (rates[0:] makes the all() false always)",
-    ("checks", 149, "1 → 2"): _PREFILTER,
-    ("checks", 156, "> → >="): _PREFILTER,
-    ("checks", 170, "< → <="): _PREFILTER,
-    ("execution", 141, "4 → 3"): ("t = k / hz round-trips to within 2 ulps (the comment "
-                                   "above it): 3 and 4 ulps snap the same instants"),
-    ("execution", 143, "0 → -1"): ("only an execution without segments reaches -1, and "
-                                   "every caller returns before using the index then"),
-    ("checks", 209, "0 → -1"): ("stage 0's neighbour mean is never used: stage 0 is exempt "
-                                 "from the short-stage rule"),
-    ("execution", 297, "min → max"): ("breakpoints past the trapezoid's first length give "
-                                       "the same segment rates: move_families merges them"),
-    ("execution", 153, "0 → -1"): ("for ticks in (−1, 0] the clip to [0, count] already "
-                                    "gives position 0"),
-    ("execution", 181, "0 → 1"): "only an execution without segments returns there",
-    ("execution", 181, "0 → -1"): "only an execution without segments returns there",
-    ("execution", 273, "<= → <"): ("no breakpoint of a move that cannot accelerate reaches "
+    ("frames", 104, "1 → 0"): ("RESPONSE_HEADER is used one byte at a time through "
+                               "pack_int/unpack_int, which never read its size"),
+    ("frames", 104, "1 → 2"): ("RESPONSE_HEADER is used one byte at a time through "
+                               "pack_int/unpack_int, which never read its size"),
+    ("upload", 119, "0 → 1"): _PREFIX_LEN,
+    ("upload", 119, "1 → 2"): _PREFIX_LEN,
+    ("upload", 215, "0 → 1"): _PREFIX_LEN,
+    ("upload", 215, "1 → 2"): _PREFIX_LEN,
+    ("upload", 155, "0 → 1"): ("accel_stages is ≥ 1 (the command frame's lo=1): max with 1 "
+                               "or −1 for an LE=0 table is accel_n unchanged"),
+    ("upload", 155, "0 → -1"): ("accel_stages is ≥ 1 (the command frame's lo=1): max with 1 "
+                                "or −1 for an LE=0 table is accel_n unchanged"),
+    ("upload", 218, "0 → 1"): ("need is count · size minus whole entries, a multiple of the "
+                               "entry size (2 or 3): need > 1 is need > 0"),
+    ("execution", 134, "0 → -1"): _UNUSED_CLIP_TOP,
+    ("execution", 134, "1 → 0"): _UNUSED_CLIP_TOP,
+    ("execution", 134, "0 → 1"): _UNUSED_CLIP_TOP,
+    ("execution", 142, "0 → -1"): _BEFORE_START,
+    ("execution", 144, "0 → -1"): _AT_ZERO,
+    ("execution", 144, "<= → <"): _AT_ZERO,
+    ("execution", 145, ">= → >"): _AT_END,
+    ("execution", 153, "0 → -1"): _BEFORE_START,
+    ("execution", 155, "0 → -1"): _AT_ZERO,
+    ("execution", 155, "<= → <"): _AT_ZERO,
+    ("execution", 156, ">= → >"): _AT_END,
+    ("execution", 185, "0 → -1"): "sample's instants are linspace(0, duration): never t < 0",
+    ("execution", 185, "< → <="): ("the last sample (t = duration) lies in the last segment, "
+                                   "whose slope is 0 by definition"),
+    ("execution", 279, "> → >="): ("a stage at exactly the level rate joins the tail only as "
+                                   "its fastest stage: it adds breakpoints (tail total + its "
+                                   "pulses, + 1) of no effect, merged by move_families, and "
+                                   "drops none that matter (the tail total itself is a "
+                                   "boundary only when its fastest stage has 1 pulse, and then "
+                                   "it is also c + 1 of the partial sums)"),
+    ("execution", 283, "<= → <"): ("no breakpoint of a move that cannot accelerate reaches "
                                    "0xFFFFFFFF: its decel tail holds at most 127 × 0xFFFFFF "
                                    "pulses"),
-    ("execution", 447, "1 → 2"): _NO_ACCEL_LEVEL,
-    ("execution", 447, "1 → 0"): _NO_ACCEL_LEVEL,
-    ("frames", 119, "1 → 0"): ("RESPONSE_HEADER is used one byte at a time through "
-                               "pack_int/unpack_int, which never read its size"),
-    ("frames", 119, "1 → 2"): ("RESPONSE_HEADER is used one byte at a time through "
-                               "pack_int/unpack_int, which never read its size"),
+    ("execution", 291, "1 → 0"): _RATE_DIFF_KNOWN,
+    ("execution", 291, "< → <="): _RATE_DIFF_KNOWN,
+    ("execution", 302, "1 → 2"): _MERGED,
+    ("execution", 302, "min → max"): _MERGED,
+    ("execution", 308, "1 → 0"): _ONE_STAGE,
+    ("execution", 308, "> → >="): _ONE_STAGE,
+    ("execution", 454, "0 → 1"): _NO_SHARED,
+    ("execution", 454, "0 → -1"): _NO_SHARED,
+    ("execution", 456, "0 → 1"): _EMPTY_SIDE,
+    ("execution", 456, "0 → -1"): _EMPTY_SIDE,
+    ("execution", 459, "0 → 1"): _EMPTY_SIDE,
+    ("execution", 459, "0 → -1"): _EMPTY_SIDE,
+    ("execution", 474, "1 → 2"): _LEVEL,
+    ("execution", 474, "1 → 0"): _LEVEL,
+    ("execution", 477, ">= → >"): _ZERO_CRUISE,
+    ("execution", 487, "0 → -1"): _COUNT_ZERO,
+    ("execution", 487, "<= → <"): _COUNT_ZERO,
+    ("execution", 489, "< → <="): _TAKE_EQUAL,
+    ("execution", 523, "1 → 2"): _CHUNK,
+    ("execution", 523, "16 → 17"): _CHUNK,
+    ("execution", 523, "16 → 15"): _CHUNK,
+    ("criterion", 113, "2 → 1"): ("with one segment np.diff is empty: every per-step array is "
+                                  "empty and the loop adds nothing"),
+    ("criterion", 116, "> → >="): ("a step of 0 is never a problem (bad_cap needs dv ≠ 0, "
+                                   "bad_jump |dv| > jump ≥ 0), so its side is never read"),
+    ("criterion", 151, "1 → 2"): _CRUISE_LEN,
+    ("criterion", 151, "1 → 0"): _CRUISE_LEN,
+    ("criterion", 151, "min → max"): _CRUISE_LEN,
+    ("stall", 50, "2 → 1"): "with one stage every [1:] slice is empty: the block assigns nothing",
+    ("stall", 71, "0 → -1"): _INNER_GUARD,
+    ("stall", 71, "> → >="): _INNER_GUARD,
+    ("stall", 130, "0 → -1"): "top-speed stays the first rule (−1 < 1)",
+    ("stall", 131, "6 → 7"): "jerk stays the last rule (7 > 5)",
+    ("checks", 76, "1 → 0"): _SORT_GUARD,
+    ("checks", 76, "> → >="): _SORT_GUARD,
+    ("checks", 82, "1 → 2"): _KEY_NONE,
+    ("checks", 82, "1 → 0"): _KEY_NONE,
+    ("checks", 113, "< → <="): "the branch runs only when the two counts differ",
+    ("checks", 114, "<= → <"): ("n_short is the shorter side's count and rates has the "
+                                "longer side's: n_short < len(rates) whenever this runs"),
+    ("checks", 129, "1 → 2"): _PREFILTER + (" (with rmin 2 and ≤ 2 Mpps, the loop's limit "
+                                            "min_rate_for(hz) is 2: nothing is below it)"),
+    ("checks", 129, "> → >="): _PREFILTER + (" (at exactly 2 Mpps min_rate_for(hz) is rmin "
+                                             "itself)"),
+    ("checks", 154, "< → <="): _PREFILTER,
+    ("checks", 161, "> → >="): _PREFILTER,
+    ("checks", 175, "< → <="): _PREFILTER,
+    ("checks", 199, "< → <="): _SIDE_IN_RATES,
+    ("checks", 199, "0 → 1"): _SIDE_IN_RATES,
+    ("checks", 199, "0 → -1"): _SIDE_IN_RATES,
+    ("checks", 206, "2 → 1"): ("with one stage the only candidate test, 10·t0 ≤ t0, holds "
+                               "only for t0 = 0, and then 0 < 0.1·0 is false"),
+    ("checks", 217, "10 → 9"): _PREFILTER,
+    ("checks", 218, "20 → 19"): _PREFILTER,
+    ("checks", 219, "10 → 9"): _PREFILTER,
+    ("checks", 217, "<= → <"): _AT_TENTH,
+    ("checks", 218, "<= → <"): _AT_TENTH,
+    ("checks", 219, "<= → <"): _AT_TENTH,
+    ("checks", 260, "< → <="): ("the branch only sees values outside MIN..MAX, never MIN "
+                                "itself"),
 }
 
 
@@ -232,7 +346,20 @@ def _run_child(name: str, path: Path, source: str, tests: list[str]) -> int:
 
 class _FastFirst:
     """Example-based tests before hypothesis ones: with -x, most mutants die in the
-    table-driven tests without paying for a property test's hundreds of examples."""
+    table-driven tests without paying for a property test's hundreds of examples; and
+    hypothesis never shrinks."""
+
+    def pytest_configure(self, config: object) -> None:
+        """No shrinking: after the suite's conftest has loaded its hypothesis profile and
+        before the test modules (and their @settings) are imported, the same profile
+        without the shrink phase becomes the default. A mutant needs only *a* failing
+        example; shrinking it (to report it) can take longer than every other test
+        together. The verdict is the same."""
+        from hypothesis import Phase, settings
+
+        settings.register_profile("mutation", settings.default,
+                                  phases=(Phase.explicit, Phase.reuse, Phase.generate))
+        settings.load_profile("mutation")
 
     def pytest_collection_modifyitems(self, items: list[object]) -> None:
         items.sort(key=lambda item: bool(getattr(getattr(item, "obj", None),
@@ -357,8 +484,10 @@ def main() -> int:
                     help="run a random sample of N mutants per module (seeded): the score "
                          "is then an estimate")
     ap.add_argument("--seed", type=int, default=13, help="the sample's seed")
-    ap.add_argument("--rescore", metavar="LOG",
-                    help="no run: score the per-mutant lines of an earlier run's stderr")
+    ap.add_argument("--rescore", metavar="LOG", nargs="+",
+                    help="no run: score the per-mutant lines of earlier runs' stderr (later "
+                         "files win: bench/results/*.log lists each module's full run "
+                         "before its re-run of survivors)")
     ap.add_argument("--rerun", metavar="LOG", action="append",
                     help="with --rescore: later runs of some mutants (--only), which win")
     args = ap.parse_args()
@@ -373,7 +502,8 @@ def main() -> int:
                 print(f"{key} #{s.index} line {s.line}: {s.what}")
         return 0
     if args.rescore:
-        results = rescore(Path(args.rescore).read_text().splitlines(), args.rerun or [])
+        logs = [*args.rescore, *(args.rerun or [])]
+        results = rescore(Path(logs[0]).read_text().splitlines(), logs[1:])
         for line in _table(results):
             print(line)
         for r in results:

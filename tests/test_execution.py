@@ -455,3 +455,127 @@ def test_segments_are_merged_and_contiguous(accel: list[int], data: st.DataObjec
     assert all(a != b for a, b in itertools.pairwise(keys)), keys
     assert sum(s.pulses for s in e.segments) == pulses
     assert all(a.end_tick == b.start_tick for a, b in itertools.pairwise(e.segments))
+
+
+# --- time queries at their exact edges (found by bench/mutation.py) -------------------------
+# A 2**20 Hz clock makes every dyadic instant exact in ticks (t · hz = the ticks written).
+DYADIC = Clock.extck(2.0**20)
+
+
+def test_the_snap_window_is_4_ulps_of_the_tick_count() -> None:
+    run = simulate_move(FreeCurveTable(DYADIC, (3, 7), (3, 4)), 20)  # first: 4 pulses at rate 7
+    ulp = float(np.spacing(21.0))  # the 3rd pulse ends at tick 21
+    at = [21.0, 21 - 4 * ulp, 21 - 5 * ulp, 21 + 4 * ulp]
+    assert list(run.position_at(np.array(at) / DYADIC.hz)) == [3, 3, 2, 3]
+
+
+def test_positions_just_after_the_start() -> None:
+    # a rate of 1: the first pulse ends at tick 1; the linear position runs from 0
+    run = simulate_move(FreeCurveTable(DYADIC, (1,), (3,)), 6)
+    assert list(run.position_at(np.array([0.0, 0.5, 1.0]) / DYADIC.hz)) == [0, 0, 1]
+    slow = simulate_move(FreeCurveTable(DYADIC, (3, 7), (3, 4)), 20)
+    assert list(slow.position_linear_at(np.array([0.0, 0.5, 7.0]) / DYADIC.hz)) == \
+        [0.0, 0.5 / 7, 1.0]
+
+
+def test_an_execution_without_segments_or_with_an_empty_one() -> None:
+    from profiles.ppmc312.execution import Segment
+
+    empty = Execution("trapezoid", 0, [], 0, DYADIC, 3, False)
+    assert empty.segment_accel_pps2().shape == (0,)
+    assert list(empty.position_at([0.0, 1.0])) == [0, 0]
+    # a segment of 0 pulses lasts no time: no slope from it (not a division by 0)
+    hollow = Execution("trapezoid", 0, [Segment("accel", 7, 0, 0), Segment("cruise", 3, 2, 0),
+                                        Segment("decel", 7, 1, 6)], 3, DYADIC, 3, False)
+    slopes = hollow.segment_accel_pps2()
+    assert slopes[0] == 0.0 and np.all(np.isfinite(slopes))
+
+
+def test_sample_edges_and_pulse_time_limits() -> None:
+    e = simulate_move(COMMON, 1000)
+    a = e.sample(1001)[3]
+    assert a[0] == pytest.approx((1e6 / 300 - 1e6 / 400) / 0.016)  # t = 0 is in the move
+    with pytest.raises(FieldRangeError) as err:
+        e.sample(10**8 + 1)
+    assert (err.value.lo, err.value.hi) == (2, 10**8)
+    # edges: each segment start plus the end, the last speed repeated (400 pps … 2500 pps)
+    t, x, v = e.edges()
+    assert t[0] == 0.0 and t[-1] == e.duration_s
+    assert list(x[-2:]) == [960.0, 1000.0] and list(v[-2:]) == [2500.0, 2500.0]
+    assert v[-3] == pytest.approx(1e6 / 300)
+    # pulse times: up to `limit` pulses, the limit named when refused
+    assert len(e.pulse_times_s(limit=1000)) == 1000
+    with pytest.raises(FieldRangeError) as err:
+        e.pulse_times_s(limit=999)
+    assert (err.value.value, err.value.lo, err.value.hi) == (1000, 0, 999)
+    with pytest.raises(FieldRangeError) as err:
+        simulate_move(COMMON, 10_000_001).pulse_times_s()
+    assert err.value.hi == 10_000_000
+
+
+def _rates(plan: list[tuple[str, int, int]]) -> list[tuple[str, int]]:
+    return [(phase, rate) for phase, rate, _ in plan]
+
+
+# LE=1, accel extra stages (fastest first) 2 then 30 pulses: the rate-difference is 32 and
+# the straight accel triangle enters its second extra stage at 31 = rate-difference − 1.
+EDGE_EXTRA = FreeCurveTable(MHZ1, (100, 200, 300, 400), (10, 20, 2, 30), (5, 6))
+
+
+@pytest.mark.parametrize("table", [COMMON, LONG_ACCEL, LONG_DECEL, EDGE_EXTRA],
+                         ids=["common", "long accel", "long decel", "edge extra"])
+def test_families_by_brute_force_on_pinned_tables(table: FreeCurveTable) -> None:
+    from profiles.ppmc312.execution import move_families
+
+    fams = move_families(table)
+    assert fams[0].lo == 1 and fams[-1].hi == MOVE_PULSES_MAX
+    top = table.accel_total + table.decel_total + 2
+    for fam in fams:
+        first = fam.execution()
+        assert fam.runs() == fam.runs(fam.lo) == runs(first)
+        for n in range(fam.lo, min(fam.hi, top) + 1):
+            assert _rates(runs(simulate_move(table, n))) == _rates(runs(first)), n
+        n = min(fam.hi, top)
+        assert fam.runs(n) == runs(simulate_move(table, n))
+    if table is EDGE_EXTRA:
+        assert 31 in [f.lo for f in fams]
+    # a boundary of no effect is merged: neighbours differ in their rates or their shape
+    for a, b in itertools.pairwise(fams):
+        assert _rates(a.runs()) != _rates(b.runs()) or a.shape != b.shape
+    # membership: whole numbers lo..hi only
+    fam = fams[1]
+    assert fam.lo in fam and fam.hi in fam and fam.lo - 1 not in fam and fam.hi + 1 not in fam
+    assert float(fam.lo) not in fam and "1" not in fam
+
+
+def test_a_rate_below_1_is_refused_naming_the_range() -> None:
+    with pytest.raises(FieldRangeError) as err:
+        simulate_move(FreeCurveTable(MHZ1, (0, 5), (2, 2)), 4)
+    assert (err.value.field, err.value.lo) == ("rates[0]", 1)
+
+
+def test_a_move_that_cannot_accelerate_cruises_at_the_start_rate() -> None:
+    # high rate 250 is slower than the 2nd slowest stage (200): no acceleration; the move
+    # cruises at the slowest rate 300, whatever that stage's pulse count (1000 here)
+    table = FreeCurveTable(MHZ1, (100, 200, 300), (10, 20, 1000), (10, 20, 5))
+    for n in (50, 2000):
+        assert runs(simulate_move(table, n, high_rate=250)) == [("cruise", 300, n)]
+
+
+def test_pulse_times_csv_by_hand_and_its_limit() -> None:
+    from profiles.ppmc312.execution import pulse_times_csv
+
+    # 4 pulses, a triangle on the slower stage: 2 up and 2 down at rate 200 on 1 MHz
+    run = simulate_move(FreeCurveTable(MHZ1, (100, 200), (2, 2)), 4)
+    assert pulse_times_csv(run) == ("pulse,time_s\n1,0.000200000\n2,0.000400000\n"
+                                    "3,0.000600000\n4,0.000800000\n")
+    with pytest.raises(FieldRangeError) as err:
+        pulse_times_csv(simulate_move(COMMON, 10_000_001))
+    assert (err.value.lo, err.value.hi) == (1, 10_000_000)
+
+
+def test_edges_repeat_the_last_speed_not_the_first() -> None:
+    # LE=1, start at rate 300 (3333 pps), stop at rate 500 (2000 pps)
+    t, x, v = simulate_move(LONG_DECEL, 1000).edges()
+    assert v[0] == pytest.approx(1e6 / 300) and list(v[-2:]) == [2000.0, 2000.0]
+    assert x[-1] == 1000 and len(t) == len(x) == len(v)

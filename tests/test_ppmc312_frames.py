@@ -196,3 +196,44 @@ def test_a_length_byte_above_the_limit_names_byte_1() -> None:
         F.check_length_byte(bytes([0, 31]) + bytes(31), 3)
     assert (e.value.block, e.value.byte) == (3, 1)
     assert F.check_length_byte(bytes([0, 30]) + bytes(30), 3) == 30
+
+
+# --- limits at their exact boundary, both sides (found by bench/mutation.py) --------------
+def test_mode_bits_name_the_le_bit() -> None:
+    # bit 4 is LE: an LE=1 init read as LE=0 names it; bit 5 is simply never set
+    with pytest.raises(DecodeError, match=r"mode\.le is 1, expected 0"):
+        F.INIT_COMMON.decode(bytes.fromhex("03 09 00 10 00 00 00 00 00 00 00"))
+    with pytest.raises(DecodeError, match="unexpected bits set: 0x20"):
+        F.INIT_COMMON.decode(bytes.fromhex("03 09 00 20 00 00 00 00 00 00 00"))
+    with pytest.raises(DecodeError, match=r"mode\.le is 0, expected 1"):
+        F.INIT_SEPARATE.decode(bytes.fromhex("03 0e 00 00" + " 00" * 12))
+
+
+def test_free_curve_stage_counts_start_at_one() -> None:
+    assert F.FC_COMMAND_COMMON.encode(clk=0, accel_stages=1).hex(" ") == "02 03 01 00 01"
+    assert F.FC_COMMAND_SEPARATE.encode(clk=0, accel_stages=1, decel_stages=1).hex(" ") == \
+        "02 04 01 10 01 01"
+    for stages in ({"accel_stages": 0, "decel_stages": 1}, {"accel_stages": 1, "decel_stages": 0}):
+        with pytest.raises(FieldRangeError) as e:
+            F.FC_COMMAND_SEPARATE.encode(clk=0, **stages)
+        assert (e.value.value, e.value.lo) == (0, 1)
+
+
+def test_state_error_fields_at_their_limits() -> None:
+    # status 0..2 and the six state bits (RUN ALM FIX ACC NOR INI): 0x3F is the most
+    assert F.STATE_ERROR.decode(bytes.fromhex("03 04 f1 02 3f 00")) == {
+        "status": 2, "state": 0x3F, "command": 0}
+    with pytest.raises(DecodeError, match="status"):
+        F.STATE_ERROR.decode(bytes.fromhex("03 04 f1 03 3f 00"))
+    with pytest.raises(DecodeError, match="state"):
+        F.STATE_ERROR.decode(bytes.fromhex("03 04 f1 02 40 00"))
+
+
+@pytest.mark.parametrize("frame", [F.READ_RATES, F.READ_ACCEL, F.READ_DECEL],
+                         ids=lambda f: f.name)
+def test_a_read_block_length_covers_the_kind_byte_and_one_item(frame: Frame) -> None:
+    size = frame.fields[-1].item.size  # type: ignore[union-attr]
+    with pytest.raises(FieldRangeError) as e:
+        frame.encode(next=0, length=size, items=[1])
+    assert (e.value.value, e.value.lo, e.value.hi) == (size, 1 + size, F.MAX_READ_LENGTH)
+    assert frame.encode(next=0, length=1 + size, items=[1])[1] == 1 + size

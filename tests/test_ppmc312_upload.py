@@ -614,3 +614,99 @@ def test_bulk_encode_equals_the_block_by_block_path(table: FreeCurveTable, max_d
     fast = encode_free_curve(table, max_data=max_data)
     with mock.patch.object(upload, "_encode_sections", return_value=None):
         assert encode_free_curve(table, max_data=max_data) == fast
+
+
+@pytest.mark.parametrize("table, max_data, blocks", [c[1:] for c in GOLDEN_FREE_CURVES],
+                         ids=[c[0] for c in GOLDEN_FREE_CURVES])
+def test_well_formed_uploads_take_the_bulk_path(table: FreeCurveTable, max_data: int,
+                                                blocks: list[str]) -> None:
+    """The bulk paths are the ones that run on every well-formed upload: the block-by-block
+    walk (which checks each block's header with `_param_header`) is only for errors."""
+    from unittest import mock
+
+    from profiles.ppmc312 import upload
+
+    fast = upload._encode_sections(table, max_data)
+    assert fast is not None and [b.hex(" ") for b in fast] == blocks[1:]
+    wire = [bytes.fromhex(b) for b in blocks]
+    with mock.patch.object(upload, "_param_header", side_effect=AssertionError("slow path")):
+        assert decode_free_curve(wire, extck_hz=1e6) == table
+
+
+# --- where each error points, at the boundaries (found by bench/mutation.py) ---------------
+@pytest.mark.parametrize(("block", "says", "byte"), [
+    ("03", "the init block is 1 byte(s)", 1),
+    ("03 09", "init (LE=0) is 2 bytes, expected 11", 2),  # the frame's own check
+])
+def test_short_init_blocks(block: str, says: str, byte: int | None) -> None:
+    with pytest.raises(DecodeError, match=re.escape(says)) as err:
+        decode_init(bytes.fromhex(block))
+    if byte is not None:
+        assert err.value.byte == byte
+
+
+def test_override_trigger_error_points_at_the_mode_byte() -> None:
+    with pytest.raises(DecodeError, match="TRG 10 with override") as err:
+        decode_move(bytes.fromhex("03 08 82 06 00 00 00 00 00 01"))  # OV=1, TRG=10
+    assert err.value.byte == 3
+
+
+@pytest.mark.parametrize("blocks, says, where", [
+    (["02 09 00 00 11 22 55 66 ab cd ef"], "header 02 with command code 00", (0, 0)),
+    (["03 03 01 00 02"], "header 03 with command code 01", (0, 0)),
+    (["03 09 00 00 11 22 55 66 ab cd ef", "00 02 00 01"], "an init upload is one block", (1, 0)),
+    (["03 09 00 10 11 22 55 66 ab cd ef"], "mode.le is 1, expected 0", (0, 3)),
+])
+def test_upload_dispatch_by_header_and_code(blocks: list[str], says: str,
+                                            where: tuple[int, int]) -> None:
+    with pytest.raises(DecodeError) as e:
+        decode_upload(_read(blocks))
+    assert says in str(e.value) and (e.value.block, e.value.byte) == where
+    assert str(e.value) == f"block {where[0]}, byte {where[1]}: " + str(e.value).split(": ", 1)[1]
+    assert str(e.value).count("byte") == 1  # the init decoder's location is not repeated
+
+
+READ_LE0 = GOLDEN_TABLE_READ[0][2]
+
+
+@pytest.mark.parametrize("blocks, says, where", [
+    (["02 0a 41 02 02 00 00 01 2c 00 01"], "is 11 bytes, expected 12", (0, 11)),
+    ([READ_LE0[0].replace("41 02 02", "41 03 02"), *READ_LE0[1:]],
+     "3 rate stages, expected 2", (0, 3)),
+    ([READ_LE0[0], READ_LE0[1], "00 07 02 00 00 64 00 00"], "carries 6", (2, 1)),
+    ([READ_LE0[0], READ_LE0[1], "00 00"], "is 2 bytes, needs at least 3", (2, 2)),
+    ([READ_LE0[0], READ_LE0[1].replace("00 05", "01 05"), READ_LE0[2]],
+     "NEXT bit set before the last block", (1, 0)),
+    ([READ_LE0[0], READ_LE0[1], READ_LE0[2].replace("01 07", "00 07")],
+     "NEXT bit missing on the last block", (2, 0)),
+    (READ_LE0[:2], "the answer ends with accel entries missing", (2, 0)),
+])
+def test_table_read_errors_at_the_edges(blocks: list[str], says: str,
+                                        where: tuple[int, int | None] | None) -> None:
+    with pytest.raises(DecodeError, match=re.escape(says)) as e:
+        decode_table_read(_read(blocks), clock=C8)
+    if where is not None:
+        assert e.value.block == where[0]
+        if where[1] is not None:
+            assert e.value.byte == where[1]
+
+
+def test_bus_writes_range_names_1_to_32_bytes() -> None:
+    with pytest.raises(FieldRangeError) as e:
+        bus_writes(b"")
+    assert (e.value.lo, e.value.hi) == (1, 32)
+    assert bus_writes(b"\x05") == [("WCR", 0x20), ("WAR", 0x1F), ("DWR", 5)]
+
+
+@pytest.mark.parametrize("table, max_data, blocks", [c[1:] for c in GOLDEN_FREE_CURVES],
+                         ids=[c[0] for c in GOLDEN_FREE_CURVES])
+def test_the_block_by_block_walk_decodes_every_golden_upload(
+        table: FreeCurveTable, max_data: int, blocks: list[str]) -> None:
+    """The walk the bulk path falls back to reads a well-formed upload to the same table
+    (LE=0 without a decel list, LE=1 with one)."""
+    from unittest import mock
+
+    from profiles.ppmc312 import upload
+
+    with mock.patch.object(upload, "_decode_sections", return_value=None):
+        assert decode_free_curve([bytes.fromhex(b) for b in blocks], extck_hz=1e6) == table
