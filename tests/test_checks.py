@@ -293,6 +293,24 @@ def test_init_gap_of_the_slower_side_0x02(gap: int, bad: bool) -> None:
     assert (("init-gap", 0x02) in init_rules(t)) == bad
 
 
+@pytest.mark.parametrize(("start", "high", "advice"), [
+    # both fixes in range
+    (600, 500, "raise start_rate to ≥ 628 or lower high_rate to ≤ 472"),
+    # high_rate cannot go 128 below a start rate of 100 (it is ≥ 2): one fix only
+    (100, 50, "raise start_rate to ≥ 178"),
+    (129, 60, "raise start_rate to ≥ 188"),
+    (130, 60, "raise start_rate to ≥ 188 or lower high_rate to ≤ 2"),
+    # start_rate cannot rise 128 above a high rate of 0xFFEF (it is ≤ 0xFFFF)
+    (0xFFFF, 0xFFEF, "lower high_rate to ≤ 65407"),
+    (0xFFFF, 0xFF80, "lower high_rate to ≤ 65407"),
+    (65380, 65280, "raise start_rate to ≥ 65408 or lower high_rate to ≤ 65252"),
+])
+def test_init_gap_advice_stays_inside_the_fields(start: int, high: int, advice: str) -> None:
+    found = [f for f in check_table(init(start_rate=start, high_rate=high))
+             if f.rule == "init-gap"]
+    assert len(found) == 1 and found[0].message.endswith(f"≤ 127: {advice}")
+
+
 def test_init_gap_of_the_faster_side_is_0x04() -> None:
     t = init(stop_rate=400 + 100, decel_pulses=2000)   # start 10000 is far enough
     found = [f for f in check_table(t) if f.rule == "init-gap"]

@@ -64,11 +64,17 @@ def judge(runs: list[tuple[str, int, int]], motor: StandIn = StandIn(), *, hz: f
 
 
 def P(rule: str, kind: str, stages: tuple[int | None, int | None], v: tuple[float, float],
-      dwell: tuple[int, int | None, str] | None = None, need: float = 0.0,
+      dwell: tuple[int | None, int | None, str] | None = None, need: float = 0.0,
       cap: float = float("inf"), pulses: int = 77, family: tuple[int, int] = (77, 77)
       ) -> tuple[object, ...]:
     d = dwell or (None, None, None)
     return (rule, kind, pulses, family, *stages, *v, *d, need, cap)
+
+
+# A start (stop) problem names the phase of the move's first (last) segment: an LE=1
+# move can start on a decel stage or stop on an accel one (verify.stall words its fix).
+SIDE: dict[str, tuple[None, None, str]] = {k: (None, None, k) for k in ("accel", "cruise",
+                                                                        "decel")}
 
 
 def exact_limit(v: float) -> float:
@@ -128,22 +134,22 @@ CASES = {
     "start top stop": ([("accel", 500, 10), ("cruise", 200, 10), ("decel", 500, 10)],
                        StandIn(jump_pps=1e9, acc_k=1e9, dec_k=1e9),
                        [P("top-speed", "top", (None, None), (5000.0, 5000.0)),
-                        P("start-speed", "start", (1, 1), (2000.0, 2000.0)),
-                        P("start-speed", "stop", (1, 1), (2000.0, 2000.0))]),
+                        P("start-speed", "start", (1, 1), (2000.0, 2000.0), SIDE["accel"]),
+                        P("start-speed", "stop", (1, 1), (2000.0, 2000.0), SIDE["decel"])]),
     "stop only": ([("accel", 1000, 10), ("cruise", 500, 10), ("decel", 500, 10)],
                   StandIn(jump_pps=1e9, acc_k=1e9, dec_k=1e9),
-                  [P("start-speed", "stop", (1, 1), (2000.0, 2000.0))]),
+                  [P("start-speed", "stop", (1, 1), (2000.0, 2000.0), SIDE["decel"])]),
     "start only": ([("accel", 500, 10), ("cruise", 1000, 10), ("decel", 1000, 10)],
                    StandIn(jump_pps=1e9, acc_k=1e9, dec_k=1e9),
-                   [P("start-speed", "start", (1, 1), (2000.0, 2000.0))]),
+                   [P("start-speed", "start", (1, 1), (2000.0, 2000.0), SIDE["accel"])]),
     # Two segments still have a step: up 1000 → 2000, need 1000 / 0.001 = 1e6 > 5e4; the
     # stop at 2000 pps is above the start speed.
     "two segments": ([("accel", 1000, 1), ("cruise", 500, 1)], StandIn(),
-                     [P("start-speed", "stop", (1, 1), (2000.0, 2000.0)),
+                     [P("start-speed", "stop", (1, 1), (2000.0, 2000.0), SIDE["cruise"]),
                       P("accel", "step", (2, 1), (1000.0, 2000.0), (1, 2, "accel"), 1e6, 5e4)]),
     "one segment": ([("cruise", 250, 5)], StandIn(),
-                    [P("start-speed", "start", (0, 0), (4000.0, 4000.0)),
-                     P("start-speed", "stop", (0, 0), (4000.0, 4000.0))]),
+                    [P("start-speed", "start", (0, 0), (4000.0, 4000.0), SIDE["cruise"]),
+                     P("start-speed", "stop", (0, 0), (4000.0, 4000.0), SIDE["cruise"])]),
     # Steps smaller than 1 pps keep their direction: 500 → 500.25 → 500 pps (rates 2000,
     # 1999: Δv = 1e6 / 1999 − 500 ≈ 0.25), each dwell 1 / 500 s: needs Δv · 500 ≈ 125 >
     # caps 0.1 · 500 = 50 (up, on the segment before) and 0.1 · 500.25 (down, after).

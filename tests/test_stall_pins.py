@@ -129,10 +129,16 @@ def test_start_speed_messages() -> None:
     # LE=1 with a decel of 2 stages: rates[1] is its slowest, not the accel's
     le1 = FreeCurveTable(CLK, (8000, 16000, 32000), (10, 20, 40), (20, 10))
     assert "raise rates[1] to ≥ 40000" in found([start("stop", 1, 500.0, 4)], le1)[0][3]
-    # a faster stage: the fix is the stage counts, not the rate
-    msg = found([start("start", 1, 500.0, 4)])[0][3]
+    # a faster stage of an LE=1 table with sides of different counts: the fix is the
+    # stage counts, not the rate
+    msg = found([start("start", 1, 500.0, 4)], le1)[0][3]
     assert msg.startswith("moves start from rest at the accel stage rates[1] = 16000 (500 pps)")
     assert "give both sides the same stage count" in msg
+    # the same counts on both sides: the pulse counts (or the rate) are the fix
+    msg = found([start("start", 1, 500.0, 4)])[0][3]
+    assert msg.endswith("above the start speed 200 pps: change the LE=1 pulse counts so that "
+                        "no move starts on this faster stage, or raise rates[1] to ≥ 40000 "
+                        "(shortest move that runs it: 4 pulses)")
     assert "raise" not in found([start("start", None, 500.0, 4)])[0][3]
 
 
@@ -319,3 +325,22 @@ def test_a_switch_names_only_the_rules_it_breaks_at_their_boundary() -> None:
     # a need far below the capability is no reason either
     low = switch((10, 12), 1, 2, 500.0, 250.0, need=30.0, cap=1e9)
     assert "it needs" not in found([low])[0][3]
+
+
+def test_a_move_that_starts_on_a_decel_stage_is_named_so() -> None:
+    # LE=1, two stages each side: a 2-pulse move gives both pulses to decel (its accel
+    # share is empty), so it starts on the decel side's faster stage rates[0] = 14000
+    # (571 pps at 8 MHz), above the start speed 200 pps. Both sides have two stages:
+    # "give both sides the same stage count" would be no fix.
+    from profiles.ppmc312.execution import simulate_move
+
+    t = FreeCurveTable(CLK, (14000, 26667), (1, 1), (3, 1))
+    first = simulate_move(t, 2).segments[0]
+    assert (first.phase, first.rate) == ("decel", 14000)
+    starts = [f for f in check_stall(t, MOTOR) if f.rule == "stall-start-speed"
+              and f.stage == 0]
+    assert len(starts) == 1
+    assert starts[0].message.startswith(
+        "moves start from rest at the decel stage rates[0] = 14000 (571.429 pps), above the "
+        "start speed 200 pps: change the LE=1 pulse counts so that no move starts on this "
+        "faster stage, or raise rates[0] to ≥ 40000")

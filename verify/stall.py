@@ -149,14 +149,21 @@ def _finding(table: FreeCurveTable, motor: Motor, group: list[StepProblem]) -> F
         kinds = {q.kind for q in group}
         verb = ("start and stop" if kinds == {"start", "stop"} else
                 "start from rest" if kinds == {"start"} else "stop")
-        side = "accel" if kinds == {"start"} else "decel"
+        # The side the move starts (stops) on, as the criterion saw it: an LE=1 move can
+        # start on a decel stage (its accel share empty) or stop on an accel one.
+        sides = {q.dwell_side for q in group} & {"accel", "decel"}
+        side = (sides.pop() if len(sides) == 1 else
+                "accel" if kinds == {"start"} else "decel")
         start_rate = math.ceil(hz / motor.start_pps * (1 - REL_TOL))
         k = p.stage_from
         slowest = k is not None and k == len(table.accel_pulses if side == "accel"
                                              else table.decel) - 1
         fix = (f"raise {rate(k)} to ≥ {start_rate}" if slowest else
                "give both sides the same stage count (LE=1 shares the fastest stages), so no "
-               "move starts or stops on a faster stage")
+               "move starts or stops on a faster stage"
+               if len(table.accel_pulses) != len(table.decel) else
+               f"change the LE=1 pulse counts so that no move {verb.split()[0]}s on this "
+               "faster stage" + ("" if k is None else f", or raise {rate(k)} to ≥ {start_rate}"))
         what = f"slowest {side} stage" if slowest else f"{side} stage"
         msg = (f"moves {verb} at the {what} {rate(k)} = "
                f"{'' if k is None else table.rates[k]} ({p.v_from_pps:.6g} pps), above the start "

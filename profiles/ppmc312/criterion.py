@@ -107,9 +107,9 @@ def runs_problems(runs: Sequence[tuple[str, int, int]], hz: float, pulses: int, 
     for i in np.flatnonzero(v > motor.top_pps * tol).tolist():
         out.append(problem("top-speed", "top", i, i))
     if v[0] > motor.start_pps * tol:
-        out.append(problem("start-speed", "start", 0, 0))
+        out.append(problem("start-speed", "start", 0, 0, dwell_side=runs[0][0]))
     if v[-1] > motor.start_pps * tol:
-        out.append(problem("start-speed", "stop", len(v) - 1, len(v) - 1))
+        out.append(problem("start-speed", "stop", len(v) - 1, len(v) - 1, dwell_side=runs[-1][0]))
     if len(v) < 2:
         return out
     dv = np.diff(v)

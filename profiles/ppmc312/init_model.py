@@ -82,10 +82,15 @@ def init_rate_problems(table: InitTable) -> list[tuple[int, str, str]]:
                 why = ("" if code == 0x02 else
                        f" (the slower {slow_name} is far enough, but the chip cannot build "
                        f"the table)")
+                # Only fixes that stay in their fields' ranges are offered (a slow start
+                # rate cannot have a high rate 128 below it).
+                fixes = [f"raise {name} to ≥ {high + MIN_GAP}"] \
+                    if high + MIN_GAP <= START_RATE_MAX else []
+                if value - MIN_GAP >= HIGH_RATE_MIN:
+                    fixes.append(f"lower high_rate to ≤ {value - MIN_GAP}")
                 out.append((code, "init-gap",
                             f"{name} − high_rate = {value} − {high} = {value - high} ≤ 127"
-                            f"{why}: raise {name} to ≥ {high + MIN_GAP} or lower "
-                            f"high_rate to ≤ {value - MIN_GAP}"))
+                            f"{why}: {' or '.join(fixes)}"))
     return out
 
 
