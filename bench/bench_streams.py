@@ -7,7 +7,11 @@ ru_maxrss of that child alone) next to the output size, and the ratio of the pea
 at the longest length to the peak at the shortest (1.0 = flat). Goal: a 4 M-pulse
 stream in < 200 MB.
 
-    python bench/bench_streams.py [--lengths 100000,1000000,4000000] [--mc200]
+With --read, the longest MC-200 stream (in hex, bin and ihex) is read back by
+`stepramp check` and `stepramp mc200 decode`, each run's peak RSS printed against the
+file's size (the readers go a chunk at a time: memory a small multiple of the file).
+
+    python bench/bench_streams.py [--lengths 100000,1000000,4000000] [--mc200] [--read]
 """
 
 from __future__ import annotations
@@ -40,6 +44,8 @@ def main() -> int:
     ap.add_argument("--lengths", default="100000,1000000,4000000",
                     help="comma-separated stream lengths [pulses]")
     ap.add_argument("--mc200", action="store_true", help="also time mc200 stream")
+    ap.add_argument("--read", action="store_true",
+                    help="read the longest MC-200 stream back (check, mc200 decode)")
     args = ap.parse_args()
     lengths = [int(x) for x in args.lengths.split(",")]
     whole = ("import sys; from profiles.ppmc312.table import load_table; "
@@ -76,7 +82,31 @@ def main() -> int:
             ratios.append((name, peaks[-1] / peaks[0]))
     for name, ratio in ratios:
         print(f"{name}: peak RSS at {lengths[-1]} pulses / at {lengths[0]} = {ratio:.2f}")
+    if args.read:
+        read_back(lengths[-1])
     return 0
+
+
+def read_back(pulses: int) -> None:
+    """Peak RSS of `check` and `mc200 decode` on one long stream, per file format."""
+    print("\n| format | packets | file MB | check peak MB | ratio | decode peak MB | ratio |")
+    print("|---|---|---|---|---|---|---|")
+    cli = f"{sys.executable} -m verify.cli"
+    with tempfile.TemporaryDirectory() as tmp:
+        for fmt in ("hex", "bin", "ihex"):
+            path = os.path.join(tmp, f"stream.{fmt}")
+            # 20 kpps top speed at 50 µs: one packet per 50 µs of a 200 s move
+            subprocess.run([sys.executable, "-m", "verify.cli", "mc200", "stream", "--vmax",
+                            "20000", "--amax", "200000", "--jmax", "5000000", "--pulses",
+                            str(pulses), "--period-us", "50", "--format", fmt, "-o", path],
+                           cwd=ROOT, check=True)
+            size = os.path.getsize(path) / 1e6
+            check = peak_rss_mb(["sh", "-c", f"{cli} check {path} > /dev/null"])
+            decode = peak_rss_mb(["sh", "-c", f"{cli} mc200 decode {path} > /dev/null"])
+            packets = {"bin": size * 1e6 / 12}.get(fmt)
+            shown = f"{packets:.0f}" if packets else "(as bin)"
+            print(f"| {fmt} | {shown} | {size:.0f} | {check:.0f} | {check / size:.1f} | "
+                  f"{decode:.0f} | {decode / size:.1f} |", flush=True)
 
 
 if __name__ == "__main__":
