@@ -283,3 +283,18 @@ def test_a_stream_file_may_be_longer_than_other_inputs(tmp_path: Path) -> None:
     other = tmp_path / "long.txt"
     other.write_bytes(b"02 03 01 00 03\n" * (MAX_INPUT_BYTES // 15 + 1))
     assert "more than the" in (check_file(str(other)).error or "")
+
+
+def test_decode_names_the_command_that_reads_another_devices_file(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    stream = tmp_path / "move.mc200.hex"
+    stream.write_bytes(render_stream(_packets(STREAM), "hex"))
+    settings_file = tmp_path / "axis.alink.json"
+    settings_file.write_text(A.render_settings(
+        A.settings_document(A.quantise_settings(500, 10000, 20), SETTINGS_COMMANDS), "json"))
+    for path, command in ((stream, "stepramp mc200 decode"),
+                          (settings_file, "stepramp alink read")):
+        assert main(["decode", str(path)]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("stepramp decode: ") and err.rstrip().endswith(command)
+        assert len(err.splitlines()) == 1

@@ -36,6 +36,7 @@ def _do_decode(args: argparse.Namespace) -> int:
     from verify.output import write_output
 
     raw = read_bytes(args.upload)
+    _not_another_device(raw)
     require_shallow_json(raw, args.upload)  # a JSON upload is parsed by formats.parse
     parsed = parse(raw, args.upload)  # a failed check: CorruptedError
     table: Table
@@ -47,6 +48,21 @@ def _do_decode(args: argparse.Namespace) -> int:
         print(f"stepramp decode: warning: {args.upload}: {parsed.detail}", file=sys.stderr)
     write_output(args.output, dump_table(table))
     return EXIT_OK
+
+
+def _not_another_device(raw: bytes) -> None:
+    """An MC-200 stream or A-Link settings file is no upload: say which command reads it
+    (else the PPMC-312 reader would report its bytes as broken blocks)."""
+    from profiles.errors import FormatError
+    from verify.device_checks import device_of
+
+    device = device_of(raw)
+    if device == "mc200":
+        raise FormatError("an MC-200 stream file, not a PPMC-312 upload: read it with "
+                          "stepramp mc200 decode")
+    if device == "alink":
+        raise FormatError("an A-Link settings file, not a PPMC-312 upload: read it with "
+                          "stepramp alink read")
 
 
 def _decode(args: argparse.Namespace, blocks: Any) -> Any:
