@@ -22,6 +22,9 @@ from typing import Any, BinaryIO
 from .errors import FormatError
 
 MAX_INPUT_BYTES = 16 * 1024 * 1024
+# MC-200 stream files run long (a 4 M-packet move is 144 MB of hex): their readers, which
+# go a chunk of lines at a time, allow this much (profiles.mc200.formats).
+STREAM_INPUT_MAX_BYTES = 256 * 1024 * 1024
 MAX_JSON_DEPTH = 64
 # Any real value fits (a double prints in ≤ 24 characters); 1 followed by 309 zeros does not.
 MAX_NUMBER_CHARS = 40

@@ -75,13 +75,12 @@ def check_file(path: str, motor: Motor | None = None, extck_hz: float | None = N
 
 def _device_result(path: str, motor: bool) -> FileResult | None:
     """The result for an MC-200 stream or A-Link settings file (None for the others)."""
-    from profiles.mc200.formats import STREAM_FILE_MAX_BYTES
-    from profiles.reading import MAX_INPUT_BYTES, read_bytes
+    from profiles.reading import MAX_INPUT_BYTES, STREAM_INPUT_MAX_BYTES, read_bytes
     from verify.device_checks import check_device_file
 
     # MC-200 streams may be longer than other inputs: read up to their cap, and hold
     # every other file to the usual one (as load_checkable would).
-    raw = read_bytes(path, limit=STREAM_FILE_MAX_BYTES)
+    raw = read_bytes(path, limit=STREAM_INPUT_MAX_BYTES)
     found = check_device_file(raw, path)
     if found is None:
         if len(raw) > MAX_INPUT_BYTES:

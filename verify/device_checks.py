@@ -34,11 +34,11 @@ Device = Literal["mc200", "alink"]
 def device_of(raw: bytes) -> Device | None:
     """The device an MC-200 stream or A-Link settings file is for; None for anything
     else (PPMC-312 tables and uploads, and what is no file of any device)."""
+    if b"stepramp.table/1" in raw[:4096]:
+        return None  # a table file: the device modules are not even imported (cold start)
     from profiles.alink.formats import is_settings_file
     from profiles.mc200.formats import is_stream_file
 
-    if b"stepramp.table/1" in raw[:4096]:
-        return None
     if is_stream_file(raw):
         return "mc200"
     if is_settings_file(raw):

@@ -59,13 +59,11 @@ from ..formats import (
     text_of,
     verify_crc,
 )
-from ..reading import MAX_INPUT_BYTES, parse_json
+from ..reading import MAX_INPUT_BYTES, STREAM_INPUT_MAX_BYTES, parse_json
 from .codec import PACKET_SIZE, checksums, hex_lines
 
 C_NAME_DEFAULT = "stepramp_mc200"
-# Stream files run long (a 4 M-pulse move at 50 µs: 31 MB of C header), past the 16 MiB
-# any other input may have (profiles.reading): readers of stream files allow this much.
-STREAM_FILE_MAX_BYTES = 256 * 1024 * 1024
+STREAM_FILE_MAX_BYTES = STREAM_INPUT_MAX_BYTES  # (profiles.reading) hex, bin and ihex
 JSON_HEADER_KEYS = ("period_us", "duration_s", "pulses")
 
 
