@@ -141,7 +141,9 @@ class FormatTable(Generic[T]):
         """The format of `data`: by content; the extension breaks a tie."""
         matches = [f for f in self.formats.values() if f.sniff(data)]
         if not matches:
-            raise DecodeError(f"not a {self.device} file in any known format "
+            # "an" before a letter read with a vowel sound: A-Link, MC-200 ("em")
+            article = "an" if self.device[:1] in "AEFHILMNORSX" else "a"
+            raise DecodeError(f"not {article} {self.device} file in any known format "
                               f"({', '.join(self.formats)})")
         by_name = self.for_path(path)
         return by_name if by_name in matches else matches[0]

@@ -194,7 +194,7 @@ def test_format_table() -> None:
 
 @pytest.mark.parametrize(("data", "words"), [
     (b"", "empty"),
-    (b"4115 4000\n", "not a A-Link settings file|three 4-digit"),
+    (b"4115 4000\n", "not an A-Link settings file|three 4-digit"),
     (b"4115 4000 8001\n", "line 1: pair codes differ"),
     (b"4199 4000 4000\n", "line 1: cmd: 0x99"),
     (b"4115 4000 4000\n# crc32 00000000\n", "corrupted: the crc32 comment says"),
