@@ -273,7 +273,7 @@ def test_examples_are_told_apart() -> None:
 @pytest.mark.slow
 def test_a_stream_file_may_be_longer_than_other_inputs(tmp_path: Path) -> None:
     """A long move's stream passes the 16 MiB every other input is held to (a 4 M-pulse
-    stream's C header is 31 MB); any other file that long is still refused."""
+    packet stream is 144 MB of hex); any other file that long is still refused."""
     from profiles.reading import MAX_INPUT_BYTES
 
     hold = STREAM[-12:]
