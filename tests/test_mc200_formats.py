@@ -415,3 +415,14 @@ def test_a_bad_last_packet_stops_the_listing_before_its_first_line() -> None:
         M.decoded_lines(raw, "host")  # raises on the call: nothing was listed
     with pytest.raises(StepRampError, match="block 3"):
         M.decoded_lines(raw, "driver")
+
+
+def test_decoded_lines_report_their_progress() -> None:
+    packets = [M.HostPacket(0, True, 0, v, "position") for v in range(10)]
+    raw = M.encode_stream(packets)
+    calls: list[tuple[int, int]] = []
+    lines = M.decoded_lines(raw, "host", rows_per_chunk=4,
+                            progress=lambda done, total: calls.append((done, total)))
+    assert calls == []  # judged, nothing listed yet
+    assert len("".join(lines).splitlines()) == 10
+    assert calls == [(0, 10), (4, 10), (8, 10), (10, 10)]

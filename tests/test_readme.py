@@ -26,6 +26,14 @@ def test_ci_runs_the_readme_test_command() -> None:
     assert ci.index(test_command) == len(ci) - 1, "and close on it (the runner's summary)"
 
 
+def test_ci_fails_on_a_lint_or_type_finding() -> None:
+    # `set -e` does not stop at a failing command inside an && list: ruff and mypy stand
+    # on lines of their own, so a finding fails CI.
+    ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8").splitlines()
+    assert "set -euo pipefail" in ci
+    assert "ruff check ." in ci and "mypy" in ci
+
+
 @pytest.mark.slow
 def test_python_example_runs(monkeypatch: pytest.MonkeyPatch,
                              capsys: pytest.CaptureFixture[str]) -> None:

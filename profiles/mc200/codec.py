@@ -12,12 +12,15 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, replace
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
 from ..errors import DecodeError, FieldRangeError, FormatError
 from ..fields import F32, Array, Bit, Bits, Checksum, Frame, Reserved, SInt, UInt
+
+if TYPE_CHECKING:
+    from ..progress import Progress
 
 PACKET_SIZE = 12
 MAGIC_DEFAULT = 0x0F0F0F0F  # position and current pages; the velocity page says F0F0F0F0
@@ -252,12 +255,14 @@ def _decode_host(raw: bytes, mode: Mode, magic: int) -> Iterator[HostPacket]:
 
 
 def decoded_lines(raw: bytes, direction: Direction = "host", fmt: str = "text", *,
-                  rows_per_chunk: int = 4096) -> Iterator[str]:
+                  rows_per_chunk: int = 4096, progress: Progress | None = None
+                  ) -> Iterator[str]:
     """What `stepramp mc200 decode` prints for `raw` (packets back to back), a chunk of
     packets at a time: `text` (one numbered line of field=value a packet) or `json`
     (the text `json_text({"direction", "packets": [fields…]})` gives, NaN as null).
     Memory is one chunk however long the stream. Every packet is judged before this
-    returns: a bad packet raises here, before any line is given."""
+    returns: a bad packet raises here, before any line is given. `progress` hears
+    (packets listed, packets) as the chunks go out."""
     if fmt not in ("text", "json"):
         raise FormatError(f"format: {fmt!r} is not 'text' or 'json'")
     # A bad packet near the end must not leave half a listing behind its error. Host
@@ -273,14 +278,17 @@ def decoded_lines(raw: bytes, direction: Direction = "host", fmt: str = "text", 
         for _ in packets:
             pass
         packets = iter_decode(raw, direction)
-    return _lines(packets, direction, fmt, rows_per_chunk)
+    return _lines(packets, direction, fmt, rows_per_chunk, len(raw) // PACKET_SIZE, progress)
 
 
 def _lines(packets: Iterator[HostPacket | DriverPacket], direction: Direction, fmt: str,
-           rows_per_chunk: int) -> Iterator[str]:
+           rows_per_chunk: int, total: int, progress: Progress | None) -> Iterator[str]:
     from dataclasses import asdict
 
+    from ..progress import report
     from ..reading import json_text
+
+    report(progress, 0, total)
 
     if fmt == "json":
         yield f'{{\n "direction": {json_text(direction, indent=None).strip()},\n "packets": ['
@@ -295,7 +303,9 @@ def _lines(packets: Iterator[HostPacket | DriverPacket], direction: Direction, f
         if len(rows) >= rows_per_chunk:
             yield "".join(rows)
             rows = []
+            report(progress, i + 1, total)
     yield "".join(rows)
+    report(progress, total, total)
     if fmt == "json":
         yield "\n ]\n}\n"
 

@@ -9,7 +9,7 @@ chunks go and written at the end.
 
 | format | file | check |
 |---|---|---|
-| `hex` | one packet per line, hex byte pairs | last line `# crc32 1C291CA3: CRC-32 of the … bytes above` |
+| `hex` | one packet per line, hex byte pairs | last line `# crc32 1C291CA3: CRC-32 …` |
 | `bin` | the raw packets | none: no room (it must be exactly the bytes sent) |
 | `json` | `{period_us, duration_s, pulses, "packets": [...], "crc32"}` | the `crc32` field |
 | `c` | a C header: `NAME_packets[N][12]`, symbols prefixed by `name` | `NAME_CRC32`, comment |

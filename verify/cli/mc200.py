@@ -108,8 +108,10 @@ def _do_decode(args: argparse.Namespace) -> int:
 
     # a failed check: CorruptedError, one line "corrupted: …"
     parsed = parse(read_bytes(args.file, limit=STREAM_FILE_MAX_BYTES), args.file)
-    lines = mc200.decoded_lines(payload_of_parsed(parsed), args.direction, args.format)
-    if parsed.integrity != "verified":  # decoded, but nothing vouches for the bytes
-        print(f"stepramp mc200: warning: {args.file}: {parsed.detail}", file=sys.stderr)
-    write_output(None, lines)  # a chunk of packets at a time (a stream may run to millions)
+    with progress_bar("decode packets", unit="packet") as progress:
+        lines = mc200.decoded_lines(payload_of_parsed(parsed), args.direction, args.format,
+                                    progress=progress)
+        if parsed.integrity != "verified":  # decoded, but nothing vouches for the bytes
+            print(f"stepramp mc200: warning: {args.file}: {parsed.detail}", file=sys.stderr)
+        write_output(None, lines)  # a chunk of packets at a time (streams run to millions)
     return EXIT_OK
