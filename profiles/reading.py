@@ -67,7 +67,7 @@ def _read_regular(path: str, name: str, limit: int) -> bytes:
     except (OSError, ValueError) as e:
         raise FormatError(f"{name}: cannot read ({_why(e)})") from None
     _require_regular(st.st_mode, name)
-    _require_size(st.st_size, name, limit)
+    require_size(st.st_size, name, limit)
     try:
         # O_NONBLOCK: should the path become a FIFO between stat and open, open returns.
         fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
@@ -92,7 +92,8 @@ def _require_regular(mode: int, name: str) -> None:
         raise FormatError(f"{name}: is {kind}, not a regular file (use - to read stdin)")
 
 
-def _require_size(size: int, name: str, limit: int) -> None:
+def require_size(size: int, name: str, limit: int = MAX_INPUT_BYTES) -> None:
+    """The one-line refusal of an input of `size` bytes past `limit`."""
     if size > limit:
         raise FormatError(f"{name}: {size} bytes is more than the {limit} bytes an input "
                           "may have")

@@ -298,3 +298,30 @@ def test_decode_names_the_command_that_reads_another_devices_file(
         err = capsys.readouterr().err
         assert err.startswith("stepramp decode: ") and err.rstrip().endswith(command)
         assert len(err.splitlines()) == 1
+
+
+@pytest.mark.parametrize("kind", ["table", "upload", "stream"])
+def test_check_reads_stdin_once(kind: str, monkeypatch: pytest.MonkeyPatch,
+                                capsys: pytest.CaptureFixture[str]) -> None:
+    # every file is read once, device detection included: stdin cannot be read twice
+    import io
+    import sys
+
+    root = Path(__file__).resolve().parents[1] / "examples"
+    data = {"table": (root / "free-curve-nema17.json").read_bytes(),
+            "upload": (root / "free-curve-nema17.json").read_bytes(),
+            "stream": render_stream(_packets(STREAM), "hex")}[kind]
+    if kind == "upload":
+        from profiles.ppmc312.formats import render
+        from profiles.ppmc312.table import table_from_json
+        from profiles.ppmc312.upload import encode_free_curve
+
+        data = render(encode_free_curve(table_from_json(json.loads(data))), "text")
+
+    class Stdin:
+        buffer = io.BytesIO(data)
+
+    monkeypatch.setattr(sys, "stdin", Stdin())
+    assert main(["check", "-"]) == 0, capsys.readouterr()
+    out = capsys.readouterr().out
+    assert "1 ok" in out and ("MC-200 stream file" in out) == (kind == "stream")

@@ -32,13 +32,18 @@ def check_file(path: str, motor: Motor | None = None, extck_hz: float | None = N
     criterion, and (`physics`) the load angle; `extck_hz` is the external clock of
     EXTCK uploads (a table file carries its own).
     """
+    from profiles.reading import STREAM_INPUT_MAX_BYTES, display_path, read_bytes, require_size
     from verify.checks import check_table
 
     try:
-        device = _device_result(path, motor is not None)
+        # Read once (stdin cannot be read twice), up to the cap of MC-200 streams, which
+        # may be longer than other inputs; any other file is held to the usual cap.
+        raw = read_bytes(path, limit=STREAM_INPUT_MAX_BYTES)
+        device = _device_result(raw, path, motor is not None)
         if device is not None:
             return device
-        table, chip_findings = load_checkable(path, extck_hz)
+        require_size(len(raw), display_path(path))
+        table, chip_findings = load_checkable(path, extck_hz, raw=raw)
         findings = list(chip_findings)
         notes: list[str] = []
         details: dict[str, object] = {}
@@ -73,18 +78,12 @@ def check_file(path: str, motor: Motor | None = None, extck_hz: float | None = N
     return FileResult(path=path, ok=ok, findings=findings, notes=notes, details=details)
 
 
-def _device_result(path: str, motor: bool) -> FileResult | None:
+def _device_result(raw: bytes, path: str, motor: bool) -> FileResult | None:
     """The result for an MC-200 stream or A-Link settings file (None for the others)."""
-    from profiles.reading import MAX_INPUT_BYTES, STREAM_INPUT_MAX_BYTES, read_bytes
     from verify.device_checks import check_device_file
 
-    # MC-200 streams may be longer than other inputs: read up to their cap, and hold
-    # every other file to the usual one (as load_checkable would).
-    raw = read_bytes(path, limit=STREAM_INPUT_MAX_BYTES)
     found = check_device_file(raw, path)
     if found is None:
-        if len(raw) > MAX_INPUT_BYTES:
-            read_bytes(path)  # the usual one-line "more than … bytes" error
         return None
     device, findings = found
     names = {"mc200": "MC-200 stream", "alink": "A-Link settings"}
@@ -156,14 +155,15 @@ def dedupe(findings: Iterable[Finding]) -> list[Finding]:
     return list(dict.fromkeys(findings))
 
 
-def load_checkable(path: str, extck_hz: float | None = None
+def load_checkable(path: str, extck_hz: float | None = None, *, raw: bytes | None = None
                    ) -> tuple[FreeCurveTable | InitTable | None, list[Finding]]:
     """A table file, or an upload file judged first by what the chip would answer:
-    (the table, []) or, for an upload the chip refuses, (None, [its finding])."""
+    (the table, []) or, for an upload the chip refuses, (None, [its finding]). `raw`:
+    the file's bytes, when the caller has read them."""
     from profiles.ppmc312.table import table_from_json
     from profiles.reading import parse_json, read_bytes, require_shallow_json
 
-    raw = read_bytes(path)
+    raw = read_bytes(path) if raw is None else raw
     if looks_like_table_json(raw):
         return table_from_json(parse_json(raw, path)), []
     from profiles.errors import CorruptedError
