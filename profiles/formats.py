@@ -410,10 +410,11 @@ def render_ihex_chunks(chunks: Iterable[bytes], base_address: int) -> Iterator[b
     yield ("\n".join(lines) + "\n").encode("ascii")
 
 
-def parse_ihex(raw: bytes) -> tuple[bytes, int]:
+def parse_ihex(raw: bytes, *, whole: bool = True) -> tuple[bytes, int]:
     """The contiguous payload of an Intel HEX file and its start address. Every
     record's checksum is verified (`CorruptedError`); the data must be one run
-    without gaps or overlaps, ended by the EOF record."""
+    without gaps or overlaps, ended by the EOF record (`whole=False`: `raw` is the
+    file's first lines, to tell what it holds, and need not be ended)."""
     base = 0
     start: int | None = None
     payload = bytearray()
@@ -455,7 +456,7 @@ def parse_ihex(raw: bytes) -> tuple[bytes, int]:
             pass  # start addresses: nothing to upload
         else:
             raise DecodeError(f"{where}: record type {kind:02X} is not Intel HEX (00-05)")
-    if not ended:
+    if whole and not ended:
         raise CorruptedError("no end-of-file record (:00000001FF): the file is truncated")
     if start is None:
         raise DecodeError("the Intel HEX file holds no data records")

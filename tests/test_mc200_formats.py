@@ -426,3 +426,21 @@ def test_decoded_lines_report_their_progress() -> None:
     assert calls == []  # judged, nothing listed yet
     assert len("".join(lines).splitlines()) == 10
     assert calls == [(0, 10), (4, 10), (8, 10), (10, 10)]
+
+
+@pytest.mark.parametrize("size", [50, 100, 150, 1 << 20])
+def test_a_long_intel_hex_stream_is_told_by_its_first_lines(
+        size: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    import profiles.mc200.formats as MF
+
+    # the head's 16-byte records end inside a 12-byte packet for most sizes: the packets
+    # cut off are left out, the whole ones tell
+    packets = [M.HostPacket(0, True, 0, v, "position").encode() for v in range(40)]
+    data = render(packets, "ihex")
+    monkeypatch.setattr(MF, "TEXT_CHUNK_BYTES", size)
+    assert is_stream_file(data)
+    # the head needs no end record; the file does, when it is parsed
+    cut = data[:data.rindex(b":00000001FF")]
+    assert is_stream_file(cut)
+    with pytest.raises(CorruptedError, match="no end-of-file record"):
+        parse(cut)

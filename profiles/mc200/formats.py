@@ -417,24 +417,27 @@ def is_stream_file(raw: bytes) -> bool:
     never looks so: a 12-byte parallel block has its length 10 in byte 1, an ASCII
     frame hex digits (and neither sums to an MC-200 checksum but by a 1 in 32768
     chance)."""
+    # The first chunk of lines tells a text file (a long stream is read once, by parse).
+    head = raw[:_first_lines_end(raw)]
     try:
         fmt = FORMATS.detect(raw).name
         if fmt in ("json", "c") and len(raw) > MAX_INPUT_BYTES:
-            # too long to read whole here: its head tells, and parse says why it stops
-            head = raw[:_first_lines_end(raw)].decode("utf-8", "replace")
-            return (_C_ARRAY.search(head) is not None if fmt == "c" else
-                    '"packets"' in head and '"blocks"' not in head)
+            # too long to read whole here: parse says why it stops
+            text = head.decode("utf-8", "replace")
+            return (_C_ARRAY.search(text) is not None if fmt == "c" else
+                    '"packets"' in text and '"blocks"' not in text)
         if fmt == "json":
             obj = parse_json(raw, "the file")
             return isinstance(obj, dict) and "packets" in obj and "blocks" not in obj \
                 and "format" not in obj
         if fmt == "c":
             return _C_ARRAY.search(text_of(raw)) is not None
-        # hex text: its first chunk of lines tells (a long stream is read once, by parse)
-        payload = (raw if fmt == "bin" else parse_ihex(raw)[0] if fmt == "ihex"
-                   else _hex_payload(raw[:_first_lines_end(raw)])[0])
+        payload = (raw if fmt == "bin" else parse_ihex(head, whole=False)[0] if fmt == "ihex"
+                   else _hex_payload(head)[0])
     except StepRampError:
         return False
+    if fmt == "ihex" and len(head) < len(raw):  # 16-byte records may cut the last packet
+        payload = payload[:len(payload) - len(payload) % PACKET_SIZE]
     if not payload or len(payload) % PACKET_SIZE:
         return False
     rows = np.frombuffer(payload, dtype=np.uint8).reshape(-1, PACKET_SIZE)
