@@ -13,7 +13,6 @@ import pytest
 
 from profiles.errors import FormatError, StepRampError
 from profiles.motor import Motor, load_motor
-from profiles.motor.rotor_batch import batch_rotor, follow_batch
 from profiles.motor.tolerance import (
     box,
     clopper_pearson_upper,
@@ -122,11 +121,12 @@ def test_clopper_pearson() -> None:
     assert clopper_pearson_upper(5, 5) == 1.0
 
 
-def test_batched_model_matches_the_scalar_one() -> None:
+def test_each_sample_is_judged_as_its_own_motor() -> None:
+    """A Monte Carlo sample's verdict is the scalar verdict of that sample's motor, both
+    directions of its load torque included (rows of one kernel call, each its own step)."""
     m = motor_with(tolerances=FULL_BOX)
     table = plan_free_curve(m, pulses=5000).table
     n = 300
-    params = sample_params(m, 6, seed=1)
     peaks, where = sample_peaks(table, m, [n], 6, seed=1)
     assert np.all(where == n)
     for i, s in enumerate(samples(m, 6, seed=1)):
@@ -134,17 +134,7 @@ def test_batched_model_matches_the_scalar_one() -> None:
                      worst_load_angle(table, replace(s.motor, load_torque_nm=-s.motor
                                                      .load_torque_nm), pulses=[n])
                      .worst_angle_deg)
-        assert peaks[i] == pytest.approx(scalar, abs=0.5), (i, params)
-    # one rotor with nominal values is the scalar model step for step
-    run = simulate_move(table, n)
-    from profiles.motor.rotor import rotor_of
-    from profiles.ppmc312.load_angle import spans_of
-    plain = motor_with()
-    r = rotor_of(plain)
-    res = follow_batch(batch_rotor(plain, {}), spans_of(run, r, r.step_s())[:-1],
-                       step_s=r.step_s())
-    assert res.peak_deg[0] == pytest.approx(
-        worst_load_angle(table, plain, pulses=[n]).worst_angle_deg, abs=1e-6)
+        assert peaks[i] == pytest.approx(scalar, abs=1e-9), i
 
 
 def test_robust_plan_is_safe_at_every_corner_where_the_nominal_is_not() -> None:
@@ -212,17 +202,14 @@ def test_check_cli_over_the_box(tmp_path: Path, capsys: pytest.CaptureFixture[st
 
 
 @pytest.mark.parametrize("holding", [None, 0.33])
-def test_batched_peak_torque_is_the_scalar_rotors(holding: float | None) -> None:
-    """Both ways of the batched T_pk (one scaled curve; per-rotor curves capped at the
-    holding torque) against profiles.motor.rotor for each sample."""
-    from profiles.motor.rotor import rotor_of
+@pytest.mark.parametrize("direction", [1, -1])
+def test_box_rotors_are_the_variant_motors_rotors(holding: float | None, direction: int) -> None:
+    """Row i of `rotors(motor, params)` is the rotor of `variant(motor, params at i)`: the
+    torque scale multiplies the curve and the holding torque that caps it."""
+    from profiles.motor.rotor import rotor_of, rotors
 
     m = replace(motor_with(tolerances=FULL_BOX), holding_torque_nm=holding)
     params = sample_params(m, 7, seed=2)
-    batch = batch_rotor(m, params)
-    assert (batch.shared_curve is None) == (holding is not None)
-    for v in (0.0, 1000.0, 2000.0, 9000.0, 47999.0, 48000.0, 60000.0):
-        got = batch.t_peak_pps2(np.full(7, v))
-        for i, s in enumerate(samples(m, 7, seed=2)):
-            r = rotor_of(s.motor)
-            assert got[i] == pytest.approx(r.k * r.t_peak(v), rel=1e-12, abs=1e-9)
+    rows = rotors(m, params, direction=direction)
+    for i, s in enumerate(samples(m, 7, seed=2)):
+        assert rows.rotor(i) == rotor_of(s.motor, direction=direction)

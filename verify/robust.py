@@ -2,10 +2,10 @@
 
 - the criterion: on `worst_case_motor`, which is exact over the whole box
   (docs/manual-notes.md, "Tolerance box: the binding corner");
-- the load angle: over every execution at every corner of the box (the scalar
-  model of profiles.ppmc312.load_angle), and over a seeded Monte Carlo sample
-  of the box on the executions that are worst at some corner (the batched model
-  of profiles.motor.rotor_batch: one numpy RK4 for all samples);
+- the load angle: over every execution at every corner of the box, and over a
+  seeded Monte Carlo sample of the box on the executions that are worst at some
+  corner (profiles.ppmc312.load_angle: every corner, or every sample, is a row of
+  one call of the compiled model);
 - the stall probability: samples past the 90° peak, with the exact
   Clopper–Pearson one-sided 95 % upper bound (0 of N → 1 − 0.05^(1/N) ≈ 3/N).
 """
@@ -18,11 +18,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from profiles.motor import Motor
-from profiles.motor.rotor import PEAK_DEG, rotor_of
-from profiles.motor.rotor_batch import batch_rotor, follow_batch
+from profiles.motor.rotor import PEAK_DEG, Rotors, rotors
 from profiles.motor.tolerance import clopper_pearson_upper, corners, sample_params
-from profiles.ppmc312.execution import simulate_move
-from profiles.ppmc312.load_angle import spans_of, worst_load_angle
+from profiles.ppmc312.execution import moves
+from profiles.ppmc312.load_angle import judge, worst_load_angles
 from profiles.ppmc312.table import FreeCurveTable
 from profiles.progress import Progress, report
 
@@ -85,15 +84,15 @@ def judge_box(table: FreeCurveTable, motor: Motor, *, pulses: Iterable[int] | No
     unstable: list[int] = []
     worst_lengths: set[int] = set()
     corner_worst = -1.0
-    for i, corner in enumerate(box_corners):
-        w = worst_load_angle(table, corner.motor, pulses=lengths)
+    verdicts = worst_load_angles(table, [c.motor for c in box_corners], pulses=lengths)
+    for corner, w in zip(box_corners, verdicts, strict=True):
         worst_lengths.add(w.worst_pulses)
         if w.first_unstable_pulses is not None:
             unstable.append(w.first_unstable_pulses)
         corner_worst = max(corner_worst, w.worst_angle_deg)
         if w.worst_angle_deg > worst[0]:
             worst = (w.worst_angle_deg, corner.describe(), w.worst_pulses)
-        report(progress, i + 1, total)
+    report(progress, len(box_corners), total)
     # Samples are judged on the moves worst at some corner (given lengths: all of them)
     sampled = tuple(sorted(worst_lengths if lengths is None or len(lengths) > 8 else lengths))
     sample_worst, failures = -1.0, 0
@@ -119,21 +118,13 @@ def judge_box(table: FreeCurveTable, motor: Motor, *, pulses: Iterable[int] | No
 def sample_peaks(table: FreeCurveTable, motor: Motor, lengths: Iterable[int], samples: int,
                  seed: int) -> tuple[np.ndarray, np.ndarray]:
     """Each sample's worst |load angle| over the moves of `lengths` (both directions when
-    the box or the motor has a load torque), and the move length where it is worst."""
+    the box or the motor has a load torque), and the move length where it is worst:
+    sample i judged exactly as the motor `tolerance.samples(motor, …)[i]` would be."""
     params = sample_params(motor, samples, seed)
     lo, hi = motor.tolerance("load_torque_nm")
-    directions = (1, -1) if (lo or hi) else (1,)
-    peaks = np.full(samples, -1.0)
-    where = np.zeros(samples, dtype=np.int64)
-    nominal_rotor = rotor_of(motor)
-    for direction in directions:
-        rotor = batch_rotor(motor, params, direction=direction)
-        step = min(rotor.step_s(), nominal_rotor.step_s())
-        for n in lengths:
-            run = simulate_move(table, int(n))
-            spans = spans_of(run, nominal_rotor, step)[:-1]  # follow_batch adds the rest
-            result = follow_batch(rotor, spans, step_s=step)
-            better = result.peak_deg > peaks
-            peaks = np.where(better, result.peak_deg, peaks)
-            where = np.where(better, int(n), where)
-    return peaks, where
+    ways = (1, -1) if (lo or hi) else (1,)
+    runs = moves(table, sorted(set(int(n) for n in lengths)))
+    rot = Rotors.stack([rotors(motor, params, direction=d) for d in ways])
+    lag, _ = judge(runs, table.clock.hz, rot)
+    deg = np.degrees(lag * rot.c_e).reshape(len(ways), samples, len(runs)).max(axis=0)
+    return deg.max(axis=1), runs.pulses[np.argmax(deg, axis=1)]

@@ -1,7 +1,7 @@
 """The motor: its model and file format (`model`), and where a motor file comes from and
 how it moves: a datasheet's electrical model (`datasheet`), vendor curves and machine
 units (`units`), the load it drives (`loads`), the JSON Schema (`schema`), the
-load-angle dynamics (`rotor`, `rotor_batch`), tolerance boxes (`tolerance`) and
+load-angle dynamics (`rotor`, compiled in `rotor_kernel`), tolerance boxes (`tolerance`) and
 resonance bands (`resonance`)."""
 
 from .model import (

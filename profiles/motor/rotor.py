@@ -32,7 +32,9 @@ from __future__ import annotations
 
 import bisect
 import math
-from dataclasses import dataclass, field
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -54,8 +56,8 @@ class Rotor:
 
     c_e: float                 # electrical radians per pulse
     k: float                   # N·m → pps/s
-    curve_v: list[float]
-    curve_t: list[float]       # peak restoring torque at curve_v
+    curve_v: tuple[float, ...]
+    curve_t: tuple[float, ...]  # peak restoring torque at curve_v
     friction_pps2: float
     load_pps2: float           # signed: > 0 opposes the move
     damping_per_s: float       # 2·ζ·ω_n0
@@ -63,6 +65,15 @@ class Rotor:
     @property
     def deg_per_pulse(self) -> float:
         return math.degrees(self.c_e)
+
+    def row(self) -> np.ndarray:
+        """The kernel's row of this rotor (profiles.motor.rotor_kernel.ROTOR_FIELDS)."""
+        return np.array([self.c_e, self.k, self.friction_pps2, self.load_pps2,
+                         self.damping_per_s])
+
+    def curve(self) -> tuple[np.ndarray, np.ndarray]:
+        """The pull-out curve as the kernel takes it: (speeds [pps], torques [N·m])."""
+        return np.asarray(self.curve_v, dtype=float), np.asarray(self.curve_t, dtype=float)
 
     def t_peak(self, speed_pps: float) -> float:
         v = abs(speed_pps)
@@ -84,135 +95,132 @@ class Rotor:
         return step if math.isfinite(step) else 1e-4
 
 
-def rotor_of(motor: Motor, *, direction: int = 1, torque_scale: float = 1.0) -> Rotor:
+def rotor_of(motor: Motor, *, direction: int = 1) -> Rotor:
     """The rotor of `motor` on a forward (`direction` 1) or backward (−1) move."""
+    return rotors(motor, direction=direction).rotor(0)
+
+
+@dataclass(frozen=True)
+class Rotors:
+    """Rotors of one motor's variants (a tolerance box's corners or samples, each
+    direction of a loaded move) as the kernel takes them: one row each."""
+
+    c_e: float
+    curve_v: np.ndarray   # (P,) speeds [pps], shared
+    curve_t: np.ndarray   # (S, P) peak restoring torque [N·m] per rotor
+    rows: np.ndarray      # (S, len(ROTOR_FIELDS)): c_e, k, friction, load, damping
+    direction: np.ndarray  # (S,) 1 forward, −1 backward
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+    def rotor(self, i: int) -> Rotor:
+        c_e, k, friction, load, damping = (float(x) for x in self.rows[i])
+        return Rotor(c_e, k, tuple(float(v) for v in self.curve_v),
+                     tuple(float(t) for t in self.curve_t[i]), friction, load, damping)
+
+    def step_s(self, max_step_s: float | None = None) -> np.ndarray:
+        """Each rotor's RK4 step (`Rotor.step_s`), at most `max_step_s`."""
+        steps = np.asarray([self.rotor(i).step_s() for i in range(len(self))])
+        return steps if max_step_s is None else np.minimum(steps, max_step_s)
+
+    @staticmethod
+    def stack(parts: Sequence[Rotors]) -> Rotors:
+        """One set of the rotors of `parts` (same curve speeds and c_e), in order."""
+        first = parts[0]
+        for p in parts[1:]:
+            if p.c_e != first.c_e or not np.array_equal(p.curve_v, first.curve_v):
+                raise ValueError("rotors judged together share their curve speeds and c_e")
+        return Rotors(first.c_e, first.curve_v, np.concatenate([p.curve_t for p in parts]),
+                      np.concatenate([p.rows for p in parts]),
+                      np.concatenate([p.direction for p in parts]))
+
+
+def rotors(motor: Motor, params: Mapping[str, Any] | None = None, *,
+           direction: int = 1) -> Rotors:
+    """The rotors of `motor` with the given parameter values (keys from
+    profiles.motor.TOLERANCE_KEYS, each a number or an array of one length; missing
+    ones nominal), on a forward (`direction` 1) or backward (−1) move. Row i is the
+    rotor of `tolerance.variant(motor, params at i)`: the torque scale multiplies the
+    pull-out curve and the holding torque that caps it."""
+    params = dict(params or {})
+    size = max((np.size(v) for v in params.values()), default=1)
+
+    def get(key: str) -> np.ndarray:
+        value = params.get(key)
+        return np.broadcast_to(np.asarray(motor.nominal(key) if value is None else value,
+                                          dtype=float), (size,))
+
     c_e = math.radians(motor.electrical_deg_per_pulse)
-    amp = np.asarray(motor.curve_torque_nm, dtype=float) * torque_scale
+    amp = np.asarray(motor.curve_torque_nm, dtype=float)
     if motor.holding_torque_nm is not None:
         amp = np.minimum(amp, motor.holding_torque_nm)
-    k = motor.steps_per_rev / (2 * math.pi * motor.inertia_kgm2)
-    omega_n0 = math.sqrt(k * c_e * float(amp[0])) if amp[0] > 0 else 0.0
-    return Rotor(c_e=c_e, k=k, curve_v=[float(v) for v in motor.curve_speed_pps],
-                 curve_t=[float(t) for t in amp], friction_pps2=k * motor.friction_torque_nm,
-                 load_pps2=k * motor.load_torque_nm * direction,
-                 damping_per_s=2 * motor.damping_ratio * omega_n0)
+    amp = get("torque_scale")[:, None] * amp[None, :]
+    k = motor.steps_per_rev / (2 * math.pi * get("inertia_kgm2"))
+    omega_n0 = np.sqrt(np.maximum(k * c_e * amp[:, 0], 0.0))
+    rows = np.stack([np.full(size, c_e), k, k * get("friction_torque_nm"),
+                     k * get("load_torque_nm") * direction,
+                     2 * get("damping_ratio") * omega_n0], axis=1)
+    return Rotors(c_e, np.asarray(motor.curve_speed_pps, dtype=float), amp, rows,
+                  np.full(size, direction))
 
 
-@dataclass
+@dataclass(frozen=True)
 class Trace:
-    """A run of the model: the lag at every RK4 step and at every span boundary."""
+    """A run of the model: per span its largest |lag| and its end state (L, s), and with
+    `record` the lag at every RK4 step [pulses] (`t_s` from the start state)."""
 
-    t_s: list[float] = field(default_factory=lambda: [0.0])
-    lag: list[float] = field(default_factory=lambda: [0.0])   # pulses
-    boundary: list[tuple[float, float]] = field(default_factory=list)  # (L, s) at span ends
-    span_max: list[float] = field(default_factory=list)       # max |L| within each span
-    slipped: bool = False
-    slip_time_s: float | None = None
-    steps: int = 0
-    record: bool = True       # keep every step (figures); False keeps boundaries only
-    budget: StepBudget | None = None  # shared by the executions of one verdict
-
-
-@dataclass
-class StepBudget:
-    """RK4 steps a whole verdict may take: a stiff rotor on a long table would otherwise
-    keep a check busy for minutes; it is refused with a reason instead."""
-
-    limit: int
-    used: int = 0
-
-    def left(self) -> int:
-        return self.limit - self.used
+    span_max: np.ndarray
+    boundary_lag: np.ndarray
+    boundary_s: np.ndarray
+    slipped: bool
+    slip_time_s: float | None
+    steps: int
+    t_s: np.ndarray
+    lag: np.ndarray
 
 
-def follow(rotor: Rotor, spans: list[tuple[float, float]], *, step_s: float,
+def follow(rotor: Rotor, spans: Sequence[tuple[float, float]], *, step_s: float,
            state: tuple[float, float] = (0.0, 0.0), t0_s: float = 0.0,
-           previous_pps: float = 0.0, trace: Trace | None = None,
-           stop: object = None) -> Trace:
+           previous_pps: float = 0.0, record: bool = True,
+           max_steps: int = MAX_RK4_STEPS) -> Trace:
     """Integrate the rotor over `spans` of (duration_s, command speed_pps), starting with
-    lag state (L, s) at `t0_s` after a command of `previous_pps`. Stops at a pole slip,
-    or when `stop(i, L, s)` returns True at the end of span i."""
-    out = trace if trace is not None else Trace(t_s=[t0_s], lag=[state[0]])
-    L, s = state
-    t = t0_s
-    slip = math.radians(SLIP_DEG) / rotor.c_e
-    for i, (dur, v) in enumerate(spans):
-        s += v - previous_pps  # the command's speed steps; the lag is continuous
-        previous_pps = v
-        L, s, peak = _segment(rotor, out, t, dur, v, L, s, step_s, slip)
-        t += dur
-        out.boundary.append((L, s))
-        out.span_max.append(peak)
-        if out.slipped or (stop is not None and stop(i, L, s)):  # type: ignore[operator]
+    lag state (L, s) at `t0_s` after a command of `previous_pps`; stops at a pole slip.
+    The compiled kernel (profiles.motor.rotor_kernel) does the work."""
+    from . import rotor_kernel as rk
+
+    spans = np.asarray(spans, dtype=float).reshape(-1, 2)
+    dur, vel = np.ascontiguousarray(spans[:, 0]), np.ascontiguousarray(spans[:, 1])
+    count = len(dur)
+    out_max, out_lag, out_s = np.zeros(count), np.zeros(count), np.zeros(count)
+    no_ref = np.full(count, -1, dtype=np.int64)
+    # room for every step the spans can take (settling skips most of a long one)
+    room = int(min(np.sum(np.ceil(dur / step_s)) + count, max_steps + count)) if record else 0
+    while True:
+        rec_t, rec_lag = np.empty(room), np.empty(room)
+        done, status, slipped, slip_t, steps, _, recorded = rk.follow_spans(
+            *rotor.curve(), rotor.row(), dur, vel, state[0], state[1],
+            previous_pps, t0_s, step_s, math.radians(SLIP_DEG) / rotor.c_e,
+            math.radians(SETTLE_TOL_DEG) / rotor.c_e, MAX_SETTLE_PERIODS, max_steps, no_ref,
+            out_lag, out_s, 0.0, 0.0, out_max, out_lag, out_s, record, rec_t, rec_lag)
+        if status != rk.OUT_OF_ROOM:
             break
-    return out
+        room *= 2
+    if status == rk.OUT_OF_STEPS:
+        raise too_stiff(max_steps, rotor, step_s)
+    return Trace(out_max[:done], out_lag[:done], out_s[:done], bool(slipped),
+                 slip_t if slipped else None, int(steps),
+                 np.concatenate(([t0_s], rec_t[:recorded])),
+                 np.concatenate(([state[0]], rec_lag[:recorded])))
 
 
-def _segment(rotor: Rotor, out: Trace, t0: float, dur: float, v: float, L: float, s: float,
-             step_s: float, slip: float) -> tuple[float, float, float]:
-    if dur <= 0:
-        return L, s, abs(L)
-    n = max(1, math.ceil(dur / step_s))
-    h = dur / n
-    period = rotor.natural_period_s(v)
-    window = max(8, math.ceil(period / h)) if math.isfinite(period) else n + 1
-    tol = math.radians(SETTLE_TOL_DEG) / rotor.c_e
-    r = rotor
-    fr, ld, dmp, k, c_e, t_peak = (r.friction_pps2, r.load_pps2, r.damping_per_s, r.k, r.c_e,
-                                   r.t_peak)
-
-    def accel(L: float, s: float) -> float:
-        u = v - s  # rotor speed
-        a = k * t_peak(u) * math.sin(c_e * L) + dmp * s - ld
-        if u > 0:
-            return a - fr
-        if u < 0:
-            return a + fr
-        if abs(a) <= fr:
-            return 0.0  # at rest, friction holds the rotor until the drive exceeds it
-        return a - math.copysign(fr, a)
-
-    peak = abs(L)
-    limit = MAX_RK4_STEPS if out.budget is None else min(MAX_RK4_STEPS, out.budget.left())
-    lo = hi = L
-    count = windows = 0
-    for i in range(1, n + 1):
-        k1L, k1s = s, -accel(L, s)
-        k2L, k2s = s + 0.5 * h * k1s, -accel(L + 0.5 * h * k1L, s + 0.5 * h * k1s)
-        k3L, k3s = s + 0.5 * h * k2s, -accel(L + 0.5 * h * k2L, s + 0.5 * h * k2s)
-        k4L, k4s = s + h * k3s, -accel(L + h * k3L, s + h * k3s)
-        L += h / 6 * (k1L + 2 * k2L + 2 * k3L + k4L)
-        s += h / 6 * (k1s + 2 * k2s + 2 * k3s + k4s)
-        t = t0 + i * h
-        if out.record:
-            out.t_s.append(t)
-            out.lag.append(L)
-        out.steps += 1
-        peak = max(peak, abs(L))
-        if abs(L) > slip:
-            out.slipped, out.slip_time_s = True, t
-            break
-        lo, hi = min(lo, L), max(hi, L)
-        count += 1
-        if count >= window:
-            windows += 1
-            # Settled: the rest of a constant segment repeats this state. An undamped
-            # rotor never settles; after MAX_SETTLE_PERIODS windows its (periodic)
-            # oscillation has shown its extremes, so it is skipped as well.
-            if hi - lo < tol or windows >= MAX_SETTLE_PERIODS:
-                if i < n and out.record:
-                    out.t_s.append(t0 + dur)
-                    out.lag.append(L)
-                break
-            lo = hi = L
-            count = 0
-        if out.steps >= limit:
-            raise StepRampError(f"load-angle model: more than {limit} RK4 steps of {h:.3g} s "
-                                f"(natural period {period:.3g} s) by t = {t:.6g} s: this rotor "
-                                "is too stiff, or too lightly damped, for a verdict in "
-                                "reasonable time; check the motor's inertia and damping_ratio, "
-                                "or judge fewer move lengths (--pulses)")
-    return L, s, peak
+def too_stiff(limit: int, rotor: Rotor, step_s: float) -> StepRampError:
+    """The refusal of a verdict that would take more than `limit` RK4 steps."""
+    return StepRampError(f"load-angle model: more than {limit} RK4 steps of {step_s:.3g} s "
+                         f"(natural period {rotor.natural_period_s(0.0):.3g} s at rest): this "
+                         "rotor is too stiff, or too lightly damped, for a verdict in "
+                         "reasonable time; check the motor's inertia and damping_ratio, or "
+                         "judge fewer move lengths (--pulses)")
 
 
 def settle_s(rotor: Rotor, step_s: float) -> float:

@@ -31,6 +31,7 @@ lands exactly at `duration_s`. The first-pulse latency is reported apart.
 
 from __future__ import annotations
 
+import bisect
 import io
 from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
@@ -249,27 +250,52 @@ class _Sides:
     split: _Split = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "split", _split(self.acc, self.dec, self.shared))
-
-    def plan(self, pulses: int) -> tuple[Shape, Plan]:
-        if self.no_accel:
-            return _no_accel(self.acc, self.dec, pulses, self.cruise_rate)
-        return _shape(self.acc, self.dec, pulses, self.cruise_rate, self.split)
+        object.__setattr__(self, "split", _split(self.acc, self.dec, self.shared,
+                                                 self.cruise_rate if self.no_accel else 0))
 
     def runs(self, pulses: int) -> tuple[Shape, Plan]:
-        """The segments of the move as (phase, rate, pulses): empty parts dropped, and a
-        part at the same phase and rate as the one before joined to it (e.g. clamped
-        decel pulses at the peak rate)."""
-        shape, plan = self.plan(pulses)
-        out: Plan = []
-        for phase, rate, count in plan:
-            if count <= 0:
-                continue
-            if out and out[-1][0] == phase and out[-1][1] == rate:
-                out[-1] = (phase, rate, out[-1][2] + count)
-            else:
-                out.append((phase, rate, count))
-        return shape, out
+        """The segments of the move as (phase, rate, pulses) (see `moves`)."""
+        batch = self.moves(np.asarray([pulses], dtype=np.int64))
+        return SHAPES[int(batch.shape[0])], batch.runs(0)
+
+    def moves(self, pulses: np.ndarray) -> MoveBatch:
+        """The moves of the given lengths at once (numpy over moves and segments).
+
+        A move is five parts in order: two accel parts (the stages one side has beyond
+        the other, then the shared ones), the cruise, two decel parts (shared, then the
+        other side's extra stages), each the first (accel) or last (decel) pulses of its
+        stages from their slow end; empty parts drop out, and a part at the same phase and
+        rate as the one before is joined to it (e.g. clamped decel pulses at the peak)."""
+        sp = self.split
+        p = np.asarray(pulses, dtype=np.int64)
+        zero = np.zeros_like(p)
+        if self.no_accel:
+            # High rate slower than the 2nd stage: the chip cannot accelerate (manual §8-3);
+            # it runs at `cruise_rate`, then down the decel stages slower than that.
+            total = sp.ladders[5].total
+            shape = np.full(len(p), SHAPES.index("straight_triangle_decel"))
+            x = (zero, zero, np.maximum(p - total, 0), np.minimum(p, total), zero)
+        else:
+            trap = p >= sp.a_total + sp.d_total
+            tri = ~trap & (p >= sp.rate_diff)
+            rest = p - sp.rate_diff
+            a_sh, d_sh = sp.a_sh, sp.d_sh
+            # The chip keeps the table's accel:decel ratio; the accel share rounds down.
+            q_acc = rest * a_sh // (a_sh + d_sh) if a_sh + d_sh else zero
+            q_dec = rest - q_acc
+            straight_up = sp.ladders[2].total > 0  # the accel side has the extra stages
+            straight = ~trap & ~tri
+            acc_x, dec_x = sp.ladders[2].total, sp.ladders[6].total
+            x = (np.where(trap, acc_x, np.where(tri, sp.rate_diff if sp.acc_extra else 0,
+                                                np.where(straight & straight_up, p, 0))),
+                 np.where(trap, a_sh, np.where(tri, q_acc, 0)),
+                 np.where(trap, p - sp.a_total - sp.d_total, 0),
+                 np.where(trap, d_sh, np.where(tri, q_dec, 0)),
+                 np.where(trap, dec_x, np.where(tri, sp.rate_diff if sp.dec_extra else 0,
+                                                np.where(straight & ~straight_up, p, 0))))
+            shape = np.where(trap, 0, np.where(tri, 1, np.where(straight_up, 3, 2)))
+        return _assemble(p, shape, sp.ladders[2:], x, self.cruise_rate,
+                         clamp=shape == SHAPES.index("triangle"))
 
     def breakpoints(self) -> list[int]:
         """Every move length at which the sequence of segment rates may change (the first
@@ -349,6 +375,16 @@ def simulate_move(table: FreeCurveTable | InitTable, pulses: int, *, high_rate: 
     return _execute(table, sides, int(pulses), held_by_run)
 
 
+def moves(table: FreeCurveTable | InitTable, pulses: Any, *, high_rate: int = 0) -> MoveBatch:
+    """The accel/decel moves of the given lengths, all at once, as flat segment arrays
+    (what a verdict over many moves needs, without an `Execution` each)."""
+    lengths = np.asarray(pulses, dtype=np.int64).reshape(-1)
+    for n in (lengths.min(), lengths.max()) if len(lengths) else ():
+        _check_pulses(int(n))
+    _, sides = _sides(table, high_rate)
+    return sides.moves(lengths)
+
+
 def _execute(table: FreeCurveTable, sides: _Sides, pulses: int,
              held_by_run: bool = False) -> Execution:
     shape, runs = sides.runs(pulses)
@@ -375,7 +411,8 @@ class MoveFamily:
     hi: int
     shape: str
     _sides: _Sides = field(repr=False, compare=False)
-    _first: Plan = field(repr=False, compare=False, default_factory=list)
+    _batch: MoveBatch = field(repr=False, compare=False)  # the families' shortest moves
+    _index: int = field(repr=False, compare=False)        # this family's move in it
 
     def execution(self, pulses: int | None = None) -> Execution:
         """The move of `pulses` (default: the shortest of the family)."""
@@ -388,11 +425,16 @@ class MoveFamily:
         """The segments of a move of the family as (phase, rate, pulses), without building
         an `Execution` (what the criterion needs)."""
         if pulses is None or int(pulses) == self.lo:
-            return self._first
+            return self._batch.runs(self._index)
         return self._sides.runs(int(pulses))[1]
 
     def __contains__(self, pulses: object) -> bool:
         return isinstance(pulses, int) and self.lo <= pulses <= self.hi
+
+    @property
+    def cruise_rate(self) -> int:
+        """The rate a trapezoid of the family cruises at (after any high-rate override)."""
+        return self._sides.cruise_rate
 
 
 def move_families(table: FreeCurveTable | InitTable, *, high_rate: int = 0) -> list[MoveFamily]:
@@ -401,15 +443,16 @@ def move_families(table: FreeCurveTable | InitTable, *, high_rate: int = 0) -> l
     stage boundaries, never by iterating lengths. Ascending and contiguous."""
     free, sides = _sides(table, high_rate)
     starts = sides.breakpoints()
+    batch = sides.moves(np.asarray(starts, dtype=np.int64))
     out: list[MoveFamily] = []
-    last: list[tuple[Phase, int]] = []
-    for lo, nxt in zip(starts, [*starts[1:], MOVE_PULSES_MAX + 1], strict=True):
-        shape, runs = sides.runs(lo)
-        key = [(phase, rate) for phase, rate, _ in runs]
+    last = None
+    for e, (lo, nxt) in enumerate(zip(starts, [*starts[1:], MOVE_PULSES_MAX + 1], strict=True)):
+        key = batch.key(e)
+        shape = SHAPES[int(batch.shape[e])]
         if out and key == last and shape == out[-1].shape:  # a boundary of no effect
             out[-1] = replace(out[-1], hi=nxt - 1)
         else:
-            out.append(MoveFamily(free, high_rate, lo, nxt - 1, shape, sides, runs))
+            out.append(MoveFamily(free, high_rate, lo, nxt - 1, shape, sides, batch, e))
         last = key
     return out
 
@@ -427,80 +470,144 @@ class _Split(NamedTuple):
     d_total: int
     a_sh: int           # pulses of the shared stages, accel side
     d_sh: int
+    # acc, dec, then the five parts' stages: acc_extra, acc_shared, (cruise: none),
+    # dec_shared, dec_extra
+    ladders: tuple[_Ladder, ...]
 
 
-def _split(acc: list[Stage], dec: list[Stage], shared: int) -> _Split:
+def _split(acc: list[Stage], dec: list[Stage], shared: int, no_accel_level: int = 0) -> _Split:
     acc_extra = [s for s in acc if s[0] >= shared]
     dec_extra = [s for s in dec if s[0] >= shared]
     acc_shared = [s for s in acc if s[0] < shared]
     dec_shared = [s for s in dec if s[0] < shared]
+    if no_accel_level:  # no acceleration: the cruise, then the decel stages slower than it
+        parts = [[], [], [], [s for s in dec if s[1] > no_accel_level], []]
+    else:
+        parts = [acc_extra, acc_shared, [], dec_shared, dec_extra]
     return _Split(acc_extra, dec_extra, acc_shared, dec_shared,
                   sum(p for _, _, p in acc_extra) + sum(p for _, _, p in dec_extra),
                   sum(p for _, _, p in acc), sum(p for _, _, p in dec),
-                  sum(p for _, _, p in acc_shared), sum(p for _, _, p in dec_shared))
+                  sum(p for _, _, p in acc_shared), sum(p for _, _, p in dec_shared),
+                  tuple(_Ladder(side) for side in [acc, dec, *parts]))
 
 
-def _shape(acc: list[Stage], dec: list[Stage], pulses: int, cruise_rate: int,
-           sp: _Split) -> tuple[Shape, Plan]:
-    """Trapezoid / triangle / straight triangle for sides listed fastest first, cut by
-    `sp` into shared and rate-difference stages."""
-    if pulses >= sp.a_total + sp.d_total:
-        cruise: Plan = [("cruise", cruise_rate, pulses - sp.a_total - sp.d_total)]
-        return "trapezoid", _up(acc, sp.a_total) + cruise + _down(dec, sp.d_total)
-    if pulses >= sp.rate_diff:
-        rest = pulses - sp.rate_diff
-        a_sh, d_sh = sp.a_sh, sp.d_sh
-        # The chip keeps the table's accel:decel ratio; the accel share rounds down.
-        q_acc = rest * a_sh // (a_sh + d_sh) if a_sh + d_sh else 0
-        q_dec = rest - q_acc
-        up = (_up(sp.acc_extra, sp.rate_diff if sp.acc_extra else 0)
-              + _up(sp.acc_shared, q_acc))
-        down = (_down(sp.dec_shared, q_dec)
-                + _down(sp.dec_extra, sp.rate_diff if sp.dec_extra else 0))
-        if up:
-            # With LE=1 the split can end the accel below the stage the decel share starts
-            # on; decelerating never speeds up, so those decel pulses run at the peak rate.
-            peak = min(rate for _, rate, _ in up)
-            down = [(phase, max(rate, peak), n) for phase, rate, n in down]
-        return "triangle", up + down
-    if any(p for _, _, p in sp.acc_extra):
-        return "straight_triangle_accel", _up(sp.acc_extra, pulses)
-    return "straight_triangle_decel", _down(sp.dec_extra, pulses)
+class _Ladder:
+    """Stages of one side ready to be run from their slow end: the first `count` pulses
+    are the stages whose cumulative pulses stay below `count`, then part of the next."""
+
+    def __init__(self, side: list[Stage]) -> None:
+        slow_first = [(rate, p) for _, rate, p in reversed(side) if p]
+        self.rates = np.asarray([r for r, _ in slow_first], dtype=np.int64)
+        self.counts = np.asarray([p for _, p in slow_first], dtype=np.int64)
+        self.cum = np.cumsum(self.counts)
+        self.total = int(self.cum[-1]) if len(self.cum) else 0
+
+    def take(self, count: np.ndarray, *, down: bool) -> tuple[np.ndarray, np.ndarray,
+                                                             np.ndarray]:
+        """For each move, its first (`down`: last) `count` pulses: per move the number of
+        segments, and all moves' (rates, counts) in move order, each move's segments in
+        running order (slowest first accelerating, fastest first decelerating)."""
+        k = len(self.cum)
+        count = np.maximum(count, 0)
+        whole = np.searchsorted(self.cum, count, side="left")
+        before = np.where(whole > 0, self.cum[np.maximum(whole - 1, 0)] if k else 0, 0)
+        part = np.where(whole < k, count - before, 0)
+        n = whole + (part > 0)
+        total = int(n.sum())
+        move = np.repeat(np.arange(len(n)), n)
+        pos = np.arange(total) - np.repeat(np.cumsum(n) - n, n)
+        stage = n[move] - 1 - pos if down else pos   # slow-first index of each segment
+        counts = np.where(stage == whole[move], part[move], self.counts[np.minimum(stage, k - 1)]
+                          if k else 0)
+        return n, self.rates[stage] if k else np.zeros(0, np.int64), counts
 
 
-def _no_accel(acc: list[Stage], dec: list[Stage], pulses: int,
-              high_rate: int) -> tuple[Shape, Plan]:
-    """High rate slower than the 2nd stage: the chip cannot accelerate (manual §8-3)."""
-    level = max(high_rate, acc[-1][1])  # never faster than the start rate or the high rate
-    tail = [s for s in dec if s[1] > level]
-    d_total = sum(p for _, _, p in tail)
-    if pulses >= d_total:
-        cruise: Plan = [("cruise", level, pulses - d_total)]
-        return "straight_triangle_decel", cruise + _down(tail, d_total)
-    return "straight_triangle_decel", _down(tail, pulses)
+PHASE_CODES = {"accel": 0, "cruise": 1, "decel": 2}
+PHASES: tuple[Phase, ...] = ("accel", "cruise", "decel")
+SHAPES: tuple[Shape, ...] = ("trapezoid", "triangle", "straight_triangle_decel",
+                             "straight_triangle_accel")
 
 
-def _from_slow_end(side: list[Stage], count: int, phase: Phase) -> Plan:
-    """`count` pulses of a side taken from its slow end, slowest stage first."""
-    out: Plan = []
-    for _, rate, p in reversed(side):
-        if count <= 0:
-            break
-        take = p if p < count else count  # (a hot loop: every move family runs it)
-        if take:
-            out.append((phase, rate, take))
-        count -= take
-    return out
+@dataclass(frozen=True)
+class MoveBatch:
+    """Moves of several lengths as flat segment arrays: move e is the segments
+    offsets[e]..offsets[e+1] of (phase, rate, count); phase indexes PHASES, shape
+    SHAPES."""
+
+    pulses: np.ndarray
+    shape: np.ndarray
+    phase: np.ndarray
+    rate: np.ndarray
+    count: np.ndarray
+    offsets: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.pulses)
+
+    def runs(self, e: int) -> Plan:
+        """Move e's segments as (phase, rate, pulses)."""
+        a, b = int(self.offsets[e]), int(self.offsets[e + 1])
+        return [(PHASES[f], r, c) for f, r, c in zip(self.phase[a:b].tolist(),
+                                                     self.rate[a:b].tolist(),
+                                                     self.count[a:b].tolist(), strict=True)]
+
+    def key(self, e: int) -> tuple[bytes, bytes]:
+        """Move e's sequence of (phase, rate), comparable between moves."""
+        a, b = int(self.offsets[e]), int(self.offsets[e + 1])
+        return self.phase[a:b].tobytes(), self.rate[a:b].tobytes()
 
 
-def _up(side: list[Stage], count: int) -> Plan:
-    """The first `count` pulses of a side run slowest → fastest (accelerating)."""
-    return _from_slow_end(side, count, "accel")
+def _assemble(pulses: np.ndarray, shape: np.ndarray, ladders: tuple[_Ladder, ...],
+              x: tuple[np.ndarray, ...], cruise_rate: int, *, clamp: np.ndarray) -> MoveBatch:
+    """Moves from their five parts' pulses `x` (accel, accel, cruise, decel, decel)."""
+    moves = len(pulses)
+    parts = []
+    for i, (ladder, count) in enumerate(zip(ladders, x, strict=True)):
+        if i == 2:  # the cruise: one segment when it has pulses
+            n = (count > 0).astype(np.int64)
+            parts.append((n, np.full(int(n.sum()), cruise_rate, np.int64), count[n > 0]))
+        else:
+            parts.append(ladder.take(count, down=i > 2))
+    sizes = np.stack([n for n, _, _ in parts])           # (5, moves)
+    per_move = sizes.sum(axis=0)
+    offsets = np.concatenate(([0], np.cumsum(per_move)))
+    total = int(offsets[-1])
+    phase = np.empty(total, np.int8)
+    rate = np.empty(total, np.int64)
+    count = np.empty(total, np.int64)
+    start = offsets[:-1] + np.concatenate((np.zeros((1, moves), np.int64),
+                                           np.cumsum(sizes, axis=0)[:-1]))  # (5, moves)
+    for i, (n, r, c) in enumerate(parts):
+        dest = np.repeat(start[i], n) + np.arange(len(r)) - np.repeat(np.cumsum(n) - n, n)
+        phase[dest] = 0 if i < 2 else (1 if i == 2 else 2)
+        rate[dest] = r
+        count[dest] = c
+    move = np.repeat(np.arange(moves), per_move)
+    accel = sizes[0] + sizes[1]
+    clamped = clamp & (accel > 0)
+    if clamped.any():
+        # With LE=1 the split can end the accel below the stage the decel share starts
+        # on; decelerating never speeds up, so those decel pulses run at the peak rate.
+        firsts = offsets[:-1][clamped]
+        peak = np.zeros(moves, np.int64)
+        peak[clamped] = np.minimum.reduceat(rate[_ranges(firsts, accel[clamped])],
+                                            np.cumsum(accel[clamped]) - accel[clamped])
+        down = (phase == 2) & clamped[move]
+        rate[down] = np.maximum(rate[down], peak[move[down]])
+    # a part at the same phase and rate as the one before (in the same move) joins it
+    new = np.ones(total, bool)
+    new[1:] = (move[1:] != move[:-1]) | (phase[1:] != phase[:-1]) | (rate[1:] != rate[:-1])
+    if not new.all():
+        heads = np.flatnonzero(new)
+        count = np.add.reduceat(count, heads)
+        phase, rate, move = phase[heads], rate[heads], move[heads]
+        offsets = np.concatenate(([0], np.cumsum(np.bincount(move, minlength=moves))))
+    return MoveBatch(pulses, shape, phase, rate, count, offsets)
 
 
-def _down(side: list[Stage], count: int) -> Plan:
-    """The last `count` pulses of a side run fastest → slowest (decelerating)."""
-    return _from_slow_end(side, count, "decel")[::-1]
+def _ranges(starts: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """The indices starts[i] .. starts[i] + lengths[i] − 1, concatenated."""
+    return np.repeat(starts - np.cumsum(lengths) + lengths, lengths) + np.arange(lengths.sum())
 
 
 def _check_pulses(pulses: Any) -> None:

@@ -1,44 +1,51 @@
 """The load angle over every execution the chip can run with a table.
 
-The model is `profiles.motor.rotor`; this module runs it on the chip's executions
-(profiles.ppmc312.execution): every move length is covered the way the criterion
-covers it, through the table's move families: each family's shortest and longest
-move (a trapezoid's longest: a cruise long enough to settle; longer cruises repeat
-that settled state), in both directions when the motor has a load torque.
+The model is `profiles.motor.rotor`, integrated by its compiled kernel
+(`profiles.motor.rotor_kernel.judge_runs`); this module hands it the chip's
+executions (profiles.ppmc312.execution). Every move length is covered the way the
+criterion covers it, through the table's move families: each family's shortest and
+longest move (a trapezoid's longest: a cruise long enough to settle; longer cruises
+repeat that settled state), in both directions when the motor has a load torque.
 Executions share their accel prefix with the longest-listed one (the reference)
 and their decel tail with it too: each is integrated from the reference's state
 where the commands part, until its state rejoins the reference's on the common
 tail (within `REJOIN_TOL_DEG`), where the reference's worst angle of the rest is
-taken. `verify.physics` turns the result into verdicts; planners use it to tighten.
+taken. Several motors (a tolerance box's corners) are judged in one kernel call.
+`verify.safety` turns the result into the verdict; planners use it to tighten.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+import os
+from collections.abc import Callable, Iterable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from ..errors import FieldRangeError
 from ..motor import Motor
 from ..motor.rotor import (
+    MAX_RK4_STEPS,
+    MAX_SETTLE_PERIODS,
     PEAK_DEG,
+    SETTLE_TOL_DEG,
+    SLIP_DEG,
     Rotor,
-    StepBudget,
-    Trace,
+    Rotors,
     check_step,
-    follow,
     rotor_of,
+    rotors,
     settle_s,
+    too_stiff,
 )
-from .execution import Execution, move_families, simulate_move
+from .execution import Execution, MoveBatch, move_families, moves
 from .init_model import as_free_curve
 from .table import FreeCurveTable, InitTable
 
 REJOIN_TOL_DEG = 0.05
-MAX_VERDICT_STEPS = 8_000_000   # RK4 steps for every execution of one verdict (≈ 40 s)
+MAX_VERDICT_STEPS = 8_000_000   # RK4 steps for every execution of one verdict, per rotor
 SETTLE_CRUISE_PERIODS = 10
 
 
@@ -54,51 +61,128 @@ class WorstAngle:
     executions: int              # executions integrated
 
 
+def runs_of(table: FreeCurveTable | InitTable, motors: Sequence[Motor],
+            pulses: Iterable[int] | None = None) -> MoveBatch:
+    """The executions judged: every family's representatives (the trapezoid's cruise long
+    enough for each of `motors` to settle), or the given lengths."""
+    free = as_free_curve(table)
+    if pulses is not None:
+        lengths = sorted(set(int(n) for n in pulses))
+        if not lengths:
+            raise FieldRangeError("move lengths to judge", 0, 1, 0xFFFFFFFF)
+        return moves(free, lengths)
+    rotor_list = [rotor_of(m) for m in motors]
+    lengths = []
+    for fam in move_families(free):
+        lengths.append(fam.lo)
+        if fam.hi == fam.lo:
+            continue
+        if fam.shape == "trapezoid":
+            # a cruise long enough to settle: any longer one repeats its settled state
+            top = free.clock.hz / fam.cruise_rate
+            period = max(min(r.natural_period_s(top), 1.0) for r in rotor_list)
+            extra = math.ceil(top * SETTLE_CRUISE_PERIODS * period)
+            lengths.append(min(fam.hi, fam.lo + max(extra, 1)))
+        else:
+            lengths.append(fam.hi)
+    return moves(free, lengths)
+
+
 def worst_load_angle(table: FreeCurveTable | InitTable, motor: Motor, *,
                      pulses: Iterable[int] | None = None,
                      max_step_s: float | None = None) -> WorstAngle:
     """The load angle over every execution the chip can run with `table` (or over the
     moves of the given lengths), both directions when the motor has a load torque."""
+    return worst_load_angles(table, [motor], pulses=pulses, max_step_s=max_step_s)[0]
+
+
+def worst_load_angles(table: FreeCurveTable | InitTable, motors: Sequence[Motor], *,
+                      pulses: Iterable[int] | None = None,
+                      max_step_s: float | None = None) -> list[WorstAngle]:
+    """`worst_load_angle` for each of `motors` (one motor's variants: a tolerance box's
+    corners), judged on the same executions in one kernel call."""
     check_step(max_step_s)
-    free = as_free_curve(table)
-    runs = (_representatives(free, motor) if pulses is None
-            else [simulate_move(free, int(n)) for n in sorted(set(pulses))])
-    if not runs:
-        raise FieldRangeError("move lengths to judge", 0, 1, 0xFFFFFFFF)
-    directions = (1, -1) if motor.load_torque_nm else (1,)
-    budget = StepBudget(MAX_VERDICT_STEPS)
-    worst = (-1.0, 0, 1)
-    unstable: list[int] = []
-    slipped = False
-    for direction in directions:
-        rotor = rotor_of(motor, direction=direction)
-        step = rotor.step_s() if max_step_s is None else min(rotor.step_s(), max_step_s)
-        shared = _Shared(rotor, step, max(runs, key=lambda e: len(e.segments)), budget)
-        for run in runs:
-            peak_deg, slip = shared.worst_deg(run)
-            slipped |= slip
-            if peak_deg >= PEAK_DEG:
-                unstable.append(run.pulses)
-            if peak_deg > worst[0]:
-                worst = (peak_deg, run.pulses, direction)
-    return WorstAngle(worst[0], worst[1], worst[2], min(unstable) if unstable else None,
-                      slipped, len(runs) * len(directions))
-
-
-def _representatives(table: FreeCurveTable, motor: Motor) -> list[Execution]:
+    runs = runs_of(table, motors, pulses)
+    owner = [m for m, motor in enumerate(motors) for _ in directions(motor)]
+    rot = Rotors.stack([rotors(motor, direction=d) for motor in motors
+                        for d in directions(motor)])
+    lag, slipped = judge(runs, as_free_curve(table).clock.hz, rot, max_step_s=max_step_s)
+    deg = np.degrees(lag * rot.c_e)
     out = []
-    rotor = rotor_of(motor)
-    for fam in move_families(table):
-        first = fam.execution()
-        out.append(first)
-        if fam.shape == "trapezoid" and fam.hi > fam.lo:
-            # a cruise long enough to settle: any longer one repeats its settled state
-            top = table.clock.hz / first.high_rate
-            extra = math.ceil(top * SETTLE_CRUISE_PERIODS * min(rotor.natural_period_s(top), 1.0))
-            out.append(fam.execution(min(fam.hi, fam.lo + max(extra, 1))))
-        elif fam.hi > fam.lo:
-            out.append(fam.execution(fam.hi))
+    for m in range(len(motors)):
+        mine = [i for i, o in enumerate(owner) if o == m]
+        d = deg[mine]
+        r, e = np.unravel_index(int(np.argmax(d)), d.shape)
+        unstable = runs.pulses[np.any(d >= PEAK_DEG, axis=0)]
+        out.append(WorstAngle(float(d[r, e]), int(runs.pulses[e]), int(rot.direction[mine[r]]),
+                              int(unstable.min()) if len(unstable) else None,
+                              bool(slipped[mine].any()), len(runs) * len(mine)))
     return out
+
+
+def directions(motor: Motor) -> tuple[int, ...]:
+    """Both directions when the motor has a load torque (it helps one of them)."""
+    return (1, -1) if motor.load_torque_nm else (1,)
+
+
+def judge(runs: MoveBatch, hz: float, rot: Rotors, *, max_step_s: float | None = None
+          ) -> tuple[np.ndarray, np.ndarray]:
+    """Every execution of `runs` for every rotor: (worst |lag| [pulses], slipped), each of
+    shape (rotors, executions). A verdict that would take more than MAX_VERDICT_STEPS
+    RK4 steps for one rotor is refused."""
+    from ..motor import rotor_kernel as rk
+
+    steps = rot.step_s(max_step_s)
+    settles = np.asarray([settle_s(rot.rotor(i), h) for i, h in enumerate(steps)])
+    n_rot, n_exec = len(rot), len(runs)
+    ref = int(np.argmax(np.diff(runs.offsets)))  # the reference: the most segments
+    m = int(runs.offsets[ref + 1] - runs.offsets[ref])
+    ref_max, ref_lag, ref_s = (np.zeros((n_rot, m + 1)) for _ in range(3))
+    suffix = np.zeros((n_rot, m + 2))
+    limits = np.zeros((n_rot, 4))
+    ref_status = np.zeros(n_rot, np.int64)
+    ref_slipped = np.zeros(n_rot, np.bool_)
+    ref_used = np.zeros(n_rot, np.int64)
+    common = (rot.curve_v, rot.curve_t, rot.rows, steps, settles, runs.rate, runs.count)
+    rk.references(*common, int(runs.offsets[ref]), int(runs.offsets[ref + 1]), hz, SLIP_DEG,
+                  SETTLE_TOL_DEG, MAX_SETTLE_PERIODS, REJOIN_TOL_DEG, MAX_RK4_STEPS, ref_max,
+                  ref_lag, ref_s, suffix, limits, ref_status, ref_slipped, ref_used)
+    lag = np.zeros((n_rot, n_exec))
+    slipped = np.zeros((n_rot, n_exec), np.bool_)
+    status = np.zeros((n_rot, n_exec), np.int64)
+    used = np.zeros((n_rot, n_exec), np.int64)
+
+    def cells(first: int, last: int) -> None:
+        rk.executions(*common, runs.offsets, ref, hz, MAX_SETTLE_PERIODS, MAX_RK4_STEPS,
+                      ref_max, ref_lag, ref_s, suffix, limits, ref_status, ref_slipped, first,
+                      last, lag, slipped, status, used)
+
+    _in_parallel(cells, n_rot * n_exec)
+    used[:, ref] += ref_used
+    bad = np.flatnonzero((status != rk.OK).any(axis=1) | (used.sum(axis=1) > MAX_VERDICT_STEPS))
+    if len(bad):
+        r = int(bad[0])
+        raise too_stiff(MAX_VERDICT_STEPS, rot.rotor(r), float(steps[r]))
+    return lag, slipped
+
+
+PARALLEL_MIN_CELLS = 32   # fewer (rotor, execution) pairs run on the calling thread
+
+
+def _in_parallel(work: Callable[[int, int], None], cells: int) -> None:
+    """`work(first, last)` over 0..cells in one range per core, on threads (the kernel
+    releases the GIL)."""
+    threads = min(os.cpu_count() or 1, 8)
+    if threads == 1 or cells < PARALLEL_MIN_CELLS:
+        work(0, cells)
+        return
+    # interleaved chunks: neighbouring executions cost alike, so each thread gets a share
+    # of the short and the long ones
+    bounds = np.linspace(0, cells, threads * 4 + 1).astype(int)
+    chunks = list(zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True))
+    with ThreadPoolExecutor(threads) as pool:
+        for future in [pool.submit(work, a, b) for a, b in chunks]:
+            future.result()
 
 
 def spans_of(execution: Execution, rotor: Rotor, step: float) -> list[tuple[float, float]]:
@@ -106,73 +190,3 @@ def spans_of(execution: Execution, rotor: Rotor, step: float) -> list[tuple[floa
     hz = execution.clock.hz
     spans = [(s.ticks / hz, hz / s.rate) for s in execution.segments]
     return [*spans, (settle_s(rotor, step), 0.0)]  # after the last pulse the command rests
-
-
-class _Shared:
-    """A reference execution integrated once; others start where their commands part from
-    it and stop where they rejoin it (same remaining commands, same state)."""
-
-    def __init__(self, rotor: Rotor, step: float, reference: Execution,
-                 budget: StepBudget) -> None:
-        self.rotor, self.step, self.budget = rotor, step, budget
-        self.ref_key = _key(reference)
-        self.ref = self._follow(spans_of(reference, rotor, step))
-        peaks = np.asarray([*self.ref.span_max, 0.0])
-        self.suffix_max = np.maximum.accumulate(peaks[::-1])[::-1]  # worst from span k on
-        self.tol_l = math.radians(REJOIN_TOL_DEG) / rotor.c_e
-        period = rotor.natural_period_s(0.0)
-        self.tol_s = self.tol_l * (2 * math.pi / period if math.isfinite(period) else 1.0)
-        self.durations = [d for d, _ in spans_of(reference, rotor, step)]
-
-    def worst_deg(self, run: Execution) -> tuple[float, bool]:
-        key = _key(run)
-        ref, rk = self.ref, self.ref_key
-        if ref.slipped:
-            full = self._follow(spans_of(run, self.rotor, self.step))
-            return self._deg(max(full.span_max)), full.slipped
-        head = 0
-        while head < min(len(key), len(rk)) and key[head] == rk[head]:
-            head += 1
-        tail = 0
-        while tail < min(len(key), len(rk)) - head and key[-1 - tail] == rk[-1 - tail]:
-            tail += 1
-        if head == len(key) == len(rk):
-            return self._deg(float(self.suffix_max[0])), ref.slipped
-        spans = spans_of(run, self.rotor, self.step)
-        state = ref.boundary[head - 1] if head else (0.0, 0.0)
-        before = float(np.max(ref.span_max[:head])) if head else 0.0
-        rejoin: list[float] = []
-        last = len(key)  # spans in `key`; the settle span follows
-
-        def stop(i: int, lag: float, s: float) -> bool:
-            j = head + i  # the span of `run` just finished
-            remaining = last - 1 - j
-            if remaining >= tail or remaining < 0:
-                return False
-            kb = len(rk) - 1 - remaining  # the reference's matching boundary
-            rl, rs = ref.boundary[kb]
-            if abs(lag - rl) <= self.tol_l and abs(s - rs) <= self.tol_s:
-                rejoin.append(float(self.suffix_max[kb + 1]))
-                return True
-            return False
-
-        prev = spans[head - 1][1] if head else 0.0
-        part = self._follow(spans[head:], state=state, previous_pps=prev, stop=stop)
-        worst = max([before, *part.span_max, *rejoin])
-        return self._deg(worst), part.slipped
-
-    def _follow(self, spans: list[tuple[float, float]], **kw: Any) -> Trace:
-        """One execution's integration, counted against the verdict's step budget."""
-        trace = follow(self.rotor, spans, step_s=self.step,
-                       trace=Trace(record=False, budget=self.budget), **kw)
-        self.budget.used += trace.steps
-        return trace
-
-    def _deg(self, lag_pulses: float) -> float:
-        return math.degrees(lag_pulses * self.rotor.c_e)
-
-
-def _key(run: Execution) -> list[tuple[int, int]]:
-    return [(s.rate, s.pulses) for s in run.segments]
-
-

@@ -1,0 +1,325 @@
+"""The load-angle model's integrator, compiled (numba, cached on disk).
+
+The equations, the step and the settling rule are those of `profiles.motor.rotor`
+(its docstring states them); `profiles.motor.rotor_reference` is the same integrator
+in plain Python, kept as the test oracle. This module is imported only when a
+load angle is judged: importing numba and loading the cache costs a few hundred
+milliseconds that `stepramp check` without `--motor` never pays.
+
+A rotor is one row of `ROTOR_FIELDS` and one row of pull-out torques at speeds
+shared by every row, so the corners of a tolerance box, both directions of a
+loaded move and Monte Carlo samples are rows of one array, judged in one call.
+
+Kernels
+- `follow_spans`: one rotor over spans of (duration_s, command speed_pps) from a
+  state, optionally recording every step (figures) and stopping where the state
+  rejoins a reference's (the executions' shared tails).
+- `references` and `executions`: every execution of a table (given as flat (rate,
+  pulses) segment lists) for every rotor row: the longest-listed execution is
+  integrated once, the others from where their commands part from it until they
+  rejoin it. `executions` takes a range of (rotor, execution) pairs and releases
+  the GIL, so ranges run on threads (profiles.ppmc312.load_angle.judge): plain
+  threads rather than numba's parallel layer, which is neither fork- nor
+  thread-safe with GNU OpenMP and triples the compile time.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+# One rotor row: electrical radians per pulse, N·m → pps/s, friction and signed load
+# [pps/s], damping [1/s]. Its pull-out curve is a row of torques at shared speeds.
+C_E, K, FRICTION, LOAD, DAMPING = range(5)
+ROTOR_FIELDS = ("c_e", "k", "friction_pps2", "load_pps2", "damping_per_s")
+
+# Status of an integration (returned as an int: numba raises nothing we want to catch).
+OK, OUT_OF_STEPS, OUT_OF_ROOM = 0, 1, 2
+
+_JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
+
+
+@nb.njit(**_JIT)
+def _t_peak(curve_v: np.ndarray, curve_t: np.ndarray, speed: float) -> float:
+    """The peak restoring torque at |speed| (linear between curve points, 0 beyond)."""
+    v = abs(speed)
+    last = len(curve_v) - 1
+    if v >= curve_v[last]:
+        return curve_t[last] if v == curve_v[last] else 0.0
+    lo, hi = 0, last
+    while hi - lo > 1:  # curve_v[lo] <= v < curve_v[hi]
+        mid = (lo + hi) >> 1
+        if curve_v[mid] <= v:
+            lo = mid
+        else:
+            hi = mid
+    w = (v - curve_v[lo]) / (curve_v[lo + 1] - curve_v[lo])
+    return curve_t[lo] + w * (curve_t[lo + 1] - curve_t[lo])
+
+
+@nb.njit(**_JIT)
+def _accel(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, v: float, lag: float,
+           s: float) -> float:
+    """The rotor's acceleration relative to the command's (d²lag/dt² = −this)."""
+    u = v - s  # the rotor's speed
+    fr = rotor[FRICTION]
+    a = (rotor[K] * _t_peak(curve_v, curve_t, u) * math.sin(rotor[C_E] * lag)
+         + rotor[DAMPING] * s - rotor[LOAD])
+    if u > 0:
+        return a - fr
+    if u < 0:
+        return a + fr
+    if abs(a) <= fr:
+        return 0.0  # at rest, friction holds the rotor until the drive exceeds it
+    return a - math.copysign(fr, a)
+
+
+@nb.njit(**_JIT)
+def natural_period_s(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
+                     speed: float) -> float:
+    stiffness = rotor[K] * rotor[C_E] * _t_peak(curve_v, curve_t, speed)
+    return 2 * math.pi / math.sqrt(stiffness) if stiffness > 0 else math.inf
+
+
+@nb.njit(**_JIT)
+def follow_spans(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
+                 dur: np.ndarray, vel: np.ndarray, lag: float, s: float, previous: float,
+                 t0: float, step: float, slip: float, tol: float, settle_periods: int,
+                 limit: int, ref_kb: np.ndarray, ref_lag: np.ndarray, ref_s: np.ndarray,
+                 tol_lag: float, tol_s: float, out_max: np.ndarray, out_lag: np.ndarray,
+                 out_s: np.ndarray, record: bool, rec_t: np.ndarray, rec_lag: np.ndarray
+                 ) -> tuple[int, int, int, float, int, int, int]:
+    """Integrate over the spans (see `profiles.motor.rotor.follow`).
+
+    Per span i: `out_max[i]` the largest |lag|, (`out_lag[i]`, `out_s[i]`) the state at
+    its end. After span i, when `ref_kb[i]` ≥ 0 and the state is within (`tol_lag`,
+    `tol_s`) of the reference's boundary `ref_kb[i]`, the integration stops there.
+    `record`: every step's (t, lag) into `rec_t`/`rec_lag` (status OUT_OF_ROOM when
+    they are full: the caller integrates again with longer ones).
+
+    Returns (spans done, status, slipped, slip time, steps, rejoined boundary or −1,
+    recorded points)."""
+    t = t0
+    steps = 0
+    recorded = 0
+    for i in range(len(dur)):
+        v = vel[i]
+        s += v - previous  # the command's speed steps; the lag is continuous
+        previous = v
+        d = dur[i]
+        peak = abs(lag)
+        if d > 0:
+            n = max(1, math.ceil(d / step))
+            h = d / n
+            period = natural_period_s(curve_v, curve_t, rotor, v)
+            window = max(8, math.ceil(period / h)) if math.isfinite(period) else n + 1
+            lo = lag
+            hi = lag
+            count = 0
+            windows = 0
+            for j in range(1, n + 1):
+                k1l = s
+                k1s = -_accel(curve_v, curve_t, rotor, v, lag, s)
+                k2l = s + 0.5 * h * k1s
+                k2s = -_accel(curve_v, curve_t, rotor, v, lag + 0.5 * h * k1l,
+                              s + 0.5 * h * k1s)
+                k3l = s + 0.5 * h * k2s
+                k3s = -_accel(curve_v, curve_t, rotor, v, lag + 0.5 * h * k2l,
+                              s + 0.5 * h * k2s)
+                k4l = s + h * k3s
+                k4s = -_accel(curve_v, curve_t, rotor, v, lag + h * k3l, s + h * k3s)
+                lag += h / 6 * (k1l + 2 * k2l + 2 * k3l + k4l)
+                s += h / 6 * (k1s + 2 * k2s + 2 * k3s + k4s)
+                tj = t + j * h
+                if record:
+                    if recorded == len(rec_t):
+                        return i, OUT_OF_ROOM, 0, 0.0, steps, -1, recorded
+                    rec_t[recorded] = tj
+                    rec_lag[recorded] = lag
+                    recorded += 1
+                steps += 1
+                peak = max(peak, abs(lag))
+                if abs(lag) > slip:
+                    out_max[i] = peak
+                    out_lag[i] = lag
+                    out_s[i] = s
+                    return i + 1, OK, 1, tj, steps, -1, recorded
+                lo = min(lo, lag)
+                hi = max(hi, lag)
+                count += 1
+                if count >= window:
+                    windows += 1
+                    # Settled: the rest of a constant span repeats this state. An undamped
+                    # rotor never settles; after `settle_periods` windows its (periodic)
+                    # oscillation has shown its extremes, so it is skipped as well.
+                    if hi - lo < tol or windows >= settle_periods:
+                        if j < n and record:
+                            if recorded == len(rec_t):
+                                return i, OUT_OF_ROOM, 0, 0.0, steps, -1, recorded
+                            rec_t[recorded] = t + d
+                            rec_lag[recorded] = lag
+                            recorded += 1
+                        break
+                    lo = lag
+                    hi = lag
+                    count = 0
+                if steps >= limit:
+                    return i, OUT_OF_STEPS, 0, 0.0, steps, -1, recorded
+        t += d
+        out_max[i] = peak
+        out_lag[i] = lag
+        out_s[i] = s
+        kb = ref_kb[i]
+        if kb >= 0 and abs(lag - ref_lag[kb]) <= tol_lag and abs(s - ref_s[kb]) <= tol_s:
+            return i + 1, OK, 0, 0.0, steps, kb, recorded
+    return len(dur), OK, 0, 0.0, steps, -1, recorded
+
+
+@nb.njit(**_JIT)
+def _spans(rates: np.ndarray, counts: np.ndarray, lo: int, hi: int, hz: float,
+           settle: float) -> tuple[np.ndarray, np.ndarray]:
+    """An execution's segments lo..hi as (duration_s, speed_pps), then rest for `settle`."""
+    n = hi - lo
+    dur = np.empty(n + 1)
+    vel = np.empty(n + 1)
+    for i in range(n):
+        dur[i] = (counts[lo + i] * rates[lo + i]) / hz
+        vel[i] = hz / rates[lo + i]
+    dur[n] = settle
+    vel[n] = 0.0
+    return dur, vel
+
+
+@nb.njit(**_JIT)
+def _reference(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, dur: np.ndarray,
+               vel: np.ndarray, step: float, slip: float, tol: float, settle_periods: int,
+               limit: int, ref_max: np.ndarray, ref_lag: np.ndarray, ref_s: np.ndarray,
+               suffix: np.ndarray) -> tuple[int, int, int]:
+    """The reference execution from rest: its spans' worst |lag| and end states, and
+    `suffix[k]` its worst from span k on. Returns (status, slipped, steps)."""
+    no_kb = np.full(len(dur), -1, dtype=np.int64)
+    no_record = np.empty(0)
+    done, status, slipped, _, used, _, _ = follow_spans(
+        curve_v, curve_t, rotor, dur, vel, 0.0, 0.0, 0.0, 0.0, step, slip, tol, settle_periods,
+        limit, no_kb, ref_lag, ref_s, 0.0, 0.0, ref_max, ref_lag, ref_s, False, no_record,
+        no_record)
+    suffix[:] = 0.0
+    for k in range(done - 1, -1, -1):
+        suffix[k] = max(suffix[k + 1], ref_max[k])
+    return status, slipped, used
+
+
+@nb.njit(**_JIT)
+def _execution(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, rates: np.ndarray,
+               counts: np.ndarray, a0: int, a1: int, r0: int, r1: int, hz: float, step: float,
+               settle: float, slip: float, tol: float, settle_periods: int, rejoin_lag: float,
+               tol_s: float, limit: int, ref_slipped: bool, ref_max: np.ndarray,
+               ref_lag: np.ndarray, ref_s: np.ndarray, suffix: np.ndarray
+               ) -> tuple[int, float, bool, int]:
+    """One execution (segments a0..a1) against the reference (segments r0..r1): from
+    where their commands part until its state rejoins the reference's on their common
+    tail. Returns (status, worst |lag|, slipped, steps)."""
+    length = a1 - a0
+    m = r1 - r0
+    head = 0
+    tail = 0
+    if not ref_slipped:  # a slipped reference has no states to share: integrate it all
+        lim = min(length, m)
+        while head < lim and rates[a0 + head] == rates[r0 + head] and \
+                counts[a0 + head] == counts[r0 + head]:
+            head += 1
+        lim = min(length, m) - head
+        while tail < lim and rates[a1 - 1 - tail] == rates[r1 - 1 - tail] and \
+                counts[a1 - 1 - tail] == counts[r1 - 1 - tail]:
+            tail += 1
+        if head == length and length == m:
+            return OK, suffix[0], False, 0
+    dur, vel = _spans(rates, counts, a0 + head, a1, hz, settle)
+    spans = len(dur)
+    kb = np.full(spans, -1, dtype=np.int64)
+    for i in range(spans):
+        remaining = length - 1 - (head + i)
+        if 0 <= remaining < tail:
+            kb[i] = m - 1 - remaining  # the reference's matching boundary
+    lag0 = ref_lag[head - 1] if head else 0.0
+    s0 = ref_s[head - 1] if head else 0.0
+    prev = hz / rates[a0 + head - 1] if head else 0.0
+    worst = 0.0
+    for k in range(head):
+        worst = max(worst, ref_max[k])
+    out_max = np.zeros(spans)
+    out_lag = np.zeros(spans)
+    out_s = np.zeros(spans)
+    no_record = np.empty(0)
+    done, status, slip_flag, _, used, rejoined, _ = follow_spans(
+        curve_v, curve_t, rotor, dur, vel, lag0, s0, prev, 0.0, step, slip, tol, settle_periods,
+        limit, kb, ref_lag, ref_s, rejoin_lag, tol_s, out_max, out_lag, out_s, False, no_record,
+        no_record)
+    for k in range(done):
+        worst = max(worst, out_max[k])
+    if rejoined >= 0:
+        worst = max(worst, suffix[rejoined + 1])
+    return status, worst, slip_flag == 1, used
+
+
+@nb.njit(**_JIT)
+def references(curve_v: np.ndarray, curve_t: np.ndarray, rotors: np.ndarray, steps: np.ndarray,
+               settles: np.ndarray, rates: np.ndarray, counts: np.ndarray, r0: int, r1: int,
+               hz: float, slip_deg: float, tol_deg: float, settle_periods: int,
+               rejoin_deg: float, max_trace_steps: int, ref_max: np.ndarray,
+               ref_lag: np.ndarray, ref_s: np.ndarray, suffix: np.ndarray, limits: np.ndarray,
+               status: np.ndarray, slipped: np.ndarray, used: np.ndarray) -> None:
+    """Each rotor row's reference execution (segments r0..r1) from rest, into the per-rotor
+    rows of `ref_*` and `suffix`; `limits` gets each rotor's (slip, settle tolerance,
+    rejoin tolerance of the lag, of its rate) in pulses."""
+    for r in range(rotors.shape[0]):
+        c_e = rotors[r, C_E]
+        limits[r, 0] = math.radians(slip_deg) / c_e
+        limits[r, 1] = math.radians(tol_deg) / c_e
+        limits[r, 2] = math.radians(rejoin_deg) / c_e
+        period = natural_period_s(curve_v, curve_t[r], rotors[r], 0.0)
+        limits[r, 3] = limits[r, 2] * (2 * math.pi / period if math.isfinite(period) else 1.0)
+        dur, vel = _spans(rates, counts, r0, r1, hz, settles[r])
+        st, sl, u = _reference(curve_v, curve_t[r], rotors[r], dur, vel, steps[r], limits[r, 0],
+                               limits[r, 1], settle_periods, max_trace_steps, ref_max[r],
+                               ref_lag[r], ref_s[r], suffix[r])
+        status[r] = st
+        slipped[r] = sl == 1
+        used[r] = u
+
+
+@nb.njit(**_JIT)
+def executions(curve_v: np.ndarray, curve_t: np.ndarray, rotors: np.ndarray, steps: np.ndarray,
+               settles: np.ndarray, rates: np.ndarray, counts: np.ndarray, offsets: np.ndarray,
+               ref: int, hz: float, settle_periods: int, max_trace_steps: int,
+               ref_max: np.ndarray, ref_lag: np.ndarray, ref_s: np.ndarray, suffix: np.ndarray,
+               limits: np.ndarray, ref_status: np.ndarray, ref_slipped: np.ndarray,
+               first: int, last: int, worst: np.ndarray, slipped: np.ndarray,
+               status: np.ndarray, used: np.ndarray) -> None:
+    """The (rotor, execution) pairs first..last−1 of the rotors × executions grid (row
+    major) against each rotor's reference (`references`): worst |lag| [pulses], slipped,
+    status and RK4 steps into those cells. Releases the GIL: disjoint ranges run on
+    threads at once."""
+    n_exec = len(offsets) - 1
+    r0, r1 = offsets[ref], offsets[ref + 1]
+    for job in range(first, last):
+        r = job // n_exec
+        e = job % n_exec
+        if ref_status[r] != OK:
+            status[r, e] = ref_status[r]
+            continue
+        if e == ref:
+            worst[r, e] = suffix[r, 0]
+            slipped[r, e] = ref_slipped[r]
+            continue
+        st, w, sl, u = _execution(curve_v, curve_t[r], rotors[r], rates, counts, offsets[e],
+                                  offsets[e + 1], r0, r1, hz, steps[r], settles[r],
+                                  limits[r, 0], limits[r, 1], settle_periods, limits[r, 2],
+                                  limits[r, 3], max_trace_steps, ref_slipped[r], ref_max[r],
+                                  ref_lag[r], ref_s[r], suffix[r])
+        status[r, e] = st
+        worst[r, e] = w
+        slipped[r, e] = sl
+        used[r, e] = u
