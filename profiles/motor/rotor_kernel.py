@@ -89,8 +89,8 @@ def follow_spans(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
                  t0: float, step: float, slip: float, tol: float, settle_periods: int,
                  limit: int, ref_kb: np.ndarray, ref_lag: np.ndarray, ref_s: np.ndarray,
                  tol_lag: float, tol_s: float, out_max: np.ndarray, out_lag: np.ndarray,
-                 out_s: np.ndarray, record: bool, rec_t: np.ndarray, rec_lag: np.ndarray
-                 ) -> tuple[int, int, int, float, int, int, int]:
+                 out_s: np.ndarray, record: bool, rec_t: np.ndarray, rec_lag: np.ndarray,
+                 peak_only: bool = False) -> tuple[int, int, int, float, int, int, int]:
     """Integrate over the spans (see `profiles.motor.rotor.follow`).
 
     Per span i: `out_max[i]` the largest |lag|, (`out_lag[i]`, `out_s[i]`) the state at
@@ -98,6 +98,9 @@ def follow_spans(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
     `tol_s`) of the reference's boundary `ref_kb[i]`, the integration stops there.
     `record`: every step's (t, lag) into `rec_t`/`rec_lag` (status OUT_OF_ROOM when
     they are full: the caller integrates again with longer ones).
+    `peak_only`: only the worst |lag| is wanted, not the final state: the last span, at
+    rest, stops once a natural period's largest |lag| falls below the previous period's
+    (with no command left the ringing only decays: its worst has been seen).
 
     Returns (spans done, status, slipped, slip time, steps, rejoined boundary or −1,
     recorded points)."""
@@ -119,6 +122,8 @@ def follow_spans(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
             hi = lag
             count = 0
             windows = 0
+            last_window = math.inf
+            resting = peak_only and v == 0.0 and i == len(dur) - 1
             for j in range(1, n + 1):
                 k1l = s
                 k1s = -_accel(curve_v, curve_t, rotor, v, lag, s)
@@ -162,6 +167,10 @@ def follow_spans(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
                             rec_lag[recorded] = lag
                             recorded += 1
                         break
+                    window_max = max(abs(lo), abs(hi))
+                    if resting and window_max < last_window:
+                        break
+                    last_window = window_max
                     lo = lag
                     hi = lag
                     count = 0
@@ -204,7 +213,7 @@ def _reference(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, dur:
     done, status, slipped, _, used, _, _ = follow_spans(
         curve_v, curve_t, rotor, dur, vel, 0.0, 0.0, 0.0, 0.0, step, slip, tol, settle_periods,
         limit, no_kb, ref_lag, ref_s, 0.0, 0.0, ref_max, ref_lag, ref_s, False, no_record,
-        no_record)
+        no_record, True)
     suffix[:] = 0.0
     for k in range(done - 1, -1, -1):
         suffix[k] = max(suffix[k + 1], ref_max[k])
@@ -256,7 +265,7 @@ def _execution(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, rate
     done, status, slip_flag, _, used, rejoined, _ = follow_spans(
         curve_v, curve_t, rotor, dur, vel, lag0, s0, prev, 0.0, step, slip, tol, settle_periods,
         limit, kb, ref_lag, ref_s, rejoin_lag, tol_s, out_max, out_lag, out_s, False, no_record,
-        no_record)
+        no_record, True)
     for k in range(done):
         worst = max(worst, out_max[k])
     if rejoined >= 0:

@@ -1,16 +1,20 @@
-"""The load angle over every execution the chip can run with a table.
+"""The load angle over every move length the chip can run with a table.
 
 The model is `profiles.motor.rotor`, integrated by its compiled kernel
-(`profiles.motor.rotor_kernel.judge_runs`); this module hands it the chip's
-executions (profiles.ppmc312.execution). Every move length is covered the way the
-criterion covers it, through the table's move families: each family's shortest and
-longest move (a trapezoid's longest: a cruise long enough to settle; longer cruises
-repeat that settled state), in both directions when the motor has a load torque.
+(`profiles.motor.rotor_kernel`); this module hands it the chip's executions
+(profiles.ppmc312.execution). Every move length is covered through the table's move
+families (lengths that run the same segment rates; only partial stages and the
+cruise change length): each family is sampled finely enough in its partial stages'
+dwell that the ringing's phase at the next speed change is seen (`samples`), and the
+families that come out worst are judged again at every length around their worst
+sample (`refine`); a trapezoid's cruise long enough to settle stands for every
+longer one. Both directions are judged when the motor has a load torque.
+
 Executions share their accel prefix with the longest-listed one (the reference)
 and their decel tail with it too: each is integrated from the reference's state
 where the commands part, until its state rejoins the reference's on the common
 tail (within `REJOIN_TOL_DEG`), where the reference's worst angle of the rest is
-taken. Several motors (a tolerance box's corners) are judged in one kernel call.
+taken. Several motors (a tolerance box's corners) are rows of one kernel call.
 `verify.safety` turns the result into the verdict; planners use it to tighten.
 """
 
@@ -47,6 +51,8 @@ from .table import FreeCurveTable, InitTable
 REJOIN_TOL_DEG = 0.05
 MAX_VERDICT_STEPS = 8_000_000   # RK4 steps for every execution of one verdict, per rotor
 SETTLE_CRUISE_PERIODS = 10
+PHASE_SAMPLES = 8               # samples per natural period of a partial stage's dwell
+REFINE_DEG = 3.0                # sampled families this close to the worst: every length
 
 
 @dataclass(frozen=True)
@@ -58,40 +64,13 @@ class WorstAngle:
     worst_direction: int         # 1 forward, −1 backward
     first_unstable_pulses: int | None   # shortest move length past 90° (None: none)
     slipped: bool                # some execution slips a pole (≥ 180°)
-    executions: int              # executions integrated
-
-
-def runs_of(table: FreeCurveTable | InitTable, motors: Sequence[Motor],
-            pulses: Iterable[int] | None = None) -> MoveBatch:
-    """The executions judged: every family's representatives (the trapezoid's cruise long
-    enough for each of `motors` to settle), or the given lengths."""
-    free = as_free_curve(table)
-    if pulses is not None:
-        lengths = sorted(set(int(n) for n in pulses))
-        if not lengths:
-            raise FieldRangeError("move lengths to judge", 0, 1, 0xFFFFFFFF)
-        return moves(free, lengths)
-    rotor_list = [rotor_of(m) for m in motors]
-    lengths = []
-    for fam in move_families(free):
-        lengths.append(fam.lo)
-        if fam.hi == fam.lo:
-            continue
-        if fam.shape == "trapezoid":
-            # a cruise long enough to settle: any longer one repeats its settled state
-            top = free.clock.hz / fam.cruise_rate
-            period = max(min(r.natural_period_s(top), 1.0) for r in rotor_list)
-            extra = math.ceil(top * SETTLE_CRUISE_PERIODS * period)
-            lengths.append(min(fam.hi, fam.lo + max(extra, 1)))
-        else:
-            lengths.append(fam.hi)
-    return moves(free, lengths)
+    executions: int              # executions integrated (move lengths × rotors)
 
 
 def worst_load_angle(table: FreeCurveTable | InitTable, motor: Motor, *,
                      pulses: Iterable[int] | None = None,
                      max_step_s: float | None = None) -> WorstAngle:
-    """The load angle over every execution the chip can run with `table` (or over the
+    """The load angle over every move length the chip can run with `table` (or over the
     moves of the given lengths), both directions when the motor has a load torque."""
     return worst_load_angles(table, [motor], pulses=pulses, max_step_s=max_step_s)[0]
 
@@ -100,24 +79,110 @@ def worst_load_angles(table: FreeCurveTable | InitTable, motors: Sequence[Motor]
                       pulses: Iterable[int] | None = None,
                       max_step_s: float | None = None) -> list[WorstAngle]:
     """`worst_load_angle` for each of `motors` (one motor's variants: a tolerance box's
-    corners), judged on the same executions in one kernel call."""
+    corners), judged on the same executions in one kernel call (two, when sampled
+    families are refined)."""
     check_step(max_step_s)
-    runs = runs_of(table, motors, pulses)
-    owner = [m for m, motor in enumerate(motors) for _ in directions(motor)]
+    free = as_free_curve(table)
+    owner = np.asarray([m for m, motor in enumerate(motors) for _ in directions(motor)])
     rot = Rotors.stack([rotors(motor, direction=d) for motor in motors
                         for d in directions(motor)])
-    lag, slipped = judge(runs, as_free_curve(table).clock.hz, rot, max_step_s=max_step_s)
+    hz = free.clock.hz
+    if pulses is not None:
+        lengths = np.asarray(sorted(set(int(n) for n in pulses)), dtype=np.int64)
+        if not len(lengths):
+            raise FieldRangeError("move lengths to judge", 0, 1, 0xFFFFFFFF)
+        lag, slipped = judge(moves(free, lengths), hz, rot, max_step_s=max_step_s)
+    else:
+        lengths, family, spacing = samples(free, motors)
+        lag, slipped = judge(moves(free, lengths), hz, rot, max_step_s=max_step_s)
+        extra = refine(lengths, family, spacing, np.degrees(lag.max(axis=0) * rot.c_e))
+        if len(extra):
+            more_lag, more_slipped = judge(moves(free, extra), hz, rot, max_step_s=max_step_s)
+            lengths = np.concatenate((lengths, extra))
+            order = np.argsort(lengths, kind="stable")
+            lengths = lengths[order]
+            lag = np.concatenate((lag, more_lag), axis=1)[:, order]
+            slipped = np.concatenate((slipped, more_slipped), axis=1)[:, order]
     deg = np.degrees(lag * rot.c_e)
     out = []
     for m in range(len(motors)):
-        mine = [i for i, o in enumerate(owner) if o == m]
+        mine = np.flatnonzero(owner == m)
         d = deg[mine]
         r, e = np.unravel_index(int(np.argmax(d)), d.shape)
-        unstable = runs.pulses[np.any(d >= PEAK_DEG, axis=0)]
-        out.append(WorstAngle(float(d[r, e]), int(runs.pulses[e]), int(rot.direction[mine[r]]),
+        unstable = lengths[np.any(d >= PEAK_DEG, axis=0)]
+        out.append(WorstAngle(float(d[r, e]), int(lengths[e]), int(rot.direction[mine[r]]),
                               int(unstable.min()) if len(unstable) else None,
-                              bool(slipped[mine].any()), len(runs) * len(mine)))
+                              bool(slipped[mine].any()), len(lengths) * len(mine)))
     return out
+
+
+def samples(table: FreeCurveTable, motors: Sequence[Motor]
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The move lengths that stand for every length of every family: (lengths ascending,
+    the family of each (its index), each family's spacing in pulses).
+
+    Within a family only the partial stages (or the cruise) change length, a pulse at a
+    time; the worst angle then varies with the phase of the ringing at the next speed
+    change, so a family is sampled from its shortest to its longest move every
+    `spacing` pulses, which moves those dwells by at most 1/PHASE_SAMPLES of the natural
+    period at their speed (the stiffest motor's): fast stages need their two ends,
+    slow ones many lengths. A trapezoid's longest judged move cruises long enough for
+    each motor to settle (longer cruises repeat that settled state)."""
+    rotor_list = [rotor_of(m) for m in motors]
+    fams = move_families(table)
+    lo = np.asarray([f.lo for f in fams], dtype=np.int64)
+    hi = np.asarray([f.hi for f in fams], dtype=np.int64)
+    hz = table.clock.hz
+    for i, fam in enumerate(fams):
+        if fam.shape == "trapezoid" and fam.hi > fam.lo:
+            top = hz / fam.cruise_rate
+            settle = max(min(r.natural_period_s(top), 1.0) for r in rotor_list)
+            hi[i] = min(fam.hi, fam.lo + max(math.ceil(top * SETTLE_CRUISE_PERIODS * settle), 1))
+    short, long = moves(table, lo), moves(table, hi)
+    # the slowest segment whose pulse count changes within each family: a pulse of it is
+    # the largest step in dwell between two neighbouring lengths
+    changes = np.where(short.count != long.count, short.rate, 0)
+    slowest = np.maximum.reduceat(np.append(changes, 0), short.offsets[:-1])
+    slowest = np.where(np.diff(short.offsets) > 0, slowest, 0)
+    spacing = np.maximum(hi - lo, 1)
+    for i in np.flatnonzero(slowest).tolist():
+        speed = hz / slowest[i]
+        period = min(r.natural_period_s(speed) for r in rotor_list)
+        if math.isfinite(period):
+            spacing[i] = max(1, min(int(spacing[i]), int(period * speed / PHASE_SAMPLES)))
+    count = (hi - lo) // spacing + 1
+    family = np.repeat(np.arange(len(fams)), count)
+    within = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
+    lengths = np.minimum(lo[family] + within * spacing[family], hi[family])
+    lengths[np.cumsum(count) - 1] = hi  # each family's longest judged move
+    lengths, first = np.unique(lengths, return_index=True)
+    return lengths, family[first], spacing
+
+
+def refine(lengths: np.ndarray, family: np.ndarray, spacing: np.ndarray,
+           worst_deg: np.ndarray) -> np.ndarray:
+    """The lengths still to judge around the sampled families that come out worst: every
+    length within a spacing of a family's worst sample when that family is within
+    REFINE_DEG of the worst of all (sampling may pass a peak's top by a little), and
+    every length before a family's first sample past the 90° peak (so the shortest
+    unstable move is named exactly)."""
+    best = float(worst_deg.max())
+    extra: list[np.ndarray] = []
+    starts = np.flatnonzero(np.diff(family, prepend=-1))
+    for a, b in zip(starts.tolist(), [*starts[1:].tolist(), len(family)], strict=True):
+        sp = int(spacing[family[a]])
+        if sp <= 1:
+            continue
+        w, at = worst_deg[a:b], lengths[a:b]
+        k = int(np.argmax(w))
+        if w[k] >= best - REFINE_DEG:
+            extra.append(np.arange(max(at[0], at[k] - sp + 1), min(at[-1], at[k] + sp - 1) + 1))
+        unstable = np.flatnonzero(w >= PEAK_DEG)
+        if len(unstable) and unstable[0] > 0:
+            extra.append(np.arange(at[unstable[0] - 1] + 1, at[unstable[0]]))
+    if not extra:
+        return np.zeros(0, dtype=np.int64)
+    return np.setdiff1d(np.concatenate(extra), lengths)
 
 
 def directions(motor: Motor) -> tuple[int, ...]:
