@@ -30,7 +30,7 @@ from profiles.ppmc312.clock import Clock  # noqa: E402
 from profiles.ppmc312.criterion import all_length_problems  # noqa: E402
 from profiles.ppmc312.execution import move_families, simulate_move  # noqa: E402
 from profiles.ppmc312.table import FreeCurveTable  # noqa: E402
-from verify.physics import TARGET_DEG, judge_executions  # noqa: E402
+from verify.load_angle import TARGET_DEG, judge_executions  # noqa: E402
 
 MIX = [(200, 10.0), (1_000, 5.0), (5_000, 2.0), (50_000, 1.0)]
 

@@ -32,7 +32,7 @@ from profiles.ppmc312.clock import Clock  # noqa: E402
 from profiles.ppmc312.emulator import accept_upload  # noqa: E402
 from profiles.ppmc312.table import FreeCurveTable, table_from_json  # noqa: E402
 from profiles.ppmc312.upload import decode_free_curve, encode_free_curve  # noqa: E402
-from verify.checks import check_table  # noqa: E402
+from verify.chip_rules import check_table  # noqa: E402
 
 
 def random_table(rng: random.Random, stages: int = 127) -> FreeCurveTable:
@@ -123,7 +123,7 @@ def main() -> None:
     print(f"  reference `python -c pass`:     {bare:10.3f} s ratio {check / bare:.1f}")
     heavy = subprocess.run(
         [sys.executable, "-c", "import sys, verify.cli as c; c.build_parser(); "
-         "import verify.checks, verify.report, profiles.ppmc312.upload; "
+         "import verify.chip_rules, verify.report, profiles.ppmc312.upload; "
          "print(sorted(m for m in ('toppra','casadi','matplotlib','ruckig','scipy') "
          "if m in sys.modules))"], capture_output=True, text=True, cwd=ROOT)
     print(f"heavy modules imported by check:  {heavy.stdout.strip() or heavy.stderr.strip()}")

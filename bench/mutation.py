@@ -45,7 +45,7 @@ MODULES: dict[str, tuple[str, list[str]]] = {
                ["tests/test_ppmc312_upload.py", "tests/test_ppmc312_frames.py"]),
     "frames": ("profiles.ppmc312.frames",
                ["tests/test_ppmc312_frames.py", "tests/test_ppmc312_upload.py"]),
-    "checks": ("verify.checks", ["tests/test_checks.py", "tests/test_checks_pins.py"]),
+    "checks": ("verify.chip_rules", ["tests/test_checks.py", "tests/test_checks_pins.py"]),
     "execution": ("profiles.ppmc312.execution", [
         "tests/test_execution.py",
         "tests/test_every_move.py::test_families_partition_every_length_and_fix_the_segment_rates"]),
@@ -53,14 +53,14 @@ MODULES: dict[str, tuple[str, list[str]]] = {
         "tests/test_criterion_pins.py", "tests/test_stall.py",
         "tests/test_every_move.py::test_a_downward_switch_is_caught_and_named_by_its_shortest_move",
         "tests/test_every_move.py::test_all_length_verdict_equals_brute_force"]),
-    "stall": ("verify.stall", [
+    "stall": ("verify.criterion", [
         "tests/test_stall.py", "tests/test_stall_pins.py",
         "tests/test_every_move.py::test_a_downward_switch_is_caught_and_named_by_its_shortest_move"]),
 }
 
 # (module key, line, mutation) → why the mutant cannot change what the module does.
 # Keyed by line: re-check the keys when a module's lines move (a stale key is reported
-# as SURVIVED, never silently kept). The checks entries follow verify/checks.py as of
+# as SURVIVED, never silently kept). The checks entries follow verify/chip_rules.py as of
 # the lazy finding messages (main 45fab7f).
 _PREFIX_LEN = ("every parameter-block prefix (header, length) is 2 bytes whatever header "
                "and length it is built for: n is 2 either way")

@@ -45,7 +45,7 @@ from profiles.ppmc312.planner import plan_free_curve
 from verify.compare import compare_table
 from verify.plot import motor_figure
 from verify.references import exact_optimum
-from verify.stall import stall_margins
+from verify.criterion import stall_margins
 
 PULSES = 10_000
 for path in bundled_motor_paths():

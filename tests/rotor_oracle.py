@@ -117,7 +117,7 @@ def _segment(rotor: Rotor, out: Trace, t0: float, dur: float, v: float, L: float
             break
         lo, hi = min(lo, L), max(hi, L)
         count += 1
-        if count >= window:
+        if count >= window and (s != v or v == 0.0):  # held by static friction: not settled
             windows += 1
             # Settled: the rest of a constant segment repeats this state. An undamped
             # rotor never settles; after MAX_SETTLE_PERIODS windows its (periodic)

@@ -1,4 +1,4 @@
-"""verify.checking: one file judged as `stepramp check` does (library, no CLI)."""
+"""verify.check_file: one file judged as `stepramp check` does (library, no CLI)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from profiles.motor import load_motor
 from profiles.ppmc312.files import render
 from profiles.ppmc312.table import load_table
 from profiles.ppmc312.upload import encode_table
-from verify.checking import check_file, dedupe, load_checkable, looks_like_table_json
+from verify.check_file import check_file, dedupe, load_checkable, looks_like_table_json
 from verify.findings import Finding
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -68,7 +68,7 @@ def test_motor_adds_stall_findings_only_when_given() -> None:
     rules = {f.rule for f in with_motor.findings} - {f.rule for f in without.findings}
     assert set(without.findings) <= set(with_motor.findings)
     # the stall module's rules are the only new ones
-    import verify.stall as stall
+    import verify.criterion as stall
 
     source = Path(stall.__file__).read_text(encoding="utf-8")
     assert all(r in source or r.split("-", 1)[1] in source for r in rules)

@@ -1,4 +1,4 @@
-"""verify.checks: every PPMC-312 chip rule, its code, its stage and its advice."""
+"""verify.chip_rules: every PPMC-312 chip rule, its code, its stage and its advice."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.init_model import init_stage_problem
 from profiles.ppmc312.table import FreeCurveTable, InitTable, load_table
-from verify.checks import check_table
+from verify.chip_rules import check_table
 from verify.findings import Finding
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -356,7 +356,7 @@ def test_init_built_stage_too_short_is_0x05_and_advice_fixes_it() -> None:
 
 # --- every rule pinned: (severity, rule, chip code, stage), the whole list, in order -----
 # Each case is one side of one limit; its neighbour case is the other side. The expected
-# lists are written from the manual's rules (module docstring of verify.checks), not
+# lists are written from the manual's rules (module docstring of verify.chip_rules), not
 # computed: a changed severity, code, stage, boundary or order fails here.
 
 C1 = Clock.internal("1MHz")

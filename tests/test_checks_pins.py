@@ -1,4 +1,4 @@
-"""verify.checks rules at the boundaries the mutation run found unpinned (bench/mutation.py).
+"""verify.chip_rules rules at the boundaries the mutation run found unpinned (bench/mutation.py).
 
 8 MHz clock: a rate r runs 8e6 / r pps. Limits: a stage holds at most 0xFFFFF pulses,
 and runs at least 256 ticks (pulses × rate); a stop above 62500 pps is warned about.
@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.table import FreeCurveTable
-from verify.checks import check_table
+from verify.chip_rules import check_table
 
 C8 = Clock.internal("8MHz")
 

@@ -9,11 +9,12 @@ from pathlib import Path
 
 import pytest
 
-from profiles.motor import bundled_motor_paths
+from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.table import FreeCurveTable, dump_table, load_table
 from verify.cli import main
+from verify.safety import judge_safety
 
 MOTORS = {p.stem: p for p in bundled_motor_paths()}
 NEMA23 = MOTORS["motor-nema23-heavy"]
@@ -114,7 +115,8 @@ def test_plan_moves_writes_one_table_for_a_duty_cycle(
     times = {int(k): v for k, v in doc["move_times_s"].items()}
     assert times == {n: pytest.approx(simulate_move(table, n).duration_s) for n in (300, 3000)}
     assert doc["weighted_time_s"] == pytest.approx(4 * times[300] + times[3000])
-    assert doc["safe"] is True and doc["worst_load_angle_deg"] <= 75
+    assert doc["safety"] == judge_safety(table, load_motor(PK566)).to_json()
+    assert doc["safety"]["safe"] is True and doc["safety"]["within_aim"]
 
 
 @pytest.mark.parametrize("text, why", [

@@ -72,7 +72,7 @@ def P(rule: str, kind: str, stages: tuple[int | None, int | None], v: tuple[floa
 
 
 # A start (stop) problem names the phase of the move's first (last) segment: an LE=1
-# move can start on a decel stage or stop on an accel one (verify.stall words its fix).
+# move can start on a decel stage or stop on an accel one (verify.criterion words its fix).
 SIDE: dict[str, tuple[None, None, str]] = {k: (None, None, k) for k in ("accel", "cruise",
                                                                         "decel")}
 

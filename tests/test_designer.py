@@ -58,7 +58,7 @@ def test_each_slider_replans_and_redraws(d: Designer, control: str, value: Any,
     assert (after.execution.duration_s > before.execution.duration_s) == slower
     # The plan is the one for the loaded motor the settings describe.
     assert after.motor.to_json() == loaded_motor(NEMA17, after.settings).to_json()
-    assert after.plan.table == design(NEMA17, after.settings, load_angle=False).plan.table
+    assert after.plan.table == design(NEMA17, after.settings).plan.table
 
 
 def test_stage_budget_and_clock_reach_the_table(d: Designer) -> None:

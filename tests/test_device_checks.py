@@ -18,7 +18,7 @@ from profiles.errors import StepRampError
 from profiles.formats import RenderOptions
 from profiles.mc200.formats import render as render_stream
 from profiles.mc200.model import read_stream
-from verify.checking import check_file
+from verify.check_file import check_file
 from verify.cli import main
 from verify.device_checks import device_of
 

@@ -11,6 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from profiles.motor import Motor, bundled_motor_paths, load_motor
+from profiles.motor.angles import AIM_DEG
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.criterion import (
     all_length_problems,
@@ -20,8 +21,8 @@ from profiles.ppmc312.criterion import (
 from profiles.ppmc312.execution import MOVE_PULSES_MAX, move_families, simulate_move
 from profiles.ppmc312.planner import plan_duty_cycle, plan_free_curve
 from profiles.ppmc312.table import FreeCurveTable
-from verify.physics import TARGET_DEG, judge_executions
-from verify.stall import check_stall
+from verify.criterion import check_stall
+from verify.safety import judge_safety
 
 CLK = Clock.internal("8MHz")
 MOTORS = {p.stem: load_motor(p) for p in bundled_motor_paths()}
@@ -107,11 +108,11 @@ def test_a_downward_switch_is_caught_and_named_by_its_shortest_move() -> None:
 @pytest.mark.parametrize("pulses", [300, 2000, 10_000])
 def test_planned_tables_are_safe_for_every_length_by_both_judges(name: str, pulses: int) -> None:
     motor = MOTORS[name]
-    plan = plan_free_curve(motor, pulses=pulses, load_angle_deg=TARGET_DEG)
+    plan = plan_free_curve(motor, pulses=pulses, load_angle_deg=AIM_DEG)
     assert check_stall(plan.table, motor) == []
     assert all_length_problems(plan.table, motor, exhaustive=True) == []
-    verdict = judge_executions(plan.table, motor)
-    assert verdict.safe and verdict.worst_angle_deg <= TARGET_DEG
+    verdict = judge_safety(plan.table, motor)
+    assert verdict.safe and verdict.within_aim
     if plan.table.separate:
         assert switch_safe(np.asarray(plan.table.accel_pulses[::-1]),
                            np.asarray(plan.table.decel[::-1]))

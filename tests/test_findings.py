@@ -9,7 +9,7 @@ import pytest
 
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.table import FreeCurveTable
-from verify.checks import check_table
+from verify.chip_rules import check_table
 from verify.findings import Finding
 
 

@@ -17,7 +17,7 @@ from profiles.ppmc312.init_model import (
     init_stage_problem,
 )
 from profiles.ppmc312.table import FreeCurveTable, InitTable
-from verify.checks import check_table
+from verify.chip_rules import check_table
 
 C8 = Clock.internal("8MHz")
 

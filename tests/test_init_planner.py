@@ -10,8 +10,8 @@ from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.init_planner import init_candidates, plan_init
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312.table import FreeCurveTable
-from verify.checks import check_table
-from verify.stall import check_stall
+from verify.chip_rules import check_table
+from verify.criterion import check_stall
 
 MOTORS = [load_motor(p) for p in bundled_motor_paths()]
 

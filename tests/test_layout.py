@@ -43,10 +43,10 @@ def test_the_scan_sees_every_kind_of_import(tmp_path: Path) -> None:
     pkg.mkdir(parents=True)
     src = pkg / "mod.py"
     src.write_text("import os\nfrom profiles import motor\n"
-                   "def f():\n    import verify.checks.deep\n"
-                   "class C:\n    def g(self):\n        from verify import stall\n"
+                   "def f():\n    import verify.chip_rules.deep\n"
+                   "class C:\n    def g(self):\n        from verify import criterion\n"
                    "from ... import verify as v\n", encoding="utf-8")
-    assert verify_imports(src, tmp_path) == {"verify.checks", "verify.stall", "verify"}
+    assert verify_imports(src, tmp_path) == {"verify.chip_rules", "verify.criterion", "verify"}
     src.write_text("import os\nfrom .. import motor\nfrom profiles.verifying import x\n",
                    encoding="utf-8")
     assert verify_imports(src, tmp_path) == set()

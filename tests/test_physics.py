@@ -1,4 +1,4 @@
-"""verify.physics and profiles.motor.rotor: the load angle (electrical degrees) of executions."""
+"""verify.load_angle and profiles.motor.rotor: the load angle (electrical degrees) of executions."""
 
 from __future__ import annotations
 
@@ -9,10 +9,13 @@ import pytest
 
 from profiles.errors import FieldRangeError
 from profiles.motor import Motor, bundled_motor_paths, load_motor
+from profiles.motor.angles import PEAK_DEG
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.execution import move_families, simulate_move
+from profiles.ppmc312.load_angle import worst_load_angle
 from profiles.ppmc312.table import FreeCurveTable
-from verify.physics import PEAK_DEG, judge_executions, load_angle_check
+from verify.load_angle import trace_load_angle
+from verify.safety import judge_safety
 
 MHZ1 = Clock.internal("1MHz")
 
@@ -37,7 +40,7 @@ def flat_motor(friction_nm: float, **kw: object) -> Motor:
 
 def test_gentle_table_stays_far_from_the_peak() -> None:
     e = simulate_move(ramp(400, 4000, 40, 100), 20_000)
-    r = load_angle_check(e, nema17())
+    r = trace_load_angle(e, nema17())
     assert not r.slipped and r.slip_time_s is None and r.stable
     assert abs(r.worst_angle_deg) < 10 and r.margin_deg > 80
     assert np.all(np.abs(r.angle_deg) <= abs(r.worst_angle_deg))
@@ -47,7 +50,7 @@ def test_gentle_table_stays_far_from_the_peak() -> None:
 
 def test_violent_jump_from_rest_slips_a_pole_early() -> None:
     e = simulate_move(FreeCurveTable(MHZ1, (25, 30), (100, 100)), 1000)  # 33 kpps at once
-    r = load_angle_check(e, nema17())
+    r = trace_load_angle(e, nema17())
     assert r.slipped and r.slip_time_s is not None and not r.stable
     assert 0 < r.slip_time_s < 0.002
     assert abs(r.angle_deg[-1]) > 180
@@ -58,7 +61,7 @@ def test_lag_sign_behind_when_accelerating_ahead_when_decelerating() -> None:
     # No friction, so only inertia sets the sign: behind the command while it
     # speeds up, ahead of it while it slows down.
     e = simulate_move(ramp(400, 3000, 10, 200), 6000)
-    r = load_angle_check(e, flat_motor(0.0))
+    r = trace_load_angle(e, flat_motor(0.0))
     accel_end = next(s.end_tick for s in e.segments if s.phase == "cruise") / MHZ1.hz
     decel_start = next(s.start_tick for s in e.segments if s.phase == "decel") / MHZ1.hz
     during_accel = r.angle_deg[(r.lag_t_s > 0) & (r.lag_t_s < accel_end * 0.3)]
@@ -72,7 +75,7 @@ def test_settled_cruise_angle_matches_the_steady_state_law() -> None:
     # the pull-out torque being the peak of the torque–angle curve (at 90° electrical).
     motor = flat_motor(0.1)
     e = simulate_move(ramp(400, 3000, 30, 100), 400_000)
-    r = load_angle_check(e, motor)
+    r = trace_load_angle(e, motor)
     assert not r.slipped
     cruise = next(s for s in e.segments if s.phase == "cruise")
     t_end = cruise.end_tick / MHZ1.hz
@@ -88,9 +91,9 @@ def test_slips_exactly_where_the_load_exceeds_pullout_torque() -> None:
     # Friction 0.1 N·m: the pull-out torque is 0.1 at 3714 pps. A cruise at 3000 pps
     # holds; one at 3900 pps (pull-out 0.0675 N·m) loses the rotor.
     motor = flat_motor(0.1)
-    ok = load_angle_check(simulate_move(ramp(400, 3000, 30, 100), 20_000), motor)
+    ok = trace_load_angle(simulate_move(ramp(400, 3000, 30, 100), 20_000), motor)
     fast = simulate_move(ramp(400, 3900, 40, 100), 20_000)
-    bad = load_angle_check(fast, motor)
+    bad = trace_load_angle(fast, motor)
     assert not ok.slipped and ok.stable and bad.slipped and bad.slip_time_s is not None
     crossing_pps = 2000 + (0.4 - 0.1) / (0.35 / 2000)
     assert fast.speed_at(bad.slip_time_s) > crossing_pps
@@ -98,8 +101,8 @@ def test_slips_exactly_where_the_load_exceeds_pullout_torque() -> None:
 
 def test_holding_torque_caps_the_restoring_torque() -> None:
     e = simulate_move(ramp(400, 2000, 10, 100), 3000)
-    free = load_angle_check(e, flat_motor(0.1))
-    capped = load_angle_check(e, flat_motor(0.1, holding_torque_nm=0.3))
+    free = trace_load_angle(e, flat_motor(0.1))
+    capped = trace_load_angle(e, flat_motor(0.1, holding_torque_nm=0.3))
     # A weaker restoring torque needs a larger angle for the same friction.
     assert abs(capped.worst_angle_deg) > abs(free.worst_angle_deg)
 
@@ -109,25 +112,25 @@ def test_electrical_degrees_compare_two_and_five_phase() -> None:
     # degrees is the same whatever the phase count; in full steps it is 2.5× larger for
     # the 5-phase motor (a full step is 36° there, 90° for 2 phases).
     e = simulate_move(ramp(400, 2000, 10, 100), 3000)
-    two = load_angle_check(e, flat_motor(0.1))
-    five = load_angle_check(e, flat_motor(0.1, phases=5))
+    two = trace_load_angle(e, flat_motor(0.1))
+    five = trace_load_angle(e, flat_motor(0.1, phases=5))
     assert five.worst_angle_deg == two.worst_angle_deg
     assert five.worst_lag_full_steps == pytest.approx(2.5 * two.worst_lag_full_steps)
-    other = load_angle_check(e, flat_motor(0.1, rotor_teeth=100))
+    other = trace_load_angle(e, flat_motor(0.1, rotor_teeth=100))
     assert other.worst_angle_deg != two.worst_angle_deg
 
 
 def test_load_torque_acts_against_forward_moves_and_with_backward_ones() -> None:
     e = simulate_move(ramp(400, 2000, 10, 100), 3000)
     loaded = flat_motor(0.02, load_torque_nm=0.1)
-    fwd = load_angle_check(e, loaded, direction=1)
-    back = load_angle_check(e, loaded, direction=-1)
-    plain = load_angle_check(e, flat_motor(0.02))
+    fwd = trace_load_angle(e, loaded, direction=1)
+    back = trace_load_angle(e, loaded, direction=-1)
+    plain = trace_load_angle(e, flat_motor(0.02))
     assert fwd.worst_angle_deg > plain.worst_angle_deg > 0
     # at rest after a backward move the load pulls the rotor ahead: sin δ = −T_L/T_hold
     # minus what static friction holds
     assert back.angle_deg[-1] < 0
-    verdict = judge_executions(ramp(400, 2000, 10, 100), loaded, pulses=[3000])
+    verdict = worst_load_angle(ramp(400, 2000, 10, 100), loaded, pulses=[3000])
     assert verdict.worst_angle_deg == pytest.approx(
         max(abs(fwd.worst_angle_deg), abs(back.worst_angle_deg)), rel=1e-6)
 
@@ -140,29 +143,29 @@ def test_judging_every_family_agrees_with_direct_simulation() -> None:
     motor = nema17()
     for fam in move_families(table)[:: 3]:
         run = fam.execution()
-        direct = abs(load_angle_check(run, motor).worst_angle_deg)
-        shared = judge_executions(table, motor, pulses=[run.pulses]).worst_angle_deg
+        direct = abs(trace_load_angle(run, motor).worst_angle_deg)
+        shared = worst_load_angle(table, motor, pulses=[run.pulses]).worst_angle_deg
         assert shared == pytest.approx(direct, abs=0.02)
-    every = judge_executions(table, motor)
-    worst_direct = max(abs(load_angle_check(f.execution(), motor).worst_angle_deg)
+    every = worst_load_angle(table, motor)
+    worst_direct = max(abs(trace_load_angle(f.execution(), motor).worst_angle_deg)
                        for f in move_families(table))
     assert every.worst_angle_deg >= worst_direct - 0.02
 
 
 def test_deterministic_and_finer_steps_agree() -> None:
     e = simulate_move(ramp(400, 3000, 10, 200), 6000)
-    a = load_angle_check(e, nema17())
-    b = load_angle_check(e, nema17())
+    a = trace_load_angle(e, nema17())
+    b = trace_load_angle(e, nema17())
     assert a.worst_angle_deg == b.worst_angle_deg
     assert np.array_equal(a.angle_deg, b.angle_deg)
-    fine = load_angle_check(e, nema17(), max_step_s=5e-6)
+    fine = trace_load_angle(e, nema17(), max_step_s=5e-6)
     assert fine.worst_angle_deg == pytest.approx(a.worst_angle_deg, rel=1e-3)
 
 
 def test_bad_arguments() -> None:
     e = simulate_move(ramp(400, 2000, 4, 100), 1000)
     with pytest.raises(FieldRangeError, match="max step"):
-        load_angle_check(e, nema17(), max_step_s=0.0)
+        trace_load_angle(e, nema17(), max_step_s=0.0)
     with pytest.raises(FieldRangeError, match="damping_ratio"):
         flat_motor(0.1, damping_ratio=-1)
 
@@ -178,10 +181,12 @@ def test_unstable_verdict_names_the_shortest_unstable_move(path) -> None:  # typ
     fast_pps = motor.start_pps + 2 * omega_n / c_e
     fast = FreeCurveTable(MHZ1, (round(MHZ1.hz / fast_pps), round(MHZ1.hz / motor.start_pps)),
                           (400, 400))
-    v = judge_executions(fast, motor)
-    assert not v.safe and v.first_unstable_pulses is not None
-    assert v.worst_angle_deg >= PEAK_DEG and v.margin_deg <= 0
-    assert not load_angle_check(simulate_move(fast, v.first_unstable_pulses), motor).stable
+    verdict = judge_safety(fast, motor)
+    v = verdict.load_angle
+    assert v is not None and not verdict.safe and "load angle" in verdict.failed
+    assert v.first_unstable_pulses is not None
+    assert v.worst_deg >= PEAK_DEG and v.margin_deg <= 0
+    assert not trace_load_angle(simulate_move(fast, v.first_unstable_pulses), motor).stable
 
 
 def test_a_verdict_that_would_take_too_long_is_refused_in_one_line(
@@ -196,7 +201,7 @@ def test_a_verdict_that_would_take_too_long_is_refused_in_one_line(
     monkeypatch.setattr(load_angle, "MAX_VERDICT_STEPS", 2_000)
     table = ramp(400, 4000, 40, 100)
     with pytest.raises(StepRampError, match="too stiff, or too lightly damped"):
-        judge_executions(table, nema17())
+        worst_load_angle(table, nema17())
     path = tmp_path / "t.table.json"
     path.write_text(dump_table(table))
     motor = next(p for p in bundled_motor_paths() if "nema17" in p.name)

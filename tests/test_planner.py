@@ -22,14 +22,14 @@ from profiles.ppmc312.planner import (
 )
 from profiles.ppmc312.quantise import quantise_reference
 from profiles.ppmc312.table import FreeCurveTable
-from verify.stall import check_stall
+from verify.criterion import check_stall
 
 MOTORS = {p.stem: load_motor(p) for p in bundled_motor_paths()}
 MOVES = (300, 2000, 10000, 100000, None)
 
 
 def assert_chip_legal(table: FreeCurveTable, pulses: int | None) -> None:
-    """SPEC §1.4 free-curve rules, written out here independently of verify.checks."""
+    """SPEC §1.4 free-curve rules, written out here independently of verify.chip_rules."""
     rates = np.asarray(table.rates)
     for counts in (table.accel_pulses, table.decel):
         c = np.asarray(counts)

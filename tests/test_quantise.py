@@ -14,7 +14,7 @@ from profiles.ppmc312.planner import choose_clock
 from profiles.ppmc312.quantise import quantise_reference
 from profiles.ppmc312.table import FreeCurveTable
 from profiles.result import PlanResult
-from verify.checks import check_table
+from verify.chip_rules import check_table
 from verify.references import Reference, ruckig_reference, toppra_reference
 
 MOTORS = {p.stem: load_motor(p) for p in bundled_motor_paths()}

@@ -10,7 +10,7 @@ import pytest
 
 from profiles.errors import FormatError
 from profiles.ppmc312.table import load_table
-from verify.checks import check_table
+from verify.chip_rules import check_table
 from verify.findings import Finding
 from verify.report import FileResult, render
 

@@ -11,7 +11,7 @@ from profiles.motor import Motor, bundled_motor_paths, load_motor
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312.table import FreeCurveTable
-from verify.stall import check_stall, stall_margins
+from verify.criterion import check_stall, stall_margins
 
 NEMA23 = next(load_motor(p) for p in bundled_motor_paths() if "nema23" in p.name)
 CLK = Clock.internal("8MHz")  # speed = 8e6 / rate

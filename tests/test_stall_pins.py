@@ -1,4 +1,4 @@
-"""verify.stall pinned: margins by hand, and findings from hand-made problems.
+"""verify.criterion pinned: margins by hand, and findings from hand-made problems.
 
 `findings_from_problems` is fed problem lists written out here (StepProblem values
 whose numbers are round), so each finding's rule, stage, grouping, order and message
@@ -19,7 +19,12 @@ from profiles.motor import Motor
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.criterion import StepProblem
 from profiles.ppmc312.table import FreeCurveTable
-from verify.stall import check_stall, findings_from_problems, shortest_failing_pulses, stall_margins
+from verify.criterion import (
+    check_stall,
+    findings_from_problems,
+    shortest_failing_pulses,
+    stall_margins,
+)
 
 CLK = Clock.internal("8MHz")
 T3 = FreeCurveTable(CLK, (8000, 16000, 32000), (10, 20, 40))  # 1000, 500, 250 pps

@@ -32,7 +32,7 @@ from profiles.ppmc312.sync import (
     spread_tolerance_s,
 )
 from profiles.ppmc312.upload import decode_move
-from verify.stall import check_stall
+from verify.criterion import check_stall
 from verify.sync import ruckig_sync, sync_report
 
 ROOT = Path(__file__).resolve().parents[1]

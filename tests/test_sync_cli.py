@@ -17,6 +17,7 @@ from profiles.alink.sync import (
     plan_time_sync,
     pulse_times_s,
 )
+from profiles.axes import load_axes
 from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312 import decode_upload
 from profiles.ppmc312.execution import simulate_move
@@ -25,7 +26,8 @@ from profiles.ppmc312.sync import spread_tolerance_s
 from profiles.ppmc312.table import load_table
 from profiles.ppmc312.upload import decode_move
 from verify.cli import main
-from verify.stall import check_stall
+from verify.criterion import check_stall
+from verify.safety import judge_safety
 
 ROOT = Path(__file__).resolve().parents[1]
 MOTORS = [load_motor(p) for p in bundled_motor_paths()]
@@ -67,8 +69,12 @@ def test_report_matches_the_written_tables(written: tuple[Path, int, str]) -> No
         run = simulate_move(table, abs(item["pulses"]))
         assert item["duration_s"] == run.duration_s   # as simulate computes it
         durations.append(run.duration_s)
-        # every table judged over every move length by both judges
-        assert item["stall_findings"] == 0 and 0 < item["worst_load_angle_deg"] < 90
+        # every table judged over every move length by both judges: the one verdict
+        motor = load_axes(root / "examples" / "axes-xy.json").axes[
+            [a["name"] for a in report["axes"]].index(item["name"])].motor
+        assert item["safety"] == judge_safety(table, motor).to_json()
+        assert item["safety"]["safe"] and item["safety"]["criterion_findings"] == []
+        assert item["safety"]["moves"] == "every"
         # the upload files decode back to the table
         for ext in ("hex", "bin"):
             assert decode_upload(parse_upload((out / f"{item['name']}.upload.{ext}")

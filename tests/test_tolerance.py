@@ -27,7 +27,7 @@ from profiles.ppmc312.load_angle import worst_load_angle
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312.table import dump_table
 from verify import cli
-from verify.robust import judge_box, sample_peaks
+from verify.tolerance_box import judge_box, sample_peaks
 
 DATA = Path(__file__).resolve().parents[1] / "profiles" / "data"
 NEMA17 = DATA / "motor-nema17-1600.json"
@@ -127,7 +127,7 @@ def test_each_sample_is_judged_as_its_own_motor() -> None:
     m = motor_with(tolerances=FULL_BOX)
     table = plan_free_curve(m, pulses=5000).table
     n = 300
-    peaks, where = sample_peaks(table, m, [n], 6, seed=1)
+    peaks, where, _ = sample_peaks(table, m, [n], 6, seed=1)
     assert np.all(where == n)
     for i, s in enumerate(samples(m, 6, seed=1)):
         scalar = max(worst_load_angle(table, s.motor, pulses=[n]).worst_angle_deg,
@@ -194,9 +194,10 @@ def test_check_cli_over_the_box(tmp_path: Path, capsys: pytest.CaptureFixture[st
     assert "(at the tolerance box's worst case)" in out
     code = cli.main([*args, "--format", "json", str(robust)])
     doc = json.loads(capsys.readouterr().out)
-    box_json = doc["files"][0]["tolerance_box"]
+    safety = doc["files"][0]["safety"]
+    box_json = safety["tolerance_box"]
     assert box_json["samples"] == 100 and box_json["corners"] == 4
-    assert code == (0 if box_json["safe"] else 1)
+    assert code == (0 if safety["safe"] else 1)
     assert math.isclose(box_json["stall_probability_upper"], 1 - 0.05 ** (1 / 100)) \
         or box_json["sample_failures"] > 0
 

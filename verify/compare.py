@@ -2,9 +2,10 @@
 
 The table's time is what the chip runs (`profiles.ppmc312.execution`, exact ticks); the
 references are continuous profiles on the same move (`verify.references`);
-the stall margin is capability / need over the table's stages (`verify.stall`).
-The move is judged by both judges: the criterion on its execution (`verify.stall`)
-and the load angle in both directions (`verify.physics`); `safe` needs both.
+the stall margin is capability / need over the table's stages (`verify.criterion`).
+The table is judged by the one verdict (`verify.safety.judge_safety`) twice: on the move
+asked for, and on every move the table can run (what the chip does with it for other
+lengths); `safe` is the move's verdict.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from typing import Any
 from profiles.motor import Motor
 from profiles.ppmc312.table import FreeCurveTable, Table
 from verify.references import SOLVERS as DEFAULT_REFERENCES
+from verify.safety import SafetyVerdict
 
 
 @dataclass
@@ -28,20 +30,23 @@ class Comparison:
     references: dict[str, Any]  # name -> verify.references.Reference
     optimum: str
     margins: dict[str, Any]
-    criterion: list[Any] = field(default_factory=list)  # verify.findings.Finding
-    physics: Any = None  # verify.physics.PhysicsVerdict of the move
+    move_verdict: SafetyVerdict       # the move asked for
+    every_verdict: SafetyVerdict      # every move the table can run
     extra: dict[str, Any] = field(default_factory=dict)
 
     @property
     def safe(self) -> bool:
-        """Both judges pass the move: no criterion finding, load angle below 90°."""
-        return not self.criterion and (self.physics is None or self.physics.safe)
+        """Both judges pass the move asked for."""
+        return self.move_verdict.safe
 
     @property
     def failed_judges(self) -> list[str]:
-        out = ["criterion"] if self.criterion else []
-        return out + (["load angle"] if self.physics is not None and not self.physics.safe
-                      else [])
+        return list(self.move_verdict.failed)
+
+    @property
+    def criterion(self) -> list[Any]:
+        """The criterion's findings on the move (verify.findings.Finding)."""
+        return list(self.move_verdict.criterion)
 
     @property
     def table_s(self) -> float:
@@ -77,12 +82,11 @@ class Comparison:
             "table_s": self.table_s, "optimum": self.optimum, "optimum_s": self.optimum_s,
             "ratio": self.ratio, "stall_margin": _finite(self.stall_margin),
             "references": refs, "safe": self.safe, "failed_judges": self.failed_judges,
-            "criterion": [f.to_json() for f in self.criterion],
+            "safety": {"move": self.move_verdict.to_json(),
+                       "every_move": self.every_verdict.to_json()},
         }
         if self.jerk_limited_optimum is not None:
             out["jerk_limited_optimum_s"] = self.jerk_limited_optimum.duration_s
-        if self.physics is not None:
-            out["physics"] = self.physics.to_json()
         return out
 
     def to_text(self) -> str:
@@ -103,8 +107,8 @@ class Comparison:
         lines.append("criterion: " + ("passes" if not self.criterion else
                                       f"FAILS ({len(self.criterion)} finding(s))"))
         lines += [f"  [{f.rule}] {f.message}" for f in self.criterion]
-        if self.physics is not None:
-            lines.append(f"load angle: {self.physics.describe()}")
+        lines.append(f"this move: {self.move_verdict.describe()}")
+        lines.append(f"every move the table can run: {self.every_verdict.describe()}")
         verdict = "SAFE" if self.safe else "UNSAFE (failed: " + ", ".join(self.failed_judges) + ")"
         lines.append(f"verdict: {verdict}")
         return "\n".join(lines) + "\n"
@@ -123,24 +127,24 @@ class Comparison:
 def compare_table(table: Table, motor: Motor, pulses: int, *,
                   include: tuple[str, ...] = DEFAULT_REFERENCES,
                   physics: bool = True) -> Comparison:
+    """The table's move of `pulses` against the references, and the safety verdict on that
+    move and on every move (`physics`: with the load angle)."""
     from profiles.ppmc312.execution import simulate_move
     from profiles.ppmc312.init_model import as_free_curve
+    from verify.criterion import stall_margins
     from verify.references import best_reference, references
-    from verify.stall import check_stall, stall_margins
+    from verify.safety import judge_safety
 
     table = as_free_curve(table)
     execution = simulate_move(table, pulses)
     refs = references(motor, pulses, include=include)
     best = best_reference(refs)
     optimum = next(name for name, r in refs.items() if r is best)
-    result = Comparison(table=table, motor=motor, pulses=pulses, execution=execution,
-                        references=refs, optimum=optimum, margins=stall_margins(table, motor),
-                        criterion=check_stall(table, motor, pulses=[pulses]))
-    if physics:
-        from verify.physics import judge_executions
-
-        result.physics = judge_executions(table, motor, pulses=[pulses])
-    return result
+    return Comparison(table=table, motor=motor, pulses=pulses, execution=execution,
+                      references=refs, optimum=optimum, margins=stall_margins(table, motor),
+                      move_verdict=judge_safety(table, motor, pulses=[pulses],
+                                                load_angle=physics),
+                      every_verdict=judge_safety(table, motor, load_angle=physics))
 
 
 def _finite(x: float) -> float | None:

@@ -4,7 +4,7 @@ Sliders set the move and the load (move length, safety factor, load inertia,
 load torque, clock, stage budget) and a picker the motor; every change replans
 the table (`plan_free_curve`) and redraws, in one figure, the staircase the chip
 runs against the exact continuous optimum, the stall margin of every stage and
-the rotor's load angle (`verify.physics.load_angle_check`). The slow references
+the rotor's load angle (`verify.load_angle.trace_load_angle`). The slow references
 (toppra, ruckig, casadi) are solved on a button; another button writes the
 table and its upload files.
 
@@ -29,6 +29,7 @@ from typing import Any
 
 from profiles.errors import FieldRangeError, StepRampError
 from profiles.motor import Motor, bundled_motor_paths, load_motor
+from profiles.motor.angles import AIM_DEG
 from profiles.ppmc312.clock import INTERNAL_HZ, Clock
 from profiles.ppmc312.execution import Execution, simulate_move
 from profiles.ppmc312.planner import Plan, plan_free_curve
@@ -49,6 +50,7 @@ class Settings:
     load_torque_nm: float | None = None
     clock: str = AUTO_CLOCK
     max_stages: int = 127
+    aim_deg: float = AIM_DEG       # the load-angle aim the plan is tightened to
 
 
 @dataclass
@@ -62,7 +64,8 @@ class Design:
     execution: Execution
     exact: Any                     # verify.references.Reference
     margins: dict[str, Any]
-    physics: Any                   # verify.physics.PhysicsResult or None
+    physics: Any                   # verify.load_angle.LoadAngleTrace or None
+    verdict: Any = None            # verify.safety.SafetyVerdict over every move, or None
     timings_ms: dict[str, float] = field(default_factory=dict)
 
     @property
@@ -79,8 +82,10 @@ class Design:
             f"smallest stall margin {self.margins['min']:.3f} (≥ 1 is stall-safe)",
         ]
         if self.physics is not None:
-            lines.append(f"load angle: worst {self.physics.worst_angle_deg:+.1f}° electrical "
-                         f"(peak 90°, pole slip 180°): {_verdict(self.physics)}")
+            lines.append(f"this move's load angle: worst {self.physics.worst_angle_deg:+.1f}° "
+                         f"electrical (peak 90°, pole slip 180°): {_verdict(self.physics)}")
+        if self.verdict is not None:
+            lines.append(f"verdict: {self.verdict.describe()}")
         total = sum(self.timings_ms.values())
         lines.append(f"recomputed in {total:.0f} ms ("
                      + ", ".join(f"{k} {v:.0f}" for k, v in self.timings_ms.items()) + ")")
@@ -99,32 +104,35 @@ def loaded_motor(motor: Motor, settings: Settings) -> Motor:
 
 def design(motor: Motor, settings: Settings, *, load_angle: bool = True) -> Design:
     """Plan and judge one setting (what every slider change runs)."""
+    from verify.criterion import stall_margins
     from verify.references import exact_optimum
-    from verify.stall import stall_margins
 
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
     loaded = loaded_motor(motor, settings)
     clock = None if settings.clock == AUTO_CLOCK else Clock.internal(settings.clock)
     plan = plan_free_curve(loaded, clock=clock, max_stages=settings.max_stages,
-                           pulses=settings.pulses)
+                           pulses=settings.pulses,
+                           load_angle_deg=settings.aim_deg if load_angle else None)
     execution = simulate_move(plan.table, settings.pulses)
     t1 = time.perf_counter()
     exact = exact_optimum(loaded, settings.pulses)
     t2 = time.perf_counter()
     margins = stall_margins(plan.table, loaded)
     t3 = time.perf_counter()
-    physics = None
+    physics = verdict = None
     if load_angle:
-        from verify.physics import load_angle_check
+        from verify.load_angle import trace_load_angle
+        from verify.safety import judge_safety
 
         # T_L > 0 opposes forward motion: follow the direction the load hinders.
-        physics = load_angle_check(execution, loaded,
+        physics = trace_load_angle(execution, loaded,
                                    direction=-1 if loaded.load_torque_nm < 0 else 1)
+        verdict = judge_safety(plan.table, loaded, aim_deg=settings.aim_deg)
     t4 = time.perf_counter()
     timings.update(plan=(t1 - t0) * 1e3, exact=(t2 - t1) * 1e3, margins=(t3 - t2) * 1e3,
                    load_angle=(t4 - t3) * 1e3)
-    return Design(settings, loaded, plan, execution, exact, margins, physics, timings)
+    return Design(settings, loaded, plan, execution, exact, margins, physics, verdict, timings)
 
 
 def write_design(result: Design, out_dir: str | Path, stem: str) -> list[Path]:

@@ -1,7 +1,7 @@
 """`stepramp check` for the MC-200 stream and A-Link settings files: which device a
 file is for, its own check, and the device's rules a CI gate wants.
 
-PPMC-312 tables and uploads keep priority (verify/checking.py asks here first only
+PPMC-312 tables and uploads keep priority (verify/check_file.py asks here first only
 because these files have shapes a PPMC-312 file never has: see
 `profiles.mc200.formats.is_stream_file` and `profiles.alink.formats.is_settings_file`).
 

@@ -23,9 +23,10 @@ from typing import Any
 from profiles.errors import FormatError, StepRampError
 from profiles.progress import Progress, report
 
-COLUMNS = ("motor", "pulses", "move_time_s", "worst_load_angle_deg", "safe", "stages", "LE",
-           "clock", "top_pps", "binds", "solve_s", "judge_s", "corners", "samples",
-           "sample_failures", "stall_probability_upper", "error")
+COLUMNS = ("motor", "pulses", "move_time_s", "worst_load_angle_deg", "safe", "failed",
+           "margin_deg", "worst_pulses", "stages", "LE", "clock", "top_pps", "binds",
+           "solve_s", "judge_s", "corners", "samples", "sample_failures",
+           "stall_probability_upper", "error", "safety")
 
 
 @dataclass(frozen=True)
@@ -57,29 +58,32 @@ def run_job(job: Job) -> dict[str, Any]:
                clock=table.clock.name, top_pps=table.clock.hz / table.rates[0],
                binds=plan.binds, solve_s=plan.solve_s)
     t0 = time.perf_counter()
-    row.update(judge(table, motor, job.samples, job.seed))
+    row.update(judge(table, motor, job.samples, job.seed,
+                     None if job.load_angle_deg is None else min(job.load_angle_deg, 90.0)))
     row["judge_s"] = time.perf_counter() - t0
     return row
 
 
-def judge(table: Any, motor: Any, samples: int, seed: int) -> dict[str, Any]:
-    """Both judges over every move length (and the tolerance box)."""
-    from profiles.motor.tolerance import worst_case_motor
-    from profiles.ppmc312.criterion import all_length_problems
-    from profiles.ppmc312.load_angle import worst_load_angle
-    from verify.robust import judge_box
+def judge(table: Any, motor: Any, samples: int, seed: int,
+          aim_deg: float | None = None) -> dict[str, Any]:
+    """The safety verdict (verify.safety) as a row's columns; `safety` holds its whole
+    JSON object, as `check --motor --format json` shows it."""
+    import json
 
-    criterion_ok = not all_length_problems(table, worst_case_motor(motor))
-    if motor.tolerances:
-        box = judge_box(table, motor, samples=samples, seed=seed)
-        return {"worst_load_angle_deg": box.worst_angle_deg, "safe": criterion_ok and box.safe,
-                "corners": box.corners, "samples": box.samples,
-                "sample_failures": box.sample_failures,
-                "stall_probability_upper": box.stall_probability_upper if samples else None}
-    w = worst_load_angle(table, motor)
-    return {"worst_load_angle_deg": w.worst_angle_deg,
-            "safe": criterion_ok and w.worst_angle_deg < 90.0, "corners": 1, "samples": 0,
-            "sample_failures": 0, "stall_probability_upper": None}
+    from profiles.motor.angles import AIM_DEG
+    from verify.safety import judge_safety
+
+    verdict = judge_safety(table, motor, samples=samples, seed=seed,
+                           aim_deg=AIM_DEG if aim_deg is None else aim_deg)
+    j = verdict.to_json()
+    box = j["tolerance_box"]
+    return {"worst_load_angle_deg": j["worst_load_angle_deg"], "safe": verdict.safe,
+            "failed": ";".join(verdict.failed), "margin_deg": j["margin_deg"],
+            "worst_pulses": j["worst_pulses"], "corners": box["corners"] if box else 1,
+            "samples": box["samples"] if box else 0,
+            "sample_failures": box["sample_failures"] if box else 0,
+            "stall_probability_upper": box["stall_probability_upper"] if box and samples
+            else None, "safety": json.dumps(j, sort_keys=True)}
 
 
 def jobs_of(motors: Sequence[tuple[str, dict[str, Any]]], pulses: Sequence[int], *,

@@ -225,10 +225,9 @@ def sync_report(plan: Plan, *, device: str, ruckig: RuckigSync | None = None,
                 ) -> dict[str, Any]:
     """report.json: per axis its duration (as simulate computes it), the finish spread and
     its tolerance, the line deviation, ruckig's synchronised durations beside ours, and
-    each PPMC-312 table's verdict over every move length: criterion findings and the
-    worst load angle (electrical degrees; ≥ 90° is unsafe)."""
-    from verify.physics import judge_executions
-    from verify.stall import check_stall
+    each PPMC-312 table's safety verdict over every move length (verify.safety, over the
+    motor's tolerance box when it has one)."""
+    from verify.safety import judge_safety
 
     times = pulse_times(plan)
     dev, _, _ = line_deviation_times(times)
@@ -242,8 +241,7 @@ def sync_report(plan: Plan, *, device: str, ruckig: RuckigSync | None = None,
                         top_pps=a.table.clock.hz / a.table.rates[0],
                         separate_decel=a.table.separate, shape=a.execution.shape,
                         first_pulse_latency_s=a.execution.first_pulse_latency_s,
-                        stall_findings=len(check_stall(a.table, a.motor)),
-                        worst_load_angle_deg=judge_executions(a.table, a.motor).worst_angle_deg)
+                        safety=judge_safety(a.table, a.motor).to_json())
         else:
             s = a.settings
             item.update(start_pps=s.start_pps, high_pps=s.high_pps, up_time_para=s.accel_para,

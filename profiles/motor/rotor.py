@@ -1,6 +1,6 @@
 """The rotor of a hybrid stepper following a commanded staircase: the load-angle model.
 
-A model of the motor (verify.physics turns it into verdicts; planners use it to
+A model of the motor (verify.load_angle turns it into verdicts; planners use it to
 tighten). In pulses (one pulse = one commanded step of the driver):
 
     lag  L = x_cmd(t) − x(t)                  [pulses; > 0 when the rotor is behind]
@@ -39,11 +39,11 @@ from typing import Any
 import numpy as np
 
 from ..errors import FieldRangeError, StepRampError
+from .angles import AIM_DEG, PEAK_DEG, SLIP_DEG
 from .model import Motor
 
-SLIP_DEG = 180.0                  # the rotor slips a pole
-PEAK_DEG = 90.0                   # the restoring torque peaks: the stable side ends
-TARGET_DEG = 75.0                 # what planners aim at: 15° of margin to the peak
+__all__ = ["AIM_DEG", "PEAK_DEG", "SLIP_DEG"]  # re-exported: the model's landmarks
+
 SETTLE_TOL_DEG = 0.05             # oscillation range that counts as settled
 STEPS_PER_NATURAL_PERIOD = 50
 MAX_SETTLE_PERIODS = 400          # give up waiting for an undamped rotor to settle
@@ -189,8 +189,8 @@ def follow(rotor: Rotor, spans: Sequence[tuple[float, float]], *, step_s: float,
     The compiled kernel (profiles.motor.rotor_kernel) does the work."""
     from . import rotor_kernel as rk
 
-    spans = np.asarray(spans, dtype=float).reshape(-1, 2)
-    dur, vel = np.ascontiguousarray(spans[:, 0]), np.ascontiguousarray(spans[:, 1])
+    table = np.asarray(spans, dtype=float).reshape(-1, 2)
+    dur, vel = np.ascontiguousarray(table[:, 0]), np.ascontiguousarray(table[:, 1])
     count = len(dur)
     out_max, out_lag, out_s = np.zeros(count), np.zeros(count), np.zeros(count)
     no_ref = np.full(count, -1, dtype=np.int64)

@@ -38,10 +38,12 @@ ROTOR_FIELDS = ("c_e", "k", "friction_pps2", "load_pps2", "damping_per_s")
 # Status of an integration (returned as an int: numba raises nothing we want to catch).
 OK, OUT_OF_STEPS, OUT_OF_ROOM = 0, 1, 2
 
-_JIT = {"cache": True, "nogil": True, "error_model": "numpy"}
+# cached on disk beside this file (or in numba's user cache when that is read-only);
+# `nogil`: ranges of (rotor, execution) pairs run on threads at once
+_jit = nb.njit(cache=True, nogil=True, error_model="numpy")
 
 
-@nb.njit(**_JIT)
+@_jit
 def _t_peak(curve_v: np.ndarray, curve_t: np.ndarray, speed: float) -> float:
     """The peak restoring torque at |speed| (linear between curve points, 0 beyond)."""
     v = abs(speed)
@@ -59,7 +61,7 @@ def _t_peak(curve_v: np.ndarray, curve_t: np.ndarray, speed: float) -> float:
     return curve_t[lo] + w * (curve_t[lo + 1] - curve_t[lo])
 
 
-@nb.njit(**_JIT)
+@_jit
 def _accel(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, v: float, lag: float,
            s: float) -> float:
     """The rotor's acceleration relative to the command's (d²lag/dt² = −this)."""
@@ -76,14 +78,14 @@ def _accel(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, v: float
     return a - math.copysign(fr, a)
 
 
-@nb.njit(**_JIT)
+@_jit
 def natural_period_s(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
                      speed: float) -> float:
     stiffness = rotor[K] * rotor[C_E] * _t_peak(curve_v, curve_t, speed)
     return 2 * math.pi / math.sqrt(stiffness) if stiffness > 0 else math.inf
 
 
-@nb.njit(**_JIT)
+@_jit
 def follow_spans(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
                  dur: np.ndarray, vel: np.ndarray, lag: float, s: float, previous: float,
                  t0: float, step: float, slip: float, tol: float, settle_periods: int,
@@ -154,7 +156,9 @@ def follow_spans(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
                 lo = min(lo, lag)
                 hi = max(hi, lag)
                 count += 1
-                if count >= window:
+                # Held by static friction (the rotor at rest under a moving command) the
+                # lag grows steadily however small its range over a window: not settled.
+                if count >= window and (s != v or v == 0.0):
                     windows += 1
                     # Settled: the rest of a constant span repeats this state. An undamped
                     # rotor never settles; after `settle_periods` windows its (periodic)
@@ -186,7 +190,7 @@ def follow_spans(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
     return len(dur), OK, 0, 0.0, steps, -1, recorded
 
 
-@nb.njit(**_JIT)
+@_jit
 def _spans(rates: np.ndarray, counts: np.ndarray, lo: int, hi: int, hz: float,
            settle: float) -> tuple[np.ndarray, np.ndarray]:
     """An execution's segments lo..hi as (duration_s, speed_pps), then rest for `settle`."""
@@ -201,7 +205,7 @@ def _spans(rates: np.ndarray, counts: np.ndarray, lo: int, hi: int, hz: float,
     return dur, vel
 
 
-@nb.njit(**_JIT)
+@_jit
 def _reference(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, dur: np.ndarray,
                vel: np.ndarray, step: float, slip: float, tol: float, settle_periods: int,
                limit: int, ref_max: np.ndarray, ref_lag: np.ndarray, ref_s: np.ndarray,
@@ -220,7 +224,7 @@ def _reference(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, dur:
     return status, slipped, used
 
 
-@nb.njit(**_JIT)
+@_jit
 def _execution(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, rates: np.ndarray,
                counts: np.ndarray, a0: int, a1: int, r0: int, r1: int, hz: float, step: float,
                settle: float, slip: float, tol: float, settle_periods: int, rejoin_lag: float,
@@ -273,7 +277,7 @@ def _execution(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, rate
     return status, worst, slip_flag == 1, used
 
 
-@nb.njit(**_JIT)
+@_jit
 def references(curve_v: np.ndarray, curve_t: np.ndarray, rotors: np.ndarray, steps: np.ndarray,
                settles: np.ndarray, rates: np.ndarray, counts: np.ndarray, r0: int, r1: int,
                hz: float, slip_deg: float, tol_deg: float, settle_periods: int,
@@ -299,7 +303,7 @@ def references(curve_v: np.ndarray, curve_t: np.ndarray, rotors: np.ndarray, ste
         used[r] = u
 
 
-@nb.njit(**_JIT)
+@_jit
 def executions(curve_v: np.ndarray, curve_t: np.ndarray, rotors: np.ndarray, steps: np.ndarray,
                settles: np.ndarray, rates: np.ndarray, counts: np.ndarray, offsets: np.ndarray,
                ref: int, hz: float, settle_periods: int, max_trace_steps: int,

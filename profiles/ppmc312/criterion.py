@@ -24,7 +24,7 @@ is largest at the family's shortest move, which is the one judged.
 The jerk rule (`max_jerk_pps3`) is a rule of the table's staircases (see
 `jerk_problems`); a triangle's peak is a slope reversal any truncated staircase has.
 
-This module computes; `verify.stall` turns problems into findings with fixes.
+This module computes; `verify.criterion` turns problems into findings with fixes.
 Planners use it to prove their own tables (profiles never imports verify).
 """
 

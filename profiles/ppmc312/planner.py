@@ -2,7 +2,7 @@
 
 The planner chooses the stage rates of a PPMC-312 free curve (fastest first on
 the wire, slowest first here) and their pulse counts so that the table obeys
-the stall-safety criterion of `verify.stall` and the chip's free-curve rules,
+the stall-safety criterion of `verify.criterion` and the chip's free-curve rules,
 and minimises the move time of `pulses`:
 
     T = Σ_{k<N} w_k / f_k + (pulses − Σ_{k<N} w_k) / f_N,
@@ -500,7 +500,7 @@ def _infeasible_reason(pb: _Problem, budget: int, max_stages: int) -> str:
 
 
 def _jerk_counts(pb: _Problem, ev: _Eval, budget: int) -> _Eval | None:
-    """Raise counts so that the stall-jerk rule of verify.stall holds: stage by stage from
+    """Raise counts so that the stall-jerk rule of verify.criterion holds: stage by stage from
     the slowest, the smallest count whose slope change from the previous stage is within
     max_jerk_pps3 (σ = 0 before the first stage and in the top stage)."""
     jerk = pb.motor.max_jerk_pps3

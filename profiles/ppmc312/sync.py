@@ -40,7 +40,7 @@ those within 0.25 pulse of it.
 
 Stall safety: every table made here is vetted by `accept(table, motor)`, by
 default `criterion.all_length_safe` (the criterion over every move length the
-chip can run with the table, the one `verify.stall.check_stall` reports).
+chip can run with the table, the one `verify.criterion.check_stall` reports).
 """
 
 from __future__ import annotations

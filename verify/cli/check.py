@@ -44,7 +44,7 @@ def add_subparser(sub: Any) -> None:
 def _do_check(args: argparse.Namespace) -> int:
     from profiles.errors import FormatError
     from profiles.reading import display_path
-    from verify.checking import check_file
+    from verify.check_file import check_file
     from verify.output import write_output
     from verify.report import render
 

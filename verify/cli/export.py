@@ -38,7 +38,7 @@ def add_subparser(sub: Any) -> None:
 def _do_export(args: argparse.Namespace) -> int:
     from profiles.ppmc312.table import load_table
     from profiles.ppmc312.upload import encode_table
-    from verify.checks import check_table
+    from verify.chip_rules import check_table
     from verify.output import write_output
 
     table = load_table(args.table)

@@ -7,6 +7,8 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
+from profiles.motor.angles import AIM_DEG
+
 from ._common import (
     CLOCK_NAMES,
     EXIT_FINDINGS,
@@ -18,7 +20,6 @@ from ._common import (
     progress_bar,
 )
 
-TARGET_DEG = 75.0  # profiles.motor.rotor.TARGET_DEG, kept here so --help needs no import
 OPTIONS = {"pulses": "--pulses", "max_stages": "--max-stages",
            "load angle target [°]": "--load-angle"}
 
@@ -49,10 +50,10 @@ def add_subparser(sub: Any) -> None:
                    help="free curve: plan one table for a duty cycle: a CSV with header "
                         "pulses,weight, a row per move length the machine runs; minimises "
                         "the weighted sum of move times [s] (instead of --pulses)")
-    p.add_argument("--load-angle", type=number, default=TARGET_DEG, metavar="DEG",
+    p.add_argument("--load-angle", type=number, default=AIM_DEG, metavar="DEG",
                    help="free curve: tighten the table until its worst load angle over every "
                         f"move length is at most this [°] (electrical degrees; default "
-                        f"{TARGET_DEG:g}; 90 is the torque peak)")
+                        f"{AIM_DEG:g}; 90 is the torque peak)")
     p.add_argument("--format", choices=("text", "json"), default="text",
                    help="the summary's format (the table itself is always JSON)")
     p.add_argument("-o", "--output", metavar="TABLE", help="write the table here (default stdout)")
@@ -62,9 +63,11 @@ def add_subparser(sub: Any) -> None:
 def _do_plan(args: argparse.Namespace) -> int:
     from profiles.errors import FormatError
     from profiles.motor import load_motor
+    from profiles.motor.angles import PEAK_DEG
     from profiles.ppmc312.table import dump_table
     from profiles.reading import json_text
     from verify.output import write_output
+    from verify.safety import judge_safety
 
     if args.moves is not None and (args.pulses is not None or args.source):
         raise FormatError("--moves plans for a mix of lengths: give it without --pulses "
@@ -87,63 +90,24 @@ def _do_plan(args: argparse.Namespace) -> int:
             table, summary = _duty_cycle(args, motor)
         else:
             table, summary = _free(args, motor)
-    # the planner's own load-angle verdict, if it judged: the summary reports it below
-    verdict = _judge(table, motor, summary.pop("worst_load_angle_deg", None))
-    summary.update(verdict)
-    if not verdict["safe"]:
+    verdict = judge_safety(table, motor, aim_deg=min(args.load_angle, PEAK_DEG))
+    if not verdict.safe:
         # never write a table that is unsafe for some move length the chip can run
         print(f"stepramp plan: refused: the table is not stall-safe for every move length: "
-              f"{verdict['why']}", file=sys.stderr)
+              f"{verdict.describe()}", file=sys.stderr)
         return EXIT_FINDINGS
+    summary["safety"] = verdict.to_json()
     write_output(args.output, dump_table(table))
     # The table owns stdout when no -o is given; the summary then goes to stderr.
     stream = sys.stdout if args.output else sys.stderr
     if args.format == "json":
         print(json_text(summary, indent=None), end="", file=stream)
     else:
+        summary.pop("safety")
         print(", ".join(f"{k}: {_fmt(v)}" for k, v in summary.items() if v not in (None, "")),
               file=stream)
+        print(f"verdict: {verdict.describe()}", file=stream)
     return EXIT_OK
-
-
-def _judge(table: Any, motor: Any, judged_deg: float | None = None) -> dict[str, Any]:
-    """Both judges over every move length the chip can run with `table` (over the
-    motor's tolerance box when it has one). `judged_deg`: the worst load angle the
-    planner's tightening already found over the same executions (and corners), which
-    is not computed twice; tightening never returns a table past the 90° peak."""
-    from profiles.ppmc312.init_model import as_free_curve
-    from verify.physics import judge_executions
-    from verify.stall import check_stall
-
-    stages = as_free_curve(table)
-    if judged_deg is not None:
-        from profiles.motor.rotor import PEAK_DEG
-        from profiles.motor.tolerance import worst_case_motor
-
-        findings = check_stall(stages, worst_case_motor(motor) if motor.tolerances else motor)
-        safe_physics, worst_deg, describe = judged_deg < PEAK_DEG, judged_deg, ""
-    elif motor.tolerances:
-        # over the tolerance box: the criterion at its worst case (exact), the load angle
-        # at every corner (`stepramp check --motor` adds the Monte Carlo samples)
-        from profiles.motor.tolerance import worst_case_motor
-        from verify.robust import judge_box
-
-        findings = check_stall(stages, worst_case_motor(motor))
-        box = judge_box(stages, motor, samples=0)
-        safe_physics, worst_deg, describe = box.safe, box.worst_angle_deg, box.describe()
-    else:
-        findings = check_stall(stages, motor)
-        physics = judge_executions(stages, motor)
-        safe_physics, worst_deg, describe = (physics.safe, physics.worst_angle_deg,
-                                             physics.describe())
-    reasons = [f"[{f.rule}] {f.message}" for f in findings[:3]]
-    if len(findings) > 3:
-        reasons.append(f"and {len(findings) - 3} more criterion findings "
-                       "(stepramp check --motor lists them)")
-    why = "; ".join(reasons + ([describe] if not safe_physics else []))
-    return {"safe": not findings and safe_physics,
-            "worst_load_angle_deg": round(worst_deg, 2),
-            "why": why or None}
 
 
 def _free(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, Any]]:
@@ -153,8 +117,7 @@ def _free(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, Any]]:
                            pulses=args.pulses, separate_decel=args.separate_decel,
                            load_angle_deg=args.load_angle)
     table = plan.table
-    return table, {"worst_load_angle_deg": plan.extras.get("worst_load_angle_deg"),
-                   "stages": len(table.rates), "clock": table.clock.name,
+    return table, {"stages": len(table.rates), "clock": table.clock.name,
                    "separate_decel": table.separate, "pulses": plan.pulses,
                    "move_time_s": plan.duration_s, "solve_s": plan.solve_s, "info": plan.info}
 
@@ -167,8 +130,7 @@ def _duty_cycle(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, An
                                   separate_decel=args.separate_decel,
                                   load_angle_deg=args.load_angle)
     table = plan.table
-    return table, {"worst_load_angle_deg": plan.extras.get("worst_load_angle_deg"),
-                   "stages": len(table.rates), "clock": table.clock.name,
+    return table, {"stages": len(table.rates), "clock": table.clock.name,
                    "separate_decel": table.separate, "weighted_time_s": plan.duration_s,
                    "move_times_s": {str(n): t for n, t in times.items()},
                    "solve_s": plan.solve_s, "info": plan.info}

@@ -7,6 +7,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from profiles.motor.angles import AIM_DEG
+
 from ._common import (
     EXIT_FINDINGS,
     EXIT_OK,
@@ -17,8 +19,6 @@ from ._common import (
     pulse_list,
 )
 
-TARGET_DEG = 75.0  # profiles.motor.rotor.TARGET_DEG, kept here so --help needs no import
-
 
 def add_subparser(sub: Any) -> None:
     s = sub.add_parser("sweep", help="plan and verify robust tables for motors × move lengths "
@@ -28,9 +28,9 @@ def add_subparser(sub: Any) -> None:
     s.add_argument("--pulses", type=pulse_list, required=True, metavar="N[,M…]",
                    help="move lengths to plan for [pulses]")
     add_sample_options(s, "")
-    s.add_argument("--load-angle", type=number, default=TARGET_DEG, metavar="DEG",
+    s.add_argument("--load-angle", type=number, default=AIM_DEG, metavar="DEG",
                    help="tighten each table until its worst load angle is at most this [°] "
-                        f"(electrical; default {TARGET_DEG:g})")
+                        f"(electrical; default {AIM_DEG:g})")
     s.add_argument("--workers", type=positive_int, default=1, metavar="N",
                    help="local worker processes (default 1: in this process)")
     s.add_argument("--scheduler", metavar="ADDRESS",

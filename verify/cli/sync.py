@@ -76,11 +76,9 @@ def _do_sync(args: argparse.Namespace) -> int:
         write_output(None, json.dumps(report, indent=1) + "\n")
     else:
         write_output(None, _text(report))
-    from profiles.motor.rotor import PEAK_DEG
-
     bad = (report["finish_spread_s"] > report["finish_spread_tolerance_s"]
-           or any(a.get("stall_findings", 0) or a.get("stall_safe") is False
-                  or a.get("worst_load_angle_deg", 0.0) >= PEAK_DEG for a in report["axes"]))
+           or any(a.get("stall_safe") is False or not a.get("safety", {"safe": True})["safe"]
+                  for a in report["axes"]))
     return EXIT_FINDINGS if bad else EXIT_OK
 
 
@@ -94,6 +92,12 @@ def _text(r: dict[str, Any]) -> str:
     for a in r["axes"]:
         lines.append(f"  {a['name']}: {a['pulses']} pulses, {a['duration_s'] * 1e3:.6g} ms "
                      f"(alone {a['fastest_s'] * 1e3:.6g} ms): {a['how']}")
+        if "safety" in a:
+            v = a["safety"]
+            lines.append(f"    {'safe' if v['safe'] else 'UNSAFE: ' + ', '.join(v['failed'])}"
+                         f" over every move length; worst load angle "
+                         f"{v['worst_load_angle_deg']:.1f}° electrical ({v['worst_pulses']} "
+                         f"pulses)")
     if "ruckig" in r:
         k = r["ruckig"]
         lines.append(f"ruckig (constant limits): time-synchronised "

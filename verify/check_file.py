@@ -18,7 +18,6 @@ if TYPE_CHECKING:
     from profiles.motor import Motor
     from profiles.ppmc312.table import FreeCurveTable, InitTable
     from profiles.progress import Progress
-    from verify.robust import BoxVerdict
 
 
 def check_file(path: str, motor: Motor | None = None, extck_hz: float | None = None, *,
@@ -27,13 +26,14 @@ def check_file(path: str, motor: Motor | None = None, extck_hz: float | None = N
                progress: Progress | None = None) -> FileResult:
     """The findings for the table or upload file at `path`.
 
-    `motor` adds the stall-safety findings of both judges, over every execution the
-    chip can run with the table (`pulses`: only the moves of those lengths): the
-    criterion, and (`physics`) the load angle; `extck_hz` is the external clock of
-    EXTCK uploads (a table file carries its own).
+    `motor` adds the safety verdict (verify.safety.judge_safety) as findings, over every
+    execution the chip can run with the table (`pulses`: only the moves of those
+    lengths): the criterion, and (`physics`) the load angle; its JSON form is the
+    result's `details["safety"]`. `extck_hz` is the external clock of EXTCK uploads (a
+    table file carries its own).
     """
     from profiles.reading import STREAM_INPUT_MAX_BYTES, display_path, read_bytes, require_size
-    from verify.checks import check_table
+    from verify.chip_rules import check_table
 
     try:
         # Read once (stdin cannot be read twice), up to the cap of MC-200 streams, which
@@ -52,25 +52,23 @@ def check_file(path: str, motor: Motor | None = None, extck_hz: float | None = N
         if motor is not None and table is not None:
             from profiles.errors import InitBuildError
             from profiles.ppmc312.init_model import as_free_curve
+            from verify.safety import judge_safety
 
             try:
                 stages = as_free_curve(table)
             except InitBuildError:
                 stages = None  # no stages to judge: check_table has said why, with the code
             if stages is not None:
-                from verify.resonance import resonance_findings
-
-                if motor.tolerances:
-                    found, box = robust_findings(stages, motor, pulses=pulses,
-                                                 physics=physics, samples=samples, seed=seed,
-                                                 progress=progress)
-                    findings += found
-                    if box is not None:
-                        notes.append(box.describe())
-                        details["tolerance_box"] = box.to_json()
-                else:
-                    findings += stall_findings(stages, motor, pulses=pulses, physics=physics)
-                findings += resonance_findings(stages, motor, strict=strict)
+                verdict = judge_safety(stages, motor, pulses=pulses, samples=samples,
+                                       seed=seed, strict=strict, load_angle=physics,
+                                       progress=progress)
+                findings += verdict.findings()
+                details["safety"] = verdict.to_json()
+                if not any(f.rule.startswith("load-angle") for f in findings) and \
+                        verdict.load_angle is not None:
+                    notes.append(verdict.load_angle.describe())
+                if verdict.box is not None:
+                    notes.append(verdict.box.describe())
     except StepRampError as e:
         return FileResult(path=path, ok=False, findings=[], error=str(e))
     findings = dedupe(findings)
@@ -92,62 +90,6 @@ def _device_result(raw: bytes, path: str, motor: bool) -> FileResult | None:
     findings = dedupe(findings)
     return FileResult(path=path, ok=not any(f.severity == "error" for f in findings),
                       findings=findings, notes=notes)
-
-
-def stall_findings(table: FreeCurveTable, motor: Motor, *, pulses: Iterable[int] | None = None,
-                   physics: bool = True) -> list[Finding]:
-    """Both judges as findings: the criterion's (verify.stall), and the load angle's:
-    `load-angle` (error) past the 90° peak, `load-angle-margin` (warning) past the
-    75° the planner aims at. The load angle is judged only on stages in order (the
-    criterion reports a table out of order and nothing else)."""
-    from verify.physics import judge_executions
-    from verify.stall import check_stall
-
-    lengths = None if pulses is None else sorted(set(pulses))
-    out = check_stall(table, motor, pulses=lengths)
-    if not physics or any(f.rule == "stall-order" for f in out):
-        return out
-    verdict = judge_executions(table, motor, pulses=lengths)
-    return out + load_angle_findings(verdict.worst_angle_deg, verdict.describe(), not out)
-
-
-def load_angle_findings(worst_deg: float, describe: str, criterion_ok: bool) -> list[Finding]:
-    """`load-angle` (error) past the 90° peak, `load-angle-margin` (warning) past 75°."""
-    from verify.physics import PEAK_DEG, TARGET_DEG
-
-    out = []
-    if worst_deg >= PEAK_DEG:
-        out.append(Finding("error", "load-angle", describe + (
-            "; the criterion passes: the rotor rings after a step at this damping (raise the "
-            "counts around the steps, or lower the safety factor and plan again)"
-            if criterion_ok else "")))
-    elif worst_deg > TARGET_DEG:
-        out.append(Finding("warning", "load-angle-margin",
-                           describe + f" (stepramp plan aims at ≤ {TARGET_DEG:g}°)"))
-    return out
-
-
-def robust_findings(table: FreeCurveTable, motor: Motor, *, pulses: Iterable[int] | None = None,
-                    physics: bool = True, samples: int = 1000, seed: int = 0,
-                    progress: Progress | None = None
-                    ) -> tuple[list[Finding], BoxVerdict | None]:
-    """Both judges over `motor`'s tolerance box: the criterion on the box's worst-case
-    capability (exact over the box), the load angle at every corner and over a seeded
-    Monte Carlo sample (verify.robust)."""
-    from profiles.motor.tolerance import worst_case_motor
-    from verify.robust import judge_box
-    from verify.stall import check_stall
-
-    lengths = None if pulses is None else sorted(set(pulses))
-    out = [f.with_message(f.message + " (at the tolerance box's worst case)")
-           for f in check_stall(table, worst_case_motor(motor), pulses=lengths)]
-    if not physics or any(f.rule == "stall-order" for f in out):
-        return out, None
-    box = judge_box(table, motor, pulses=lengths, samples=samples, seed=seed,
-                    progress=progress)
-    return out + load_angle_findings(box.worst_angle_deg if box.sample_failures == 0
-                                     else max(box.worst_angle_deg, 90.0),
-                                     box.describe(), not out), box
 
 
 def dedupe(findings: Iterable[Finding]) -> list[Finding]:

@@ -1,13 +1,12 @@
-"""Judging a table over a motor's tolerance box (profiles.motor.tolerance).
+"""The load angle over a motor's tolerance box (profiles.motor.tolerance), for
+`verify.safety` (the criterion over the box is judged there, at its worst case).
 
-- the criterion: on `worst_case_motor`, which is exact over the whole box
-  (docs/manual-notes.md, "Tolerance box: the binding corner");
-- the load angle: over every execution at every corner of the box, and over a
-  seeded Monte Carlo sample of the box on the executions that are worst at some
-  corner (profiles.ppmc312.load_angle: every corner, or every sample, is a row of
-  one call of the compiled model);
-- the stall probability: samples past the 90° peak, with the exact
-  Clopper–Pearson one-sided 95 % upper bound (0 of N → 1 − 0.05^(1/N) ≈ 3/N).
+- every corner of the box over every move length: the corners are rows of one call of
+  the compiled model (profiles.ppmc312.load_angle);
+- a seeded Monte Carlo sample of the box on the move lengths worst at some corner, each
+  sample judged exactly as its own motor would be (rows of one call again);
+- the stall probability: samples past the 90° peak, with the exact Clopper–Pearson
+  one-sided 95 % upper bound (0 of N → 1 − 0.05^(1/N) ≈ 3/N).
 """
 
 from __future__ import annotations
@@ -18,14 +17,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from profiles.motor import Motor
-from profiles.motor.rotor import PEAK_DEG, Rotors, rotors
+from profiles.motor.angles import PEAK_DEG
+from profiles.motor.rotor import Rotors, rotors
 from profiles.motor.tolerance import clopper_pearson_upper, corners, sample_params
 from profiles.ppmc312.execution import moves
 from profiles.ppmc312.load_angle import judge, worst_load_angles
 from profiles.ppmc312.table import FreeCurveTable
 from profiles.progress import Progress, report
 
-DEFAULT_SAMPLES = 1000
 CONFIDENCE = 0.95
 
 
@@ -36,6 +35,7 @@ class BoxVerdict:
     worst_angle_deg: float           # over corners and samples
     worst_where: str                 # which corner or sample, with its parameters
     worst_pulses: int                # the move length there
+    worst_direction: int             # 1 forward, −1 backward
     corners: int
     corner_worst_deg: float
     samples: int
@@ -45,16 +45,17 @@ class BoxVerdict:
     sampled_pulses: tuple[int, ...]  # the executions the samples were judged on
     stall_probability_upper: float   # Clopper–Pearson one-sided upper bound
     first_unstable_pulses: int | None
+    slips: bool                      # some corner's move slips a pole
+    executions: int                  # (move, rotor) pairs integrated
 
     @property
     def safe(self) -> bool:
         return self.worst_angle_deg < PEAK_DEG and self.sample_failures == 0
 
     def describe(self) -> str:
-        text = (f"tolerance box: worst load angle {self.worst_angle_deg:.1f}° electrical at "
-                f"{self.worst_where}, move of {self.worst_pulses} pulses ({self.corners} "
-                f"corners over every move length; {self.samples} samples, seed {self.seed}, on "
-                f"the moves of {', '.join(map(str, self.sampled_pulses))} pulses)")
+        text = (f"tolerance box: {self.corners} corners over every move length"
+                + (f", {self.samples} samples (seed {self.seed}) on the moves of "
+                   f"{', '.join(map(str, self.sampled_pulses))} pulses" if self.samples else ""))
         if self.samples:
             text += (f"; {self.sample_failures} of {self.samples} samples past the 90° peak: "
                      f"stall probability < {self.stall_probability_upper:.3%} at "
@@ -73,58 +74,57 @@ class BoxVerdict:
 
 
 def judge_box(table: FreeCurveTable, motor: Motor, *, pulses: Iterable[int] | None = None,
-              samples: int = DEFAULT_SAMPLES, seed: int = 0,
+              samples: int = 1000, seed: int = 0,
               progress: Progress | None = None) -> BoxVerdict:
     """The load angle of `table` over `motor`'s tolerance box (every move length, or the
     moves of the given lengths)."""
     lengths = None if pulses is None else sorted(set(pulses))
     box_corners = corners(motor)
     total = len(box_corners) + (1 if samples else 0)
-    worst = (-1.0, "", 0)
-    unstable: list[int] = []
-    worst_lengths: set[int] = set()
-    corner_worst = -1.0
     verdicts = worst_load_angles(table, [c.motor for c in box_corners], pulses=lengths)
-    for corner, w in zip(box_corners, verdicts, strict=True):
-        worst_lengths.add(w.worst_pulses)
-        if w.first_unstable_pulses is not None:
-            unstable.append(w.first_unstable_pulses)
-        corner_worst = max(corner_worst, w.worst_angle_deg)
-        if w.worst_angle_deg > worst[0]:
-            worst = (w.worst_angle_deg, corner.describe(), w.worst_pulses)
+    k = int(np.argmax([w.worst_angle_deg for w in verdicts]))
+    corner_worst = verdicts[k].worst_angle_deg
+    worst = (corner_worst, box_corners[k].describe(), verdicts[k].worst_pulses,
+             verdicts[k].worst_direction)
+    unstable = [w.first_unstable_pulses for w in verdicts if w.first_unstable_pulses]
     report(progress, len(box_corners), total)
     # Samples are judged on the moves worst at some corner (given lengths: all of them)
-    sampled = tuple(sorted(worst_lengths if lengths is None or len(lengths) > 8 else lengths))
+    sampled = tuple(sorted({w.worst_pulses for w in verdicts} if lengths is None
+                           or len(lengths) > 8 else lengths))
     sample_worst, failures = -1.0, 0
     if samples:
-        peaks, where = sample_peaks(table, motor, sampled, samples, seed)
+        peaks, where, way = sample_peaks(table, motor, sampled, samples, seed)
         failures = int(np.sum(peaks >= PEAK_DEG))
-        k = int(np.argmax(peaks))
-        sample_worst = float(peaks[k])
+        i = int(np.argmax(peaks))
+        sample_worst = float(peaks[i])
         if sample_worst > worst[0]:
             params = sample_params(motor, samples, seed)
-            values = ", ".join(f"{key} {params[key][k]:.4g}" for key in params
+            values = ", ".join(f"{key} {params[key][i]:.4g}" for key in params
                                if motor.tolerance(key)[1] > motor.tolerance(key)[0])
-            worst = (sample_worst, f"sample {k} ({values})", int(where[k]))
+            worst = (sample_worst, f"sample {i} ({values})", int(where[i]), int(way[i]))
         if failures:
             unstable.append(int(np.min(where[peaks >= PEAK_DEG])))
         report(progress, total, total)
     bound = clopper_pearson_upper(failures, samples, CONFIDENCE) if samples else 1.0
-    return BoxVerdict(worst[0], worst[1], worst[2], len(box_corners), corner_worst, samples,
-                      seed, sample_worst, failures, sampled, bound,
-                      min(unstable) if unstable else None)
+    return BoxVerdict(worst[0], worst[1], worst[2], worst[3], len(box_corners), corner_worst,
+                      samples, seed, sample_worst, failures, sampled, bound,
+                      min(unstable) if unstable else None, any(w.slipped for w in verdicts),
+                      sum(w.executions for w in verdicts) + samples * len(sampled))
 
 
 def sample_peaks(table: FreeCurveTable, motor: Motor, lengths: Iterable[int], samples: int,
-                 seed: int) -> tuple[np.ndarray, np.ndarray]:
+                 seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Each sample's worst |load angle| over the moves of `lengths` (both directions when
-    the box or the motor has a load torque), and the move length where it is worst:
-    sample i judged exactly as the motor `tolerance.samples(motor, …)[i]` would be."""
+    the box or the motor has a load torque), the move length and the direction where it
+    is worst: sample i judged exactly as the motor `tolerance.samples(motor, …)[i]`."""
     params = sample_params(motor, samples, seed)
     lo, hi = motor.tolerance("load_torque_nm")
     ways = (1, -1) if (lo or hi) else (1,)
-    runs = moves(table, sorted(set(int(n) for n in lengths)))
+    runs = moves(table, sorted({int(n) for n in lengths}))
     rot = Rotors.stack([rotors(motor, params, direction=d) for d in ways])
     lag, _ = judge(runs, table.clock.hz, rot)
-    deg = np.degrees(lag * rot.c_e).reshape(len(ways), samples, len(runs)).max(axis=0)
-    return deg.max(axis=1), runs.pulses[np.argmax(deg, axis=1)]
+    deg = np.degrees(lag * rot.c_e).reshape(len(ways), samples, len(runs))
+    flat = deg.transpose(1, 0, 2).reshape(samples, -1)       # (samples, ways × moves)
+    best = np.argmax(flat, axis=1)
+    return (flat[np.arange(samples), best], runs.pulses[best % len(runs)],
+            np.asarray(ways)[best // len(runs)])

@@ -1,0 +1,211 @@
+"""Is this table safe? The one verdict every command asks for.
+
+A table is stall-safe for a motor when every execution the chip can run with it (every
+move length, both directions of a loaded move, every motor of the tolerance box) passes
+both judges:
+
+- the **criterion** (`verify.criterion`, on profiles.ppmc312.criterion): every speed
+  change the chip emits is one the motor's capability follows; over a tolerance box
+  it is judged on the box's worst-case capability, which is exact over the box;
+- the **load angle** (`profiles.ppmc312.load_angle`, the compiled rotor model): the
+  rotor's lag stays on the stable side of the torque–angle curve, below the 90° peak
+  (electrical degrees; it slips a pole at 180°); over a tolerance box at every corner
+  and over seeded Monte Carlo samples (`verify.tolerance_box`).
+
+`aim_deg` (75° unless asked otherwise: `AIM_DEG`) is what planners aim at: a table
+past it but below 90° is safe with a warning. Resonance dwells are warnings, errors
+with `strict`. `check`, `plan`, `compare`, `sync`, `sweep`, the designer and the
+notebooks all call `judge_safety` and show its `to_json()`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+from typing import Any
+
+from profiles.motor import Motor
+from profiles.motor.angles import AIM_DEG, PEAK_DEG
+from profiles.ppmc312.table import FreeCurveTable, InitTable
+from profiles.progress import Progress
+
+from .findings import Finding
+
+DEFAULT_SAMPLES = 1000   # Monte Carlo samples of a tolerance box
+
+
+@dataclass(frozen=True)
+class LoadAngle:
+    """The load-angle judge's worst case over what was judged."""
+
+    worst_deg: float                     # |load angle|, electrical degrees
+    worst_pulses: int                    # the move length where it happens
+    worst_direction: int                 # 1 forward, −1 backward
+    worst_at: str                        # "nominal", or the corner or sample of the box
+    first_unstable_pulses: int | None    # the shortest move past the 90° peak
+    slips: bool                          # some move slips a pole (≥ 180°)
+    executions: int                      # (move, rotor) pairs integrated
+    sample_failures: int = 0             # Monte Carlo samples past the 90° peak
+
+    @property
+    def margin_deg(self) -> float:
+        """Distance of the worst angle to the 90° peak (negative: past it)."""
+        return PEAK_DEG - self.worst_deg
+
+    @property
+    def stable(self) -> bool:
+        return self.worst_deg < PEAK_DEG and self.sample_failures == 0
+
+    def describe(self) -> str:
+        way = "forward" if self.worst_direction > 0 else "backward"
+        where = "" if self.worst_at == "nominal" else f" at {self.worst_at}"
+        text = (f"worst load angle {self.worst_deg:.1f}° electrical ({way} move of "
+                f"{self.worst_pulses} pulses{where}), margin {self.margin_deg:+.1f}° to the "
+                f"90° peak")
+        if self.first_unstable_pulses is not None:
+            text += (f"; the rotor leaves the stable side of the torque–angle curve from moves "
+                     f"of {self.first_unstable_pulses} pulses"
+                     + (" and slips a pole" if self.slips else ""))
+        if self.sample_failures:
+            text += f"; {self.sample_failures} Monte Carlo samples past the peak"
+        return text
+
+
+@dataclass(frozen=True)
+class SafetyVerdict:
+    """Both judges over every execution (or the moves of `moves`), and the box."""
+
+    moves: tuple[int, ...] | None        # None: every move length the chip can run
+    aim_deg: float
+    criterion: tuple[Finding, ...]       # the criterion's findings (errors)
+    load_angle: LoadAngle | None         # None: not judged (asked not to, or the stages
+    #                                      are out of order: the criterion says why)
+    box: Any                             # verify.tolerance_box.BoxVerdict, or None
+    resonance: tuple[Finding, ...]       # resonance dwells (errors with `strict`)
+
+    @property
+    def failed(self) -> tuple[str, ...]:
+        """The judges that fail: "criterion", "load angle", "resonance" (strict only)."""
+        out = []
+        if any(f.severity == "error" for f in self.criterion):
+            out.append("criterion")
+        if self.load_angle is not None and not self.load_angle.stable:
+            out.append("load angle")
+        if any(f.severity == "error" for f in self.resonance):
+            out.append("resonance")
+        return tuple(out)
+
+    @property
+    def safe(self) -> bool:
+        return not self.failed
+
+    @property
+    def within_aim(self) -> bool:
+        return self.load_angle is not None and self.load_angle.worst_deg <= self.aim_deg
+
+    def findings(self) -> list[Finding]:
+        """The verdict as `check` reports it: the criterion's findings, `load-angle`
+        (error) past the 90° peak or `load-angle-margin` (warning) past the aim, and the
+        resonance dwells."""
+        out = list(self.criterion)
+        la = self.load_angle
+        if la is not None and not la.stable:
+            hint = ("; the criterion passes: the rotor rings after a step at this damping "
+                    "(raise the counts around the steps, or lower the safety factor and plan "
+                    "again)" if not self.criterion else "")
+            out.append(Finding("error", "load-angle", la.describe() + hint))
+        elif la is not None and la.worst_deg > self.aim_deg:
+            out.append(Finding("warning", "load-angle-margin",
+                               la.describe() + f" (stepramp plan aims at ≤ {self.aim_deg:g}°)"))
+        return out + list(self.resonance)
+
+    def describe(self) -> str:
+        """One paragraph: the verdict, which judge fails, the worst angle."""
+        head = "SAFE" if self.safe else "UNSAFE (failed: " + ", ".join(self.failed) + ")"
+        scope = ("every move length" if self.moves is None
+                 else "moves of " + ", ".join(map(str, self.moves)) + " pulses")
+        parts = [f"{head} over {scope}"]
+        if self.criterion:
+            parts.append(f"criterion: {len(self.criterion)} finding(s)")
+        if self.load_angle is not None:
+            parts.append(self.load_angle.describe())
+        if self.box is not None:
+            parts.append(self.box.describe())
+        return "; ".join(parts)
+
+    def to_json(self) -> dict[str, Any]:
+        """The same object wherever a verdict is shown (check, plan, compare, sync,
+        sweep, the designer)."""
+        la = self.load_angle
+        return {
+            "safe": self.safe, "failed": list(self.failed),
+            "moves": "every" if self.moves is None else list(self.moves),
+            "aim_deg": self.aim_deg, "within_aim": self.within_aim,
+            "worst_load_angle_deg": None if la is None else la.worst_deg,
+            "margin_deg": None if la is None else la.margin_deg,
+            "worst_pulses": None if la is None else la.worst_pulses,
+            "worst_direction": None if la is None else (
+                "forward" if la.worst_direction > 0 else "backward"),
+            "worst_at": None if la is None else la.worst_at,
+            "first_unstable_pulses": None if la is None else la.first_unstable_pulses,
+            "slips": None if la is None else la.slips,
+            "executions": None if la is None else la.executions,
+            "criterion_findings": [f.to_json() for f in self.criterion],
+            "resonance_findings": [f.to_json() for f in self.resonance],
+            "tolerance_box": None if self.box is None else self.box.to_json(),
+        }
+
+
+def judge_safety(table: FreeCurveTable | InitTable, motor: Motor, *,
+                 pulses: Iterable[int] | None = None, samples: int = DEFAULT_SAMPLES,
+                 seed: int = 0, aim_deg: float = AIM_DEG, strict: bool = False,
+                 load_angle: bool = True, progress: Progress | None = None) -> SafetyVerdict:
+    """The verdict on `table` for `motor` over every execution the chip can run with it
+    (`pulses`: only the moves of those lengths). A motor with tolerances is judged over
+    its box: the criterion at the box's worst case, the load angle at every corner and
+    over `samples` Monte Carlo samples (`seed`). `load_angle=False` judges the criterion
+    and resonance only."""
+    from profiles.errors import FieldRangeError
+    from profiles.ppmc312.init_model import as_free_curve
+    from profiles.ppmc312.load_angle import worst_load_angle
+
+    from .resonance import resonance_findings
+
+    if not 1.0 <= aim_deg <= PEAK_DEG:
+        raise FieldRangeError("load angle aim [°]", aim_deg, 1, PEAK_DEG)
+    stages = as_free_curve(table)
+    moves = None if pulses is None else tuple(sorted({int(n) for n in pulses}))
+    criterion = _criterion(stages, motor, moves)
+    la: LoadAngle | None = None
+    box = None
+    if load_angle and not any(f.rule == "stall-order" for f in criterion):
+        if motor.tolerances:
+            from .tolerance_box import judge_box
+
+            box = judge_box(stages, motor, pulses=moves, samples=samples, seed=seed,
+                            progress=progress)
+            la = LoadAngle(box.worst_angle_deg, box.worst_pulses, box.worst_direction,
+                           box.worst_where, box.first_unstable_pulses, box.slips,
+                           box.executions, box.sample_failures)
+        else:
+            w = worst_load_angle(stages, motor, pulses=moves)
+            la = LoadAngle(w.worst_angle_deg, w.worst_pulses, w.worst_direction, "nominal",
+                           w.first_unstable_pulses, w.slipped, w.executions)
+    resonance = resonance_findings(stages, motor, strict=strict)
+    return SafetyVerdict(moves, aim_deg, tuple(criterion), la, box, tuple(resonance))
+
+
+def _criterion(table: FreeCurveTable, motor: Motor,
+               moves: tuple[int, ...] | None) -> list[Finding]:
+    """The criterion's findings; over a tolerance box at its worst case (exact)."""
+    from .criterion import check_stall
+
+    if not motor.tolerances:
+        return check_stall(table, motor, pulses=moves)
+    from profiles.motor.tolerance import worst_case_motor
+
+    return [f.with_message(f.message + " (at the tolerance box's worst case)")
+            for f in check_stall(table, worst_case_motor(motor), pulses=moves)]
+
+
+__all__ = ["AIM_DEG", "DEFAULT_SAMPLES", "LoadAngle", "SafetyVerdict", "judge_safety"]
