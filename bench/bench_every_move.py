@@ -47,8 +47,8 @@ def random_le1(rng: random.Random, stages: int = 127) -> FreeCurveTable:
 def old_plan_s(motor: object, pulses: int) -> tuple[float, FreeCurveTable]:
     """Last release's plan: the LE=1 DP for one move length, nothing else."""
     clock = planner.choose_clock(motor)  # type: ignore[arg-type]
-    ev = planner._plan_variant(motor, clock, 127, pulses, True)  # type: ignore[arg-type]
-    return ev.time_s, planner._table(clock, ev, True)
+    ev = planner.plan_staircase(motor, clock, 127, pulses, True)  # type: ignore[arg-type]
+    return ev.time_s, planner.table_of(clock, ev, True)
 
 
 def main() -> None:

@@ -24,12 +24,13 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from profiles.errors import PlanError  # noqa: E402
 from profiles.motor import Motor, bundled_motor_paths  # noqa: E402
 from profiles.motor.tolerance import corners, samples  # noqa: E402
 from profiles.ppmc312.criterion import all_length_problems  # noqa: E402
 from profiles.ppmc312.execution import simulate_move  # noqa: E402
 from profiles.ppmc312.load_angle import worst_load_angle  # noqa: E402
-from profiles.ppmc312.planner import PlanError, plan_free_curve  # noqa: E402
+from profiles.ppmc312.planner import plan_free_curve  # noqa: E402
 from verify.sweep import jobs_of, run_sweep  # noqa: E402
 from verify.tolerance_box import sample_peaks  # noqa: E402
 

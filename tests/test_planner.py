@@ -8,12 +8,11 @@ import math
 import numpy as np
 import pytest
 
-from profiles.errors import StepRampError
+from profiles.errors import PlanError, StepRampError
 from profiles.motor import Motor, bundled_motor_paths, load_motor
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.planner import (
-    PlanError,
     choose_clock,
     plan_baseline,
     plan_free_curve,

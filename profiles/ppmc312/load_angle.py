@@ -81,6 +81,35 @@ def worst_load_angles(table: FreeCurveTable | InitTable, motors: Sequence[Motor]
     """`worst_load_angle` for each of `motors` (one motor's variants: a tolerance box's
     corners), judged on the same executions in one kernel call (two, when sampled
     families are refined)."""
+    found = angles(table, motors, pulses=pulses, max_step_s=max_step_s)
+    return [found.worst(m) for m in range(len(motors))]
+
+
+@dataclass(frozen=True)
+class Angles:
+    """The worst |load angle| [electrical °] of every move judged (`lengths`) for every
+    rotor row: `deg[row, move]`; row r is motor `owner[r]` moving `direction[r]`."""
+
+    lengths: np.ndarray
+    deg: np.ndarray
+    slipped: np.ndarray
+    owner: np.ndarray
+    direction: np.ndarray
+
+    def worst(self, motor: int) -> WorstAngle:
+        mine = np.flatnonzero(self.owner == motor)
+        d = self.deg[mine]
+        r, e = np.unravel_index(int(np.argmax(d)), d.shape)
+        unstable = self.lengths[np.any(d >= PEAK_DEG, axis=0)]
+        return WorstAngle(float(d[r, e]), int(self.lengths[e]), int(self.direction[mine[r]]),
+                          int(unstable.min()) if len(unstable) else None,
+                          bool(self.slipped[mine].any()), len(self.lengths) * len(mine))
+
+
+def angles(table: FreeCurveTable | InitTable, motors: Sequence[Motor], *,
+           pulses: Iterable[int] | None = None, max_step_s: float | None = None) -> Angles:
+    """The load angle of every move judged for every motor and direction: the given
+    lengths, or every length through its family (`samples`, then `refine`)."""
     check_step(max_step_s)
     free = as_free_curve(table)
     owner = np.asarray([m for m, motor in enumerate(motors) for _ in directions(motor)])
@@ -103,17 +132,7 @@ def worst_load_angles(table: FreeCurveTable | InitTable, motors: Sequence[Motor]
             lengths = lengths[order]
             lag = np.concatenate((lag, more_lag), axis=1)[:, order]
             slipped = np.concatenate((slipped, more_slipped), axis=1)[:, order]
-    deg = np.degrees(lag * rot.c_e)
-    out = []
-    for m in range(len(motors)):
-        mine = np.flatnonzero(owner == m)
-        d = deg[mine]
-        r, e = np.unravel_index(int(np.argmax(d)), d.shape)
-        unstable = lengths[np.any(d >= PEAK_DEG, axis=0)]
-        out.append(WorstAngle(float(d[r, e]), int(lengths[e]), int(rot.direction[mine[r]]),
-                              int(unstable.min()) if len(unstable) else None,
-                              bool(slipped[mine].any()), len(lengths) * len(mine)))
-    return out
+    return Angles(lengths, np.degrees(lag * rot.c_e), slipped, owner, rot.direction)
 
 
 def samples(table: FreeCurveTable, motors: Sequence[Motor]

@@ -58,7 +58,7 @@ from .clock import INTERNAL_HZ, Clock
 from .criterion import all_length_safe
 from .execution import Execution, simulate_move
 from .limits import MIN_STAGE_TICKS, RATE_MAX, RATE_MIN, SIDE_TOTAL_MAX, STAGE_PULSES_MAX
-from .planner import _problem, plan_free_curve
+from .planner import make_problem, plan_free_curve
 from .table import FreeCurveTable
 from .upload import encode_move
 
@@ -363,7 +363,7 @@ def _least_counts(motor: Motor, clock: Clock) -> Callable[[int, int], tuple[int,
     r_fast (r_fast 0: the top stage), with the chip's 2-pulse and 256-tick minima: the
     planner's own count rule."""
     try:
-        counts = _problem(motor, clock, True).counts
+        counts = make_problem(motor, clock, True).counts
     except PlanError:
         return None
 

@@ -1,0 +1,137 @@
+"""A free curve planned for a move: both LE variants over the DP, the faster kept; the
+baseline method; the table written from the staircase."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ...errors import PlanError
+from ...motor import Motor
+from ...result import PlanResult
+from ..clock import MAX_OUTPUT_PPS, Clock
+from ..table import FreeCurveTable
+from .problem import Shaping, check_plan_args, choose_clock, make_problem, reference_pulses
+from .refine import Staircase, jerk_counts, refine_rates, switch_safe_decel
+from .search import GRID_TARGET, graph, grid_rates, search
+
+BASELINE_POINTS = 600
+
+Plan = PlanResult[FreeCurveTable]  # what every free-curve planner here returns
+
+
+def plan_staircase(motor: Motor, clock: Clock, max_stages: int, budget: int, separate: bool,
+                   *, grid: str = "adaptive", refine: bool = True, exhaustive_tops: bool = False,
+                   shaping: Shaping | None = None) -> Staircase:
+    """The fastest staircase of one LE variant (before LE=1's switch-safe decel counts)."""
+    pb = make_problem(motor, clock, separate, shaping)
+    if grid == "adaptive":
+        rates = grid_rates(pb, GRID_TARGET)
+    elif grid == "all":
+        rates = grid_rates(pb, 1 << 30)
+    else:  # the baseline's geometric grid between the start rate and the top rate
+        rates = np.unique(np.round(np.geomspace(pb.r_start, pb.r_fast, BASELINE_POINTS))
+                          .astype(np.int64))[::-1].copy()
+    gr = graph(pb, rates)
+    ev = search(pb, gr, max_stages, budget, exhaustive_tops=exhaustive_tops,
+                plain=grid == "geometric")
+    if refine:
+        ev = refine_rates(pb, ev, budget)
+    jerked = jerk_counts(pb, ev, budget)
+    if jerked is None:
+        raise PlanError(f"the jerk limit max_jerk_pps3 = {motor.max_jerk_pps3:g} raises the "
+                        f"table's pulses above the {budget}-pulse move; give more pulses")
+    return jerked
+
+
+def table_of(clock: Clock, ev: Staircase, separate: bool) -> FreeCurveTable:
+    rates = [int(x) for x in ev.rates[::-1]]
+    acc = [int(x) for x in ev.n[::-1]]
+    dec = [int(x) for x in ev.d[::-1]]
+    return FreeCurveTable(clock, tuple(rates), tuple(acc), tuple(dec) if separate else None)
+
+
+def plan(motor: Motor, clock: Clock | None, max_stages: int, pulses: int | None,
+         separate_decel: bool | None, *, grid: str = "adaptive", refine: bool = True,
+         label: str = "planner", exhaustive_tops: bool = False,
+         shaping: Shaping | None = None) -> Plan:
+    """The fastest table that passes the criterion for every move length (with `shaping`:
+    within its bands' share of the motor)."""
+    t0 = time.perf_counter()
+    check_plan_args(max_stages, pulses)
+    clock = clock or choose_clock(motor)
+    budget = reference_pulses(motor) if pulses is None else int(pulses)
+    # LE=1's decel counts (from a_dec ≥ a_acc) are smaller than LE=0's, but the chip runs
+    # short moves as triangles that keep the accel:decel ratio, and with uneven sides the
+    # decel can start on a slower stage than the accel reached: a jump the table never
+    # shows. `switch_safe_decel` raises the top decel count (free on the planned move:
+    # the top stage runs at cruise speed) until no triangle does that. The symmetric LE=0
+    # table is always all-length safe; auto mode keeps whichever is faster, and writes
+    # LE=0 when the decel counts come out equal anyway.
+    variants: list[tuple[Staircase, bool]] = []
+    kw = dict(grid=grid, refine=refine, exhaustive_tops=exhaustive_tops, shaping=shaping)
+    if separate_decel is not False:
+        pb = make_problem(motor, clock, True, shaping)
+        ev1 = plan_staircase(motor, clock, max_stages, budget, True, **kw)  # type: ignore[arg-type]
+        safe = switch_safe_decel(pb, ev1, budget)
+        if safe is not None:
+            variants.append((safe, not np.array_equal(safe.n, safe.d)))
+    if separate_decel is not True:
+        ev0 = plan_staircase(motor, clock, max_stages, budget, False, **kw)  # type: ignore[arg-type]
+        variants.append((ev0, False))
+    if not variants:
+        raise PlanError(f"no LE=1 table fits {budget} pulses and keeps every triangle's "
+                        "accel→decel switch safe; give more pulses or allow LE=0 "
+                        "(--no-separate-decel)")
+    ev, sep = min(variants, key=lambda v: v[0].time_s)
+    table = table_of(clock, ev, sep)
+    objective = (f"move of {pulses} pulses" if pulses is not None
+                 else f"reference move of {budget} pulses (no move length given)")
+    info = (f"{label}: {len(ev.rates)} stages, LE={int(sep)}, top {clock.hz / ev.rates[-1]:.6g} pps"
+            f", accel {int(ev.n.sum())} + decel {int(ev.d.sum())} pulses, {objective} "
+            f"{ev.time_s * 1e3:.6g} ms")
+    if len(ev.rates) >= max_stages:
+        binds = "stage budget"
+    elif ev.total >= budget:
+        binds = "move length"  # the ramps use every pulse: a faster top does not fit
+    elif clock.hz / ev.rates[-1] >= min(motor.top_pps, MAX_OUTPUT_PPS) * (1 - 1e-9):
+        binds = "top speed"
+    else:
+        binds = "stall criterion (capability and jump limit)"
+    return Plan(table, ev.time_s, binds, info, pulses, clock, time.perf_counter() - t0)
+
+
+def plan_free_curve(motor: Motor, *, clock: Clock | None = None, max_stages: int = 127,
+                    pulses: int | None = None, separate_decel: bool | None = None,
+                    load_angle_deg: float | None = None) -> Plan:
+    """The stall-safe free curve that minimises the move time of `pulses` (None: the
+    reference move of `reference_pulses(motor)`); separate_decel None picks LE=1 only
+    when it is faster. The table passes the criterion for every move length the chip
+    can run with it. With `load_angle_deg` (e.g. 75) the plan is also judged by the
+    load-angle model on every execution and tightened where the rotor rings until its
+    worst angle is within that (`tightening.tighten`). A motor with `tolerances` gets one
+    table safe over its whole box: the criterion on the box's worst-case capability
+    (exact over the box, profiles.motor.tolerance), the load angle judged at every
+    corner."""
+    from .tightening import tighten
+
+    def make(m: Motor, shaping: Shaping | None = None) -> Plan:
+        return plan(m, clock, max_stages, pulses, separate_decel, shaping=shaping)
+
+    if not motor.tolerances:
+        return make(motor) if load_angle_deg is None else tighten(motor, make, load_angle_deg)
+    from ...motor.tolerance import corners, worst_case_motor
+
+    worst = worst_case_motor(motor)
+    if load_angle_deg is None:
+        return make(worst)
+    return tighten(worst, make, load_angle_deg, judges=[c.motor for c in corners(motor)])
+
+
+def plan_baseline(motor: Motor, *, clock: Clock | None = None, max_stages: int = 127,
+                  pulses: int | None = None) -> Plan:
+    """The plain method: shortest path over a 600-point geometric rate grid between the start
+    rate and the top rate with minimal pulse counts (LE=0), no refinement."""
+    return plan(motor, clock, max_stages, pulses, False, grid="geometric", refine=False,
+                label="baseline")

@@ -1,0 +1,195 @@
+"""The planning problem: the clock, the move, the motor's limits as the DP sees them,
+and how much of the motor a table may use in each speed band (`Shaping`)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ...errors import PlanError, require_int
+from ...motor import Motor
+from ...motor.resonance import stage_allowed, top_allowed
+from ..clock import INTERNAL_HZ, MAX_OUTPUT_PPS, Clock
+from ..limits import (
+    MIN_STAGE_TICKS,
+    RATE_MAX,
+    RATE_MIN,
+    STAGE_PULSES_MAX,
+    STAGES_MAX,
+    STAGES_MIN,
+)
+
+REFERENCE_MOVE_FACTOR = 10  # pulses=None: 10 × the continuous ramps' pulses (see notes)
+
+# --------------------------------------------------------------------------- clock
+def choose_clock(motor: Motor) -> Clock:
+    """The fastest internal clock (finest speed resolution) whose rates reach the start speed.
+
+    The slowest stage must run at ≤ start_pps, i.e. rate ≥ f_clk / start_pps, and that
+    rate must fit the 16-bit field. Top speed only needs rate ≥ 2, which a faster
+    clock meets at least as well, so the start speed decides. EXTCK is never chosen.
+    """
+    for name, hz in INTERNAL_HZ.items():
+        if math.ceil(hz / motor.start_pps) <= RATE_MAX:
+            return Clock.internal(name)
+    slowest = min(INTERNAL_HZ.values())
+    raise PlanError(f"start_pps {motor.start_pps:g} is below the slowest speed any internal clock "
+                    f"can run ({slowest / RATE_MAX:.4g} pps at 15.625kHz); raise start_pps")
+
+
+# --------------------------------------------------------------------------- problem
+def base_pulses(rates: Any) -> Any:
+    """Chip minimum of a stage: 2 pulses and 256 clock ticks."""
+    r = np.asarray(rates, dtype=float)
+    return np.maximum(2.0, np.ceil(MIN_STAGE_TICKS / r))
+
+
+@dataclass(frozen=True)
+class Shaping:
+    """How much of the motor a table may use, speed band by speed band: in band b
+    (speeds edges_pps[b−1] ≤ f < edges_pps[b]) the stage counts come from the
+    safety factor × scale[b] and the jumps are at most the jump limit × scale[b]; the
+    slowest stage runs at most start_pps × start_scale. All 1 is the plain criterion;
+    all equal to s is the whole table tightened alike (the safety factor, the largest
+    jump and the start speed × s). The load-angle tightening
+    (profiles.ppmc312.planner.tighten) lowers the bands where the rotor rings."""
+
+    edges_pps: tuple[float, ...] = ()
+    scale: tuple[float, ...] = (1.0,)
+    start_scale: float = 1.0
+
+    @classmethod
+    def uniform(cls, s: float) -> Shaping:
+        return cls((), (s,), s)
+
+    @classmethod
+    def bands(cls, motor: Motor, ratio: float = 1.5) -> Shaping:
+        """Geometric bands from the start speed up to the top speed, all at 1."""
+        edges = []
+        f = motor.start_pps * ratio
+        while f < motor.top_pps:
+            edges.append(f)
+            f *= ratio
+        return cls(tuple(edges), (1.0,) * (len(edges) + 1), 1.0)
+
+    def at(self, speed_pps: Any) -> np.ndarray:
+        """The scale of each speed's band."""
+        return np.asarray(self.scale)[np.searchsorted(self.edges_pps, speed_pps, side="right")]
+
+    def band(self, speed_pps: float) -> int:
+        return int(np.searchsorted(self.edges_pps, speed_pps, side="right"))
+
+    def scaled(self, bands: dict[int, float], start: float = 1.0) -> Shaping:
+        """This shaping with band b's scale × bands[b] and the start scale × `start`."""
+        scale = list(self.scale)
+        for b, f in bands.items():
+            scale[b] *= f
+        return Shaping(self.edges_pps, tuple(scale), self.start_scale * start)
+
+    @property
+    def plain(self) -> bool:
+        return self.start_scale == 1.0 and all(s == 1.0 for s in self.scale)
+
+
+@dataclass
+class Problem:
+    motor: Motor
+    hz: float
+    separate: bool
+    jump: float
+    start: float
+    r_fast: int    # smallest rate allowed (top speed, 2 Mpps, rate ≥ 2)
+    r_start: int   # smallest rate at or below the start speed
+    shaping: Shaping = field(default_factory=Shaping)
+
+    def jump_at(self, speed_pps: Any) -> np.ndarray:
+        """The largest jump up from each speed."""
+        return self.jump * self.shaping.at(speed_pps)
+
+    def counts(self, r_slow: Any, r_fast: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Minimal (accel, decel) counts of the slower stage of each step, and validity."""
+        rs = np.asarray(r_slow, dtype=float)
+        rf = np.asarray(r_fast, dtype=float)
+        f_slow = self.hz / rs
+        f_fast = self.hz / np.where(rf > 0, rf, 1.0)
+        delta = f_fast - f_slow
+        a_acc = np.asarray(self.motor.min_a_acc_pps2(f_slow, f_fast), dtype=float)
+        a_dec = np.asarray(self.motor.min_a_dec_pps2(f_slow, f_fast), dtype=float)
+        jump: Any = self.jump
+        if not self.shaping.plain:
+            # the capability with the safety factor × σ: (σ·sf·T − T_f − |T_L|)·k for
+            # accel, (σ·sf·T + T_f − |T_L|)·k for decel, from the plain minima exactly
+            sigma = self.shaping.at(f_slow)
+            k = self.motor.steps_per_rev / (2 * math.pi * self.motor.inertia_kgm2)
+            load = abs(self.motor.load_torque_nm)
+            c_acc = (self.motor.friction_torque_nm + load) * k
+            c_dec = (load - self.motor.friction_torque_nm) * k
+            a_acc = sigma * (a_acc + c_acc) - c_acc
+            a_dec = sigma * (a_dec + c_dec) - c_dec
+            jump = self.jump * sigma
+        base = base_pulses(rs)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            n = np.where(a_acc > 0, np.ceil(delta * f_slow / a_acc), np.inf)
+            d = np.where(a_dec > 0, np.ceil(delta * f_slow / a_dec), np.inf)
+        n = np.maximum(n, base)
+        d = np.maximum(d, base)
+        if not self.separate:
+            n = d = np.maximum(n, d)
+        valid = ((rf > 0) & (delta > 0) & (delta <= jump) & (n <= STAGE_PULSES_MAX)
+                 & (d <= STAGE_PULSES_MAX))
+        if self.motor.resonance_bands_pps:  # no stage in a band a jump can step over
+            valid &= stage_allowed(f_slow, self.motor) & stage_allowed(f_fast, self.motor)
+        return n, d, valid
+
+    def top_ok(self, rates: Any) -> np.ndarray:
+        """The top stage (the cruise) lies outside every resonance band."""
+        return top_allowed(self.hz / np.asarray(rates, dtype=float), self.motor)
+
+
+def make_problem(motor: Motor, clock: Clock, separate: bool,
+                 shaping: Shaping | None = None) -> Problem:
+    shaping = shaping or Shaping()
+    hz = clock.hz
+    top = min(motor.top_pps, MAX_OUTPUT_PPS)
+    r_fast = max(RATE_MIN, math.ceil(hz / top))
+    start = motor.start_pps * shaping.start_scale
+    r_start = math.ceil(hz / start)
+    if r_start > RATE_MAX:
+        raise PlanError(f"clock {clock.name}: the start speed {start:g} pps needs rate "
+                        f"{r_start} > {RATE_MAX}; use a slower clock (choose_clock picks one)")
+    if r_start <= r_fast:
+        raise PlanError(f"clock {clock.name}: no rate lies between the start speed "
+                        f"{start:g} pps and the top speed {top:g} pps; a table needs "
+                        "two stages")
+    return Problem(motor, hz, separate, motor.jump_pps, start, r_fast, r_start, shaping)
+
+
+def check_plan_args(max_stages: int, pulses: int | None) -> None:
+    require_int("max_stages", max_stages, STAGES_MIN, STAGES_MAX)
+    if pulses is not None:
+        # 2 stages × 2 pulses × 2 sides is the smallest trapezoid a free curve can run
+        require_int("pulses", pulses, 8, 0xFFFFFFFF)
+
+
+def reference_pulses(motor: Motor) -> int:
+    """The move `pulses=None` plans for: 10 × the pulses the continuous (exact, no-jerk)
+    optimum spends accelerating from start_pps to 90 % of the top usable speed and back.
+
+    The top usable speed is the curve's top, capped at 2 Mpps and at the first speed
+    where a_acc reaches 0 (the ramp's pulses diverge there).
+    """
+    top = min(motor.top_pps, MAX_OUTPUT_PPS)
+    v = np.linspace(0.0, top, 4001)
+    dead = np.flatnonzero(motor.a_acc_pps2(v) <= 0)
+    if len(dead):
+        top = float(v[dead[0]])
+    v_hi = max(0.9 * top, motor.start_pps)
+    v = np.linspace(motor.start_pps, v_hi, 2001)
+    dens = v / motor.a_acc_pps2(v) + v / motor.a_dec_pps2(v)
+    ramp = float(np.sum((dens[1:] + dens[:-1]) * np.diff(v)) / 2)
+    return int(max(1000, math.ceil(REFERENCE_MOVE_FACTOR * ramp)))
+
+

@@ -1,0 +1,219 @@
+"""A staircase's exact move time, its refinement over exact integer rates, and the
+pulse counts other rules raise: the jerk limit and LE=1's triangle switch."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..criterion import switch_safe
+from ..limits import RATE_MAX, SIDE_TOTAL_MAX, STAGE_PULSES_MAX, STAGES_MIN
+from .problem import Problem, base_pulses
+
+
+# --------------------------------------------------------------------------- evaluation
+@dataclass
+class Staircase:
+    rates: np.ndarray   # slowest first
+    n: np.ndarray       # accel counts, slowest first (top stage included)
+    d: np.ndarray
+    time_s: float
+    total: int
+
+
+def evaluate(pb: Problem, rates: np.ndarray, budget: int,
+              counts: tuple[np.ndarray, np.ndarray] | None = None) -> Staircase | None:
+    """Exact move time of a staircase with minimal counts (or the given ones); None if the
+    staircase breaks a rule or does not fit the budget."""
+    rates = np.asarray(rates, dtype=np.int64)
+    if len(rates) < STAGES_MIN or np.any(np.diff(rates) >= 0) or not pb.top_ok(rates[-1:])[0]:
+        return None
+    if counts is None:
+        n, d, valid = pb.counts(rates[:-1], rates[1:])
+        if not np.all(valid):
+            return None
+        top = base_pulses(rates[-1:])
+        n = np.concatenate((n, top))
+        d = np.concatenate((d, top))
+    else:
+        n, d = (np.asarray(c, dtype=float) for c in counts)
+    f = pb.hz / rates.astype(float)
+    total = int(n.sum() + d.sum())
+    if (total > budget or n.sum() > SIDE_TOTAL_MAX or d.sum() > SIDE_TOTAL_MAX
+            or np.any(n > STAGE_PULSES_MAX) or np.any(d > STAGE_PULSES_MAX)):
+        return None
+    time_s = float(np.sum((n + d) / f) + (budget - total) / f[-1])
+    return Staircase(rates, n, d, time_s, total)
+
+
+def refine_rates(pb: Problem, ev: Staircase, budget: int, sweeps: int = 3) -> Staircase:
+    """Coordinate descent over exact integer rates: move every other stage at once (its
+    neighbours fixed), then the others, then the top; keep a move only if the exact move
+    time falls."""
+    best = ev
+    offsets = np.unique(np.concatenate((np.arange(-24, 25),
+                                        np.round(np.geomspace(25, 4000, 24)),
+                                        -np.round(np.geomspace(25, 4000, 24))))).astype(np.int64)
+    for _ in range(sweeps):
+        improved = False
+        for parity in (0, 1):
+            cand = _refine_inner(pb, best, budget, parity, offsets)
+            if cand is not None and cand.time_s < best.time_s * (1 - 1e-13):
+                best, improved = cand, True
+        cand = _refine_top(pb, best, budget, offsets)
+        if cand is not None and cand.time_s < best.time_s * (1 - 1e-13):
+            best, improved = cand, True
+        if not improved:
+            break
+    return best
+
+
+def _refine_inner(pb: Problem, ev: Staircase, budget: int, parity: int,
+                  offsets: np.ndarray) -> Staircase | None:
+    r = ev.rates
+    m = len(r)
+    ks = np.arange(parity, m - 1, 2)  # stages that move (never the top here)
+    if len(ks) == 0:
+        return None
+    lam = r[-1] / pb.hz
+    cand = r[ks][:, None] + offsets[None, :]
+    upper = np.where(ks > 0, r[np.maximum(ks - 1, 0)], RATE_MAX + 1)[:, None]
+    lower = r[ks + 1][:, None]
+    ok = (cand > lower) & (cand < upper) & (cand <= RATE_MAX)
+    ok &= np.where(ks[:, None] == 0, cand >= pb.r_start, True)
+    cand = np.where(ok, cand, r[ks][:, None])
+    f_c = pb.hz / cand.astype(float)
+    n_out, d_out, v_out = pb.counts(cand, np.broadcast_to(lower, cand.shape))
+    cost = (n_out + d_out) * (1.0 / f_c - lam)
+    w = n_out + d_out
+    has_in = ks > 0
+    r_in = np.broadcast_to(upper, cand.shape)
+    n_in, d_in, v_in = pb.counts(np.where(has_in[:, None], r_in, cand + 1), cand)
+    f_in = pb.hz / r_in.astype(float)
+    cost = cost + np.where(has_in[:, None], (n_in + d_in) * (1.0 / f_in - lam), 0.0)
+    w = w + np.where(has_in[:, None], n_in + d_in, 0.0)
+    feasible = ok & v_out & np.where(has_in[:, None], v_in, True)
+    cost = np.where(feasible, cost, np.inf)
+    cur = np.flatnonzero(offsets == 0)[0]
+    pick = np.argmin(cost, axis=1)
+    rows = np.arange(len(ks))
+    gain = cost[rows, cur] - cost[rows, pick]
+    dw = w[rows, pick] - w[rows, cur]
+    slack = budget - ev.total
+    move = (gain > 0) & np.isfinite(cost[rows, pick])
+    if np.sum(np.where(move, dw, 0)) > slack:
+        move &= dw <= 0
+    if not np.any(move):
+        return None
+    new = r.copy()
+    new[ks[move]] = cand[rows[move], pick[move]]
+    return evaluate(pb, new, budget)
+
+
+def _refine_top(pb: Problem, ev: Staircase, budget: int, offsets: np.ndarray) -> Staircase | None:
+    r = ev.rates
+    cand = r[-1] + offsets
+    cand = cand[(cand >= pb.r_fast) & (cand < r[-2])]
+    cand = cand[pb.top_ok(cand)]
+    if len(cand) == 0:
+        return None
+    f = pb.hz / r.astype(float)
+    n, d, valid = pb.counts(np.full(len(cand), r[-2]), cand)
+    fixed_n, fixed_d = ev.n[:-2].sum(), ev.d[:-2].sum()
+    fixed_t = float(np.sum((ev.n[:-2] + ev.d[:-2]) / f[:-2]))
+    top = base_pulses(cand)
+    acc, dec = fixed_n + n + top, fixed_d + d + top
+    fits = valid & (acc + dec <= budget) & (acc <= SIDE_TOTAL_MAX) & (dec <= SIDE_TOTAL_MAX)
+    f_c = pb.hz / cand.astype(float)
+    with np.errstate(invalid="ignore"):
+        t = fixed_t + (n + d) / f[-2] + (budget - fixed_n - fixed_d - n - d) / f_c
+    t = np.where(fits, t, np.inf)
+    k = int(np.argmin(t))
+    if not np.isfinite(t[k]):
+        return None
+    trial = r.copy()
+    trial[-1] = cand[k]
+    return evaluate(pb, trial, budget)
+
+
+
+def jerk_counts(pb: Problem, ev: Staircase, budget: int) -> Staircase | None:
+    """Raise counts so that the stall-jerk rule of verify.criterion holds: stage by stage from
+    the slowest, the smallest count whose slope change from the previous stage is within
+    max_jerk_pps3 (σ = 0 before the first stage and in the top stage)."""
+    jerk = pb.motor.max_jerk_pps3
+    if jerk is None:
+        return ev
+    f = pb.hz / ev.rates.astype(float)
+    delta = np.append(np.diff(f), 0.0)
+
+    def side(base: np.ndarray) -> np.ndarray:
+        out = base.copy()
+        prev = 0.0
+        for i in range(len(f)):
+            c = float(base[i])
+            for _ in range(4):
+                t = c / f[i]
+                sigma = delta[i] / t
+                if abs(sigma - prev) <= jerk * t:
+                    break
+                if delta[i] <= 0:
+                    t_new = prev / jerk
+                else:
+                    t_new = (-prev + math.sqrt(prev * prev + 4 * jerk * delta[i])) / (2 * jerk)
+                    if t_new < t or abs(delta[i] / max(t_new, t) - prev) > jerk * max(t_new, t):
+                        disc = prev * prev - 4 * jerk * delta[i]
+                        t_new = (prev + math.sqrt(max(disc, 0.0))) / (2 * jerk)
+                c = max(c + 1, math.ceil(max(t_new, t) * f[i]))
+            out[i] = c
+            prev = delta[i] / (out[i] / f[i])
+        return out
+
+    if pb.separate:
+        n, d = side(ev.n), side(ev.d)
+    else:
+        n = d = side(np.maximum(ev.n, ev.d))
+    return evaluate(pb, ev.rates, budget, (n, d))
+
+
+
+def switch_safe_decel(pb: Problem, ev: Staircase, budget: int) -> Staircase | None:
+    """The fastest switch-safe decel counts for `ev`'s stages (None: none fits the budget).
+
+    Two levers, both only raising decel counts: a floor proportional to the accel counts,
+    d_k ≥ c·n_k (c = 1 is the symmetric table, always switch-safe), and extra pulses on
+    the top stage (free on the planned move, but they count against its pulses). For
+    each c on a grid the fewest top pulses that make the table `switch_safe` are found
+    by bisection (more of them only help: they raise the decel total, not its slow end)."""
+    best: Staircase | None = None
+    for c in np.linspace(0.0, 1.0, 21):
+        d0 = np.maximum(ev.d, np.ceil(c * ev.n))
+
+        def with_extra(x: int, d0: np.ndarray = d0) -> np.ndarray:
+            d = d0.copy()
+            d[-1] += x
+            return d
+
+        if switch_safe(ev.n, d0):
+            hi = 0
+        else:
+            hi = 1
+            while not switch_safe(ev.n, with_extra(hi)):
+                hi *= 2
+                if d0.sum() + hi > min(SIDE_TOTAL_MAX, budget):
+                    break
+            else:
+                lo = 0  # not safe at lo, safe at hi
+                while hi - lo > 1:
+                    mid = (lo + hi) // 2
+                    lo, hi = (lo, mid) if switch_safe(ev.n, with_extra(mid)) else (mid, hi)
+            if not switch_safe(ev.n, with_extra(hi)):
+                continue
+        cand = evaluate(pb, ev.rates, budget, (ev.n, with_extra(hi)))
+        if cand is not None and (best is None or cand.time_s < best.time_s):
+            best = cand
+    return best
+
+

@@ -1,0 +1,231 @@
+"""The DP over a rate grid: the grid, the graph of allowed steps, the DP layers and the
+search over top speeds (the method is in the package docstring)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...errors import PlanError
+from ...motor.resonance import band_edges_rates
+from ..limits import RATE_MAX, SIDE_TOTAL_MAX
+from .problem import Problem, base_pulses
+from .refine import Staircase, evaluate
+
+GRID_TARGET = 900          # DP nodes when the integer rate range is larger
+
+# --------------------------------------------------------------------------- grid
+def grid_rates(pb: Problem, target: int) -> np.ndarray:
+    """DP nodes (rates, slowest first): all integers where the speed step between adjacent
+    rates is coarse, a uniform speed subset where it is fine, the exact jump chain from
+    the start rate (the optimum in the jump-limited region) and a few rates below start."""
+    hz = pb.hz
+    r_slow = min(RATE_MAX, 2 * pb.r_start)
+    if r_slow - pb.r_fast + 1 <= target:
+        rates = np.arange(r_slow, pb.r_fast - 1, -1, dtype=np.int64)
+    else:
+        f_lo, f_hi = hz / r_slow, hz / pb.r_fast
+
+        def build(step: float) -> np.ndarray:
+            r_dense = max(pb.r_fast, math.floor((math.sqrt(1 + 4 * hz / step) - 1) / 2))
+            dense = np.arange(r_dense, pb.r_fast - 1, -1, dtype=np.int64)
+            f_top = hz / r_dense
+            coarse = np.round(hz / np.arange(f_lo, f_top, step)).astype(np.int64)
+            return np.unique(np.concatenate((coarse, dense)))
+
+        lo, hi = (f_hi - f_lo) / (4 * target), (f_hi - f_lo) / (target / 4)
+        for _ in range(30):
+            mid = math.sqrt(lo * hi)
+            if len(build(mid)) > target:
+                lo = mid
+            else:
+                hi = mid
+        rates = build(hi)
+    chain = [pb.r_start]
+    r = pb.r_start
+    while r > pb.r_fast:
+        jump = float(pb.jump_at(hz / r))
+        nxt = math.ceil(hz / (hz / r + jump))
+        while nxt < r and hz / nxt - hz / r > jump:
+            nxt += 1
+        if nxt >= r:
+            break
+        chain.append(nxt)
+        r = nxt
+    # the rates just outside each resonance band: the stages a jump over it starts and ends on
+    edges = np.asarray(band_edges_rates(pb.motor, hz), dtype=np.int64)
+    rates = np.unique(np.concatenate((rates, np.asarray(chain, dtype=np.int64), [pb.r_fast],
+                                      edges)))
+    rates = rates[(rates >= pb.r_fast) & (rates <= RATE_MAX)]
+    return rates[::-1].copy()  # slowest first
+
+
+@dataclass
+class Graph:
+    rates: np.ndarray       # (G,) slowest first
+    f: np.ndarray           # (G,) speeds, ascending
+    pred: np.ndarray        # (G, W) predecessor index (slower node), 0 where invalid
+    valid: np.ndarray       # (G, W)
+    w: np.ndarray           # (G, W) accel + decel pulses of the predecessor stage
+    wa: np.ndarray          # (G, W) accel pulses of the predecessor stage
+    start: np.ndarray       # (G,) bool: may be the slowest stage
+    wtop: np.ndarray        # (G,) accel + decel pulses of a top stage at this node
+    watop: np.ndarray       # (G,) accel pulses of a top stage at this node
+
+
+def graph(pb: Problem, rates: np.ndarray) -> Graph:
+    f = pb.hz / rates.astype(float)
+    g = len(rates)
+    first = np.searchsorted(f, f - pb.jump * (1 + 1e-12), side="left")
+    width = int(max(1, np.max(np.arange(g) - first)))
+    j = np.arange(g)[:, None]
+    pred = j - 1 - np.arange(width)[None, :]
+    ok = pred >= 0
+    pred = np.where(ok, pred, 0)
+    n, d, valid = pb.counts(rates[pred], np.broadcast_to(rates[:, None], pred.shape))
+    valid &= ok
+    base = base_pulses(rates)
+    return Graph(rates, f, pred, valid, np.where(valid, n + d, 0.0), np.where(valid, n, 0.0),
+                  f <= pb.start, 2 * base, base)
+
+
+@dataclass
+class DP:
+    value: np.ndarray      # (G,) min Σ w (1/f − λ) over paths of 2..M stages ending here
+    pulses: np.ndarray     # (G,) Σ w of that path (top stage excluded)
+    accel: np.ndarray      # (G,) Σ accel pulses of that path (top stage excluded)
+    parent: np.ndarray     # (L, G) predecessor at each layer, −1 = same as previous layer
+    lam: float
+
+
+def run_dp(gr: Graph, lam: float, max_stages: int, start_f: float, jump: float) -> DP:
+    g, width = gr.pred.shape
+    cost = np.where(gr.valid, gr.w * (1.0 / gr.f[gr.pred] - lam), np.inf)
+    # accel and total pulses of a path packed in one int64 (total · 2^32 + accel): one
+    # gather per layer instead of two; both stay far below 2^31 (127 × 0xFFFFF × 2)
+    packed_w = (gr.w.astype(np.int64) << 32) + gr.wa.astype(np.int64)
+    pred_flat = gr.pred.ravel()
+    packed_flat = packed_w.ravel()
+    value = np.where(gr.start, 0.0, np.inf)
+    packed = np.zeros(g, dtype=np.int64)
+    parents = [np.full(g, -1, dtype=np.int32), np.full(g, -1, dtype=np.int32)]
+    base_idx = np.arange(g) * width
+    for m in range(2, max_stages + 1):
+        hi = int(np.searchsorted(gr.f, start_f + (m - 1) * jump * (1 + 1e-9), side="right"))
+        hi = min(hi, g)
+        cand = value[gr.pred[:hi]]
+        cand += cost[:hi]
+        idx = cand.argmin(axis=1)
+        idx += base_idx[:hi]
+        best = cand.ravel()[idx]
+        src = pred_flat[idx]
+        par = np.full(g, -1, dtype=np.int32)
+        if m == 2:  # a table has at least two stages: one-stage paths are not kept
+            better = np.isfinite(best)
+            new_packed = np.where(better, packed_flat[idx], 0)
+            value = np.full(g, np.inf)
+            packed = np.zeros(g, dtype=np.int64)
+            value[:hi] = best
+            packed[:hi] = new_packed
+        else:
+            better = best < value[:hi]
+            if hi == g and not better.any():
+                break  # nothing changes any more: more stages do not help
+            new_packed = np.where(better, packed[src] + packed_flat[idx], packed[:hi])
+            np.minimum(value[:hi], best, out=value[:hi])
+            packed[:hi] = new_packed
+        par[:hi] = np.where(better, src, -1)
+        parents.append(par)
+    pulses = (packed >> 32).astype(float)
+    accel = (packed & 0xFFFFFFFF).astype(float)
+    return DP(value, pulses, accel, np.asarray(parents), lam)
+
+
+def backtrack(dp: DP, j: int) -> list[int]:
+    path = [j]
+    m = len(dp.parent) - 1
+    while m >= 2:
+        p = int(dp.parent[m, j])
+        if p >= 0:
+            j = p
+            path.append(j)
+        m -= 1
+    return path[::-1]
+
+
+
+# --------------------------------------------------------------------------- search
+def search(pb: Problem, gr: Graph, max_stages: int, budget: int, *,
+            exhaustive_tops: bool = False, plain: bool = False) -> Staircase:
+    """Best staircase over the grid: DP at λ = 1/f of the best top found so far, until the
+    top repeats; then smaller λ while the pulse budget binds."""
+    tried: dict[float, DP] = {}
+    found: list[tuple[float, int, float]] = []  # (time, node, λ of the DP that found it)
+
+    def run(lam: float) -> DP:
+        if lam not in tried:
+            tried[lam] = run_dp(gr, lam, max_stages, pb.start, pb.jump)
+        return tried[lam]
+
+    def score(dp: DP) -> tuple[np.ndarray, np.ndarray]:
+        lam_j = 1.0 / gr.f
+        est = dp.value + (dp.lam - lam_j) * dp.pulses + budget * lam_j
+        fits = ((dp.pulses + gr.wtop <= budget) & (dp.accel + gr.watop <= SIDE_TOTAL_MAX)
+                & (dp.pulses - dp.accel + gr.wtop - gr.watop <= SIDE_TOTAL_MAX)
+                & pb.top_ok(gr.rates))
+        return est, fits
+
+    def visit(lam: float) -> tuple[int, bool] | None:
+        dp = run(lam)
+        est, fits = score(dp)
+        ok = np.isfinite(est) & fits
+        if not np.any(ok):
+            return None
+        j = int(np.argmin(np.where(ok, est, np.inf)))
+        found.append((float(est[j]), j, lam))
+        # a faster top whose path does not fit: the pulse budget binds
+        return j, bool(np.any(np.isfinite(est) & ~fits & (est < est[j])))
+
+    lam = 0.0 if plain else 1.0 / gr.f[-1]
+    step = visit(lam)
+    for _ in range(0 if plain else 4):  # fixed point: DP at the best top's own λ
+        if step is None or 1.0 / gr.f[step[0]] == lam:
+            break
+        lam = 1.0 / gr.f[step[0]]
+        step = visit(lam)
+    if not plain and step is not None and step[1]:
+        # the budget binds: a smaller λ is a Lagrange multiplier on the pulses, and
+        # trades time for pulses so that a faster top fits
+        best_t = min(found)[0]
+        for nu in (0.02, 0.06, 0.15, 0.35):
+            if visit(lam * (1 - nu)) is None or min(found)[0] >= best_t:
+                break
+            best_t = min(found)[0]
+    if exhaustive_tops:
+        for j in range(len(gr.f)):
+            dp = run(1.0 / gr.f[j])
+            est, fits = score(dp)
+            if np.isfinite(est[j]) and fits[j]:
+                found.append((float(est[j]), j, dp.lam))
+    if not found:
+        raise PlanError(_infeasible_reason(pb, budget, max_stages))
+    found.sort()
+    best: Staircase | None = None
+    for _, j, lam_found in found[:3]:
+        path = gr.rates[backtrack(tried[lam_found], j)]
+        e = evaluate(pb, path, budget)
+        if e is not None and (best is None or e.time_s < best.time_s):
+            best = e
+    if best is None:
+        raise PlanError(_infeasible_reason(pb, budget, max_stages))
+    return best
+
+
+def _infeasible_reason(pb: Problem, budget: int, max_stages: int) -> str:
+    return (f"no stall-safe table of ≤ {max_stages} stages fits {budget} pulses with this motor "
+            f"and clock (start {pb.start:g} pps, largest jump {pb.jump:g} pps); give more pulses, "
+            "more stages or a slower clock")
+
+

@@ -1,0 +1,201 @@
+"""Tightening a plan for the load angle where the rotor rings, not everywhere.
+
+A table that passes the criterion can still ring: each speed step excites the rotor's
+oscillation about its lag (about c_e·Δv/ω_n of angle), on top of the lag the
+acceleration itself needs (sin δ = the share of the pull-out torque in use). Short
+moves run only the slow end of the table, where the steps are largest, and a
+triangle's accel→decel switch; long moves spend their time elsewhere. So the table
+is judged over every execution (profiles.ppmc312.load_angle), each execution past
+the aim is traced to the command's speed steps within the last natural period before
+its worst angle, and only those speed bands (`Shaping`: the capability share and the
+jump limit there, and the start speed when the jump from rest is among them) are
+planned again more gently, until every execution is within the aim. A long move then
+pays only for the bands its own ramp shares with the short moves that rang.
+
+When the bands do not converge, the whole table is tightened alike (`tighten_uniform`:
+the safety factor, the largest jump and the start speed scaled together), the method
+this one replaced and the baseline it is measured against (bench/bench_tighten.py).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import replace
+
+import numpy as np
+
+from ...errors import FieldRangeError, PlanError
+from ...motor import Motor
+from ...motor.angles import PEAK_DEG
+from ...motor.rotor import follow, rotor_of
+from ..execution import simulate_move
+from ..load_angle import Angles, angles, spans_of
+from ..table import FreeCurveTable
+from .free_curve import Plan
+from .problem import Shaping
+
+Make = Callable[[Motor, Shaping | None], Plan]
+
+LOCAL_ROUNDS = 8          # band repairs before falling back to uniform tightening
+CULPRITS = 6              # executions past the aim traced per round (the worst first)
+WINDOW_PERIODS = 0.75     # how far before its worst angle an execution's steps are blamed
+TIGHTEN_STEP = 0.85
+TIGHTEN_ROUNDS = 8
+TIGHTEN_BISECT = 2
+
+
+def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
+            judges: Sequence[Motor] | None = None) -> Plan:
+    """Plan with `make`, judge the table's load angle over every execution on `judges`
+    (default: `motor`; a tolerance box's corners), and while some execution exceeds
+    `load_angle_deg`, plan again more gently in the speed bands that drove it (module
+    docstring). Refuses when nothing gets below the 90° peak. The plan's
+    `extras["worst_load_angle_deg"]` and `extras["shaping"]` say what was reached."""
+    _check_aim(load_angle_deg)
+    t0 = time.perf_counter()
+    judges = list(judges or [motor])
+    shaping = Shaping.bands(motor)
+    tried: list[Plan] = []
+    for _ in range(LOCAL_ROUNDS):
+        try:
+            plan = make(motor, None if shaping.plain else shaping)
+        except PlanError:
+            if not tried:
+                raise  # the plain criterion has no table: nothing gentler has one either
+            break      # too gentle for the move: the bands went too far
+        found = angles(plan.table, judges)
+        plan = _annotated(plan, float(found.deg.max()), shaping, len(judges), t0)
+        tried.append(plan)
+        if plan.extras["worst_load_angle_deg"] <= load_angle_deg:
+            return plan
+        blame = culprits(plan.table, judges, found, load_angle_deg, shaping)
+        shaping = shaping.scaled({b: _factor(w, load_angle_deg) for b, w in blame.bands.items()},
+                                 _factor(blame.start, load_angle_deg) if blame.start else 1.0)
+    try:
+        tried.append(tighten_uniform(motor, make, load_angle_deg, judges=judges))
+    except PlanError:
+        pass
+    return _best(tried, load_angle_deg)
+
+
+def _best(plans: list[Plan], aim_deg: float) -> Plan:
+    """The fastest plan within the aim; else the one with the smallest worst angle, when
+    that is below the 90° peak."""
+    within = [p for p in plans if p.extras["worst_load_angle_deg"] <= aim_deg]
+    if within:
+        return min(within, key=lambda p: float(p.duration_s or 0.0))
+    best = min(plans, key=lambda p: p.extras["worst_load_angle_deg"])
+    worst = best.extras["worst_load_angle_deg"]
+    if worst >= PEAK_DEG:
+        raise PlanError(f"no table keeps the load angle below {PEAK_DEG:g}° for every move "
+                        f"length (best {worst:.1f}°): raise the motor's damping_ratio if the "
+                        "drive damps more, or lower safety_factor and start_pps")
+    return replace(best, info=best.info + f" (aim ≤ {aim_deg:g}° not reached)")
+
+
+class Blame:
+    """The speed bands (and the start) the traced executions' worst angles came from,
+    each with the worst angle it drove."""
+
+    def __init__(self) -> None:
+        self.bands: dict[int, float] = {}
+        self.start = 0.0
+
+    def add(self, band: int, deg: float) -> None:
+        self.bands[band] = max(self.bands.get(band, 0.0), deg)
+
+
+def culprits(table: FreeCurveTable, judges: Sequence[Motor], found: Angles, aim_deg: float,
+             shaping: Shaping) -> Blame:
+    """Trace the worst executions past the aim (at most CULPRITS move lengths, each on the
+    motor and direction where it is worst) and blame the speed bands of the command's
+    segments within WINDOW_PERIODS natural periods before the worst angle."""
+    blame = Blame()
+    per_move = found.deg.max(axis=0)
+    over = np.flatnonzero(per_move > aim_deg)
+    for e in over[np.argsort(per_move[over])[::-1]][:CULPRITS].tolist():
+        row = int(np.argmax(found.deg[:, e]))
+        motor = judges[int(found.owner[row])]
+        rotor = rotor_of(motor, direction=int(found.direction[row]))
+        step = rotor.step_s()
+        run = simulate_move(table, int(found.lengths[e]))
+        trace = follow(rotor, spans_of(run, rotor, step), step_s=step)
+        t_worst = float(trace.t_s[int(np.argmax(np.abs(trace.lag)))])
+        speed = float(run.speed_at(min(t_worst, run.duration_s * (1 - 1e-12))))
+        period = rotor.natural_period_s(speed)
+        since = t_worst - WINDOW_PERIODS * (period if math.isfinite(period) else 0.0)
+        deg = float(per_move[e])
+        hz = table.clock.hz
+        for seg in run.segments:
+            if seg.start_tick / hz <= t_worst and seg.end_tick / hz >= since:
+                blame.add(shaping.band(hz / seg.rate), deg)
+        if since <= 0.0:
+            blame.start = max(blame.start, deg)  # the jump from rest is in the window
+    return blame
+
+
+def _factor(worst_deg: float, aim_deg: float) -> float:
+    """How much gentler a band that drove `worst_deg` is made: the ringing and the lag
+    both grow about in proportion to the share of the motor used."""
+    return float(np.clip(aim_deg / worst_deg, 0.6, 0.95))
+
+
+def _annotated(plan: Plan, worst: float, shaping: Shaping, judges: int, t0: float) -> Plan:
+    note = (f"; worst load angle {worst:.1f}° electrical over every move length"
+            + (f" at {judges} tolerance corners" if judges > 1 else ""))
+    if not shaping.plain:
+        gentler = [f"{lo:.0f}–{hi:.0f} pps ×{s:.3g}" for lo, hi, s in
+                   zip((0.0, *shaping.edges_pps), (*shaping.edges_pps, math.inf),
+                       shaping.scale, strict=True) if s < 1.0]
+        note += " (tightened where it rings: " + ", ".join(
+            ([f"start ×{shaping.start_scale:.3g}"] if shaping.start_scale < 1 else [])
+            + gentler).replace("–inf", "+") + ")"
+    return replace(plan, info=plan.info + note, solve_s=time.perf_counter() - t0,
+                   binds="load angle (tightened)" if not shaping.plain else plan.binds,
+                   extras={**plan.extras, "worst_load_angle_deg": worst, "shaping": shaping})
+
+
+def tighten_uniform(motor: Motor, make: Make, load_angle_deg: float, *,
+                    judges: Sequence[Motor] | None = None) -> Plan:
+    """The whole table tightened alike: the safety factor, the largest jump and the start
+    speed scaled by 0.85 a round until the worst angle is within `load_angle_deg`, then
+    bisected back towards the last scale that failed."""
+    _check_aim(load_angle_deg)
+    t0 = time.perf_counter()
+    judges = list(judges or [motor])
+    tried: list[Plan] = []
+
+    def attempt(scale: float) -> tuple[float, Plan]:
+        shaping = Shaping.uniform(scale)
+        plan = make(motor, None if shaping.plain else shaping)
+        worst = float(angles(plan.table, judges).deg.max())
+        plan = _annotated(plan, worst, shaping, len(judges), t0)
+        tried.append(plan)
+        return worst, plan
+
+    scale, failed = 1.0, None
+    for _ in range(TIGHTEN_ROUNDS):
+        try:
+            worst, plan = attempt(scale)
+        except PlanError:
+            if not tried:
+                raise
+            break  # too gentle for the move: nothing tighter fits either
+        if worst <= load_angle_deg:
+            for _ in range(TIGHTEN_BISECT if failed is not None else 0):
+                mid = (scale + failed) / 2  # type: ignore[operator]
+                w_mid, p_mid = attempt(mid)
+                if w_mid <= load_angle_deg:
+                    scale, plan = mid, p_mid
+                else:
+                    failed = mid
+            return plan
+        failed, scale = scale, scale * TIGHTEN_STEP
+    return _best(tried, load_angle_deg)
+
+
+def _check_aim(load_angle_deg: float) -> None:
+    if not 1.0 <= load_angle_deg <= PEAK_DEG:
+        raise FieldRangeError("load angle target [°]", load_angle_deg, 1, PEAK_DEG)
