@@ -27,7 +27,8 @@ def add_subparser(sub: Any) -> None:
     alink = sub.add_parser("alink", help="A-Link ALUM settings and command words")
     asub = alink.add_subparsers(dest="alink_command", required=True, metavar="COMMAND")
     s = asub.add_parser("settings", help="settings (and their command words) for a move")
-    s.add_argument("--motor", metavar="M.json", help="plan the fastest stall-safe settings")
+    s.add_argument("--motor", metavar="MOTOR", help="plan the fastest stall-safe settings for "
+                   "this motor (a motor file or a name from `stepramp motor list`)")
     s.add_argument("--pulses", type=positive_int,
                    help="with --motor: optimise for a move of this many pulses [pulses]")
     s.add_argument("--start-pps", type=number, help="start speed (L_SPEED) [pps]")

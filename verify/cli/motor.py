@@ -158,10 +158,9 @@ def dump_motor(obj: dict[str, Any]) -> str:
 
 def _do_check(args: argparse.Namespace) -> int:
     from profiles.errors import StepRampError
+    from profiles.motor.catalogue import resolve
     from profiles.motor.schema import problems
     from profiles.reading import read_json
-
-    from profiles.motor.catalogue import resolve
 
     bad = False
     for path in args.files:
@@ -270,8 +269,8 @@ def _show_text(spec: str, where: str, m: Any) -> str:
 
     rpm = 60.0 / m.steps_per_rev
     lines = [f"{spec}: {m.name}" if m.name else spec, f"file: {where}",
-             f"{m.steps_per_rev} steps/rev, {m.phases} phases, inertia {m.inertia_kgm2:.4g} kg·m², "
-             f"friction {m.friction_torque_nm:.4g} N·m, load {m.load_torque_nm:.4g} N·m, "
+             f"{m.steps_per_rev} steps/rev, {m.phases} phases, inertia {m.inertia_kgm2:.4g} "
+             f"kg·m², friction {m.friction_torque_nm:.4g} N·m, load {m.load_torque_nm:.4g} N·m, "
              f"safety factor {m.safety_factor:g}",
              f"start {m.start_pps:.6g} pps, largest jump {m.jump_pps:.6g} pps, top "
              f"{m.top_pps:.6g} pps ({m.top_pps * rpm:.4g} rpm)"
