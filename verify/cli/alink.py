@@ -94,12 +94,9 @@ def _do_settings(args: argparse.Namespace) -> int:
         summary = {"predicted_time_s": plan.duration_s, "shape": plan.extras["shape"],
                    "ratio_to_optimum": ratio,
                    "accel_limit_pps2": plan.extras["accel_limit_pps2"]}
-        if args.pulses is not None:
-            other = alink.move_time_s(
-                alink.AlinkSettings(settings.start_pps, settings.high_pps, settings.accel_para,
-                                    settings.max_pps, not settings.s_curve), args.pulses)
-            summary["s_curve_time_s" if not settings.s_curve else "linear_time_s"] = \
-                other.duration_s
+        # No S-curve-vs-linear time beside it: the unit's move-time model does not depend on
+        # the ramp shape (profiles.alink.model.move_time_s), so that comparison is equal by
+        # construction.
         warnings = list(plan.warnings)
     else:
         if any(v is None for v in explicit):
