@@ -85,12 +85,14 @@ def test_a_path_always_wins(folders: tuple[Path, Path, Path]) -> None:
     env_a, _, _ = folders
     motor_file(env_a, "lift.json")
     local = motor_file(Path.cwd(), "lift", steps=3200)  # a file named like the motor
-    assert resolve("lift") == Path("lift") and load_motor("lift").steps_per_rev == 3200
+    assert resolve("lift") == "lift" and load_motor("lift").steps_per_rev == 3200
     local.unlink()
     assert resolve("lift") == env_a / "lift.json"
     # looks like a path: stays one even when missing, so the error names the file
-    assert resolve("motors/lift") == Path("motors/lift")
-    assert resolve("lift.json") == Path("lift.json")
+    assert resolve("motors/lift") == "motors/lift"
+    assert resolve("lift.json") == "lift.json"
+    with pytest.raises(FormatError, match="an empty file name"):
+        load_motor("")
     with pytest.raises(FormatError, match="lift.json: no such file"):
         load_motor("lift.json")
 

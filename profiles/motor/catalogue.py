@@ -108,10 +108,12 @@ def is_name(spec: str, base: Path | None = None) -> bool:
     return not looks_like_path(spec) and not ((base or Path()) / spec).exists()
 
 
-def resolve(spec: str | Path) -> Path:
-    """The motor file `spec` names: a path (see the module docstring), or a catalogue name."""
+def resolve(spec: str | Path) -> str | Path:
+    """The motor file `spec` names: a path, as given (see the module docstring; `''` stays
+    an empty name, which the reader refuses, not the current folder), or a catalogue
+    motor's file."""
     if isinstance(spec, Path) or looks_like_path(spec) or os.path.exists(spec):
-        return Path(spec)
+        return spec
     entry = find(spec)
     if entry is not None:
         return entry.path
