@@ -93,7 +93,7 @@ def test_a_path_always_wins(folders: tuple[Path, Path, Path]) -> None:
     assert resolve("lift.json") == "lift.json"
     with pytest.raises(FormatError, match="an empty file name"):
         load_motor("")
-    with pytest.raises(FormatError, match="lift.json: no such file"):
+    with pytest.raises(FormatError, match=r"lift\.json: no such file"):
         load_motor("lift.json")
 
 
