@@ -21,6 +21,7 @@ from typing import Any, Literal
 
 from .errors import FieldRangeError, FormatError, require_int
 from .motor import Motor, load_motor
+from .motor.catalogue import is_name
 from .reading import read_json
 
 FORMAT = "stepramp.axes/1"
@@ -133,15 +134,16 @@ def _axis(item: Any, i: int, device: str, base: Path | None, load_motors: bool) 
     value = item[key]
     if not isinstance(value, str) or not value:
         raise FormatError(f"{where}.{key}: expected a file path")
+    named = has_motor and is_name(value, base)  # a catalogue motor (`stepramp motor list`)
     path = Path(value)
-    if base is not None and not path.is_absolute():
+    if base is not None and not path.is_absolute() and not named:
         path = base / path
     if has_table:
         return Axis(name, pulses, None, None, path)
     motor = None
     if load_motors:
         try:
-            motor = load_motor(path)
+            motor = load_motor(value if named else path)
         except FormatError as e:  # name the axis: a one-line error that says where
             raise FormatError(f"{where}.motor: {e}") from None
         except FieldRangeError as e:

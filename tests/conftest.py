@@ -4,14 +4,36 @@ In CI (CI=true) hypothesis is derandomised, so a run is repeatable and a
 failure can be reproduced from the same commit; locally it explores freely.
 No deadline anywhere: a 2-core machine running two workers is no place to time
 single examples (speed goals live in bench/).
+
+The motor catalogue is the bundled motors only: the user's own motor folders
+(STEPRAMP_MOTORS, the XDG config folder) would make a test depend on the machine.
 """
 
 from __future__ import annotations
 
 import os
+import tempfile
+from collections.abc import Iterator
 
+import pytest
 from hypothesis import settings
 
 settings.register_profile("ci", derandomize=True, deadline=None, print_blob=True)
 settings.register_profile("dev", deadline=None)
 settings.load_profile("ci" if os.environ.get("CI") else "dev")
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _bundled_motors_only() -> Iterator[None]:
+    saved = {k: os.environ.get(k) for k in ("STEPRAMP_MOTORS", "XDG_CONFIG_HOME")}
+    with tempfile.TemporaryDirectory(prefix="stepramp-config-") as config:
+        os.environ.pop("STEPRAMP_MOTORS", None)
+        os.environ["XDG_CONFIG_HOME"] = config
+        try:
+            yield
+        finally:
+            for key, value in saved.items():
+                if value is None:
+                    os.environ.pop(key, None)
+                else:
+                    os.environ[key] = value

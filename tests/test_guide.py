@@ -166,7 +166,8 @@ def expand_globs(argv: list[str], cwd: Path) -> list[str]:
 
 @contextlib.contextmanager
 def workdir() -> Iterator[Path]:
-    """A temporary directory holding `examples/` and the bundled motors."""
+    """A temporary directory holding `examples/`, the bundled motors and an empty
+    `motors/`, the user motor folder the guide's examples run with (STEPRAMP_MOTORS)."""
     import tempfile
 
     with tempfile.TemporaryDirectory(prefix="stepramp-guide-") as tmp:
@@ -175,7 +176,16 @@ def workdir() -> Iterator[Path]:
         (root / "profiles" / "data").mkdir(parents=True)
         for motor in (REPO / "profiles" / "data").glob("motor-*.json"):
             shutil.copy(motor, root / "profiles" / "data" / motor.name)
-        yield root
+        (root / "motors").mkdir()
+        saved = os.environ.get("STEPRAMP_MOTORS")
+        os.environ["STEPRAMP_MOTORS"] = "motors"  # relative: commands run in `root`
+        try:
+            yield root
+        finally:
+            if saved is None:
+                os.environ.pop("STEPRAMP_MOTORS", None)
+            else:
+                os.environ["STEPRAMP_MOTORS"] = saved
 
 
 Runner = Callable[[list[str], Path], tuple[int, str]]

@@ -43,3 +43,71 @@ def test_python_example_runs(monkeypatch: pytest.MonkeyPatch,
     out = capsys.readouterr().out.splitlines()
     assert out[0].startswith("worst load angle ")  # the load angle over every move
     assert out[1].startswith("02 ")  # then the upload, its command block first
+
+
+# --- the command table: every command of `stepramp --help`, each with an example ----------
+
+def command_table() -> list[tuple[str, str, str]]:
+    """(command, does, example) of every row of the README's command table."""
+    start = README.index("| command | does | example |")
+    rows = []
+    for line in README[start:].splitlines()[2:]:
+        if not line.startswith("|"):
+            break
+        cells = [c.strip() for c in re.split(r"(?<!\\)\|", line)[1:-1]]
+        assert len(cells) == 3, line
+        rows.append((cells[0], cells[1], cells[2]))
+    return rows
+
+
+def sub_commands() -> dict[str, list[str]]:
+    """Every command of `stepramp --help`, with its sub-commands (alink, mc200, motor, link)."""
+    from verify import cli
+
+    [top] = [a for a in cli.build_parser()._actions
+             if a.__class__.__name__ == "_SubParsersAction"]
+    out = {}
+    for name, parser in top.choices.items():  # type: ignore[union-attr]
+        nested = [a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction"]
+        out[name] = sorted(nested[0].choices) if nested else []
+    return out
+
+
+def examples(cell: str) -> list[list[str]]:
+    import shlex
+
+    return [shlex.split(code) for code in re.findall(r"`(stepramp [^`]+)`", cell)]
+
+
+def test_every_command_is_in_the_table_with_an_example() -> None:
+    rows = command_table()
+    commands = sub_commands()
+    assert {"check", "sync", "motor", "sweep"} <= set(commands)
+    shown = {argv[1] for _, _, example in rows for argv in examples(example)}
+    assert set(commands) - shown == set(), "commands without an example in the README table"
+    for name, subs in commands.items():
+        [row] = [r for r in rows if f"`stepramp {name} " in r[0] or f"`stepramp {name}`" in r[0]]
+        for sub in subs:
+            assert f"stepramp {name} {sub}" in row[0] or f"{sub} " in row[0] \
+                or f"| {sub}" in row[0], f"stepramp {name} {sub} is not in the table"
+        if name != "link":  # link's sub-commands are one example's alternatives
+            ran = {argv[2] for argv in examples(row[2]) if len(argv) > 2}
+            assert set(subs) <= ran, f"stepramp {name}: sub-commands without an example"
+
+
+def test_every_example_in_the_table_parses(capsys: pytest.CaptureFixture[str]) -> None:
+    from verify import cli
+
+    parser = cli.build_parser()
+    for _, _, example in command_table():
+        for argv in examples(example):
+            if argv[1:] and argv[-1] == "--help":
+                continue
+            try:
+                parser.parse_args(argv[1:])
+            except SystemExit:
+                pytest.fail(f"README example does not parse: {' '.join(argv)}: "
+                            f"{capsys.readouterr().err}")
+            for arg in argv:   # the example files it names exist
+                if arg.startswith("examples/"):
+                    assert (ROOT / arg).is_file(), arg

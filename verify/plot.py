@@ -46,7 +46,7 @@ def comparison_figure(comparison: Any) -> Any:
     verdict = ("SAFE" if comparison.safe else
                "UNSAFE (" + ", ".join(comparison.failed_judges) + ")")
     ax_t.set(xlabel="time [ms]", ylabel="speed [pps]",
-             title=f"{comparison.motor.name or 'motor'}: {comparison.pulses} pulses, "
+             title=f"{comparison.motor.name or 'motor'}: {comparison.pulses} pulses\n"
                    f"table / optimum = {comparison.ratio:.3f} — {verdict}")
     if not comparison.safe:
         ax_t.title.set_color("tab:red")
@@ -108,10 +108,14 @@ def motor_figure(motor: Any) -> Any:
     ax_t.plot(v, motor.safety_factor * motor.torque_nm(v), ls="--",
               label=f"× safety factor {motor.safety_factor:g}")
     ax_t.axhline(motor.friction_torque_nm, color="0.5", ls=":", label="friction")
+    if motor.load_torque_nm:
+        ax_t.axhline(abs(motor.load_torque_nm), color="tab:brown", ls="-.",
+                     label="load torque (either way)")
     ax_t.set(xlabel="speed [pps]", ylabel="torque [N·m]", title=motor.name or "motor")
+    ax_t.set_ylim(bottom=0)
     ax_a.plot(v, motor.a_acc_pps2(v), label="a_acc (speeding up)")
     ax_a.plot(v, motor.a_dec_pps2(v), label="a_dec (slowing down)")
-    ax_a.axhline(0, color="k", lw=0.8)
+    ax_a.axhline(0, color="k", lw=0.8, label="0: no capability")
     ax_a.set(xlabel="speed [pps]", ylabel="acceleration [pps²]", title="capability")
     for ax in (ax_t, ax_a):
         ax.grid(alpha=0.3)
@@ -120,7 +124,8 @@ def motor_figure(motor: Any) -> Any:
 
 
 def save_figure(fig: Any, path: str | Path) -> None:
-    """Save as PNG or SVG (by extension), atomically."""
+    """Save as PNG or SVG (by extension), atomically, every text inside the canvas
+    (`fit_texts`)."""
     import io
 
     from profiles.errors import FormatError
@@ -129,7 +134,72 @@ def save_figure(fig: Any, path: str | Path) -> None:
     suffix = Path(path).suffix.lower().lstrip(".")
     if suffix not in ("png", "svg"):
         raise FormatError(f"{path}: the figure format is taken from the extension: .png or .svg")
+    fig.set_dpi(SAVE_DPI)  # lay out at the resolution it is saved in
+    fit_texts(fig)
     buf = io.BytesIO()
-    fig.savefig(buf, format=suffix, dpi=150)
+    fig.savefig(buf, format=suffix, dpi=SAVE_DPI)
     _plt().close(fig)
     write_output(str(path), buf.getvalue())
+
+
+SAVE_DPI = 150
+_FIT_PASSES = 6
+
+
+def fit_texts(fig: Any) -> None:
+    """Constrained layout, then any text still past the canvas's edge (a title longer than
+    its axes is wide: constrained layout makes room around axes, it never shortens a
+    title) is wrapped at spaces, or made smaller when it has none, until all fit."""
+    import textwrap
+
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
+
+    if not isinstance(fig.get_layout_engine(), ConstrainedLayoutEngine):  # tight_layout too:
+        fig.set_layout_engine("constrained")                             # it lays out once
+    for _ in range(_FIT_PASSES):
+        outside = texts_outside(fig)
+        if not outside:
+            return
+        for t in outside:
+            lines = t.get_text().splitlines()
+            longest = max(lines, key=len)
+            if " " in longest:
+                width = max(8, int(len(longest) * 0.8))
+                t.set_text("\n".join(textwrap.fill(line, width) for line in lines))
+            else:
+                t.set_fontsize(t.get_fontsize() * 0.85)
+
+
+def texts_outside(fig: Any) -> list[Any]:
+    """The texts a draw of `fig` puts (partly) outside its canvas (1 px tolerance)."""
+    if not hasattr(fig.canvas, "get_renderer"):  # a figure pyplot has closed: draw it in Agg
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+        FigureCanvasAgg(fig)
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    w, h = fig.bbox.width, fig.bbox.height
+    out = []
+    for t in drawn_texts(fig):
+        box = t.get_window_extent(renderer)
+        if box.x0 < -1 or box.y0 < -1 or box.x1 > w + 1 or box.y1 > h + 1:
+            out.append(t)
+    return out
+
+
+def drawn_texts(fig: Any) -> list[Any]:
+    """Every text a draw of `fig` shows: visible, not empty, and for tick labels only those
+    of ticks inside the axis's view (matplotlib keeps labels for ticks it does not draw)."""
+    from matplotlib.text import Text
+
+    hidden: set[int] = set()
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            lo, hi = sorted(axis.get_view_interval())
+            tol = 1e-9 * max(abs(lo), abs(hi), 1.0)
+            for tick in axis.get_major_ticks() + axis.get_minor_ticks():
+                if not lo - tol <= tick.get_loc() <= hi + tol:
+                    hidden.update({id(tick.label1), id(tick.label2)})
+    return [t for t in fig.findobj(Text) if t.get_visible() and t.get_text().strip()
+            and id(t) not in hidden]
+

@@ -2,7 +2,13 @@
 
 - text: one line per finding, `path: error [rule] stage 3 (chip 0x18): message`
   (the stage and chip parts only when known), `path: unusable: message` for a
-  file that could not be read as a table, then one summary line.
+  file that could not be read as a table, `path: note: …` for a verdict summary
+  no finding already says, then one summary line. A rule with more than
+  `FOLD_OVER` findings in one file is summarised in up to three lines: the count
+  and the stages (the first few ranges), the worst finding (the largest need /
+  capability, `findings.excess`) and the one with the shortest move
+  (`findings.move_pulses`), or the first when the rule has no such numbers;
+  `verbose` lists every finding in the order the checks found them.
 - json: `{"files": [{"path", "ok", "findings": [...]}]}`, each finding as
   `Finding.to_json()` (chip_code as "0x18" or null); "error" only on files
   that were unusable.
@@ -22,9 +28,11 @@ from dataclasses import dataclass, field
 from profiles.errors import FormatError
 from profiles.reading import display_path, json_text
 
-from .findings import Finding
+from .findings import Finding, excess, move_pulses
 
 FORMATS: tuple[str, ...] = ("text", "json", "junit")
+FOLD_OVER = 3       # more findings of one rule in one file than this: summarised (text)
+STAGE_RANGES = 4    # stage ranges a summary names before "…"
 SUITE_NAME = "stepramp check"
 
 # XML 1.0 allows tab, LF, CR and everything from U+0020 except surrogates, FFFE, FFFF.
@@ -52,10 +60,11 @@ class FileResult:
         return out
 
 
-def render(results: Sequence[FileResult], fmt: str) -> str:
-    """The report of `results` in `fmt` ("text", "json" or "junit"), ending in a newline."""
+def render(results: Sequence[FileResult], fmt: str, *, verbose: bool = False) -> str:
+    """The report of `results` in `fmt` ("text", "json" or "junit"), ending in a newline;
+    `verbose`: the text lists every finding (json and junit always do)."""
     if fmt == "text":
-        return _text(results)
+        return _text(results, verbose)
     if fmt == "json":
         # ASCII escapes keep the document valid even for paths with undecodable bytes.
         return json_text({"files": [r.to_json() for r in results]})
@@ -72,26 +81,80 @@ def finding_line(path: str, f: Finding) -> str:
             f"{_one_line(f.message)}")
 
 
-def _text(results: Sequence[FileResult]) -> str:
+def _text(results: Sequence[FileResult], verbose: bool = False) -> str:
     lines: list[str] = []
-    errors = warnings = 0
+    errors = warnings = folded = 0
     for r in results:
+        name = display_path(r.path)
         if r.error is not None:
-            lines.append(f"{display_path(r.path)}: unusable: {_one_line(r.error)}")
-        for f in r.findings:
-            lines.append(finding_line(r.path, f))
-            if f.severity == "error":
-                errors += 1
+            lines.append(f"{name}: unusable: {_one_line(r.error)}")
+        groups = [r.findings] if verbose else list(_by_rule(r.findings).values())
+        for group in groups:
+            if verbose or len(group) <= FOLD_OVER:
+                lines += [finding_line(r.path, f) for f in group]
             else:
-                warnings += 1
-        lines += [f"{r.path}: note: {_one_line(n)}" for n in r.notes]
+                lines += _summary_lines(name, group)
+                folded += len(group)
+        errors += sum(1 for f in r.findings if f.severity == "error")
+        warnings += sum(1 for f in r.findings if f.severity != "error")
+        lines += [f"{name}: note: {_one_line(n)}" for n in _own_notes(r)]
     failed = sum(1 for r in results if not r.ok)
     unusable = sum(1 for r in results if r.error is not None)
     summary = (f"{len(results)} file{_s(len(results))} checked: {len(results) - failed} ok, "
                f"{failed} failed ({errors} error{_s(errors)}, {warnings} warning{_s(warnings)}"
                f"{f', {unusable} unusable' if unusable else ''})")
+    if folded:
+        summary += f"; {folded} findings summarised by rule (--verbose lists each)"
     lines.append(summary)
     return "\n".join(lines) + "\n"
+
+
+def _by_rule(findings: Sequence[Finding]) -> dict[tuple[str, str], list[Finding]]:
+    """Findings grouped by severity and rule, groups in the order they first appear."""
+    out: dict[tuple[str, str], list[Finding]] = {}
+    for f in findings:
+        out.setdefault((f.severity, f.rule), []).append(f)
+    return out
+
+
+def _own_notes(r: FileResult) -> list[str]:
+    """The notes no finding already says (the load-angle finding carries the tolerance
+    box's summary, which is also the file's note)."""
+    return [n for n in r.notes if not any(n in f.message for f in r.findings)]
+
+
+def _summary_lines(name: str, group: list[Finding]) -> list[str]:
+    """A rule's many findings in one file: count and stages, the worst, the shortest move."""
+    first = group[0]
+    codes = {f.chip_code_hex for f in group}
+    chip = f" (chip {next(iter(codes))})" if len(codes) == 1 and None not in codes else ""
+    stages = sorted({f.stage for f in group if f.stage is not None})
+    where = f" at stages {_stage_ranges(stages)}" if stages else ""
+    out = [f"{name}: {first.severity} [{first.rule}]{chip}: {len(group)} findings{where}"]
+    ranked = [(x, -i) for i, f in enumerate(group) if (x := excess(f)) is not None]
+    worst = group[-max(ranked)[1]] if ranked else None
+    moves = [(m, i) for i, f in enumerate(group) if (m := move_pulses(f)) is not None]
+    shortest = group[min(moves)[1]] if moves else None
+    picks = ([(worst, "worst" + (", and the shortest move" if shortest is worst else ""))]
+             if worst is not None else [])
+    if shortest is not None and shortest is not worst:
+        picks.append((shortest, "shortest move"))
+    for f, label in picks or [(first, "first")]:
+        at = "" if f.stage is None else f", stage {f.stage}"
+        out.append(f"{name}:   {label}{at}: {_one_line(f.message)}")
+    return out
+
+
+def _stage_ranges(stages: list[int]) -> str:
+    """`1–30, 32, 35–40, …` : consecutive stages as ranges, the first STAGE_RANGES of them."""
+    runs: list[list[int]] = []
+    for k in stages:
+        if runs and k == runs[-1][1] + 1:
+            runs[-1][1] = k
+        else:
+            runs.append([k, k])
+    shown = [f"{a}–{b}" if b > a else f"{a}" for a, b in runs[:STAGE_RANGES]]
+    return ", ".join(shown) + (", …" if len(runs) > STAGE_RANGES else "")
 
 
 def _junit(results: Sequence[FileResult]) -> str:

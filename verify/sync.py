@@ -376,7 +376,8 @@ def joint_timeline(names: Sequence[str], executions: Sequence[Execution]) -> str
 # --------------------------------------------------------------------------- figure
 def sync_figure(plan: Plan, ruckig: RuckigSync | None = None) -> Any:
     """Joint path against the line, deviation over time, each axis's speed against time
-    (with ruckig's time- and phase-synchronised speeds when given)."""
+    (with ruckig's time- and phase-synchronised speeds when given). Positions and speeds
+    are signed (a CCW axis runs negative), every line has a legend entry."""
     from verify.plot import _plt
 
     plt = _plt()
@@ -384,39 +385,45 @@ def sync_figure(plan: Plan, ruckig: RuckigSync | None = None) -> Any:
     dev, t, d = line_deviation_times(times)
     fig, (ax_p, ax_d, ax_v) = plt.subplots(3, 1, figsize=(8.0, 10.0), constrained_layout=True,
                                            gridspec_kw={"height_ratios": [4, 2, 3]})
+    axes = plan_axes_list(plan)
+    sign = [1 if a.pulses >= 0 else -1 for a in axes]
     lead = int(np.argmax([len(ti) for ti in times]))
-    names = [a.name for a in plan.axes]
-    x = [np.searchsorted(ti, t, side="right") for ti in times]
+    names = [a.name for a in axes]
+    x = [s * np.searchsorted(ti, t, side="right") for s, ti in zip(sign, times, strict=True)]
     for i, name in enumerate(names):
         if i == lead and len(names) > 1:
             continue
-        ax_p.step(x[lead], x[i], where="post", lw=1.2, label=f"{name} (executed)")
-        ax_p.plot([0, len(times[lead])], [0, len(times[i])], ls="--", lw=0.8, color="0.3")
+        line = ax_p.step(x[lead], x[i], where="post", lw=1.2, label=f"{name} (executed)")[0]
+        ax_p.plot([0, axes[lead].pulses], [0, axes[i].pulses], ls="--", lw=0.8,
+                  color=line.get_color(), alpha=0.7, label=f"{name}: the straight line")
     ax_p.set(xlabel=f"{names[lead]} [pulses]", ylabel="other axes [pulses]",
-             title=f"{plan.mode} mode: joint path against the straight line "
+             title=f"{plan.mode} mode: joint path against the straight line\n"
                    f"(max deviation {dev:.3g} pulses)")
     ax_p.legend(fontsize=8)
-    ax_d.step(t * 1e3, d, where="post", color="tab:red", lw=1.0)
-    ax_d.set(xlabel="time [ms]", ylabel="distance to the line [pulses]")
-    for i, a in enumerate(plan_axes_list(plan)):
+    ax_d.step(t * 1e3, d, where="post", color="tab:red", lw=1.0,
+              label="distance of the joint path to the line")
+    ax_d.set(xlabel="time [ms]", ylabel="distance to\nthe line [pulses]")
+    ax_d.legend(fontsize=8, loc="upper right")
+    for i, a in enumerate(axes):
+        label = f"{a.name} ({a.duration_s * 1e3:.2f} ms)"
         if isinstance(a, ppmc_sync.AxisMove):
             te, _, v = a.execution.edges()
-            ax_v.step(te * 1e3, v, where="post", lw=1.4,
-                      label=f"{a.name} ({a.duration_s * 1e3:.2f} ms)")
+            ax_v.step(te * 1e3, sign[i] * v, where="post", lw=1.4, color=f"C{i}", label=label)
         else:
             ti = times[i]
             mid = ti[1:] if len(ti) > 1 else ti
-            ax_v.plot(mid * 1e3, 1.0 / np.diff(ti) if len(ti) > 1 else [0], lw=1.4,
-                      label=f"{a.name} ({a.duration_s * 1e3:.2f} ms)")
+            ax_v.plot(mid * 1e3, sign[i] / np.diff(ti) if len(ti) > 1 else [0], lw=1.4,
+                      color=f"C{i}", label=label)
     if ruckig is not None:
         for key, ls, dur in (("time", "--", ruckig.time_feasible_s),
                              ("phase", ":", ruckig.phase_feasible_s)):
             tr, _, vr = ruckig.trajectories[key]
             for i, name in enumerate(names):
-                ax_v.plot(tr * 1e3, vr[:, i], ls=ls, lw=1.0, color=f"C{i}",
+                ax_v.plot(tr * 1e3, sign[i] * vr[:, i], ls=ls, lw=1.0, color=f"C{i}",
                           label=f"ruckig {key}-sync {name} ({dur * 1e3:.2f} ms)")
-    ax_v.set(xlabel="time [ms]", ylabel="speed [pps]")
-    ax_v.legend(fontsize=7, ncols=2)
+    ax_v.axhline(0.0, color="0.3", lw=0.6, label="standstill")
+    ax_v.set(xlabel="time [ms]", ylabel="speed [pps]\n(negative: CCW)")
+    ax_v.legend(fontsize=7, ncols=2, loc="best")
     for ax in (ax_p, ax_d, ax_v):
         ax.grid(alpha=0.3)
     return fig

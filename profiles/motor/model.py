@@ -254,13 +254,19 @@ class Motor:
         return value, value
 
 
-def load_motor(path: str | Path) -> Motor:
-    return Motor.from_json(read_json(path))
+def load_motor(spec: str | Path) -> Motor:
+    """The motor of a file path, or of a name in the motor catalogue (`stepramp motor
+    list`; profiles/motor/catalogue.py says how a name is looked up)."""
+    from .catalogue import resolve
+
+    return Motor.from_json(read_json(resolve(spec)))
 
 
 def bundled_motor_paths() -> list[Path]:
     """The example motors shipped with stepramp."""
-    return sorted((Path(__file__).parent.parent / "data").glob("motor-*.json"))
+    from .catalogue import BUNDLED_DIR
+
+    return sorted(BUNDLED_DIR.glob("motor-*.json"))
 
 
 def _read_tolerances(obj: Any) -> tuple[tuple[str, float, float], ...]:

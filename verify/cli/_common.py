@@ -113,10 +113,16 @@ def add_sample_options(p: argparse.ArgumentParser, scope: str) -> None:
                    help="random seed of the samples (default 0: the same samples every run)")
 
 
-def load_motor(path: str) -> Any:
+# Every command's motor argument: a file or a catalogue name (profiles/motor/catalogue.py).
+MOTOR_METAVAR = "MOTOR"
+MOTOR_HELP = "the motor: a motor file (stepramp.motor/1) or a name from `stepramp motor list`"
+
+
+def load_motor(spec: str) -> Any:
+    """The motor of a file path or catalogue name (the one resolver every command uses)."""
     from profiles.motor import load_motor as load
 
-    return load(path)
+    return load(spec)
 
 
 @contextmanager

@@ -27,7 +27,8 @@ def add_subparser(sub: Any) -> None:
     alink = sub.add_parser("alink", help="A-Link ALUM settings and command words")
     asub = alink.add_subparsers(dest="alink_command", required=True, metavar="COMMAND")
     s = asub.add_parser("settings", help="settings (and their command words) for a move")
-    s.add_argument("--motor", metavar="M.json", help="plan the fastest stall-safe settings")
+    s.add_argument("--motor", metavar="MOTOR", help="plan the fastest stall-safe settings for "
+                   "this motor (a motor file or a name from `stepramp motor list`)")
     s.add_argument("--pulses", type=positive_int,
                    help="with --motor: optimise for a move of this many pulses [pulses]")
     s.add_argument("--start-pps", type=number, help="start speed (L_SPEED) [pps]")
@@ -93,12 +94,9 @@ def _do_settings(args: argparse.Namespace) -> int:
         summary = {"predicted_time_s": plan.duration_s, "shape": plan.extras["shape"],
                    "ratio_to_optimum": ratio,
                    "accel_limit_pps2": plan.extras["accel_limit_pps2"]}
-        if args.pulses is not None:
-            other = alink.move_time_s(
-                alink.AlinkSettings(settings.start_pps, settings.high_pps, settings.accel_para,
-                                    settings.max_pps, not settings.s_curve), args.pulses)
-            summary["s_curve_time_s" if not settings.s_curve else "linear_time_s"] = \
-                other.duration_s
+        # No S-curve-vs-linear time beside it: the unit's move-time model does not depend on
+        # the ramp shape (profiles.alink.model.move_time_s), so that comparison is equal by
+        # construction.
         warnings = list(plan.warnings)
     else:
         if any(v is None for v in explicit):

@@ -10,6 +10,7 @@ from ._common import (
     EXIT_FINDINGS,
     EXIT_OK,
     EXIT_UNUSABLE,
+    MOTOR_METAVAR,
     add_sample_options,
     load_motor,
     number,
@@ -23,10 +24,14 @@ def add_subparser(sub: Any) -> None:
     c.add_argument("files", nargs="+", metavar="FILE",
                    help="table files (JSON) or upload files (hex, bin, json)")
     c.add_argument("--format", choices=("text", "json", "junit"), default="text",
-                   help="report format (default text)")
-    c.add_argument("--motor", metavar="M.json",
-                   help="also judge stall-safety for this motor: the criterion and the load "
-                        "angle, over every move length the chip can run with the table")
+                   help="report format (default text: a rule with many findings in a file is "
+                        "summarised; json and junit hold every finding)")
+    c.add_argument("-v", "--verbose", action="store_true",
+                   help="text: list every finding, none summarised")
+    c.add_argument("--motor", metavar=MOTOR_METAVAR,
+                   help="also judge stall-safety for this motor (a motor file or a name from "
+                        "`stepramp motor list`): the criterion and the load angle, over every "
+                        "move length the chip can run with the table")
     c.add_argument("--pulses", type=pulse_list, metavar="N[,M…]",
                    help="with --motor: judge only the moves of these lengths [pulses] "
                         "(default: every length 1..0xFFFFFFFF)")
@@ -48,8 +53,11 @@ def _do_check(args: argparse.Namespace) -> int:
     from verify.output import write_output
     from verify.report import render
 
-    if args.pulses is not None and args.motor is None:
-        raise FormatError("--pulses limits the stall verdict: it needs --motor")
+    if args.motor is None:  # options that judge with a motor are errors without one
+        for option, given in (("--pulses", args.pulses is not None),
+                              ("--no-physics", not args.physics), ("--strict", args.strict)):
+            if given:
+                raise FormatError(f"{option} applies to the stall verdict: it needs --motor")
     # `is not None`: --motor '' is a wrong path, not "no motor" (the stall check would
     # silently not run and the table pass).
     motor = load_motor(args.motor) if args.motor is not None else None
@@ -58,7 +66,7 @@ def _do_check(args: argparse.Namespace) -> int:
                               physics=args.physics, samples=args.samples, seed=args.seed,
                               strict=args.strict, progress=progress)
                    for path in args.files]
-    write_output(args.output, render(results, args.format))
+    write_output(args.output, render(results, args.format, verbose=args.verbose))
     if any(r.error for r in results):
         # The report says it too, but it may have gone to a file: one line per unusable input.
         for r in results:

@@ -11,7 +11,8 @@ from ._common import EXIT_FINDINGS, EXIT_OK, fields_as_options, positive_int
 def add_subparser(sub: Any) -> None:
     c = sub.add_parser("compare", help="a table against the continuous time optimum")
     c.add_argument("table", metavar="TABLE", help="a table file (free curve or init)")
-    c.add_argument("--motor", required=True, metavar="M.json", help="the motor file")
+    c.add_argument("--motor", required=True, metavar="MOTOR",
+                   help="the motor: a motor file or a name from `stepramp motor list`")
     c.add_argument("--pulses", type=positive_int, required=True,
                    help="move length [pulses]")
     c.add_argument("--format", choices=("text", "json"), default="text",

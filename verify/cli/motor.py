@@ -1,5 +1,7 @@
-"""`stepramp motor new` (a motor file from a datasheet or a vendor curve, with loads) and
-`stepramp motor check` (a motor file against its schema, each problem as a JSON pointer)."""
+"""`stepramp motor new` (a motor file from a datasheet or a vendor curve, with loads),
+`stepramp motor check` (a motor file against its schema, each problem as a JSON pointer),
+`stepramp motor list` (the catalogue: bundled and user motors by name) and `stepramp
+motor show` (one motor's curve and capability, as text or a figure)."""
 
 from __future__ import annotations
 
@@ -7,14 +9,15 @@ import argparse
 import json
 from typing import Any
 
-from ._common import EXIT_OK, EXIT_UNUSABLE, number, positive_int
+from ._common import EXIT_OK, EXIT_UNUSABLE, MOTOR_HELP, MOTOR_METAVAR, number, positive_int
 
 
 def add_subparser(sub: Any) -> None:
     from profiles.motor.loads import LOAD_HELP
     from profiles.motor.units import SPEED_UNITS, TORQUE_UNITS
 
-    motor = sub.add_parser("motor", help="motor files: from a datasheet or curve, and checks")
+    motor = sub.add_parser("motor", help="motors: list and show them by name, make motor files "
+                                         "from a datasheet or curve, check them")
     msub = motor.add_subparsers(dest="motor_command", required=True, metavar="SUBCOMMAND")
 
     n = msub.add_parser("new", help="a motor file from a datasheet (electrical model) or a "
@@ -61,8 +64,23 @@ def add_subparser(sub: Any) -> None:
     n.set_defaults(func=_do_new)
 
     k = msub.add_parser("check", help="check motor files against the schema and the loader")
-    k.add_argument("files", nargs="+", metavar="FILE", help="motor files (stepramp.motor/1)")
+    k.add_argument("files", nargs="+", metavar="MOTOR",
+                   help="motor files (stepramp.motor/1) or names from `stepramp motor list`")
     k.set_defaults(func=_do_check)
+
+    ls = msub.add_parser("list", help="the motors known by name: bundled, in $STEPRAMP_MOTORS "
+                                      "and in the user config folder")
+    ls.add_argument("--format", choices=("text", "json"), default="text",
+                    help="output format (default text)")
+    ls.set_defaults(func=_do_list)
+
+    sh = msub.add_parser("show", help="one motor: its data, pull-out curve and acceleration "
+                                      "capability")
+    sh.add_argument("motor", metavar=MOTOR_METAVAR, help=MOTOR_HELP)
+    sh.add_argument("--plot", metavar="OUT.png",
+                    help="also write its figure (torque [N·m] and capability [pps²] against "
+                         "speed [pps]); PNG or SVG by extension")
+    sh.set_defaults(func=_do_show)
 
 
 _DATASHEET_OPTS = ("holding_torque_nm", "rated_current_a", "resistance_ohm", "inductance_mh",
@@ -140,13 +158,14 @@ def dump_motor(obj: dict[str, Any]) -> str:
 
 def _do_check(args: argparse.Namespace) -> int:
     from profiles.errors import StepRampError
+    from profiles.motor.catalogue import resolve
     from profiles.motor.schema import problems
     from profiles.reading import read_json
 
     bad = False
     for path in args.files:
         try:
-            found = problems(read_json(path))
+            found = problems(read_json(resolve(path)))
         except StepRampError as e:
             print(f"{path}: {e}")
             bad = True
@@ -157,3 +176,121 @@ def _do_check(args: argparse.Namespace) -> int:
             print(f"{path}: {where or '/'}: {message}")
         bad = bad or bool(found)
     return EXIT_UNUSABLE if bad else EXIT_OK
+
+
+def _do_list(args: argparse.Namespace) -> int:
+    import sys
+
+    from profiles.motor.catalogue import entries, motor_dirs
+    from profiles.reading import display_path, json_text
+    from verify.output import write_output
+
+    for source, folder in motor_dirs():
+        if source != "user config" and not folder.is_dir():  # a typo in the variable
+            print(f"stepramp motor: warning: {source} folder {display_path(folder)} is not a "
+                  "folder", file=sys.stderr)
+    rows = [_entry_row(e) for e in entries()]
+    if args.format == "json":
+        write_output(None, json_text({"motors": rows}))
+    else:
+        write_output(None, _list_text(rows))
+    return EXIT_OK
+
+
+def _entry_row(entry: Any) -> dict[str, Any]:
+    """One catalogue entry as `motor list` shows it; an unreadable file says why."""
+    from profiles.errors import StepRampError
+    from profiles.motor import load_motor
+    from profiles.reading import display_path
+
+    row: dict[str, Any] = {"name": entry.name, "source": entry.source,
+                           "shadowed_by": entry.shadowed_by, "path": display_path(entry.path)}
+    try:
+        m = load_motor(entry.path)
+    except StepRampError as e:
+        return row | {"error": str(e)}
+    holding = m.holding_torque_nm
+    return row | {"steps_per_rev": m.steps_per_rev,
+                  "holding_torque_nm": float(m.torque_nm(0.0)) if holding is None else holding,
+                  "holding_from": "pullout_torque at 0 pps" if holding is None
+                  else "holding_torque_nm",
+                  "top_pps": m.top_pps, "top_rpm": m.top_pps * 60.0 / m.steps_per_rev,
+                  "description": m.name}
+
+
+def _list_text(rows: list[dict[str, Any]]) -> str:
+    head = ("name", "steps/rev", "holding [N·m]", "top [pps]", "[rpm]", "source", "description")
+    table = [head]
+    for r in rows:
+        source = r["source"] + (f" (shadowed by {r['shadowed_by']})" if r["shadowed_by"] else "")
+        if "error" in r:
+            table.append((r["name"], "-", "-", "-", "-", source, f"unreadable: {r['error']}"))
+            continue
+        approx = "≈" if r["holding_from"] != "holding_torque_nm" else ""
+        table.append((r["name"], str(r["steps_per_rev"]), f"{approx}{r['holding_torque_nm']:.3g}",
+                      f"{r['top_pps']:.6g}", f"{r['top_rpm']:.4g}", source, r["description"]))
+    widths = [max(len(row[i]) for row in table) for i in range(len(head) - 1)]
+    right = {1, 2, 3, 4}
+    lines = ["  ".join([(c.rjust(w) if i in right else c.ljust(w))
+                        for i, (c, w) in enumerate(zip(row, widths, strict=False))]
+                       + [row[-1]]).rstrip() for row in table]
+    if any(r.get("holding_from", "holding_torque_nm") != "holding_torque_nm" for r in rows):
+        lines.append("≈: the pull-out torque at 0 pps (the file gives no holding_torque_nm)")
+    if len(rows) == 0:
+        lines.append("(no motors)")
+    return "\n".join(lines) + "\n"
+
+
+def _do_show(args: argparse.Namespace) -> int:
+    from profiles.errors import FormatError
+    from profiles.motor.catalogue import find, is_name, resolve
+    from profiles.reading import display_path
+    from verify.output import write_output
+
+    from ._common import load_motor
+
+    if args.plot and not args.plot.lower().endswith((".png", ".svg")):
+        raise FormatError(f"--plot {args.plot}: the figure format is taken from the "
+                          "extension: .png or .svg")
+    motor = load_motor(args.motor)
+    entry = find(args.motor) if is_name(args.motor) else None
+    where = (f"{display_path(entry.path)} ({entry.source})" if entry is not None
+             else display_path(resolve(args.motor)))
+    write_output(None, _show_text(args.motor, where, motor))
+    if args.plot:
+        from verify.plot import motor_figure, save_figure
+
+        save_figure(motor_figure(motor), args.plot)
+    return EXIT_OK
+
+
+def _show_text(spec: str, where: str, m: Any) -> str:
+    import numpy as np
+
+    rpm = 60.0 / m.steps_per_rev
+    lines = [f"{spec}: {m.name}" if m.name else spec, f"file: {where}",
+             f"{m.steps_per_rev} steps/rev, {m.phases} phases, inertia {m.inertia_kgm2:.4g} "
+             f"kg·m², friction {m.friction_torque_nm:.4g} N·m, load {m.load_torque_nm:.4g} N·m, "
+             f"safety factor {m.safety_factor:g}",
+             f"start {m.start_pps:.6g} pps, largest jump {m.jump_pps:.6g} pps, top "
+             f"{m.top_pps:.6g} pps ({m.top_pps * rpm:.4g} rpm)"
+             + ("" if m.holding_torque_nm is None else
+                f", holding torque {m.holding_torque_nm:.4g} N·m")]
+    if m.tolerances:
+        lines.append("tolerances: " + ", ".join(f"{k} {lo:.4g}..{hi:.4g}"
+                                               for k, lo, hi in m.tolerances))
+    if m.resonance_bands_pps:
+        lines.append("resonance bands: " + ", ".join(f"{lo:.6g}–{hi:.6g} pps"
+                                                     for lo, hi in m.resonance_bands_pps))
+    v = np.asarray(m.curve_speed_pps)
+    head = ("speed [pps]", "[rpm]", "pull-out [N·m]", f"× {m.safety_factor:g} [N·m]",
+            "a_acc [pps²]", "a_dec [pps²]")
+    cols = [[f"{x:.6g}" for x in v], [f"{x * rpm:.4g}" for x in v],
+            [f"{x:.4g}" for x in m.curve_torque_nm],
+            [f"{m.safety_factor * x:.4g}" for x in m.curve_torque_nm],
+            [f"{x:.4g}" for x in m.a_acc_pps2(v)], [f"{x:.4g}" for x in m.a_dec_pps2(v)]]
+    widths = [max(len(h), *(len(c) for c in col)) for h, col in zip(head, cols, strict=True)]
+    lines.append("  ".join(h.rjust(w) for h, w in zip(head, widths, strict=True)))
+    lines += ["  ".join(col[i].rjust(w) for col, w in zip(cols, widths, strict=True))
+              for i in range(len(v))]
+    return "\n".join(lines) + "\n"

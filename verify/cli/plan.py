@@ -29,7 +29,8 @@ MAX_STAGES_DEFAULT = 127
 
 def add_subparser(sub: Any) -> None:
     p = sub.add_parser("plan", help="plan the fastest stall-safe table for a motor")
-    p.add_argument("--motor", required=True, metavar="M.json", help="the motor file")
+    p.add_argument("--motor", required=True, metavar="MOTOR",
+                   help="the motor: a motor file or a name from `stepramp motor list`")
     p.add_argument("--kind", choices=KINDS, default="free",
                    help="free: a free-curve table (every stage given); linear / s-curve: an "
                         "init table the chip expands (needs --pulses); default free")

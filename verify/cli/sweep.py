@@ -23,8 +23,9 @@ from ._common import (
 def add_subparser(sub: Any) -> None:
     s = sub.add_parser("sweep", help="plan and verify robust tables for motors × move lengths "
                                      "into a CSV or Parquet file")
-    s.add_argument("--motors", nargs="+", required=True, metavar="M.json",
-                   help="motor files (with their loads, tolerances and resonance bands)")
+    s.add_argument("--motors", nargs="+", required=True, metavar="MOTOR",
+                   help="motor files or names from `stepramp motor list` (with their loads, "
+                        "tolerances and resonance bands)")
     s.add_argument("--pulses", type=pulse_list, required=True, metavar="N[,M…]",
                    help="move lengths to plan for [pulses]")
     add_sample_options(s, "")

@@ -1,0 +1,129 @@
+"""Every figure the CLI writes: no text past the canvas, a legend entry for every line,
+signed positions in sync's figure.
+
+Each CLI run is recorded at `Figure.savefig` (the figure as saved) and judged by what a
+draw of it shows (`verify.plot.drawn_texts`: tick labels of ticks outside the view are
+not drawn and not judged).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+from matplotlib.figure import Figure
+
+from verify import cli
+from verify.plot import fit_texts, texts_outside
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLES = ROOT / "examples"
+
+
+@pytest.fixture
+def saved(monkeypatch: pytest.MonkeyPatch) -> Iterator[list[Any]]:
+    """The figures saved while the test runs."""
+    figures: list[Any] = []
+    original = Figure.savefig
+
+    def record(self: Any, *args: Any, **kwargs: Any) -> None:
+        figures.append(self)
+        original(self, *args, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", record)
+    yield figures
+
+
+def problems(fig: Any) -> list[str]:
+    """Texts past the canvas and lines without a legend entry."""
+    out = [f"outside the canvas: {t.get_text()!r}" for t in texts_outside(fig)]
+    legends = [ax.get_legend() for ax in fig.axes] + list(fig.legends)
+    entries = {t.get_text() for lg in legends if lg is not None for t in lg.get_texts()}
+    for ax in fig.axes:
+        out += [f"line without a legend entry: {line.get_label()!r}"
+                for line in ax.get_lines() if line.get_label() not in entries]
+    return out
+
+
+def run_cli(argv: list[str], tmp_path: Path, exit_codes: tuple[int, ...] = (0,)) -> None:
+    code = cli.main(argv)
+    assert code in exit_codes, argv
+
+
+def test_motor_show_plot(tmp_path: Path, saved: list[Any],
+                         capsys: pytest.CaptureFixture[str]) -> None:
+    for motor in ("nema17-1600", str(EXAMPLES / "motor-nema17-tolerances.json")):
+        run_cli(["motor", "show", motor, "--plot", str(tmp_path / "m.png")], tmp_path)
+    assert len(saved) == 2 and (tmp_path / "m.png").stat().st_size > 1000
+    for fig in saved:
+        assert problems(fig) == []
+
+
+def test_a_long_title_is_wrapped_and_a_long_word_shrunk() -> None:
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(4.0, 3.0), constrained_layout=True)
+    ax.plot([0, 1], [0, 1], label="x")
+    ax.legend()
+    ax.set_title("a title far too long for a figure four inches wide, " * 3)
+    ax.set_xlabel("x" * 120)
+    assert texts_outside(fig), "the example must overflow to test anything"
+    fit_texts(fig)
+    assert texts_outside(fig) == []
+    assert "\n" in ax.get_title() and ax.xaxis.label.get_fontsize() < 10
+    plt.close(fig)
+
+
+def test_a_figure_without_layout_engine_gets_constrained_layout() -> None:
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots()
+    ax.set_ylabel("a label")
+    fig.tight_layout()
+    fit_texts(fig)
+    assert fig.get_layout_engine().__class__.__name__ == "ConstrainedLayoutEngine"
+    plt.close(fig)
+
+
+@pytest.mark.slow
+def test_every_cli_figure(tmp_path: Path, saved: list[Any],
+                          capsys: pytest.CaptureFixture[str]) -> None:
+    runs = [
+        ["compare", str(EXAMPLES / "free-curve-nema17.json"), "--motor", "nema17-1600",
+         "--pulses", "5000", "--references", "ruckig", "--plot", str(tmp_path / "c.png")],
+        # the heavy motor: an UNSAFE verdict makes the longest title
+        ["compare", str(EXAMPLES / "free-curve-nema17.json"), "--motor", "nema23-heavy",
+         "--pulses", "5000", "--references", "ruckig", "--plot", str(tmp_path / "c2.svg")],
+        ["sweep", "--motors", "nema17-1600", "pk566-5phase-half", "--pulses", "3200",
+         "--samples", "0", "--plot", str(tmp_path / "sw.png"), "-o", str(tmp_path / "sw.csv")],
+    ]
+    for axes in ("axes-xy.json", "axes-alink.json"):
+        for mode in ("time", "line"):
+            runs.append(["sync", str(EXAMPLES / axes), "--mode", mode, "-o",
+                         str(tmp_path / f"{axes}-{mode}"), "--plot",
+                         str(tmp_path / f"{axes}-{mode}.png")])
+    for argv in runs:
+        run_cli(argv, tmp_path, (0, 1))
+    assert len(saved) == len(runs)
+    for argv, fig in zip(runs, saved, strict=True):
+        assert problems(fig) == [], argv
+
+
+@pytest.mark.slow
+def test_sync_figure_positions_are_signed(tmp_path: Path, saved: list[Any],
+                                          capsys: pytest.CaptureFixture[str]) -> None:
+    # axes-xy.json: x +12 000, y −5 000 pulses
+    axes = json.loads((EXAMPLES / "axes-xy.json").read_text())
+    assert [a["pulses"] for a in axes["axes"]] == [12000, -5000]
+    run_cli(["sync", str(EXAMPLES / "axes-xy.json"), "--mode", "line", "-o",
+             str(tmp_path / "out"), "--plot", str(tmp_path / "line.png")], tmp_path, (0, 1))
+    [fig] = saved
+    path_ax, _, speed_ax = fig.axes
+    executed, line = path_ax.get_lines()
+    assert executed.get_ydata()[-1] == -5000 and executed.get_xdata()[-1] == 12000
+    assert list(line.get_xdata()) == [0, 12000] and list(line.get_ydata()) == [0, -5000]
+    y_speed = next(ln for ln in speed_ax.get_lines() if ln.get_label().startswith("y ("))
+    assert max(y_speed.get_ydata()) < 0  # y runs CCW the whole move (from its start speed)
