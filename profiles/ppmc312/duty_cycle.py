@@ -1,0 +1,104 @@
+"""The pieces of duty-cycle planning (`planner.plan_duty_cycle`): a machine's mix of move
+lengths as arrays, the lengths candidate tables are planned for, and the time of every
+length of the mix with a table, all at once.
+
+Timing is the chip's own move model (`execution.moves`, the one `simulate_move` runs),
+numpy over moves: a move's ticks are Σ rate × pulses over its segments. A trapezoid
+(a move of at least the table's accel + decel totals, SPEC §1.6) runs every stage and
+then cruises at the fastest rate, so the trapezoids of a mix differ only in their
+cruise: the segments are built for the shorter moves and for the two shortest
+trapezoids, whose difference is one cruise pulse; the longer ones follow exactly.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..errors import PlanError, require_int, require_number
+from .execution import MOVE_PULSES_MAX, MoveBatch, moves
+from .table import FreeCurveTable
+
+MIX_PULSES_MIN = 8          # planner.check_plan_args: the shortest move a table is planned for
+MIX_WEIGHT_MAX = 1e12
+MIX_ROWS_MAX = 1_000_000    # rows of a mix, equal lengths included
+MIX_LENGTHS_MAX = 100_000   # distinct lengths: each is timed on every candidate table
+CANDIDATES = 16             # tables planned for a mix (see candidate_lengths)
+NEAR = 0.05                 # a geometric candidate this close to a quantile is not planned
+_CHUNK = 2048               # moves built at once (a long move has ~2 segments per stage)
+
+
+def mix_arrays(mix: Sequence[tuple[int, float]]) -> tuple[np.ndarray, np.ndarray]:
+    """The mix's distinct lengths, ascending, and each one's weight (the weights of equal
+    lengths summed). A length outside 8..0xFFFFFFFF pulses or a weight outside 0..1e12
+    is a FieldRangeError naming its row; an empty mix, one of more than MIX_ROWS_MAX rows
+    or MIX_LENGTHS_MAX distinct lengths, or one whose weights sum to 0 is a PlanError."""
+    if not mix:
+        raise PlanError("the move mix is empty: give at least one pulses,weight row")
+    if len(mix) > MIX_ROWS_MAX:
+        raise PlanError(f"the move mix has {len(mix)} rows, more than the {MIX_ROWS_MAX} "
+                        "a duty cycle may have")
+    for row, (n, w) in enumerate(mix, start=1):
+        require_int(f"move mix row {row}: pulses", n, MIX_PULSES_MIN, MOVE_PULSES_MAX)
+        require_number(f"move mix row {row}: weight", w, 0.0, MIX_WEIGHT_MAX)
+    lengths, where = np.unique(np.array([int(n) for n, _ in mix], dtype=np.int64),
+                               return_inverse=True)
+    if len(lengths) > MIX_LENGTHS_MAX:
+        raise PlanError(f"the move mix has {len(lengths)} distinct lengths, more than the "
+                        f"{MIX_LENGTHS_MAX} a duty cycle may have: merge nearby lengths")
+    weights = np.bincount(where, weights=np.array([float(w) for _, w in mix]),
+                          minlength=len(lengths))
+    if not weights.sum() > 0:
+        raise PlanError("the move mix's weights sum to 0: give at least one positive weight")
+    return lengths, weights
+
+
+def candidate_lengths(lengths: np.ndarray, weights: np.ndarray,
+                      count: int = CANDIDATES) -> list[int]:
+    """At most `count` lengths to plan a table for: count // 2 weighted quantiles of the
+    mix (at the middle of each of count // 2 equal shares of its weight; every length of
+    the mix when it has no more), and the rest spread geometrically from its shortest to
+    its longest length, both included, less those within NEAR of a quantile (plans for
+    lengths 5 % apart differ little; each costs a plan). Ascending, distinct."""
+    require_int("candidates", count, 4, 64)
+    half = count // 2
+    if len(lengths) <= half:
+        picked = lengths
+    else:
+        cumulative = np.cumsum(weights)
+        levels = (np.arange(half) + 0.5) / half * cumulative[-1]
+        picked = lengths[np.minimum(np.searchsorted(cumulative, levels), len(lengths) - 1)]
+    quantiles = np.unique(picked)
+    spread = np.round(np.geomspace(float(lengths[0]), float(lengths[-1]), count - half))
+    near = np.abs(spread[:, None] - quantiles[None, :]) <= NEAR * quantiles[None, :]
+    return sorted({int(n) for n in quantiles} | {int(n) for n in spread[~near.any(axis=1)]})
+
+
+def move_ticks(table: FreeCurveTable, lengths: np.ndarray) -> np.ndarray:
+    """Each move's duration in clock ticks (int64) with `table` (high rate 0): exactly
+    `simulate_move(table, n).ticks` for every n of `lengths`."""
+    lengths = np.asarray(lengths, dtype=np.int64)
+    ticks = np.empty(len(lengths), dtype=np.int64)
+    accel = sum(table.accel_pulses)
+    full = accel + (accel if table.decel_pulses is None else sum(table.decel_pulses))
+    # the shortest trapezoid and the next: one cruise pulse apart
+    first, second = _ticks(moves(table, [full, full + 1])).tolist()
+    long = lengths >= full
+    ticks[long] = first + (lengths[long] - full) * (second - first)
+    short = np.flatnonzero(~long)
+    for start in range(0, len(short), _CHUNK):
+        part = short[start:start + _CHUNK]
+        ticks[part] = _ticks(moves(table, lengths[part]))
+    return ticks
+
+
+def _ticks(batch: MoveBatch) -> np.ndarray:
+    per_segment = batch.rate.astype(np.int64) * batch.count
+    # every move (≥ 1 pulse) has a segment: no two offsets are equal
+    return np.add.reduceat(per_segment, batch.offsets[:-1])
+
+
+def move_times_s(table: FreeCurveTable, lengths: np.ndarray) -> np.ndarray:
+    """Each move's duration [s], as `simulate_move(table, n).duration_s` gives it."""
+    return move_ticks(table, lengths) / table.clock.hz
