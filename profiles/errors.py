@@ -114,6 +114,11 @@ class ReferenceSolveError(StepRampError, RuntimeError):
     """A reference solver failed or gave a result outside its trust bracket."""
 
 
+class ClusterError(StepRampError):
+    """A sweep's workers failed it: no Dask scheduler answers (within the timeout), the
+    cluster has no workers, a job was lost, or a local worker process died."""
+
+
 # The serial link (profiles/ppmc312/link.py): one line each, naming slave, command, why.
 class LinkError(StepRampError):
     """The serial link could not complete an exchange (one line: slave, what, why)."""

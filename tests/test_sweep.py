@@ -4,11 +4,20 @@ from __future__ import annotations
 
 import csv
 import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
 
+from profiles.errors import ClusterError
 from profiles.motor import load_motor
 from profiles.motor.tolerance import worst_case_motor
 from profiles.ppmc312.criterion import all_length_problems
@@ -53,6 +62,7 @@ def test_rows_are_the_plans_and_verdicts(local_rows: list[dict[str, Any]]) -> No
     assert boxed["move_time_s"] > plain["move_time_s"]  # the price of robustness
 
 
+@pytest.mark.slow  # two workers from a forkserver that loads the planner: ~3 s on 2 cores
 def test_local_processes_give_the_same_rows(local_rows: list[dict[str, Any]]) -> None:
     jobs = jobs_of(catalogue(), [3000], samples=20, load_angle_deg=None)
     seen: list[tuple[int, int]] = []
@@ -103,3 +113,128 @@ def test_sweep_cli_refusals(tmp_path: Path, capsys: pytest.CaptureFixture[str]) 
                      "--scheduler", "tcp://127.0.0.1:1", "-o", str(bad)]) == 2
     assert "one or the other" in capsys.readouterr().err and not bad.exists()
     assert load_motor(NEMA17)  # the bundled file was not touched
+
+
+@pytest.mark.parametrize("address, says", [
+    ("garbage", "'garbage': not a Dask scheduler address"),
+    ("", "'': not a Dask scheduler address"),
+    ("udp://10.0.0.5:8786", "not a Dask scheduler address"),
+    ("http://10.0.0.5:8787", "http:// is the dashboard's"),
+    ("tcp://10.0.0.5", "not a Dask scheduler address"),
+    ("tcp://10.0.0.5:0", "--scheduler port: 0 is outside the allowed range 1..65535"),
+    ("tcp://" + "h" * 100_000 + ":1", "… (100008 characters)"),
+])
+def test_a_malformed_scheduler_address_is_refused_at_once(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch,
+        address: str, says: str) -> None:
+    import distributed
+
+    def no_client(*args: object, **kwargs: object) -> None:
+        raise AssertionError("a malformed address never reaches Dask")
+
+    monkeypatch.setattr(distributed, "Client", no_client)
+    out = tmp_path / "r.csv"
+    code = cli.main(["sweep", "--motors", str(NEMA17), "--pulses", "3000", "--scheduler",
+                     address, "-o", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and says in err and err.startswith("stepramp sweep: --scheduler ")
+    assert len(err.splitlines()) == 1 and len(err) < 300 and not out.exists()
+
+
+@pytest.fixture
+def silent_scheduler() -> Iterator[tuple[str, list[socket.socket]]]:
+    """A listener that accepts connections and never says a word."""
+    server = socket.create_server(("127.0.0.1", 0))
+    server.settimeout(0.05)
+    accepted: list[socket.socket] = []
+    stop = threading.Event()
+
+    def serve() -> None:
+        while not stop.is_set():
+            try:
+                accepted.append(server.accept()[0])
+            except TimeoutError:
+                pass
+
+    thread = threading.Thread(target=serve, daemon=True)
+    thread.start()
+    try:
+        yield f"tcp://127.0.0.1:{server.getsockname()[1]}", accepted
+    finally:
+        stop.set()
+        thread.join()
+        for conn in accepted:
+            conn.close()
+        server.close()
+
+
+def test_a_scheduler_that_never_answers_times_out(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        silent_scheduler: tuple[str, list[socket.socket]]) -> None:
+    address, accepted = silent_scheduler
+    out = tmp_path / "r.csv"
+    code = cli.main(["sweep", "--motors", str(NEMA17), "--pulses", "3000", "--scheduler",
+                     address, "--timeout", "0.5", "-o", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and accepted  # it connected, then waited 0.5 s for an answer
+    assert err.startswith(f"stepramp sweep: no Dask scheduler answered at {address} within "
+                          "0.5 s") and len(err.splitlines()) == 1
+    assert not out.exists()
+
+
+def test_a_cluster_without_workers_times_out() -> None:
+    import distributed
+
+    with distributed.LocalCluster(n_workers=0, processes=False,
+                                  dashboard_address=None) as cluster:
+        jobs = jobs_of(catalogue()[:1], [3000], samples=0, load_angle_deg=None)
+        with pytest.raises(ClusterError, match=r"has no workers: no job finished in 0\.5 s"):
+            run_sweep(jobs, scheduler=cluster.scheduler_address, timeout_s=0.5)
+
+
+@pytest.mark.parametrize("options, says", [
+    (["--load-angle", "nan"], "--load-angle: nan is outside the allowed range 1.0..90.0"),
+    (["--load-angle", "inf"], "--load-angle: inf is outside the allowed range 1.0..90.0"),
+    (["--load-angle", "-1"], "--load-angle: -1.0 is outside the allowed range 1.0..90.0"),
+    (["--workers", "0"], "--workers: 0 is outside the allowed range 1..256"),
+    (["--scheduler", "h:1", "--timeout", "nan"], "--timeout: nan is outside the allowed "
+                                                 "range above 0.0 up to 3600.0"),
+    (["--scheduler", "h:1", "--timeout", "-1"], "--timeout: -1.0 is outside"),
+    (["--scheduler", "h:1", "--timeout", "inf"], "--timeout: inf is outside"),
+    (["--timeout", "5"], "--timeout bounds the waits on a Dask scheduler"),
+    (["--samples", "-1"], "argument --samples: '-1' is negative"),
+])
+def test_sweep_numbers_are_checked_first(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                         options: list[str], says: str) -> None:
+    out = tmp_path / "r.csv"
+    code = cli.main(["sweep", "--motors", str(NEMA17), "--pulses", "3000", *options,
+                     "-o", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and says in err and len(err.splitlines()) == 1 and not out.exists()
+
+
+@pytest.mark.slow  # a stepramp process and its forkserver start (~5 s on 2 cores)
+def test_ctrl_c_stops_local_workers_and_writes_nothing(tmp_path: Path) -> None:
+    import psutil
+
+    out = tmp_path / "r.csv"
+    sweep = subprocess.Popen(
+        [sys.executable, "-m", "verify.cli", "sweep", "--motors", str(NEMA17), "--pulses",
+         ",".join(str(n) for n in range(1000, 41000, 1000)), "--workers", "2",
+         "-o", str(out)], stderr=subprocess.PIPE, text=True, start_new_session=True)
+    parent = psutil.Process(sweep.pid)
+    deadline = time.monotonic() + 60
+    workers: list[psutil.Process] = []
+    while len(workers) < 2:  # the workers are the forkserver's children
+        assert time.monotonic() < deadline and sweep.poll() is None
+        servers = [p for p in parent.children() if "forkserver" in " ".join(p.cmdline())]
+        workers = [w for s in servers for w in s.children()]
+        time.sleep(0.1)
+    time.sleep(1.0)  # the workers run jobs
+    os.killpg(sweep.pid, signal.SIGINT)  # what a terminal's Ctrl-C does
+    _, err = sweep.communicate(timeout=60)
+    assert sweep.returncode == 128 + signal.SIGINT
+    assert err.strip() == "stepramp sweep: interrupted"  # no worker's traceback
+    assert not out.exists()
+    _, alive = psutil.wait_procs([*servers, *workers], timeout=10)
+    assert not alive

@@ -6,21 +6,45 @@ target), then judge it as `stepramp check --motor` does (the criterion at the
 box's worst case, the load angle at every corner and over `samples` seeded Monte
 Carlo samples; a motor without tolerances: on every execution). Jobs are
 independent and take their motor as JSON, so they run in-process, on local
-processes (concurrent.futures) or on a Dask cluster (distributed's executor),
-with the same rows in the same order.
+processes or on a Dask cluster, with the same rows in the same order (each row is
+put back at its job's place, whatever finishes first).
+
+Where jobs run (`run_sweep`):
+- local processes come from a forkserver, never forked from this process: it may run
+  threads (the load-angle model's, tqdm's monitor, a Dask client's loop) and a fork
+  copies their locks mid-use. The forkserver first imports `verify.sweep_worker`,
+  which runs one small job, so every worker forked from it starts with the planner
+  imported and the compiled load-angle kernels loaded. Workers ignore SIGINT: Ctrl-C
+  is this process's, which ends them at once.
+- on a Dask cluster this process is an asynchronous client and every wait is bounded
+  by `timeout_s`: connecting, and each stretch without a finished job, after which
+  the scheduler must answer (within `timeout_s`) and have workers, else the sweep
+  stops with a one-line `ClusterError`. A worker lost mid-sweep is the scheduler's to
+  recover: it runs that worker's jobs again elsewhere. Ctrl-C (or any error) cancels
+  the jobs still on the cluster.
 """
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 import csv
 import io
+import re
+import signal
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from typing import Any
 
-from profiles.errors import FormatError, StepRampError
+from profiles.errors import (
+    ClusterError,
+    FormatError,
+    StepRampError,
+    require_int,
+    require_number,
+)
 from profiles.progress import Progress, report
 
 COLUMNS = ("motor", "pulses", "move_time_s", "worst_load_angle_deg", "safe", "failed",
@@ -88,36 +112,88 @@ def judge(table: Any, motor: Any, samples: int, seed: int,
 
 def jobs_of(motors: Sequence[tuple[str, dict[str, Any]]], pulses: Sequence[int], *,
             samples: int, seed: int = 0, load_angle_deg: float | None = 75.0) -> list[Job]:
+    """One job per motor and move length, motors outermost. The load-angle target is
+    checked here, once: past the planner's range every job would fail alike."""
+    check_options(load_angle_deg=load_angle_deg)
     return [Job(name, obj, int(n), samples, seed, load_angle_deg)
             for name, obj in motors for n in pulses]
 
 
+DEFAULT_TIMEOUT_S = 10.0   # a scheduler on the network answers in milliseconds
+TIMEOUT_MAX_S = 3600.0
+WORKERS_MAX = 256
+WARM_MODULE = "verify.sweep_worker"  # what the local workers' forkserver imports first
+
+
 def run_sweep(jobs: Sequence[Job], *, workers: int = 1, scheduler: str | None = None,
+              timeout_s: float = DEFAULT_TIMEOUT_S,
               progress: Progress | None = None) -> list[dict[str, Any]]:
     """Every job's row, in job order: in this process (workers 1, no scheduler), on
-    `workers` local processes, or on the Dask cluster at `scheduler`."""
-    total = len(jobs)
-    report(progress, 0, total)
-    if scheduler is None and workers <= 1:
+    `workers` local processes, or on the Dask cluster at `scheduler`, waiting at most
+    `timeout_s` for it to answer (see the module's docstring)."""
+    check_options(workers=workers, timeout_s=timeout_s)
+    if scheduler is not None:
+        scheduler_address(scheduler)
+    report(progress, 0, len(jobs))
+    if scheduler is not None:
+        return _on_cluster(jobs, scheduler, float(timeout_s), progress)
+    if workers == 1 or len(jobs) < 2:
         rows = []
         for i, job in enumerate(jobs, start=1):
             rows.append(run_job(job))
-            report(progress, i, total)
+            report(progress, i, len(jobs))
         return rows
-    if scheduler is not None:
-        try:
-            from distributed import Client
-        except ImportError:
-            raise FormatError("--scheduler needs Dask: pip install 'stepramp[cluster]'") from None
-        try:
-            client = Client(scheduler, timeout=10, set_as_default=False)
-        except (OSError, TimeoutError) as e:
-            raise FormatError(f"--scheduler {scheduler}: no Dask scheduler answers ({e})") \
-                from None
-        with client:
-            return _collect(client.get_executor(pure=False), jobs, progress)
-    with ProcessPoolExecutor(max_workers=workers) as pool:
+    return _on_processes(jobs, workers, progress)
+
+
+def check_options(*, workers: int = 1, timeout_s: float = DEFAULT_TIMEOUT_S,
+                  load_angle_deg: float | None = None) -> None:
+    """The numbers a sweep takes, each in its range (FieldRangeError naming it): NaN, ±inf
+    and negatives never pass."""
+    require_int("workers", workers, 1, WORKERS_MAX)
+    require_number("timeout [s]", timeout_s, 0.0, TIMEOUT_MAX_S, lo_open=True)
+    if load_angle_deg is not None:
+        from profiles.motor.rotor import PEAK_DEG
+
+        require_number("load angle target [°]", load_angle_deg, 1.0, PEAK_DEG)
+
+
+# --- local processes ---------------------------------------------------------------------------
+def _on_processes(jobs: Sequence[Job], workers: int,
+                  progress: Progress | None) -> list[dict[str, Any]]:
+    import multiprocessing
+    from concurrent.futures.process import BrokenProcessPool
+
+    context = multiprocessing.get_context("forkserver")
+    # takes effect when the forkserver starts (once per process): see the module docstring
+    context.set_forkserver_preload([WARM_MODULE])
+    pool = ProcessPoolExecutor(min(workers, len(jobs)), mp_context=context,
+                               initializer=_ignore_sigint)
+    try:
         return _collect(pool, jobs, progress)
+    except BrokenProcessPool:
+        raise ClusterError("a local worker process died (killed, or out of memory?): the "
+                           "sweep stopped") from None
+    except BaseException:  # Ctrl-C: end the workers now, not after their current jobs
+        _end_workers(pool)
+        raise
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _ignore_sigint() -> None:
+    # A terminal's Ctrl-C reaches the whole process group: the parent handles it (it ends
+    # the workers); a worker interrupted on its own would print a traceback and go on.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _end_workers(pool: ProcessPoolExecutor) -> None:
+    end = getattr(pool, "terminate_workers", None)  # Python ≥ 3.14
+    if end is not None:
+        end()
+        return
+    for process in list((getattr(pool, "_processes", None) or {}).values()):
+        process.terminate()
 
 
 def _collect(executor: Executor, jobs: Sequence[Job],
@@ -129,6 +205,145 @@ def _collect(executor: Executor, jobs: Sequence[Job],
         rows[futures[future]] = future.result()
         report(progress, done, len(jobs))
     return [r for r in rows if r is not None]
+
+
+# --- a Dask cluster ----------------------------------------------------------------------------
+SCHEDULER_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
+_HOST_PORT = re.compile(r"(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9](?:[A-Za-z0-9.-]{0,251}[A-Za-z0-9])?)"
+                        r":([0-9]{1,5})")
+ECHO_CHARS = 60
+
+
+def scheduler_address(text: str, name: str = "scheduler") -> str:
+    """`text` if a Dask client can connect to it: SCHEME://HOST:PORT (tcp, tls, ws, wss,
+    ucx), HOST:PORT (tcp), or inproc://… (a cluster in this process); else a one-line
+    FormatError naming `name`, at once rather than after a connect timeout."""
+    scheme, sep, rest = text.partition("://")
+    if not sep:
+        scheme, rest = "tcp", text
+    if scheme == "inproc" and rest.isprintable() and rest.strip() == rest != "":
+        return text
+    found = _HOST_PORT.fullmatch(rest) if scheme in SCHEDULER_SCHEMES else None
+    if found is None:
+        hint = ("; http:// is the dashboard's, the scheduler listens on tcp:// (port 8786 by "
+                "default)") if scheme in ("http", "https") else ""
+        raise FormatError(f"{name} {_echo(text)}: not a Dask scheduler address: give "
+                          f"tcp://HOST:PORT (or tls://, ws://, wss://, ucx://){hint}")
+    require_int(f"{name} port", int(found[2]), 1, 65535)
+    return text
+
+
+def _echo(text: str) -> str:
+    """An input as a message shows it: quoted, and cut when long."""
+    if len(text) <= ECHO_CHARS:
+        return repr(text)
+    return f"{text[:ECHO_CHARS]!r}… ({len(text)} characters)"
+
+
+def _on_cluster(jobs: Sequence[Job], address: str, timeout_s: float,
+                progress: Progress | None) -> list[dict[str, Any]]:
+    try:
+        import distributed  # noqa: F401
+    except ImportError:
+        raise FormatError("--scheduler needs Dask: pip install 'stepramp[cluster]'") from None
+    work = _cluster_rows(jobs, address, timeout_s, progress)
+    with _quiet("distributed"):
+        try:
+            asyncio.get_running_loop()
+        except RuntimeError:  # the usual case: no event loop runs in this thread
+            return asyncio.run(work)
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(1) as thread:  # called from a running loop (a notebook)
+            return thread.submit(asyncio.run, work).result()
+
+
+@contextlib.contextmanager
+def _quiet(package: str) -> Iterator[None]:
+    """A package's log lines off (its loggers may set their own levels): the sweep says
+    what went wrong in its one line."""
+    import logging
+
+    names = [n for n in list(logging.root.manager.loggerDict)
+             if n == package or n.startswith(package + ".")]
+    loggers = [logging.getLogger(n) for n in names]
+    levels = [log.level for log in loggers]
+    for log in loggers:
+        log.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        for log, level in zip(loggers, levels, strict=True):
+            log.setLevel(level)
+
+
+async def _cluster_rows(jobs: Sequence[Job], address: str, timeout_s: float,
+                        progress: Progress | None) -> list[dict[str, Any]]:
+    from distributed import Client
+
+    client = Client(address, asynchronous=True, timeout=timeout_s, set_as_default=False)
+    waiting: dict[asyncio.Future[Any], int] = {}
+    try:
+        try:
+            await asyncio.wait_for(client, timeout_s)
+        except Exception as e:  # connecting is I/O: whatever fails, no scheduler answered
+            raise ClusterError(f"no Dask scheduler answered at {address} within "
+                               f"{timeout_s:g} s ({_why(e)})") from None
+        futures = client.map(run_job, list(jobs), pure=False)
+        waiting = {asyncio.ensure_future(_result(f)): i for i, f in enumerate(futures)}
+        rows: list[dict[str, Any] | None] = [None] * len(jobs)
+        pending = set(waiting)
+        while pending:
+            done, pending = await asyncio.wait(pending, timeout=timeout_s,
+                                               return_when=asyncio.FIRST_COMPLETED)
+            if not done:
+                await _check_cluster(client, address, timeout_s)
+            for task in done:
+                rows[waiting[task]] = _row_of(task, jobs[waiting[task]])
+            report(progress, len(jobs) - len(pending), len(jobs))
+        return [r for r in rows if r is not None]
+    finally:
+        for task in waiting:
+            task.cancel()
+        with contextlib.suppress(Exception):
+            await asyncio.wait_for(client.close(), timeout_s)
+
+
+async def _result(future: Any) -> dict[str, Any]:
+    row: dict[str, Any] = await future.result()  # an asynchronous client's future
+    return row
+
+
+async def _check_cluster(client: Any, address: str, timeout_s: float) -> None:
+    """After `timeout_s` without a finished job: the scheduler answers, with workers."""
+    try:
+        info = await asyncio.wait_for(client.scheduler.identity(), timeout_s)
+    except Exception as e:
+        raise ClusterError(f"the Dask scheduler at {address} stopped answering (no reply "
+                           f"within {timeout_s:g} s: {_why(e)})") from None
+    if not info.get("n_workers", len(info.get("workers", ()))):
+        raise ClusterError(f"the Dask cluster at {address} has no workers: no job finished "
+                           f"in {timeout_s:g} s")
+
+
+def _row_of(task: asyncio.Future[Any], job: Job) -> dict[str, Any]:
+    name = f"the job {job.motor} × {job.pulses} pulses"
+    if task.cancelled():  # the future was cancelled on the cluster (not by us: we wait)
+        raise ClusterError(f"{name} was cancelled on the Dask cluster")
+    error = task.exception()
+    if error is not None:
+        raise ClusterError(f"{name} failed on the Dask cluster: {_why(error)}")
+    row: dict[str, Any] = task.result()
+    return row
+
+
+def _why(e: BaseException) -> str:
+    """An exception in a few words: its class and its first line, cut."""
+    text = str(e).strip()
+    first = text.splitlines()[0] if text else ""
+    if len(first) > 2 * ECHO_CHARS:
+        first = first[:2 * ECHO_CHARS] + "…"
+    return type(e).__name__ + (f": {first}" if first else "")
 
 
 def encode_rows(rows: Sequence[dict[str, Any]], path: str) -> bytes | str:

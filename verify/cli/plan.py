@@ -24,6 +24,7 @@ OPTIONS = {"pulses": "--pulses", "max_stages": "--max-stages",
            "load angle target [°]": "--load-angle"}
 
 KINDS = ("free", "linear", "s-curve")
+SUMMARY_ITEMS_MAX = 20  # the text summary lists at most this many items of a mapping
 MAX_STAGES_DEFAULT = 127
 
 
@@ -62,7 +63,7 @@ def add_subparser(sub: Any) -> None:
 
 
 def _do_plan(args: argparse.Namespace) -> int:
-    from profiles.errors import FormatError
+    from profiles.errors import FormatError, require_number
     from profiles.motor import load_motor
     from profiles.motor.angles import PEAK_DEG
     from profiles.ppmc312.table import dump_table
@@ -70,6 +71,8 @@ def _do_plan(args: argparse.Namespace) -> int:
     from verify.output import write_output
     from verify.safety import judge_safety
 
+    with fields_as_options(OPTIONS):  # NaN, ±inf and negatives stop here, before any work
+        require_number("load angle target [°]", args.load_angle, 1.0, PEAK_DEG)
     if args.moves is not None and (args.pulses is not None or args.source):
         raise FormatError("--moves plans for a mix of lengths: give it without --pulses "
                           "and --from")
@@ -125,11 +128,22 @@ def _free(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, Any]]:
 
 def _duty_cycle(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, Any]]:
     from profiles.ppmc312.planner import plan_duty_cycle
+    from profiles.reading import display_path
 
     mix = read_mix(args.moves)
-    plan, times = plan_duty_cycle(motor, mix, clock=args.clock, max_stages=_max_stages(args),
-                                  separate_decel=args.separate_decel,
-                                  load_angle_deg=args.load_angle)
+    with progress_bar("plan --moves", unit="table") as progress:
+        plan, times = plan_duty_cycle(motor, mix, clock=args.clock,
+                                      max_stages=_max_stages(args),
+                                      separate_decel=args.separate_decel,
+                                      load_angle_deg=args.load_angle, progress=progress)
+    candidates = plan.extras["candidates"]
+    if len(mix) > len(times) or len(times) > len(candidates) // 2:
+        # the planner did not plan a table for each row: say what it did instead
+        print(f"stepramp plan: note: {display_path(args.moves)}: {len(mix)} rows, "
+              f"{_count(len(times), 'distinct move length')} (equal lengths' weights summed); "
+              f"{_count(len(candidates), 'candidate table')} planned (the mix's weighted "
+              "quantiles and lengths spread from its shortest to its longest), each timed on "
+              "every length", file=sys.stderr)
     table = plan.table
     return table, {"stages": len(table.rates), "clock": table.clock.name,
                    "separate_decel": table.separate, "weighted_time_s": plan.duration_s,
@@ -138,40 +152,82 @@ def _duty_cycle(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, An
 
 
 def read_mix(path: str) -> list[tuple[int, float]]:
-    """A duty-cycle CSV: header `pulses,weight`, one row per move length."""
+    """A duty-cycle CSV: header `pulses,weight`, then a row per move length (a length
+    may repeat: the planner sums its weights). Bounded: the file by the input cap, each
+    field by the characters a number may have, the rows and distinct lengths by the
+    duty-cycle caps; a bad row is one line naming the file, the line and the field."""
     import csv
     import io
 
     from profiles.errors import FormatError
-    from profiles.reading import read_bytes
+    from profiles.ppmc312.planner.duty_cycle import MIX_LENGTHS_MAX, MIX_ROWS_MAX
+    from profiles.reading import display_path, read_bytes
 
+    name = display_path(path)
     try:
-        text = read_bytes(path).decode("utf-8")
+        text = read_bytes(path).decode("utf-8-sig")  # a spreadsheet's byte-order mark too
     except UnicodeDecodeError:
-        raise FormatError(f"{path}: not a UTF-8 text file") from None
-    rows = list(csv.reader(io.StringIO(text)))
-    header = [c.strip().lower() for c in rows[0]] if rows else []
-    if header != ["pulses", "weight"]:
-        raise FormatError(f"{path}: the first line must be the header pulses,weight "
-                          f"(got {','.join(rows[0]) if rows else 'nothing'})")
+        raise FormatError(f"{name}: not a UTF-8 text file") from None
+    reader = csv.reader(io.StringIO(text))
     mix: list[tuple[int, float]] = []
-    for line, row in enumerate(rows[1:], start=2):
-        if not any(c.strip() for c in row):
-            continue
-        if len(row) != 2:
-            raise FormatError(f"{path}, line {line}: expected pulses,weight, got {row!r}")
-        try:
-            n, w = int(row[0].strip()), float(row[1].strip())
-        except ValueError:
-            raise FormatError(f"{path}, line {line}: pulses must be an integer and weight a "
-                              f"number, got {row!r}") from None
-        if not 1 <= n <= 0xFFFFFFFF or not 0 <= w < float("inf"):
-            raise FormatError(f"{path}, line {line}: pulses 1..4294967295 and a weight ≥ 0 "
-                              f"(got {n}, {w})")
-        mix.append((n, w))
+    try:
+        header = next(reader, None)
+        if header is None or [c.strip().lower() for c in header] != ["pulses", "weight"]:
+            shown = _echo(",".join(header)) if header else "nothing"
+            raise FormatError(f"{name}: the first line must be the header pulses,weight "
+                              f"(got {shown})")
+        for row in reader:
+            if not any(c.strip() for c in row):
+                continue
+            if len(mix) == MIX_ROWS_MAX:
+                raise FormatError(f"{name}: more than {MIX_ROWS_MAX} rows, the cap of "
+                                  "plan --moves: merge equal or nearby lengths")
+            mix.append(_mix_row(row, f"{name}, line {reader.line_num}"))
+    except csv.Error as e:
+        raise FormatError(f"{name}, line {reader.line_num}: cannot be read as CSV ({e})") from None
     if not mix:
-        raise FormatError(f"{path}: no move lengths after the header")
+        raise FormatError(f"{name}: no move lengths after the header")
+    distinct = len({n for n, _ in mix})
+    if distinct > MIX_LENGTHS_MAX:
+        raise FormatError(f"{name}: {distinct} distinct move lengths, more than the "
+                          f"{MIX_LENGTHS_MAX} plan --moves takes: merge nearby lengths")
     return mix
+
+
+def _mix_row(row: list[str], where: str) -> tuple[int, float]:
+    """One row of a mix: (pulses, weight), each field checked where it is named."""
+    from profiles.errors import FieldRangeError, FormatError, require_number
+    from profiles.ppmc312.planner.duty_cycle import MIX_PULSES_MIN, MIX_WEIGHT_MAX
+    from profiles.reading import MAX_NUMBER_CHARS
+
+    if len(row) != 2:
+        raise FormatError(f"{where}: {len(row)} fields, expected 2: pulses,weight")
+    pulses, weight = (c.strip() for c in row)
+    for field, value in (("pulses", pulses), ("weight", weight)):
+        if len(value) > MAX_NUMBER_CHARS:
+            raise FormatError(f"{where}, {field}: {len(value)} characters, more than the "
+                              f"{MAX_NUMBER_CHARS} a number may have")
+    try:
+        n = int(pulses)
+    except ValueError:
+        raise FormatError(f"{where}, pulses: {_echo(pulses)} is not an integer") from None
+    try:
+        w = float(weight)
+    except ValueError:
+        raise FormatError(f"{where}, weight: {_echo(weight)} is not a number") from None
+    if not MIX_PULSES_MIN <= n <= 0xFFFFFFFF:
+        # 8: the shortest move a free curve is planned for (2 stages × 2 pulses × 2 sides)
+        raise FieldRangeError(f"{where}, pulses", n, MIX_PULSES_MIN, 0xFFFFFFFF)
+    return n, require_number(f"{where}, weight", w, 0.0, MIX_WEIGHT_MAX)
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
+def _echo(text: str) -> str:
+    """An input field as a message shows it: quoted, and cut when long."""
+    return repr(text) if len(text) <= 60 else f"{text[:60]!r}… ({len(text)} characters)"
 
 
 def _from_reference(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, Any]]:
@@ -218,4 +274,6 @@ def _max_stages(args: argparse.Namespace) -> int:
 def _fmt(v: Any) -> str:
     if isinstance(v, float):
         return f"{v:.6g}"
+    if isinstance(v, dict) and len(v) > SUMMARY_ITEMS_MAX:  # a long mix's move times
+        return f"{len(v)} values (--format json lists them)"
     return str(v)

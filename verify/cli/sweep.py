@@ -13,11 +13,16 @@ from ._common import (
     EXIT_FINDINGS,
     EXIT_OK,
     add_sample_options,
+    fields_as_options,
     number,
     positive_int,
     progress_bar,
     pulse_list,
 )
+
+TIMEOUT_S = 10.0   # verify.sweep.DEFAULT_TIMEOUT_S, kept here so --help needs no import
+OPTIONS = {"workers": "--workers", "timeout [s]": "--timeout",
+           "load angle target [°]": "--load-angle"}
 
 
 def add_subparser(sub: Any) -> None:
@@ -36,7 +41,12 @@ def add_subparser(sub: Any) -> None:
                    help="local worker processes (default 1: in this process)")
     s.add_argument("--scheduler", metavar="ADDRESS",
                    help="run on the existing Dask cluster at this scheduler address, e.g. "
-                        "tcp://10.0.0.5:8786 (needs the extra stepramp[cluster])")
+                        "tcp://10.0.0.5:8786 (needs the extra stepramp[cluster]); a worker "
+                        "lost mid-sweep has its jobs run again on the others")
+    s.add_argument("--timeout", type=number, metavar="SECONDS",
+                   help="with --scheduler: how long to wait for the scheduler to answer [s]: "
+                        "to connect, and whenever no job has finished for this long (it must "
+                        f"then answer and have workers); default {TIMEOUT_S:g}")
     s.add_argument("--plot", metavar="OUT.png",
                    help="also write a summary figure (move time and worst load angle per "
                         "move length and motor)")
@@ -49,13 +59,27 @@ def _do_sweep(args: argparse.Namespace) -> int:
     from profiles.errors import FormatError
     from profiles.motor import load_motor
     from verify.output import write_output
-    from verify.sweep import encode_rows, jobs_of, run_sweep, sweep_figure
+    from verify.sweep import (
+        check_options,
+        encode_rows,
+        jobs_of,
+        run_sweep,
+        scheduler_address,
+        sweep_figure,
+    )
 
-    if args.workers < 1:
-        raise FormatError("--workers: at least 1")
-    if args.scheduler is not None and args.workers != 1:
-        raise FormatError("--workers runs local processes; with --scheduler the cluster's "
-                          "workers run the jobs: give one or the other")
+    # the options first, before any file is read or Dask imported
+    if args.scheduler is not None:
+        scheduler_address(args.scheduler, "--scheduler")
+        if args.workers != 1:
+            raise FormatError("--workers runs local processes; with --scheduler the "
+                              "cluster's workers run the jobs: give one or the other")
+    elif args.timeout is not None:
+        raise FormatError("--timeout bounds the waits on a Dask scheduler: give it with "
+                          "--scheduler")
+    timeout_s = TIMEOUT_S if args.timeout is None else args.timeout
+    with fields_as_options(OPTIONS):
+        check_options(workers=args.workers, timeout_s=timeout_s, load_angle_deg=args.load_angle)
     motors = []
     stems = [Path(p).stem for p in args.motors]
     for path, stem in zip(args.motors, stems, strict=True):
@@ -66,7 +90,7 @@ def _do_sweep(args: argparse.Namespace) -> int:
                    load_angle_deg=args.load_angle)
     with progress_bar("sweep", unit="job") as progress:
         rows = run_sweep(jobs, workers=args.workers, scheduler=args.scheduler,
-                         progress=progress)
+                         timeout_s=timeout_s, progress=progress)
     data = encode_rows(rows, args.output)
     if args.plot:
         from verify.plot import save_figure
