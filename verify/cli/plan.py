@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Callable
 from typing import Any
 
 from profiles.motor.angles import AIM_DEG
@@ -46,8 +45,9 @@ def add_subparser(sub: Any) -> None:
                    help="separate decel counts (LE=1); default: free curve whichever is "
                         "faster, init tables no (the ASCII init command has no LE=1 form)")
     p.add_argument("--from", dest="source", choices=("ruckig", "toppra"),
-                   help="free curve: quantise this continuous reference instead of optimising "
-                        "the staircase (needs --pulses)")
+                   help="free curve: follow this continuous reference's shape (its "
+                        "acceleration speed by speed), tightened like a plan, and report its "
+                        "time beside the reference's and the planner's (needs --pulses)")
     p.add_argument("--moves", metavar="MIX.csv",
                    help="free curve: plan one table for a duty cycle: a CSV with header "
                         "pulses,weight, a row per move length the machine runs; minimises "
@@ -232,23 +232,19 @@ def _echo(text: str) -> str:
 
 def _from_reference(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, Any]]:
     from profiles.errors import FormatError
-    from profiles.ppmc312.planner import choose_clock
-    from profiles.ppmc312.quantise import quantise_reference
-    from verify import references
+    from profiles.motor.angles import PEAK_DEG
+    from verify.reference_plan import plan_from_reference
 
     if args.pulses is None:
         raise FormatError("--from needs --pulses: a reference is a move of N pulses")
-    makers: dict[str, Callable[..., Any]] = {"ruckig": references.ruckig_reference,
-                                             "toppra": references.toppra_reference}
-    ref = makers[args.source](motor, args.pulses)
-    q = quantise_reference(ref.t_s, ref.x_pulses, ref.v_pps,
-                           clock=args.clock or choose_clock(motor),
-                           max_stages=_max_stages(args))
-    table = q.table
-    return table, {"source": args.source, "reference_s": ref.duration_s,
-                   "stages": len(table.rates), "clock": table.clock.name,
-                   "max_step_error_us": q.extras["max_step_error_us"],
-                   "mean_step_error_us": q.extras["mean_step_error_us"], "info": q.info}
+    followed = plan_from_reference(motor, args.pulses, args.source, clock=args.clock,
+                                   max_stages=_max_stages(args),
+                                   load_angle_deg=min(args.load_angle, PEAK_DEG))
+    table = followed.plan.table
+    return table, {**followed.summary(), "stages": len(table.rates),
+                   "clock": table.clock.name, "separate_decel": table.separate,
+                   "pulses": args.pulses, "solve_s": followed.plan.solve_s,
+                   "info": followed.plan.info}
 
 
 def _init(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, Any]]:

@@ -116,8 +116,20 @@ def plan_free_curve(motor: Motor, *, clock: Clock | None = None, max_stages: int
     corner."""
     from .tightening import tighten
 
+    chosen: list[bool] = []  # the LE variant the plain criterion picked
+
     def make(m: Motor, shaping: Shaping | None = None) -> Plan:
-        return plan(m, clock, max_stages, pulses, separate_decel, shaping=shaping)
+        if separate_decel is None and shaping is not None and chosen:
+            # a gentler plan of the same motor and move keeps the variant the plain one
+            # won with (planning both again halves nothing but the time)
+            try:
+                return plan(m, clock, max_stages, pulses, chosen[0], shaping=shaping)
+            except PlanError:
+                pass
+        result = plan(m, clock, max_stages, pulses, separate_decel, shaping=shaping)
+        if shaping is None:
+            chosen[:] = [result.table.separate]
+        return result
 
     if not motor.tolerances:
         return make(motor) if load_angle_deg is None else tighten(motor, make, load_angle_deg)

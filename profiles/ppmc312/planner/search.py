@@ -101,46 +101,23 @@ class DP:
 
 
 def run_dp(gr: Graph, lam: float, max_stages: int, start_f: float, jump: float) -> DP:
-    g, width = gr.pred.shape
+    """The DP at top-speed multiplier `lam`: for each node the cheapest path of 2..max_stages
+    stages ending there (the layers run compiled: profiles.ppmc312.planner.dp_kernel)."""
+    from .dp_kernel import layers
+
+    g = len(gr.f)
     cost = np.where(gr.valid, gr.w * (1.0 / gr.f[gr.pred] - lam), np.inf)
-    # accel and total pulses of a path packed in one int64 (total · 2^32 + accel): one
-    # gather per layer instead of two; both stay far below 2^31 (127 × 0xFFFFF × 2)
+    # accel and total pulses of a path packed in one int64 (total · 2^32 + accel): both
+    # stay far below 2^31 (127 × 0xFFFFF × 2)
     packed_w = (gr.w.astype(np.int64) << 32) + gr.wa.astype(np.int64)
-    pred_flat = gr.pred.ravel()
-    packed_flat = packed_w.ravel()
-    value = np.where(gr.start, 0.0, np.inf)
-    packed = np.zeros(g, dtype=np.int64)
-    parents = [np.full(g, -1, dtype=np.int32), np.full(g, -1, dtype=np.int32)]
-    base_idx = np.arange(g) * width
-    for m in range(2, max_stages + 1):
-        hi = int(np.searchsorted(gr.f, start_f + (m - 1) * jump * (1 + 1e-9), side="right"))
-        hi = min(hi, g)
-        cand = value[gr.pred[:hi]]
-        cand += cost[:hi]
-        idx = cand.argmin(axis=1)
-        idx += base_idx[:hi]
-        best = cand.ravel()[idx]
-        src = pred_flat[idx]
-        par = np.full(g, -1, dtype=np.int32)
-        if m == 2:  # a table has at least two stages: one-stage paths are not kept
-            better = np.isfinite(best)
-            new_packed = np.where(better, packed_flat[idx], 0)
-            value = np.full(g, np.inf)
-            packed = np.zeros(g, dtype=np.int64)
-            value[:hi] = best
-            packed[:hi] = new_packed
-        else:
-            better = best < value[:hi]
-            if hi == g and not better.any():
-                break  # nothing changes any more: more stages do not help
-            new_packed = np.where(better, packed[src] + packed_flat[idx], packed[:hi])
-            np.minimum(value[:hi], best, out=value[:hi])
-            packed[:hi] = new_packed
-        par[:hi] = np.where(better, src, -1)
-        parents.append(par)
+    value = np.empty(g)
+    packed = np.empty(g, dtype=np.int64)
+    parents = np.full((max_stages + 1, g), -1, dtype=np.int32)
+    used = layers(np.ascontiguousarray(gr.pred, dtype=np.int64), cost, packed_w, gr.start,
+                  gr.f, float(start_f), float(jump), int(max_stages), value, packed, parents)
     pulses = (packed >> 32).astype(float)
     accel = (packed & 0xFFFFFFFF).astype(float)
-    return DP(value, pulses, accel, np.asarray(parents), lam)
+    return DP(value, pulses, accel, parents[:used], lam)
 
 
 def backtrack(dp: DP, j: int) -> list[int]:
