@@ -24,7 +24,7 @@ from profiles.errors import StepRampError
 from profiles.mc200.formats import parse as mc200_parse
 from profiles.motor import Motor
 from profiles.ppmc312.clock import Clock
-from profiles.ppmc312.files import parse_upload
+from profiles.ppmc312.formats import parse_upload
 from profiles.ppmc312.table import table_from_json
 from profiles.ppmc312.upload import decode_table_read, decode_upload
 from profiles.reading import parse_json

@@ -121,10 +121,17 @@ def motor_figure(motor: Any) -> Any:
 
 def save_figure(fig: Any, path: str | Path) -> None:
     """Save as PNG or SVG (by extension), atomically."""
+    from verify.output import write_output
+
+    write_output(str(path), figure_bytes(fig, path))
+
+
+def figure_bytes(fig: Any, path: str | Path) -> bytes:
+    """The figure as the bytes of a PNG or SVG file (by `path`'s extension), closed: for a
+    command that writes it with its other outputs, all or none."""
     import io
 
     from profiles.errors import FormatError
-    from verify.output import write_output
 
     suffix = Path(path).suffix.lower().lstrip(".")
     if suffix not in ("png", "svg"):
@@ -132,4 +139,4 @@ def save_figure(fig: Any, path: str | Path) -> None:
     buf = io.BytesIO()
     fig.savefig(buf, format=suffix, dpi=150)
     _plt().close(fig)
-    write_output(str(path), buf.getvalue())
+    return buf.getvalue()

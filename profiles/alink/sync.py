@@ -34,7 +34,7 @@ from typing import Literal
 
 import numpy as np
 
-from ..errors import AlinkSyncError
+from ..errors import AlinkSyncError, echo
 from ..motor import Motor
 from ..ppmc312.sync import SyncTimes, envelope_motor, line_deviation_times
 from . import (
@@ -239,4 +239,4 @@ def plan_sync(axes: Sequence[tuple[str, Motor, int]], mode: Mode) -> AlinkSyncPl
         return plan_time_sync(axes)
     if mode == "line":
         return plan_line_sync(axes)
-    raise AlinkSyncError(f"mode: {mode!r} is not 'time' or 'line'")
+    raise AlinkSyncError(f"mode: {echo(mode)} is not 'time' or 'line'")

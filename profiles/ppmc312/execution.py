@@ -31,7 +31,6 @@ lands exactly at `duration_s`. The first-pulse latency is reported apart.
 
 from __future__ import annotations
 
-import bisect
 import io
 from collections.abc import Iterator
 from dataclasses import dataclass, field, replace

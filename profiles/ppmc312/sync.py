@@ -52,7 +52,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from ..errors import PlanError, SyncError
+from ..errors import PlanError, SyncError, echo
 from ..motor import Motor
 from .clock import INTERNAL_HZ, Clock
 from .criterion import all_length_safe
@@ -690,4 +690,4 @@ def plan_sync(axes: Sequence[tuple[str, Motor, int]], mode: Mode, *,
         return plan_time_sync(axes, accept=accept)
     if mode == "line":
         return plan_line_sync(axes, accept=accept)
-    raise SyncError(f"mode: {mode!r} is not 'time' or 'line'")
+    raise SyncError(f"mode: {echo(mode)} is not 'time' or 'line'")
