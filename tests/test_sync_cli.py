@@ -28,6 +28,7 @@ from profiles.ppmc312.table import load_table
 from profiles.ppmc312.upload import decode_move
 from verify.cli import main
 from verify.stall import check_stall
+from verify.sync import output_names
 
 ROOT = Path(__file__).resolve().parents[1]
 MOTORS = [load_motor(p) for p in bundled_motor_paths()]
@@ -55,6 +56,7 @@ def test_sync_writes_every_file(written: tuple[Path, int, str]) -> None:
         assert {f"{axis}.table.json", f"{axis}.upload.hex", f"{axis}.upload.ihex",
                 f"{axis}.move.hex"} <= names
     assert {"axes.h", "axes.json", "report.json"} <= names
+    assert names == set(output_names(["x", "y"], "ppmc312"))  # what -o is checked for
     assert (root / "xy.png").stat().st_size > 10_000
 
 
@@ -207,6 +209,8 @@ def test_alink_sync_cli_writes_commands_with_sta(tmp_path: Path,
                  str(tmp_path / "ab"), "--no-ruckig"]) == 0
     report = json.loads((tmp_path / "ab" / "report.json").read_text())
     assert report["device"] == "alink" and "ruckig" not in report
+    assert {p.name for p in (tmp_path / "ab").iterdir()} == set(output_names(["a", "b"],
+                                                                             "alink"))
     header = alink_parse_c_set((tmp_path / "ab" / "axes.h").read_bytes())
     assert sorted(header) == ["a", "b"]
     for item in report["axes"]:

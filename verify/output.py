@@ -71,14 +71,16 @@ def write_outputs(outputs: Sequence[tuple[str | None, Data]]) -> None:
 
 
 def refuse_unsafe_outputs(outputs: Sequence[tuple[str, str]], inputs: Sequence[str], *,
-                          folders: Sequence[tuple[str, str]] = ()) -> None:
+                          folders: Sequence[tuple[str, str]] = (),
+                          folder_ok: bool = False) -> None:
     """Refuse, before anything is read or written, an output that would lose data or
     land where the user did not mean: `outputs` are (option, path) of files, `folders`
     (option, path) of output folders, `inputs` the paths the command reads. A file
     output ending in `/` or naming a directory is not a file name; any output that is
     one of the inputs would overwrite what is being read; two outputs naming one file
     would leave only one of them. stdout (`-`) and the /dev/stdout family are streams
-    and never compared."""
+    and never compared. `folder_ok`: the outputs' folder may not exist yet (the command
+    makes it)."""
     seen: dict[object, str] = {}
     ins = {key: path for path in inputs if (key := _identity(path)) is not None}
     for option, out, is_folder in [*((o, p, False) for o, p in outputs),
@@ -92,7 +94,7 @@ def refuse_unsafe_outputs(outputs: Sequence[tuple[str, str]], inputs: Sequence[s
         if not is_folder and os.path.isdir(out):
             raise OutputError(f"{name}: is a directory; {option} takes a file name")
         folder = os.path.dirname(os.path.realpath(out))
-        if not is_folder and not os.path.isdir(folder):
+        if not is_folder and not folder_ok and not os.path.isdir(folder):
             raise OutputError(f"{name}: the folder {display_path(os.path.dirname(out) or '.')} "
                               "does not exist")
         key = _identity(out)

@@ -28,6 +28,7 @@ from profiles.motor import Motor
 from profiles.ppmc312 import sync as ppmc_sync
 from profiles.ppmc312.execution import Execution
 from profiles.ppmc312.sync import line_deviation_times, spread_tolerance_s
+from profiles.pulses import PulseTrain
 
 Plan = ppmc_sync.SyncPlan | alink_sync.AlinkSyncPlan
 AxisPlan = ppmc_sync.AxisMove | alink_sync.AlinkAxisMove
@@ -61,6 +62,14 @@ def pulse_times(plan: Plan) -> list[np.ndarray]:
     if isinstance(plan, alink_sync.AlinkSyncPlan):
         return [a.pulse_times_s() for a in plan.axes]
     return [a.execution.pulse_times_s() for a in plan.axes]
+
+
+def pulse_trains(plan: Plan) -> list[PulseTrain]:
+    """Each axis's pulse instants as pieces (`profiles.pulses`): any number of pulses in
+    bounded memory, for the line deviation and the figure."""
+    if isinstance(plan, alink_sync.AlinkSyncPlan):
+        return [alink_sync.pulse_train(a.settings, abs(a.pulses)) for a in plan.axes]
+    return [ppmc_sync.pulse_train(a.execution) for a in plan.axes]
 
 
 def durations(plan: Plan) -> list[float]:
@@ -229,7 +238,7 @@ def sync_report(plan: Plan, *, device: str, ruckig: RuckigSync | None = None,
     from verify.physics import judge_executions
     from verify.stall import check_stall
 
-    times = pulse_times(plan)
+    times = pulse_trains(plan)
     dev, _, _ = line_deviation_times(times)
     d = durations(plan)
     axes = []
@@ -273,6 +282,17 @@ def sync_report(plan: Plan, *, device: str, ruckig: RuckigSync | None = None,
 # device takes: they carry no check.
 SYNC_HEADER_NAME = "stepramp_sync"  # axes.h's include guard STEPRAMP_SYNC_H
 MOVE_SUFFIX = "_move"              # a PPMC-312 axis's move command in axes.h: NAME_move_…
+# the files of each axis (NAME.suffix) and the shared ones, by device; report.json too
+AXIS_FILES = {"ppmc312": (".table.json", ".upload.hex", ".upload.ihex", ".move.hex"),
+              "alink": (".settings.json", ".commands.hex")}
+SHARED_FILES = {"ppmc312": ("axes.h", "axes.json"), "alink": ("axes.h",)}
+REPORT_FILE = "report.json"
+
+
+def output_names(names: Sequence[str], device: str) -> list[str]:
+    """The names of every file sync writes into its folder for axes `names`."""
+    return ([n + suffix for n in names for suffix in AXIS_FILES[device]]
+            + [*SHARED_FILES[device], REPORT_FILE])
 
 
 def check_axis_names(names: Sequence[str], device: str) -> None:
@@ -309,22 +329,25 @@ def ppmc_files(plan: ppmc_sync.SyncPlan, *, trigger: int = ppmc_sync.TRIGGER_EVE
     for a in plan.axes:
         blocks = encode_table(a.table)
         move = ppmc_sync.move_command(a, trigger)
-        files[f"{a.name}.table.json"] = dump_table(a.table).encode()
-        files[f"{a.name}.upload.hex"] = FORMATS.render(blocks, "text")
-        files[f"{a.name}.upload.ihex"] = FORMATS.render(blocks, "ihex")
-        files[f"{a.name}.move.hex"] = FORMATS.render([move], "text")
+        table, hex_file, ihex_file, move_file = (a.name + s for s in AXIS_FILES["ppmc312"])
+        files[table] = dump_table(a.table).encode()
+        files[hex_file] = FORMATS.render(blocks, "text")
+        files[ihex_file] = FORMATS.render(blocks, "ihex")
+        files[move_file] = FORMATS.render([move], "text")
         uploads += [(a.name, blocks, f"axis {a.name}: {a.pulses} pulses, "
                                      f"{a.duration_s * 1e3:.6g} ms: its table upload"),
                     (a.name + MOVE_SUFFIX, [move], f"axis {a.name}: its move command (82), "
                                                    "held until the trigger")]
-    files["axes.h"] = render_c_set(uploads, RenderOptions(name=SYNC_HEADER_NAME, provenance=(
+    header, axes_file = SHARED_FILES["ppmc312"]
+    files[header] = render_c_set(uploads, RenderOptions(name=SYNC_HEADER_NAME, provenance=(
         Provenance(command, (f"One synchronised move ({plan.mode} mode). Per axis: write its "
                             "blocks in order, then its move command; every chip starts when "
                             "event input 1 goes low (TRG 01).",)))))
     # the same move as a set of tables: `stepramp simulate --axes DIR/axes.json`
-    files["axes.json"] = (json.dumps(
+    files[axes_file] = (json.dumps(
         {"format": "stepramp.axes/1", "mode": plan.mode, "device": "ppmc312",
-         "axes": [{"name": a.name, "table": f"{a.name}.table.json", "pulses": a.pulses}
+         "axes": [{"name": a.name, "table": a.name + AXIS_FILES["ppmc312"][0],
+                   "pulses": a.pulses}
                   for a in plan.axes]}, indent=1) + "\n").encode()
     return files
 
@@ -368,14 +391,16 @@ def alink_files(plan: alink_sync.AlinkSyncPlan, *, command: str | None = None
     sets: list[tuple[str, Sequence[Any], str]] = []
     for a, cmds in zip(plan.axes, alink_command_lists(plan), strict=True):
         settings = cmds[:-2]  # MODE_SIG and MOVE_R are the move, not the settings
-        files[f"{a.name}.settings.json"] = FORMATS.render(settings, "json", RenderOptions(
+        settings_file, commands_file = (a.name + s for s in AXIS_FILES["alink"])
+        files[settings_file] = FORMATS.render(settings, "json", RenderOptions(
             header={"pulses": a.pulses, "duration_s": a.duration_s}))
-        files[f"{a.name}.commands.hex"] = FORMATS.render(cmds, "hex")
+        files[commands_file] = FORMATS.render(cmds, "hex")
         sets.append((a.name, cmds, f"axis {a.name}: {a.pulses} pulses, "
                                    f"{a.duration_s * 1e3:.6g} ms: settings, MODE_SIG (STA), "
                                    "MOVE_R"))
-    files["axes.h"] = render_c_set(sets, RenderOptions(name=SYNC_HEADER_NAME, provenance=(
-        Provenance(command, (f"One synchronised move ({plan.mode} mode).",)))))
+    files[SHARED_FILES["alink"][0]] = render_c_set(sets, RenderOptions(
+        name=SYNC_HEADER_NAME,
+        provenance=Provenance(command, (f"One synchronised move ({plan.mode} mode).",))))
     return files
 
 
@@ -392,7 +417,7 @@ def joint_timeline(names: Sequence[str], executions: Sequence[Execution]) -> str
     events.sort(key=lambda ev: (ev[0], names.index(ev[1])))
     width = max(len(n) for n in names)
     lines = [f"{t * 1e3:12.6f} ms  {name:<{width}}  {what}" for t, name, what in events]
-    dev = line_deviation_times([e.pulse_times_s() for e in executions])[0]
+    dev = line_deviation_times([ppmc_sync.pulse_train(e) for e in executions])[0]
     d = [e.duration_s for e in executions]
     lines.append(f"finish spread {(max(d) - min(d)) * 1e6:.3f} µs, line deviation "
                  f"{dev:.4g} pulses")
@@ -400,24 +425,27 @@ def joint_timeline(names: Sequence[str], executions: Sequence[Execution]) -> str
 
 
 # --------------------------------------------------------------------------- figure
+FIGURE_SPEED_POINTS = 400  # an A-Link axis's speed: between this many of its pulses
+
+
 def sync_figure(plan: Plan, ruckig: RuckigSync | None = None) -> Any:
     """Joint path against the line, deviation over time, each axis's speed against time
     (with ruckig's time- and phase-synchronised speeds when given)."""
     from verify.plot import _plt
 
     plt = _plt()
-    times = pulse_times(plan)
-    dev, t, d = line_deviation_times(times)
+    trains = pulse_trains(plan)
+    dev, t, d = line_deviation_times(trains)  # every instant, or a bounded trace
     fig, (ax_p, ax_d, ax_v) = plt.subplots(3, 1, figsize=(8.0, 10.0), constrained_layout=True,
                                            gridspec_kw={"height_ratios": [4, 2, 3]})
-    lead = int(np.argmax([len(ti) for ti in times]))
+    lead = int(np.argmax([tr.count for tr in trains]))
     names = [a.name for a in plan.axes]
-    x = [np.searchsorted(ti, t, side="right") for ti in times]
+    x = [tr.emitted(t) for tr in trains]
     for i, name in enumerate(names):
         if i == lead and len(names) > 1:
             continue
         ax_p.step(x[lead], x[i], where="post", lw=1.2, label=f"{name} (executed)")
-        ax_p.plot([0, len(times[lead])], [0, len(times[i])], ls="--", lw=0.8, color="0.3")
+        ax_p.plot([0, trains[lead].count], [0, trains[i].count], ls="--", lw=0.8, color="0.3")
     ax_p.set(xlabel=f"{names[lead]} [pulses]", ylabel="other axes [pulses]",
              title=f"{plan.mode} mode: joint path against the straight line "
                    f"(max deviation {dev:.3g} pulses)")
@@ -429,11 +457,11 @@ def sync_figure(plan: Plan, ruckig: RuckigSync | None = None) -> Any:
             te, _, v = a.execution.edges()
             ax_v.step(te * 1e3, v, where="post", lw=1.4,
                       label=f"{a.name} ({a.duration_s * 1e3:.2f} ms)")
-        else:
-            ti = times[i]
-            mid = ti[1:] if len(ti) > 1 else ti
-            ax_v.plot(mid * 1e3, 1.0 / np.diff(ti) if len(ti) > 1 else [0], lw=1.4,
-                      label=f"{a.name} ({a.duration_s * 1e3:.2f} ms)")
+        else:  # the modelled speed between pulses spread evenly over the move
+            k = np.unique(np.linspace(1, trains[i].count, FIGURE_SPEED_POINTS).astype(np.int64))
+            tk = trains[i].time_of(k)
+            ax_v.plot(tk[1:] * 1e3, np.diff(k) / np.diff(tk) if len(k) > 1 else [0.0] * 0,
+                      lw=1.4, label=f"{a.name} ({a.duration_s * 1e3:.2f} ms)")
     if ruckig is not None:
         for key, ls, dur in (("time", "--", ruckig.time_feasible_s),
                              ("phase", ":", ruckig.phase_feasible_s)):

@@ -52,6 +52,11 @@ def _do_sync(args: argparse.Namespace) -> int:
     if args.mode is not None:
         axes = replace(axes, mode=args.mode)
     sync.check_axis_names([a.name for a in axes.axes], axes.device)
+    # what the folder will get must not be what is read (an axes file named axes.json in
+    # -o's folder, a motor file there): refused before planning
+    names = sync.output_names([a.name for a in axes.axes], axes.device)
+    refuse_unsafe_outputs([("-o", str(out_dir / n)) for n in names], [
+        args.axes, *(str(a.motor_path) for a in axes.axes if a.motor_path)], folder_ok=True)
     plan = sync.plan_axes(axes)
     ruckig = None
     if not args.no_ruckig:
@@ -65,7 +70,7 @@ def _do_sync(args: argparse.Namespace) -> int:
         commands = [ppmc_sync.move_command(a) for a in plan.axes]
         files = sync.ppmc_files(plan, command=command_line(args))
     report = sync.sync_report(plan, device=axes.device, ruckig=ruckig, commands=commands)
-    files["report.json"] = (json.dumps(report, indent=1) + "\n").encode()
+    files[sync.REPORT_FILE] = (json.dumps(report, indent=1) + "\n").encode()
     outputs: list[tuple[str | None, Data]] = [(str(out_dir / n), d) for n, d in files.items()]
     if args.plot:
         from verify.plot import figure_bytes
@@ -75,12 +80,6 @@ def _do_sync(args: argparse.Namespace) -> int:
     created = not out_dir.exists()
     out_dir.mkdir(parents=True, exist_ok=True)
     try:
-        # the files the folder gets must not be what was read (an axes file named
-        # axes.json in -o's folder, a motor file there)
-        refuse_unsafe_outputs([("-o", out) for out, _ in outputs[:len(files)]]
-                              + ([("--plot", args.plot)] if args.plot else []),
-                              [args.axes, *(str(a.motor_path) for a in axes.axes
-                                            if a.motor_path)])
         write_outputs(outputs)
     except BaseException:
         if created:  # made for this run and still empty: gone too
