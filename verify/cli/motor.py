@@ -7,7 +7,14 @@ import argparse
 import json
 from typing import Any
 
-from ._common import EXIT_OK, EXIT_UNUSABLE, fields_as_options, number, positive_int
+from ._common import (
+    EXIT_FINDINGS,
+    EXIT_OK,
+    EXIT_UNUSABLE,
+    fields_as_options,
+    number,
+    positive_int,
+)
 
 
 def add_subparser(sub: Any) -> None:
@@ -159,21 +166,29 @@ def dump_motor(obj: dict[str, Any]) -> str:
 
 
 def _do_check(args: argparse.Namespace) -> int:
-    from profiles.errors import StepRampError
-    from profiles.motor.schema import problems
-    from profiles.reading import read_json
+    """The problems of each file on stdout: a verdict (exit 1) like `stepramp check`'s; a
+    file that cannot be read is also named on stderr, one line each (exit 2)."""
+    import sys
 
-    bad = False
+    from profiles.errors import StepRampError, bounded
+    from profiles.motor.schema import problems
+    from profiles.reading import display_path, read_json
+
+    unusable, bad = [], False
     for path in args.files:
+        name = display_path(path)
         try:
             found = problems(read_json(path))
         except StepRampError as e:
-            print(f"{path}: {e}")
-            bad = True
+            line = str(e) if str(e).startswith(name) else f"{name}: {e}"
+            print(bounded(line))
+            unusable.append(line)
             continue
         if not found:
-            print(f"{path}: ok")
-        for where, message in found:
-            print(f"{path}: {where or '/'}: {message}")
+            print(f"{name}: ok")
+        for where, message in found:  # a schema message can quote a whole field
+            print(bounded(f"{name}: {where or '/'}: {message}"))
         bad = bad or bool(found)
-    return EXIT_UNUSABLE if bad else EXIT_OK
+    for line in unusable:
+        print(f"stepramp motor: {bounded(line)}", file=sys.stderr)
+    return EXIT_UNUSABLE if unusable else EXIT_FINDINGS if bad else EXIT_OK
