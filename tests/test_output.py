@@ -319,6 +319,12 @@ def test_sigterm_to_the_cli_mid_stream_leaves_nothing(tmp_path: Path) -> None:
 
 
 # --- unsafe output paths, refused before anything is read (issue #20 items 9, 10) -----------------
+def test_write_output_never_writes_a_file_for_a_folder_name(tmp_path: Path) -> None:
+    with pytest.raises(OutputError, match="ends in /"):
+        write_output(f"{tmp_path}/newdir/", "x")
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_folder_name_is_refused(tmp_path: Path) -> None:
     (tmp_path / "d").mkdir()
     for out, says in ((f"{tmp_path}/new/", "ends in /"), (str(tmp_path / "d"), "is a directory"),

@@ -153,6 +153,8 @@ class _Target:
             raise OutputError(f"{echo(name)}: an empty output path (use - for stdout)")
         if out.startswith(_STREAM_PREFIXES):
             return cls(out, "stream", out)
+        if out.endswith(("/", os.sep)):  # realpath would drop the slash and write a file
+            raise OutputError(f"{name}: names a folder (it ends in /); give a file name")
         try:
             st = os.stat(out)  # follows symlinks: judge what is written to
         except FileNotFoundError:
