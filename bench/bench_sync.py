@@ -12,6 +12,12 @@ For pairs of bundled motors and pulse ratios, one line each:
   run (the leader's fastest table for the axes' envelope motor, the follower's rates =
   the leader's divided by the pulse ratio and rounded, counts scaled and rounded), and
   their ratio.
+
+    python bench/bench_sync.py --long
+
+The line deviation of long moves (issue #20 item 13): two planned tables run for up to
+0xFFFFFFFF pulses, the time `line_deviation` takes and the trace it keeps (before pulse
+trains, more than 10 M pulses an axis were refused).
 """
 
 from __future__ import annotations
@@ -62,10 +68,29 @@ def naive_follower(lead: FreeCurveTable, scale: float) -> FreeCurveTable:
     return FreeCurveTable(clock, tuple(rates), tuple(acc), tuple(dec))
 
 
+def long_moves() -> None:
+    nema17, _, pk566 = (load_motor(p) for p in bundled_motor_paths())
+    lead = plan_free_curve(nema17, pulses=10**6).table
+    follow = plan_free_curve(pk566, pulses=10**6).table
+    print("pulses (x, y)             | line deviation [pulses] | s     | trace points")
+    for nx in (10**6, 10**7, 10**8, 10**9, 0xFFFFFFFF):
+        ny = int(nx * 0.37)
+        runs = [simulate_move(lead, nx), simulate_move(follow, ny)]
+        t0 = time.perf_counter()
+        dev, t, _ = line_deviation(runs)
+        took = time.perf_counter() - t0
+        print(f"{nx:>12d} {ny:>12d} | {dev:23.6g} | {took:5.2f} | {len(t)}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--quick", action="store_true", help="the first two cases only")
+    ap.add_argument("--long", action="store_true",
+                    help="only the line deviation of long moves (up to 0xFFFFFFFF pulses)")
     args = ap.parse_args()
+    if args.long:
+        long_moves()
+        return
     motors = [load_motor(p) for p in bundled_motor_paths()]
     cases = CASES[:2] if args.quick else CASES
     print("motors          pulses         | time: T/alone T/ruckig spread[µs] | line: T/alone "

@@ -1,15 +1,23 @@
 """Fuzzing the `stepramp` command in-process: hostile files and command lines.
 
 Every case runs `verify.cli.main(argv)` on a mutated input file (tables, motors, upload
-files in each format, table-read answers, MC-200 packet files) or a mutated command line
-and holds it to the CLI's contract:
+files in each format, table-read answers, MC-200 packet files, A-Link settings, axes
+files, duty-cycle and vendor-curve CSVs) or a mutated command line and holds it to the
+CLI's contract:
 - the exit code is 0, 1 or 2;
 - no traceback and no "internal error" (the error contract's catch-all: a bug);
 - exit 2 prints exactly one line on stderr, naming the command;
 - after exit 2, no output file and no temp file is left behind (check's report excepted:
   it is written on exit 2 too, naming the unusable file);
 - `check` on a free-curve table gives the verdict of a plain re-statement of the chip's
-  rules written here (exit 1 exactly when one is broken).
+  rules written here (exit 1 exactly when one is broken);
+- an answer within `CASE_TIMEOUT_S` (a hostile input must not buy unbounded work).
+
+Every command of `verify.cli.COMMANDS` has templates here (`covered_commands`; the tests
+check it). The planner-bound ones (sync, plan, compare, sweep, a motor's plan) are in
+the HEAVY lists: the fast tests run the light lists once, the slow ones everything.
+Every case runs in its own temporary folder, and the campaign runs with that folder as
+the working directory: nothing is ever written beside the repository.
 
 `tests/test_fuzz.py` drives the same generators from hypothesis; this script runs a
 longer seeded campaign and prints counts per command:
@@ -26,8 +34,11 @@ import json
 import os
 import random
 import re
+import shutil
+import signal
 import sys
 import tempfile
+import threading
 import time
 from collections import Counter, defaultdict
 from collections.abc import Callable, Iterator
@@ -40,6 +51,7 @@ if str(ROOT) not in sys.path:
 
 EXAMPLES = ROOT / "examples"
 MOTORS = sorted((ROOT / "profiles" / "data").glob("motor-*.json"))
+CASE_TIMEOUT_S = 120.0  # a case that runs longer is a problem ("no answer")
 
 # Values a hostile JSON number or option can take.
 NUMBERS = ["0", "-1", "1", "2", "255", "256", "65535", "65536", "1048575", "1048576",
@@ -70,6 +82,17 @@ def seeds() -> dict[str, bytes]:
         "table-init": (EXAMPLES / "init-linear.json").read_bytes(),
         "table-read": (EXAMPLES / "free-curve-nema17.read.hex").read_bytes(),
         "motor": MOTORS[0].read_bytes(),
+        "mix": (EXAMPLES / "duty-cycle.csv").read_bytes(),
+        "curve": (EXAMPLES / "curve-example.csv").read_bytes(),
+        # motors by absolute path: the case's file lives in a temporary folder
+        "axes-alink": json.dumps({"format": "stepramp.axes/1", "mode": "line",
+                                  "device": "alink", "axes": [
+                                      {"name": "a", "motor": str(MOTORS[0]), "pulses": 4000},
+                                      {"name": "b", "motor": str(MOTORS[0]), "pulses": -1500}]},
+                                 indent=1).encode(),
+        "axes-ppmc": json.dumps({"format": "stepramp.axes/1", "mode": "time", "axes": [
+            {"name": "x", "motor": str(MOTORS[0]), "pulses": 3000},
+            {"name": "y", "motor": str(MOTORS[-1]), "pulses": -1200}]}, indent=1).encode(),
     }
     with tempfile.TemporaryDirectory() as tmp:
         for fmt in ("hex", "bin", "json", "c", "bus"):
@@ -175,18 +198,40 @@ class _Stdout(io.TextIOWrapper):
         return raw.decode("utf-8", "backslashreplace")
 
 
-def run_cli(argv: list[str]) -> tuple[int, str, str]:
+class CaseTimeout(BaseException):
+    """A case ran past its time budget (raised by SIGALRM, unwinding like Ctrl-C)."""
+
+
+TIMED_OUT = -2  # the exit code run_cli reports for a case stopped by its budget
+
+
+def run_cli(argv: list[str], timeout_s: float | None = None) -> tuple[int, str, str]:
+    """`main(argv)` in-process with captured output; with `timeout_s`, stopped after that
+    long (main thread only: SIGALRM)."""
     from verify.cli import main
 
     out, err = _Stdout(), _Stdout()
     stdin = io.TextIOWrapper(io.BytesIO(b""), encoding="utf-8")
     saved = sys.stdout, sys.stderr, sys.stdin
     sys.stdout, sys.stderr, sys.stdin = out, err, stdin
+    timed = timeout_s is not None and threading.current_thread() is threading.main_thread()
+
+    def alarm(_signum: int, _frame: object) -> None:
+        raise CaseTimeout
+
+    previous = signal.signal(signal.SIGALRM, alarm) if timed else None
+    if timed:
+        signal.setitimer(signal.ITIMER_REAL, float(timeout_s or 0))
     try:
         code = main(argv)
     except SystemExit as e:  # main must not exit; report it as a problem below
         code = -1 if not isinstance(e.code, int) else 100 + e.code
+    except CaseTimeout:
+        code = TIMED_OUT
     finally:
+        if timed:
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            signal.signal(signal.SIGALRM, previous)
         sys.stdout, sys.stderr, sys.stdin = saved
     return code, out.text(), err.text()
 
@@ -194,9 +239,11 @@ def run_cli(argv: list[str]) -> tuple[int, str, str]:
 def judge(command: str, argv: list[str], folder: Path, before: set[str],
           expect: int | None = None) -> Outcome:
     """Run one case and list every way it breaks the contract."""
-    code, out, err = run_cli(argv)
+    code, out, err = run_cli(argv, CASE_TIMEOUT_S)
     o = Outcome(command, argv, code, out, err)
-    if code not in (0, 1, 2):
+    if code == TIMED_OUT:
+        o.problems.append(f"no answer within {CASE_TIMEOUT_S:g} s")
+    elif code not in (0, 1, 2):
         o.problems.append(f"exit code {code}")
     if "Traceback" in err or "Traceback" in out:
         o.problems.append("traceback")
@@ -215,8 +262,9 @@ def judge(command: str, argv: list[str], folder: Path, before: set[str],
                       if not (command.startswith("check") and n == "out.txt"))
         if left:
             o.problems.append(f"exit 2 left files behind: {left}")
-    if code in (0, 1):
-        hidden = [n for n in os.listdir(folder) if n.startswith(".") and n not in before]
+    if code in (0, 1):  # temp files, also in an output folder (sync's)
+        hidden = [str(p.relative_to(folder)) for p in folder.rglob(".*")
+                  if p.name not in before]
         if hidden:
             o.problems.append(f"temp files left: {hidden}")
     if expect is not None and code in (0, 1) and code != expect:
@@ -290,6 +338,29 @@ FILE_COMMANDS: list[tuple[str, str, list[str]]] = [
     ("check", "alink-json", ["check", "FILE"]),
     ("alink read", "alink-text", ["alink", "read", "FILE"]),
     ("alink read", "alink-c", ["alink", "read", "FILE", "--format", "json"]),
+    ("show", "table-free", ["show", "FILE", "--format", "json"]),
+    ("show", "table-init", ["show", "FILE", "--format", "csv", "-o", "OUT"]),
+    ("show --motor", "motor", ["show", "EXAMPLE", "--motor", "FILE"]),
+    ("motor new", "curve", ["motor", "new", "--curve", "FILE", "--speed-unit", "rpm",
+                            "--torque-unit", "oz-in", "--rotor-inertia-gcm2", "50", "-o", "OUT"]),
+    ("motor check", "motor", ["motor", "check", "FILE"]),
+    ("link init", "table-init", ["link", "--port", "loop://", "--address", "1", "--timeout-s",
+                                 "0.01", "--retries", "0", "init", "FILE"]),
+]
+
+# planner-bound: each valid case plans (seconds); the slow tests and the campaign run them
+HEAVY_FILE_COMMANDS: list[tuple[str, str, list[str]]] = [
+    ("sync", "axes-alink", ["sync", "FILE", "-o", "OUTDIR", "--no-ruckig"]),
+    ("sync", "axes-ppmc", ["sync", "FILE", "-o", "OUTDIR", "--no-ruckig", "--format", "json"]),
+    ("plan --moves", "mix", ["plan", "--motor", "MOTOR", "--moves", "FILE", "--max-stages",
+                             "12", "-o", "OUT"]),
+    ("plan", "motor", ["plan", "--motor", "FILE", "--pulses", "3000", "--max-stages", "12"]),
+    ("compare", "table-free", ["compare", "FILE", "--motor", "MOTOR", "--pulses", "3000",
+                               "--references", "ruckig", "--no-physics"]),
+    ("sweep", "motor", ["sweep", "--motors", "FILE", "--pulses", "3000", "--samples", "0",
+                        "-o", "OUT"]),
+    ("alink settings --motor", "motor", ["alink", "settings", "--motor", "FILE", "--pulses",
+                                         "4000", "-o", "OUT"]),
 ]
 
 ARGV_TEMPLATES: list[tuple[str, list[str]]] = [
@@ -317,17 +388,46 @@ ARGV_TEMPLATES: list[tuple[str, list[str]]] = [
     ("usage", ["V", "V"]),
     ("usage", ["check"]),
     ("usage", ["export", "EXAMPLE", "--format", "V"]),
+    ("show", ["show", "PATH", "-o", "PATH"]),
+    ("move", ["move", "--pulses", "V", "-o", "PATH"]),
+    ("plan", ["plan", "--motor", "PATH"]),
+    ("plan --moves", ["plan", "--motor", "MOTOR", "--moves", "PATH"]),
+    ("compare", ["compare", "PATH", "--motor", "MOTOR", "--pulses", "V"]),
+    ("sync", ["sync", "PATH", "-o", "OUTDIR"]),
+    ("sweep", ["sweep", "--motors", "PATH", "--pulses", "V", "-o", "OUT"]),
+    ("motor new", ["motor", "new", "--microstep", "V", "--phases", "V", "--rotor-inertia-gcm2",
+                   "V", "--curve", "CURVE", "--speed-unit", "rpm", "--torque-unit", "oz-in"]),
+    ("motor check", ["motor", "check", "PATH"]),
+    ("link", ["link", "--port", "V", "--address", "V", "--timeout-s", "0.01", "--retries",
+              "0", "poll"]),
+    ("emulate", ["emulate", "--address", "V"]),           # without --pty: a usage error
+    ("emulate", ["emulate", "--pty", "--address", "BADADDR"]),
+]
+
+HEAVY_ARGV_TEMPLATES: list[tuple[str, list[str]]] = [
+    ("sync", ["sync", "AXES", "-o", "PATH", "--no-ruckig"]),
+    ("sweep", ["sweep", "--motors", "MOTOR", "--pulses", "V", "--samples", "0", "--load-angle",
+               "V", "-o", "OUT"]),
+    ("plan", ["plan", "--motor", "MOTOR", "--kind", "linear", "--pulses", "V", "--clock", "V"]),
 ]
 
 
+def covered_commands() -> set[str]:
+    """The commands the templates run (the first word of each label; usage aside)."""
+    labels = [c[0] for c in (*FILE_COMMANDS, *HEAVY_FILE_COMMANDS)] + [
+        t[0] for t in (*ARGV_TEMPLATES, *HEAVY_ARGV_TEMPLATES)]
+    return {label.split()[0] for label in labels} - {"usage"}
+
+
 _SUFFIX = {"hex": ".hex", "bin": ".bin", "c": ".h", "bus": ".txt", "read": ".hex",
-           "init": ".hex"}
+           "init": ".hex", "mix": ".csv", "curve": ".csv"}
 
 
 def file_case(rnd: random.Random, seed_data: dict[str, bytes], folder: Path,
-              index: int | None = None) -> Outcome:
-    label, kind, template = FILE_COMMANDS[rnd.randrange(len(FILE_COMMANDS))
-                                          if index is None else index]
+              index: int | None = None,
+              commands: list[tuple[str, str, list[str]]] | None = None) -> Outcome:
+    commands = FILE_COMMANDS if commands is None else commands
+    label, kind, template = commands[rnd.randrange(len(commands)) if index is None else index]
     raw = seed_data[kind]
     roll = rnd.random()
     if roll < 0.45 and raw.lstrip()[:1] == b"{":  # numbers only: the JSON stays valid
@@ -347,13 +447,16 @@ def file_case(rnd: random.Random, seed_data: dict[str, bytes], folder: Path,
     return outcome
 
 
-def argv_case(rnd: random.Random, folder: Path, index: int | None = None) -> Outcome:
-    label, template = ARGV_TEMPLATES[rnd.randrange(len(ARGV_TEMPLATES))
-                                     if index is None else index]
+def argv_case(rnd: random.Random, folder: Path, index: int | None = None,
+              templates: list[tuple[str, list[str]]] | None = None) -> Outcome:
+    templates = ARGV_TEMPLATES if templates is None else templates
+    label, template = templates[rnd.randrange(len(templates)) if index is None else index]
     argv = []
     for a in template:
         if a == "V":
             argv.append(rnd.choice(OPTION_VALUES))
+        elif a == "BADADDR":  # emulate --pty with a valid address serves until Ctrl-C
+            argv.append(rnd.choice(["16", "99", "-1", "abc", "", "0x100"]))
         elif a == "VMAX":
             argv.append(rnd.choice(["1e-9", "0", "-1", "nan", "inf", "", "20000", "1e9"]))
         elif a == "PERIOD":
@@ -373,39 +476,66 @@ def argv_case(rnd: random.Random, folder: Path, index: int | None = None) -> Out
 
 def _fill(a: str, folder: Path, path: Path | None) -> str:
     return {"FILE": str(path), "OUT": str(folder / "out.txt"),
+            "OUTDIR": str(folder / "out"),
             "EXAMPLE": str(EXAMPLES / "free-curve-nema17.json"),
             "INIT": str(EXAMPLES / "init-linear.json"),
-            "READ": str(EXAMPLES / "free-curve-nema17.read.hex")}.get(a, a)
+            "READ": str(EXAMPLES / "free-curve-nema17.read.hex"),
+            "MOTOR": str(MOTORS[0]), "CURVE": str(EXAMPLES / "curve-example.csv"),
+            "AXES": str(EXAMPLES / "axes-alink.json")}.get(a, a)
 
 
 def _clean(folder: Path) -> None:
     for p in folder.iterdir():
         with contextlib.suppress(OSError):
-            p.unlink()
+            if p.is_dir() and not p.is_symlink():
+                shutil.rmtree(p)
+            else:
+                p.unlink()
 
 
-def campaign(cases: int, seed: int) -> Iterator[Outcome]:
+@contextlib.contextmanager
+def case_folder() -> Iterator[Path]:
+    """A temporary folder, also the working directory while it lasts: whatever a case
+    writes by a relative name lands in it, never beside the repository."""
+    with tempfile.TemporaryDirectory(prefix="stepramp-fuzz-") as tmp:
+        folder = Path(tmp)
+        before = os.getcwd()
+        os.chdir(folder)
+        try:
+            yield folder
+        finally:
+            os.chdir(before)
+
+
+def campaign(cases: int, seed: int, *, heavy: bool = True) -> Iterator[Outcome]:
     rnd = random.Random(seed)
     seed_data = seeds()
-    with tempfile.TemporaryDirectory() as tmp:
-        folder = Path(tmp)
+    files = FILE_COMMANDS + (HEAVY_FILE_COMMANDS if heavy else [])
+    argvs = ARGV_TEMPLATES + (HEAVY_ARGV_TEMPLATES if heavy else [])
+    with case_folder() as folder:
         for _ in range(cases):
             if rnd.random() < 0.75:
-                yield file_case(rnd, seed_data, folder)
+                yield file_case(rnd, seed_data, folder, commands=files)
             else:
-                yield argv_case(rnd, folder)
+                yield argv_case(rnd, folder, templates=argvs)
 
 
 def main() -> int:
+    global CASE_TIMEOUT_S
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", type=int, default=20_000)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--show", type=int, default=20, help="problem cases to print")
+    ap.add_argument("--light", action="store_true",
+                    help="leave out the planner-bound templates (sync, plan, compare, sweep)")
+    ap.add_argument("--timeout", type=float, default=CASE_TIMEOUT_S,
+                    help=f"seconds a case may run (default {CASE_TIMEOUT_S:g})")
     args = ap.parse_args()
     started = time.monotonic()
     counts: dict[str, Counter[str]] = defaultdict(Counter)
     shown = 0
-    for k, o in enumerate(campaign(args.cases, args.seed), start=1):
+    CASE_TIMEOUT_S = args.timeout
+    for k, o in enumerate(campaign(args.cases, args.seed, heavy=not args.light), start=1):
         if k % 1000 == 0:
             print(f"{k} cases, {time.monotonic() - started:.0f} s", file=sys.stderr, flush=True)
         c = counts[o.command]

@@ -25,7 +25,7 @@ from profiles.motor.datasheet import Datasheet, Drive, motor_from_datasheet, pul
 from profiles.motor.loads import lead_screw
 from profiles.motor import Motor, bundled_motor_paths, load_motor
 from profiles.ppmc312 import decode_upload, encode_free_curve
-from profiles.ppmc312.files import parse_upload, render
+from profiles.ppmc312.formats import parse_upload, render
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.motor.units import machine_to_pps, pps_to_machine
 

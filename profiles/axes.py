@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from .errors import FieldRangeError, FormatError, require_int
+from .errors import FieldRangeError, FormatError, echo, require_int
 from .motor import Motor, load_motor
 from .motor.catalogue import is_name
 from .reading import read_json
@@ -83,16 +83,16 @@ def axes_from_json(obj: Any, base: Path | None = None, *, load_motors: bool = Tr
     if not isinstance(obj, dict):
         raise FormatError("an axes file holds one JSON object")
     if obj.get("format") != FORMAT:
-        raise FormatError(f"format: expected {FORMAT!r}, got {obj.get('format')!r}")
+        raise FormatError(f"format: expected {echo(FORMAT)}, got {echo(obj.get('format'))}")
     unknown = set(obj) - _KEYS
     if unknown:
         raise FormatError(f"unknown key(s) in axes file: {', '.join(sorted(unknown))}")
     mode = obj.get("mode", "time")
     if mode not in MODES:
-        raise FormatError(f"mode: expected one of {', '.join(MODES)}, got {mode!r}")
+        raise FormatError(f"mode: expected one of {', '.join(MODES)}, got {echo(mode)}")
     device = obj.get("device", "ppmc312")
     if device not in DEVICES:
-        raise FormatError(f"device: expected one of {', '.join(DEVICES)}, got {device!r}")
+        raise FormatError(f"device: expected one of {', '.join(DEVICES)}, got {echo(device)}")
     items = obj.get("axes")
     if not isinstance(items, list) or not items:
         raise FormatError("axes: expected a non-empty list of axis objects")
@@ -104,7 +104,7 @@ def axes_from_json(obj: Any, base: Path | None = None, *, load_motors: bool = Tr
     for i, item in enumerate(items):
         axis = _axis(item, i, device, base, load_motors)
         if axis.name.lower() in seen:
-            raise FormatError(f"axes[{i}].name: {axis.name!r} is used twice (names are file "
+            raise FormatError(f"axes[{i}].name: {echo(axis.name)} is used twice (names are file "
                               "names and C prefixes: they must differ, ignoring case)")
         seen.add(axis.name.lower())
         axes.append(axis)
@@ -120,7 +120,7 @@ def _axis(item: Any, i: int, device: str, base: Path | None, load_motors: bool) 
         raise FormatError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}")
     name = item.get("name")
     if not isinstance(name, str) or not NAME_RE.match(name):
-        raise FormatError(f"{where}.name: {name!r} is not a name of 1-32 letters, digits or _ "
+        raise FormatError(f"{where}.name: {echo(name)} is not a name of 1-32 letters, digits or _ "
                           "starting with a letter or _ (it names files and C symbols)")
     hi = PULSES_MAX[device]
     label = f"{where}.pulses (signed, 0 excluded)"

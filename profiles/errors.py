@@ -33,7 +33,8 @@ class FieldRangeError(StepRampError, ValueError):
         self.hi = hi
         allowed = (f"above {_show(lo)} up to {_show(hi)}" if lo_excluded
                    else f"{_show(lo)}..{_show(hi)}")
-        super().__init__(f"{field}: {_show(value)} is outside the allowed range {allowed}")
+        super().__init__(f"{bounded(field)}: {_show(value)} is outside the allowed range "
+                         f"{allowed}")
 
 
 class DecodeError(StepRampError, ValueError):
@@ -69,7 +70,8 @@ class FieldChoiceError(FieldRangeError):
     def __init__(self, field: str, value: object, allowed: tuple[int, ...]) -> None:
         super().__init__(field, value, min(allowed), max(allowed))
         shown = ", ".join(str(a) for a in allowed)
-        self.args = (f"{field}: {value!r} is not one of the allowed values {shown}",)
+        self.args = (f"{bounded(field)}: {echo(value)} is not one of the allowed values "
+                     f"{shown}",)
 
 
 class MoveParameterError(FieldRangeError):
@@ -186,9 +188,41 @@ def require_int(name: str, value: object, lo: int, hi: int) -> int:
 def _show(value: object) -> str:
     if isinstance(value, bool):
         return str(value)
-    if isinstance(value, int):
+    if isinstance(value, int) and value.bit_length() <= 64:
         return f"{value} (0x{value:X})" if value >= 0 and abs(value) > 9 else str(value)
-    return repr(value) if isinstance(value, str) else str(value)
+    return echo(value)
+
+
+# --- echoing input in messages -------------------------------------------------------------
+# An error line names the value it refuses, but a hostile input field can be a megabyte: every
+# message that echoes input goes through `echo` (a value) or `bounded` (a text), so an error
+# line stays a line.
+ECHO_MAX_CHARS = 60
+LINE_MAX_CHARS = 1000  # a whole message (paths and several echoed values included)
+
+
+def echo(value: object, limit: int = ECHO_MAX_CHARS) -> str:
+    """`value` as a message shows it (a string quoted, as repr does), cut to its first
+    `limit` characters with "…" and the full length when longer. An integer too long to
+    print (Python refuses ints of over 4300 digits) is described by its size."""
+    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 4000:
+        return f"an integer of about {int(value.bit_length() * 0.30103)} digits"
+    if isinstance(value, str):
+        if len(value) <= limit:
+            return repr(value)
+        return f"{value[:limit]!r}… ({len(value)} characters)"
+    try:
+        text = repr(value) if isinstance(value, bytes | bytearray) else str(value)
+    except ValueError:  # a container holding such an integer
+        return f"a {type(value).__name__} too large to print"
+    return bounded(text, limit)
+
+
+def bounded(text: str, limit: int = LINE_MAX_CHARS) -> str:
+    """`text` unchanged, or its first `limit` characters, "…" and its full length."""
+    if len(text) <= limit:
+        return text
+    return f"{text[:limit]}… ({len(text)} characters)"
 
 
 class OutputError(StepRampError, OSError):

@@ -36,7 +36,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Generic, Literal, TypeVar
 
-from .errors import CorruptedError, DecodeError, FieldRangeError, FormatError
+from .errors import CorruptedError, DecodeError, FieldRangeError, FormatError, echo
 
 T = TypeVar("T")
 
@@ -124,7 +124,7 @@ class FormatTable(Generic[T]):
     def get(self, name: str) -> Format[T]:
         key = self.aliases.get(name, name)
         if key not in self.formats:
-            raise FormatError(f"format: {name!r} is not one of {', '.join(self.names)}")
+            raise FormatError(f"format: {echo(name)} is not one of {', '.join(self.names)}")
         return self.formats[key]
 
     def for_path(self, path: str | Path | None) -> Format[T] | None:
@@ -260,9 +260,10 @@ def hex_bytes(content: str, where: str) -> bytes:
         column = content.index(token, column)
         for k, ch in enumerate(token):
             if ch not in _HEX_DIGITS:
-                raise DecodeError(f"{where}, column {column + k + 1}: {ch!r} is not a hex digit")
+                raise DecodeError(f"{where}, column {column + k + 1}: {echo(ch)} is not a hex "
+                                  "digit")
         if len(token) % 2:
-            raise DecodeError(f"{where}, column {column + 1}: {token!r} has an odd number of "
+            raise DecodeError(f"{where}, column {column + 1}: {echo(token)} has an odd number of "
                               "hex digits (two a byte)")
         out += bytes.fromhex(token)
         column += len(token)
@@ -475,14 +476,29 @@ extern float for goto if inline int long register restrict return short signed s
 struct switch typedef union unsigned void volatile while _Bool _Complex _Imaginary""".split())
 
 
-def c_name(name: str) -> str:
-    """`name` if it can prefix C symbols: a letter, then letters, digits, underscores."""
+def c_name(name: str, what: str = "--name") -> str:
+    """`name` if it can prefix C symbols: a letter, then letters, digits, underscores;
+    `what` names where it came from in the error."""
     if not isinstance(name, str) or not _C_IDENTIFIER.match(name) or name in C_KEYWORDS \
             or len(name) > C_NAME_MAX:
-        raise FormatError(f"--name {name!r}: a C prefix is a letter followed by letters, "
+        raise FormatError(f"{what} {echo(name)}: a C prefix is a letter followed by letters, "
                           f"digits or underscores, at most {C_NAME_MAX} characters, not a C "
                           "keyword (e.g. x_axis)")
     return name
+
+
+def c_header(comment: Sequence[str], name: str, body: Sequence[str],
+             includes: Sequence[str] = ("stdint.h",)) -> bytes:
+    """A whole C header: the comment, the include guard NAME_H, the includes, `body`."""
+    macro = c_name(name).upper()
+    return "\n".join([c_comment(comment), f"#ifndef {macro}_H", f"#define {macro}_H", "",
+                      *(f"#include <{h}>" for h in includes), "", *body,
+                      "", f"#endif /* {macro}_H */", ""]).encode("ascii")
+
+
+def c_prefixes(text: str, array: re.Pattern[str]) -> list[str]:
+    """The distinct symbol prefixes (`array`'s group 1) of a header, in order."""
+    return list(dict.fromkeys(m.group(1) for m in array.finditer(text)))
 
 
 def c_name_for(path: str | Path | None, default: str = "stepramp") -> str:
@@ -513,7 +529,7 @@ def c_values(row: str, where: str, hi: int) -> list[int]:
         try:
             value = int(t.rstrip("uU"), 0)
         except ValueError:
-            raise DecodeError(f"{where}: {t!r} is not a C integer") from None
+            raise DecodeError(f"{where}: {echo(t)} is not a C integer") from None
         if not 0 <= value <= hi:
             raise DecodeError(f"{where}: {t} is not a " + ("byte (0..0xFF)" if hi == 0xFF else
                                                             f"{hi.bit_length()}-bit word"))

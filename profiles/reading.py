@@ -1,11 +1,13 @@
 """Reading input files: one place that turns a path into bytes or JSON.
 
 Every reader raises a one-line `FormatError` naming the file, never a traceback,
-and every read is bounded: only regular files (or `-`, stdin) are read, never more
-than `MAX_INPUT_BYTES`; JSON nesting is capped at `MAX_JSON_DEPTH` and numbers at
-`MAX_NUMBER_CHARS` characters; NaN and Infinity are refused. Tables, motors and
-uploads are kilobytes, so the caps only ever stop a wrong path (/dev/zero, a FIFO,
-a directory) or a hostile file, before it costs memory, time or a Python limit.
+and every read is bounded: regular files, named pipes (a FIFO, a shell's process
+substitution `<(cmd)`) and `-` (stdin) are read, never more than `MAX_INPUT_BYTES`;
+JSON nesting is capped at `MAX_JSON_DEPTH` and numbers at `MAX_NUMBER_CHARS`
+characters; NaN and Infinity are refused. Tables, motors and uploads are kilobytes,
+so the caps only ever stop a wrong path (/dev/zero, a directory, a socket) or a
+hostile file, before it costs memory, time or a Python limit. A pipe is read like
+stdin: to its end (its writer closing it), at most the same number of bytes.
 """
 
 from __future__ import annotations
@@ -59,37 +61,48 @@ def read_bytes(path: str | Path, *, limit: int = MAX_INPUT_BYTES) -> bytes:
 
 
 def _read_regular(path: str, name: str, limit: int) -> bytes:
-    # stat before open: opening a FIFO for reading blocks until a writer appears.
+    # stat before open: a device or socket is refused unopened (/dev/zero never ends, a
+    # tape rewinds); a regular file's size is judged before a byte is read.
     try:
         st = os.stat(path)
     except FileNotFoundError:
         raise FormatError(f"{name}: no such file") from None
     except (OSError, ValueError) as e:
         raise FormatError(f"{name}: cannot read ({_why(e)})") from None
-    _require_regular(st.st_mode, name)
-    require_size(st.st_size, name, limit)
+    pipe = _require_readable(st.st_mode, name)
+    if not pipe:
+        require_size(st.st_size, name, limit)
     try:
-        # O_NONBLOCK: should the path become a FIFO between stat and open, open returns.
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+        # A regular file opens with O_NONBLOCK: should the path become a FIFO between stat
+        # and open, open returns (and fstat refuses it). A pipe opens blocking, as `cat`
+        # does: it waits for its writer (process substitution has one already).
+        fd = os.open(path, os.O_RDONLY | (0 if pipe else getattr(os, "O_NONBLOCK", 0)))
     except FileNotFoundError:
         raise FormatError(f"{name}: no such file") from None
     except OSError as e:
         raise FormatError(f"{name}: cannot read ({_why(e)})") from None
     with os.fdopen(fd, "rb") as fh:
-        _require_regular(os.fstat(fd).st_mode, name)  # what was opened, not what was stat'ed
+        # what was opened, not what was stat'ed
+        if _require_readable(os.fstat(fd).st_mode, name) != pipe:
+            raise FormatError(f"{name}: changed while it was opened")
         try:
             return _read_capped(fh, limit, name)
         except OSError as e:
             raise FormatError(f"{name}: cannot read ({_why(e)})") from None
 
 
-def _require_regular(mode: int, name: str) -> None:
+def _require_readable(mode: int, name: str) -> bool:
+    """Whether a file of `mode` is a pipe (read like stdin); a directory, device or
+    socket is refused."""
+    if stat.S_ISFIFO(mode):
+        return True
     if stat.S_ISDIR(mode):
         raise FormatError(f"{name}: is a directory, not a file")
     if not stat.S_ISREG(mode):
-        kind = ("a FIFO" if stat.S_ISFIFO(mode) else "a device" if stat.S_ISCHR(mode)
-                or stat.S_ISBLK(mode) else "a socket" if stat.S_ISSOCK(mode) else "special")
-        raise FormatError(f"{name}: is {kind}, not a regular file (use - to read stdin)")
+        kind = ("a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else "a socket"
+                if stat.S_ISSOCK(mode) else "special")
+        raise FormatError(f"{name}: is {kind}, not a file or a pipe (use - to read stdin)")
+    return False
 
 
 def require_size(size: int, name: str, limit: int = MAX_INPUT_BYTES) -> None:

@@ -18,8 +18,10 @@ from profiles.alink.formats import (
     commands_of_document,
     is_settings_file,
     parse,
+    parse_c_set,
     payload_of,
     render,
+    render_c_set,
     settings_of,
 )
 from profiles.errors import FormatError, StepRampError
@@ -181,6 +183,30 @@ def test_two_headers_compile_together_and_verify_their_crc(tmp_path: Path) -> No
         "y_axis.h": render(other, "c", RenderOptions(name="y_axis"))}, MAIN_C)
     assert out.returncode == 0, out.returncode  # 3/4: a CRC constant the C code disagrees with
     assert out.stdout.splitlines() == [" ".join(f"{w:04X}" for w in c.words) for c in other]
+
+
+@needs_cc
+def test_a_set_of_axes_compiles_reads_back_and_checks_each(tmp_path: Path) -> None:
+    other = A.settings_commands(A.quantise_settings(800, 40000, 2.5, 60000, s_curve=True),
+                                slave_address=7, axis=1)
+    text = render_c_set([("x_axis", COMMANDS, "axis x"), ("y_axis", other, "axis y")],
+                        RenderOptions(name="stepramp_sync"))
+    parsed = parse_c_set(text)
+    assert [c.words for c in parsed["x_axis"].items] == [c.words for c in COMMANDS]
+    assert [c.words for c in parsed["y_axis"].items] == [c.words for c in other]
+    assert {p.integrity for p in parsed.values()} == {"verified"}
+    out = compile_and_run(tmp_path, {"axes.h": text}, MAIN_C.replace(
+        '#include "x_axis.h"\n#include "y_axis.h"\n#include "y_axis.h"',
+        '#include "axes.h"\n#include "axes.h"'))
+    assert out.returncode == 0, out.returncode
+    assert out.stdout.splitlines() == [" ".join(f"{w:04X}" for w in c.words) for c in other]
+    word = f"0x{other[0].words[1]:04X}"
+    changed = text.replace(f"{{0x{other[0].words[0]:04X}, {word}".encode(),
+                           f"{{0x{other[0].words[0]:04X}, 0x{other[0].words[1] ^ 1:04X}"
+                           .encode())
+    assert changed != text
+    with pytest.raises(StepRampError, match="Y_AXIS"):
+        parse_c_set(changed)
 
 
 # --- detection and errors ---------------------------------------------------------------------

@@ -6,7 +6,7 @@ import json
 from pathlib import Path
 
 from profiles.motor import load_motor
-from profiles.ppmc312.files import render
+from profiles.ppmc312.formats import render
 from profiles.ppmc312.table import load_table
 from profiles.ppmc312.upload import encode_table
 from verify.check_file import check_file, dedupe, load_checkable, looks_like_table_json

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from profiles.ppmc312.files import parse_upload
+from profiles.ppmc312.formats import parse_upload
 from profiles.ppmc312.table import load_table
 from profiles.ppmc312.upload import decode_upload, encode_table
 from verify.cli import main
@@ -203,7 +203,7 @@ def test_move_command_bytes(capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_decode_table_read_response(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
-    from profiles.ppmc312.files import render
+    from profiles.ppmc312.formats import render
     from profiles.ppmc312.upload import encode_table_read_response
 
     table = load_table(GOOD)

@@ -88,7 +88,7 @@ def test_check_names_the_field(tmp_path: Path, capsys: pytest.CaptureFixture[str
     bad.write_text(json.dumps(obj))
     good = bundled_motor_paths()[0]
     code, out, _ = run(["motor", "check", str(good), str(bad)], capsys)
-    assert code == 2
+    assert code == 1  # findings: a verdict, not unusable input
     assert out.splitlines() == [
         f"{good}: ok",
         f"{bad}: /pullout_torque/1/1: -0.4 is less than the minimum of 0",
@@ -98,8 +98,9 @@ def test_check_names_the_field(tmp_path: Path, capsys: pytest.CaptureFixture[str
 
 def test_check_unreadable_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     (tmp_path / "x.json").write_text("{nope")
-    code, out, _ = run(["motor", "check", str(tmp_path / "x.json")], capsys)
+    code, out, err = run(["motor", "check", str(tmp_path / "x.json")], capsys)
     assert code == 2 and "not valid JSON" in out
+    assert err.startswith("stepramp motor: ") and err.count("\n") == 1 and "x.json" in err
 
 
 def test_vertical_axis_load_torque_is_written(tmp_path: Path,

@@ -18,7 +18,7 @@ import pytest
 
 from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312 import decode_upload
-from profiles.ppmc312.files import parse_upload
+from profiles.ppmc312.formats import parse_upload
 from profiles.ppmc312.table import load_table
 from verify.designer import Designer, Settings, design, designer, loaded_motor
 

@@ -2,7 +2,12 @@
 input in-process. A reader returns or raises a one-line StepRampError; a command exits
 0/1 with the right verdict or 2 with one line on stderr, never a traceback or an
 internal error, and leaves no output or temp file behind on failure. The generators
-are bench/fuzz.py's (its longer campaign reports counts per command)."""
+are bench/fuzz.py's (its longer campaign reports counts per command).
+
+The fast part runs one seeded case of every light template (every command, a few
+seconds); the hypothesis-driven campaign over every template, the planner-bound ones
+included, is `slow`. Cases run in temporary folders that are also the working
+directory: nothing lands beside the repository."""
 
 from __future__ import annotations
 
@@ -24,7 +29,7 @@ from profiles.errors import StepRampError
 from profiles.mc200.formats import parse as mc200_parse
 from profiles.motor import Motor
 from profiles.ppmc312.clock import Clock
-from profiles.ppmc312.files import parse_upload
+from profiles.ppmc312.formats import parse_upload
 from profiles.ppmc312.table import table_from_json
 from profiles.ppmc312.upload import decode_table_read, decode_upload
 from profiles.reading import parse_json
@@ -39,7 +44,10 @@ _spec.loader.exec_module(fuzz)
 FUZZ = settings(max_examples=40, deadline=None,
                 suppress_health_check=[HealthCheck.too_slow,
                                        HealthCheck.function_scoped_fixture])
+FEW = settings(FUZZ, max_examples=4)
 SEEDS = fuzz.seeds()
+ALL_FILE_COMMANDS = fuzz.FILE_COMMANDS + fuzz.HEAVY_FILE_COMMANDS
+ALL_ARGV_TEMPLATES = fuzz.ARGV_TEMPLATES + fuzz.HEAVY_ARGV_TEMPLATES
 
 
 def _one_line_or_value(read: Callable[[bytes], Any], data: bytes) -> None:
@@ -72,37 +80,80 @@ READERS: dict[str, tuple[str, Callable[[bytes], Any]]] = {
 
 
 @pytest.mark.parametrize("name", READERS)
-@FUZZ
+@FEW
 @given(rnd=st.randoms(use_true_random=False))
 def test_readers_return_or_raise_one_line(name: str, rnd: random.Random) -> None:
     kind, read = READERS[name]
     _one_line_or_value(read, fuzz.mutate(SEEDS[kind], rnd))
 
 
-@pytest.mark.parametrize("name", ["table", "motor", "upload hex", "mc200 bin"])
+@pytest.mark.slow
+@pytest.mark.parametrize("name", READERS)
 @FUZZ
+@given(rnd=st.randoms(use_true_random=False))
+def test_readers_campaign(name: str, rnd: random.Random) -> None:
+    kind, read = READERS[name]
+    _one_line_or_value(read, fuzz.mutate(SEEDS[kind], rnd))
+
+
+@pytest.mark.parametrize("name", ["table", "motor", "upload hex", "mc200 bin"])
+@FEW
 @given(data=st.binary(max_size=300))
 def test_readers_on_random_bytes(name: str, data: bytes) -> None:
     _one_line_or_value(READERS[name][1], data)
 
 
-@pytest.mark.parametrize("index", range(len(fuzz.FILE_COMMANDS)),
-                         ids=[f"{c[0]}-{c[1]}" for c in fuzz.FILE_COMMANDS])
+def test_every_command_is_fuzzed() -> None:
+    from verify.cli import COMMANDS
+
+    assert set(COMMANDS) <= fuzz.covered_commands()
+    light = {c[0].split()[0] for c in fuzz.FILE_COMMANDS} | {
+        t[0].split()[0] for t in fuzz.ARGV_TEMPLATES}
+    assert set(COMMANDS) <= light  # the fast part below runs every one
+
+
+def _tree(root: Path) -> list[str]:
+    return sorted(p.name for p in root.iterdir())
+
+
+def test_every_light_template_once() -> None:
+    """One seeded case of every light template: each command once or more, in seconds."""
+    before = _tree(ROOT)
+    problems = []
+    with fuzz.case_folder() as folder:
+        for i in range(len(fuzz.FILE_COMMANDS)):
+            o = fuzz.file_case(random.Random(i), SEEDS, folder, i)
+            problems += [(o.argv, o.problems, o.err)] if o.problems else []
+        for i in range(len(fuzz.ARGV_TEMPLATES)):
+            o = fuzz.argv_case(random.Random(i), folder, i)
+            problems += [(o.argv, o.problems, o.err)] if o.problems else []
+    assert problems == []
+    assert _tree(ROOT) == before  # nothing written beside the repository
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("index", range(len(ALL_FILE_COMMANDS)),
+                         ids=[f"{c[0]}-{c[1]}" for c in ALL_FILE_COMMANDS])
 @settings(FUZZ, max_examples=8)
 @given(rnd=st.randoms(use_true_random=False))
-def test_commands_on_mutated_files(index: int, rnd: random.Random, tmp_path: Path) -> None:
+def test_commands_on_mutated_files(index: int, rnd: random.Random, tmp_path: Path,
+                                   monkeypatch: pytest.MonkeyPatch) -> None:
     folder = Path(tempfile.mkdtemp(dir=tmp_path))
-    outcome = fuzz.file_case(rnd, SEEDS, folder, index)
+    monkeypatch.chdir(folder)
+    outcome = fuzz.file_case(rnd, SEEDS, folder, index, commands=ALL_FILE_COMMANDS)
     assert outcome.problems == [], (outcome.argv, outcome.err)
 
 
-@pytest.mark.parametrize("index", range(len(fuzz.ARGV_TEMPLATES)),
-                         ids=[" ".join(t[1][:2]) for t in fuzz.ARGV_TEMPLATES])
+@pytest.mark.slow
+@pytest.mark.parametrize("index", range(len(ALL_ARGV_TEMPLATES)),
+                         ids=[" ".join(t[1][:2]) for t in ALL_ARGV_TEMPLATES])
 @settings(FUZZ, max_examples=6)
 @given(rnd=st.randoms(use_true_random=False))
-def test_command_lines(index: int, rnd: random.Random, tmp_path: Path) -> None:
+def test_command_lines(index: int, rnd: random.Random, tmp_path: Path,
+                       monkeypatch: pytest.MonkeyPatch) -> None:
     folder = Path(tempfile.mkdtemp(dir=tmp_path))
-    outcome = fuzz.argv_case(rnd, folder, index)
+    monkeypatch.chdir(folder)
+    outcome = fuzz.argv_case(rnd, folder, index, templates=ALL_ARGV_TEMPLATES)
     assert outcome.problems == [], (outcome.argv, outcome.err)
 
 

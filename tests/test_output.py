@@ -316,3 +316,44 @@ def test_sigterm_to_the_cli_mid_stream_leaves_nothing(tmp_path: Path) -> None:
     assert proc.returncode == 128 + signal.SIGTERM
     assert err.decode().count("\n") == 1 and "interrupted by signal 15" in err.decode()
     assert list(tmp_path.iterdir()) == []
+
+
+# --- unsafe output paths, refused before anything is read (issue #20 items 9, 10) -----------------
+def test_write_output_never_writes_a_file_for_a_folder_name(tmp_path: Path) -> None:
+    with pytest.raises(OutputError, match="ends in /"):
+        write_output(f"{tmp_path}/newdir/", "x")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_folder_name_is_refused(tmp_path: Path) -> None:
+    (tmp_path / "d").mkdir()
+    for out, says in ((f"{tmp_path}/new/", "ends in /"), (str(tmp_path / "d"), "is a directory"),
+                      (f"{tmp_path}/d/", "ends in /"), (f"{tmp_path}/no/f", "does not exist")):
+        with pytest.raises(OutputError, match=says):
+            output.refuse_unsafe_outputs([("-o", out)], [])
+    output.refuse_unsafe_outputs([("-o", f"{tmp_path}/no/f")], [], folder_ok=True)
+    output.refuse_unsafe_outputs([], [], folders=[("-o", f"{tmp_path}/d/")])
+
+
+def test_an_input_is_never_an_output(tmp_path: Path) -> None:
+    f = tmp_path / "t.json"
+    f.write_text("{}")
+    (tmp_path / "link").symlink_to("t.json")
+    os.link(f, tmp_path / "hard")
+    for out in (f, tmp_path / "link", tmp_path / "hard", f"{tmp_path}/./t.json"):
+        with pytest.raises(OutputError, match="is the input"):
+            output.refuse_unsafe_outputs([("-o", str(out))], ["x", str(f)])
+    with pytest.raises(OutputError, match="is the input"):  # an input named by a link
+        output.refuse_unsafe_outputs([("-o", str(f))], [str(tmp_path / "link")])
+    output.refuse_unsafe_outputs([("-o", str(tmp_path / "new"))], [str(f)])
+
+
+def test_streams_and_devices_are_never_the_same_file() -> None:
+    output.refuse_unsafe_outputs([("-o", "-"), ("--csv", "/dev/stdout"), ("--x", "/dev/null")],
+                                 ["-", "/dev/null"])
+
+
+def test_two_outputs_naming_one_file_are_refused(tmp_path: Path) -> None:
+    with pytest.raises(OutputError, match=r"--csv .* names the same file"):
+        output.refuse_unsafe_outputs([("--csv", str(tmp_path / "a")),
+                                      ("--samples", f"{tmp_path}/./a")], [])

@@ -25,7 +25,16 @@ from profiles.errors import CorruptedError, DecodeError, FormatError, StepRampEr
 from profiles.formats import RenderOptions, c_name, c_name_for, crc32
 from profiles.ppmc312.ascii import encode_serial_init
 from profiles.ppmc312.clock import Clock
-from profiles.ppmc312.formats import FORMATS, parse, parse_upload, provenance, render
+from profiles.ppmc312.formats import (
+    FORMATS,
+    c_symbols,
+    parse,
+    parse_c_set,
+    parse_upload,
+    provenance,
+    render,
+    render_c_set,
+)
 from profiles.ppmc312.table import FreeCurveTable, InitTable
 from profiles.ppmc312.upload import bus_writes, decode_upload, encode_free_curve, encode_init
 
@@ -361,3 +370,49 @@ def test_a_changed_crc_line_is_corrupted_not_absent() -> None:
     text = render(BLOCKS, "text").decode().replace(CRC, "423ABBA1")
     with pytest.raises(CorruptedError, match=r"423ABBA1.*423ABBA0"):
         parse(text.encode())
+
+
+# --- C headers of several uploads (stepramp sync's axes.h) --------------------------------------
+SET = [("x", BLOCKS, "axis x"), ("x_move", [bytes.fromhex("03 08 82 05 00 00 00 00 2E E0")],
+                                  "axis x's move"),
+       ("y", [encode_init(InitTable(CLOCK, "linear", 0x2710, 0x190, 0x7D0))], "axis y")]
+
+SET_MAIN_C = MAIN_C.replace('#include "x_axis.h"\n#include "y_axis.h"\n#include "x_axis.h"',
+                            '#include "axes.h"\n#include "axes.h"').replace(
+    "x_axis", "x").replace("X_AXIS", "X").replace("y_axis", "y").replace("Y_AXIS", "Y")
+
+
+def test_a_set_holds_each_upload_with_its_own_check() -> None:
+    text = render_c_set(SET, RenderOptions(name="stepramp_sync"))
+    parsed = parse_c_set(text)
+    assert list(parsed) == ["x", "x_move", "y"]
+    for name, blocks, _ in SET:
+        assert parsed[name].items == blocks and parsed[name].integrity == "verified"
+        assert f"#define {name.upper()}_CRC32 0x{zlib.crc32(b''.join(blocks)):08X}UL" \
+            in text.decode()
+    assert text.decode().count("#ifndef") == 1  # one guard for the file
+    # the single-upload reader says what it holds instead of reading one of them
+    assert_one_line_error(parse, text, "one header holds one upload.*holds 3 \\(x, x_move, y\\)")
+    # a changed byte of one upload is caught by that upload's CRC-32
+    changed = text.replace(b"static const uint8_t y_block_0[] = {0x03",
+                           b"static const uint8_t y_block_0[] = {0x02")
+    assert changed != text
+    with pytest.raises(CorruptedError, match="Y_CRC32"):
+        parse_c_set(changed)
+
+
+def test_the_single_header_is_the_set_of_one() -> None:
+    """`--format c` and a set share the symbols: one renderer (`c_symbols`)."""
+    single = render(BLOCKS, "c", RenderOptions(name="x")).decode()
+    assert "\n".join(c_symbols(BLOCKS, "x")) in single
+    assert "\n".join(c_symbols(BLOCKS, "x")) in render_c_set(SET, RenderOptions()).decode()
+
+
+@needs_cc
+def test_a_set_compiles_and_verifies_each_crc(tmp_path: Path) -> None:
+    out = compile_and_run(tmp_path, {"axes.h": render_c_set(SET, RenderOptions(
+        name="stepramp_sync"))}, SET_MAIN_C)
+    assert out.returncode == 0, out.returncode
+    x, y = out.stdout.split("--\n")
+    assert x.splitlines() == [b.hex(" ").upper() for b in BLOCKS]
+    assert y.splitlines() == [b.hex(" ").upper() for b in SET[2][1]]

@@ -6,6 +6,7 @@ from __future__ import annotations
 import io
 import json
 import os
+import subprocess
 import sys
 import threading
 from pathlib import Path
@@ -60,15 +61,61 @@ def test_missing_and_empty(tmp_path: Path) -> None:
     _refused(tmp_path / "e.json", "empty")
 
 
-def test_a_fifo_is_refused_without_blocking(tmp_path: Path) -> None:
+def _feed(fifo: Path, data: bytes) -> threading.Thread:
+    """A writer for `fifo` (opening a FIFO blocks until both ends are open)."""
+    def write() -> None:
+        try:
+            with open(fifo, "wb") as fh:
+                fh.write(data)
+        except BrokenPipeError:  # the reader stopped at its bound
+            pass
+
+    t = threading.Thread(target=write, daemon=True)
+    t.start()
+    return t
+
+
+def test_a_fifo_is_read_like_stdin(tmp_path: Path) -> None:
     fifo = tmp_path / "f"
     os.mkfifo(fifo)
-    msg = _refused(fifo, "is a FIFO, not a regular file")
-    assert "use - to read stdin" in msg
+    writer = _feed(fifo, b'{"a": 1}')
+    assert read_json(fifo) == {"a": 1}
+    writer.join(10)
+
+
+def test_a_fifo_has_the_same_bound_as_stdin(tmp_path: Path) -> None:
+    fifo = tmp_path / "f"
+    os.mkfifo(fifo)
+    writer = _feed(fifo, b"x" * 11)
+    with pytest.raises(FormatError, match="more than the 10 bytes an input may have"):
+        read_bytes(fifo, limit=10)
+    writer.join(10)
+    writer = _feed(fifo, b"x" * 10)
+    assert read_bytes(fifo, limit=10) == b"x" * 10
+    writer.join(10)
+
+
+def test_process_substitution_is_an_input(tmp_path: Path) -> None:
+    """`stepramp check <(cat t.json)`: bash hands over /dev/fd/N, a pipe."""
+    table = Path(__file__).resolve().parents[1] / "examples" / "free-curve-nema17.json"
+    r = subprocess.run(["bash", "-c", f'"{sys.executable}" -m verify.cli check <(cat "{table}")'
+                        f' && "{sys.executable}" -m verify.cli show <(cat "{table}")'],
+                       capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert "1 file checked: 1 ok" in r.stdout and "free-curve table, clock 8MHz" in r.stdout
+
+
+def test_a_socket_is_refused(tmp_path: Path) -> None:
+    import socket
+
+    path = tmp_path / "s"
+    with socket.socket(socket.AF_UNIX) as s:
+        s.bind(str(path))
+        _refused(path, "is a socket, not a file or a pipe")
 
 
 def test_a_character_device_is_refused_not_read_forever() -> None:
-    _refused("/dev/zero", "is a device, not a regular file")
+    _refused("/dev/zero", "is a device, not a file or a pipe")
 
 
 def test_a_directory_is_refused(tmp_path: Path) -> None:

@@ -10,6 +10,8 @@ from pathlib import Path
 import pytest
 
 from profiles import alink
+from profiles.alink.formats import parse as alink_parse
+from profiles.alink.formats import parse_c_set as alink_parse_c_set
 from profiles.alink.sync import (
     MODE_SIG_STA,
     is_stall_safe,
@@ -21,13 +23,14 @@ from profiles.axes import load_axes
 from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312 import decode_upload
 from profiles.ppmc312.execution import simulate_move
-from profiles.ppmc312.files import parse_upload
+from profiles.ppmc312.formats import parse, parse_c_set
 from profiles.ppmc312.sync import spread_tolerance_s
 from profiles.ppmc312.table import load_table
 from profiles.ppmc312.upload import decode_move
 from verify.cli import main
 from verify.criterion import check_stall
 from verify.safety import judge_safety
+from verify.sync import output_names
 
 ROOT = Path(__file__).resolve().parents[1]
 MOTORS = [load_motor(p) for p in bundled_motor_paths()]
@@ -52,9 +55,10 @@ def test_sync_writes_every_file(written: tuple[Path, int, str]) -> None:
     out = root / "out"
     names = {p.name for p in out.iterdir()}
     for axis in ("x", "y"):
-        assert {f"{axis}.table.json", f"{axis}.upload.hex", f"{axis}.upload.bin",
+        assert {f"{axis}.table.json", f"{axis}.upload.hex", f"{axis}.upload.ihex",
                 f"{axis}.move.hex"} <= names
     assert {"axes.h", "axes.json", "report.json"} <= names
+    assert names == set(output_names(["x", "y"], "ppmc312"))  # what -o is checked for
     assert (root / "xy.png").stat().st_size > 10_000
 
 
@@ -75,11 +79,13 @@ def test_report_matches_the_written_tables(written: tuple[Path, int, str]) -> No
         assert item["safety"] == judge_safety(table, motor).to_json()
         assert item["safety"]["safe"] and item["safety"]["criterion_findings"] == []
         assert item["safety"]["moves"] == "every"
-        # the upload files decode back to the table
-        for ext in ("hex", "bin"):
-            assert decode_upload(parse_upload((out / f"{item['name']}.upload.{ext}")
-                                              .read_bytes())) == table
-        move = decode_move(parse_upload((out / f"{item['name']}.move.hex").read_bytes())[0])
+        # the upload files decode back to the table, each verified by its own check
+        for ext in ("hex", "ihex"):
+            parsed = parse((out / f"{item['name']}.upload.{ext}").read_bytes())
+            assert parsed.integrity == "verified" and decode_upload(parsed.items) == table
+        parsed = parse((out / f"{item['name']}.move.hex").read_bytes())
+        assert parsed.integrity == "verified"
+        move = decode_move(parsed.items[0])
         assert move == {"pulses": abs(item["pulses"]), "ccw": item["pulses"] < 0,
                         "high_rate": 0, "override": True, "trigger": 1}
         assert not check_stall(table, NEMA17 if item["name"] == "x" else PK566)
@@ -93,15 +99,25 @@ def test_c_header_compiles_with_distinct_prefixes(written: tuple[Path, int, str]
                                                    tmp_path: Path) -> None:
     root, _, _ = written
     text = (root / "out" / "axes.h").read_text()
-    assert "x_block_0" in text and "y_block_0" in text and "x_move" in text
+    assert "x_block_0" in text and "y_block_0" in text and "x_move_block_0" in text
     assert "stepramp_block" not in text
+    # every upload in it (each axis's table and move command) is read back verified
+    uploads = parse_c_set(text.encode())
+    assert sorted(uploads) == ["x", "x_move", "y", "y_move"]
+    assert all(p.integrity == "verified" for p in uploads.values())
+    for name in ("x", "y"):
+        table = load_table(root / "out" / f"{name}.table.json")
+        assert decode_upload(uploads[name].items) == table
+        assert uploads[f"{name}_move"].items == parse(
+            (root / "out" / f"{name}.move.hex").read_bytes()).items
     cc = shutil.which("cc") or shutil.which("gcc")
     if cc is None:
         pytest.skip("no C compiler")
     main_c = tmp_path / "main.c"
     main_c.write_text('#include "axes.h"\n#include "axes.h"\nint main(void) { return '
-                      '(int)(X_BLOCK_COUNT + Y_BLOCK_COUNT + x_move[0] + y_move[0] + '
-                      'x_block_lengths[0] + y_blocks[0][0]) > 0 ? 0 : 1; }\n')
+                      '(int)(X_BLOCK_COUNT + Y_BLOCK_COUNT + x_move_block_0[0] + '
+                      'y_move_blocks[0][0] + X_MOVE_CRC32 + x_block_lengths[0] + y_blocks[0][0])'
+                      ' > 0 ? 0 : 1; }\n')
     done = subprocess.run([cc, "-std=c99", "-Wall", "-Werror", "-Wno-unused-const-variable",
                            "-I", str(root / "out"), str(main_c), "-o", str(tmp_path / "a.out")],
                           capture_output=True, text=True)
@@ -199,10 +215,23 @@ def test_alink_sync_cli_writes_commands_with_sta(tmp_path: Path,
                  str(tmp_path / "ab"), "--no-ruckig"]) == 0
     report = json.loads((tmp_path / "ab" / "report.json").read_text())
     assert report["device"] == "alink" and "ruckig" not in report
+    assert {p.name for p in (tmp_path / "ab").iterdir()} == set(output_names(["a", "b"],
+                                                                             "alink"))
+    header = alink_parse_c_set((tmp_path / "ab" / "axes.h").read_bytes())
+    assert sorted(header) == ["a", "b"]
     for item in report["axes"]:
-        words = [tuple(int(w, 16) for w in line.split()) for line in
-                 (tmp_path / "ab" / f"{item['name']}.commands.hex").read_text().splitlines()]
-        decoded = [alink.parse_command(*w) for w in words]
+        # every file carries its CRC-32 and is read back verified
+        parsed = alink_parse((tmp_path / "ab" / f"{item['name']}.commands.hex").read_bytes())
+        assert parsed.integrity == "verified"
+        decoded = [(c.cmd, c.func, c.para) for c in parsed.items]
         cmds = [d[0] for d in decoded]
         assert cmds[-2:] == [alink.Cmd.MODE_SIG, alink.Cmd.MOVE_R]
         assert decoded[-2][2] == MODE_SIG_STA and decoded[-1][2] == item["pulses"]
+        assert header[item["name"]].integrity == "verified"
+        assert [c.words for c in header[item["name"]].items] == [c.words for c in parsed.items]
+        settings = alink_parse((tmp_path / "ab" / f"{item['name']}.settings.json").read_bytes())
+        assert settings.integrity == "verified"
+        assert [c.words for c in settings.items] == [c.words for c in parsed.items[:-2]]
+        s = alink.settings_from_commands(settings.items)
+        assert (s.start_pps, s.high_pps, s.accel_para) == (
+            item["start_pps"], item["high_pps"], item["up_time_para"])

@@ -138,7 +138,7 @@ def design(motor: Motor, settings: Settings, *, load_angle: bool = True) -> Desi
 def write_design(result: Design, out_dir: str | Path, stem: str) -> list[Path]:
     """The table (JSON) and its upload files (hex, bin, C header), each written whole."""
     from profiles.ppmc312 import encode_table
-    from profiles.ppmc312.files import render
+    from profiles.ppmc312.formats import render
     from profiles.ppmc312.table import dump_table
     from verify.output import write_output
 

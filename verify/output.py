@@ -14,6 +14,9 @@
   is staged first and only renamed into place once every one of them is complete.
 - On any failure, including Ctrl-C and SIGTERM/SIGHUP, no temp file is left behind.
   Errors name OUT as the user wrote it, never the temp file.
+- Before a command reads anything (`refuse_unsafe_outputs`): an output path ending in
+  `/` or naming a directory, naming one of the command's inputs (the same file: device
+  and inode, through symlinks and hard links), or named by two outputs, is refused.
 """
 
 from __future__ import annotations
@@ -31,14 +34,15 @@ from dataclasses import dataclass
 from types import FrameType
 from typing import BinaryIO
 
-from profiles.errors import OutputError
+from profiles.errors import OutputError, echo
 from profiles.reading import display_path
 
 Chunk = str | bytes
 Data = str | bytes | Iterable[Chunk]
 STDOUT = "-"
 _STREAM_PREFIXES = ("/dev/stdout", "/dev/stderr", "/dev/fd/", "/proc/self/fd/")
-__all__ = ["OutputError", "OutputInterrupted", "write_output", "write_outputs"]
+__all__ = ["OutputError", "OutputInterrupted", "refuse_unsafe_outputs", "write_output",
+           "write_outputs"]
 
 
 def write_output(out: str | None, data: Data) -> None:
@@ -64,6 +68,56 @@ def write_outputs(outputs: Sequence[tuple[str | None, Data]]) -> None:
         finally:
             for target in targets:
                 target.discard()
+
+
+def refuse_unsafe_outputs(outputs: Sequence[tuple[str, str]], inputs: Sequence[str], *,
+                          folders: Sequence[tuple[str, str]] = (),
+                          folder_ok: bool = False) -> None:
+    """Refuse, before anything is read or written, an output that would lose data or
+    land where the user did not mean: `outputs` are (option, path) of files, `folders`
+    (option, path) of output folders, `inputs` the paths the command reads. A file
+    output ending in `/` or naming a directory is not a file name; any output that is
+    one of the inputs would overwrite what is being read; two outputs naming one file
+    would leave only one of them. stdout (`-`) and the /dev/stdout family are streams
+    and never compared. `folder_ok`: the outputs' folder may not exist yet (the command
+    makes it)."""
+    seen: dict[object, str] = {}
+    ins = {key: path for path in inputs if (key := _identity(path)) is not None}
+    for option, out, is_folder in [*((o, p, False) for o, p in outputs),
+                                   *((o, p, True) for o, p in folders)]:
+        if out in ("", STDOUT) or out.startswith(_STREAM_PREFIXES):
+            continue
+        name = f"{option} {display_path(out)}"
+        if not is_folder and out.endswith(("/", os.sep)):
+            raise OutputError(f"{name}: names a folder (it ends in /); {option} takes a file "
+                              "name")
+        if not is_folder and os.path.isdir(out):
+            raise OutputError(f"{name}: is a directory; {option} takes a file name")
+        folder = os.path.dirname(os.path.realpath(out))
+        if not is_folder and not folder_ok and not os.path.isdir(folder):
+            raise OutputError(f"{name}: the folder {display_path(os.path.dirname(out) or '.')} "
+                              "does not exist")
+        key = _identity(out)
+        if key is not None and key in ins:
+            raise OutputError(f"{name}: is the input {display_path(ins[key])}; writing it "
+                              "would overwrite what is read (give another file name)")
+        where = key if key is not None else os.path.realpath(out)
+        if where in seen:
+            raise OutputError(f"{name}: {seen[where]} names the same file; each output "
+                              "needs its own")
+        seen[where] = name
+
+
+def _identity(path: str) -> tuple[int, int] | None:
+    """(device, inode) of the file `path` names (symlinks followed), None when it does not
+    exist or is a character device (a terminal or /dev/null is shared by design)."""
+    if path in ("", STDOUT):
+        return None
+    try:
+        st = os.stat(path)
+    except (OSError, ValueError):
+        return None
+    return None if stat.S_ISCHR(st.st_mode) else (st.st_dev, st.st_ino)
 
 
 def _commit(files: list[_Target]) -> None:
@@ -96,9 +150,11 @@ class _Target:
             return cls(STDOUT, "stdout", STDOUT)
         name = display_path(out)
         if out == "":
-            raise OutputError(f"{name!r}: an empty output path (use - for stdout)")
+            raise OutputError(f"{echo(name)}: an empty output path (use - for stdout)")
         if out.startswith(_STREAM_PREFIXES):
             return cls(out, "stream", out)
+        if out.endswith(("/", os.sep)):  # realpath would drop the slash and write a file
+            raise OutputError(f"{name}: names a folder (it ends in /); give a file name")
         try:
             st = os.stat(out)  # follows symlinks: judge what is written to
         except FileNotFoundError:

@@ -126,10 +126,18 @@ def motor_figure(motor: Any) -> Any:
 def save_figure(fig: Any, path: str | Path) -> None:
     """Save as PNG or SVG (by extension), atomically, every text inside the canvas
     (`fit_texts`)."""
+    from verify.output import write_output
+
+    write_output(str(path), figure_bytes(fig, path))
+
+
+def figure_bytes(fig: Any, path: str | Path) -> bytes:
+    """The figure as the bytes of a PNG or SVG file (by `path`'s extension), every text
+    inside the canvas (`fit_texts`), closed: for a command that writes it with its other
+    outputs, all or none."""
     import io
 
     from profiles.errors import FormatError
-    from verify.output import write_output
 
     suffix = Path(path).suffix.lower().lstrip(".")
     if suffix not in ("png", "svg"):
@@ -139,7 +147,7 @@ def save_figure(fig: Any, path: str | Path) -> None:
     buf = io.BytesIO()
     fig.savefig(buf, format=suffix, dpi=SAVE_DPI)
     _plt().close(fig)
-    write_output(str(path), buf.getvalue())
+    return buf.getvalue()
 
 
 SAVE_DPI = 150

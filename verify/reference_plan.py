@@ -20,7 +20,9 @@ plan for the same move: what following that reference costs.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -62,7 +64,8 @@ def plan_from_reference(motor: Motor, pulses: int, source: str, *, clock: Clock 
     from profiles.motor.tolerance import corners, worst_case_motor
     from verify import references
 
-    makers = {"ruckig": references.ruckig_reference, "toppra": references.toppra_reference}
+    makers: dict[str, Callable[..., Any]] = {"ruckig": references.ruckig_reference,
+                                             "toppra": references.toppra_reference}
     judged = worst_case_motor(motor) if motor.tolerances else motor
     ref = makers[source](judged, pulses)
     follower = reference_motor(judged, ref.v_pps, ref.x_pulses)

@@ -25,7 +25,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-from profiles.errors import FormatError
+from profiles.errors import FormatError, echo
 from profiles.reading import display_path, json_text
 
 from .findings import Finding, excess, move_pulses
@@ -70,7 +70,7 @@ def render(results: Sequence[FileResult], fmt: str, *, verbose: bool = False) ->
         return json_text({"files": [r.to_json() for r in results]})
     if fmt == "junit":
         return _junit(results)
-    raise FormatError(f"format: {fmt!r} is not one of {', '.join(FORMATS)}")
+    raise FormatError(f"format: {echo(fmt)} is not one of {', '.join(FORMATS)}")
 
 
 def finding_line(path: str, f: Finding) -> str:

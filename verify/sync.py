@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import json
 import math
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -29,6 +28,7 @@ from profiles.motor import Motor
 from profiles.ppmc312 import sync as ppmc_sync
 from profiles.ppmc312.execution import Execution
 from profiles.ppmc312.sync import line_deviation_times, spread_tolerance_s
+from profiles.pulses import PulseTrain
 
 Plan = ppmc_sync.SyncPlan | alink_sync.AlinkSyncPlan
 AxisPlan = ppmc_sync.AxisMove | alink_sync.AlinkAxisMove
@@ -62,6 +62,14 @@ def pulse_times(plan: Plan) -> list[np.ndarray]:
     if isinstance(plan, alink_sync.AlinkSyncPlan):
         return [a.pulse_times_s() for a in plan.axes]
     return [a.execution.pulse_times_s() for a in plan.axes]
+
+
+def pulse_trains(plan: Plan) -> list[PulseTrain]:
+    """Each axis's pulse instants as pieces (`profiles.pulses`): any number of pulses in
+    bounded memory, for the line deviation and the figure."""
+    if isinstance(plan, alink_sync.AlinkSyncPlan):
+        return [alink_sync.pulse_train(a.settings, abs(a.pulses)) for a in plan.axes]
+    return [ppmc_sync.pulse_train(a.execution) for a in plan.axes]
 
 
 def durations(plan: Plan) -> list[float]:
@@ -229,7 +237,7 @@ def sync_report(plan: Plan, *, device: str, ruckig: RuckigSync | None = None,
     motor's tolerance box when it has one)."""
     from verify.safety import judge_safety
 
-    times = pulse_times(plan)
+    times = pulse_trains(plan)
     dev, _, _ = line_deviation_times(times)
     d = durations(plan)
     axes = []
@@ -264,59 +272,88 @@ def sync_report(plan: Plan, *, device: str, ruckig: RuckigSync | None = None,
 
 
 # --------------------------------------------------------------------------- files
-def _c_symbols(text: str, prefix: str) -> str:
-    """The single-upload C header's body with its symbols renamed to `prefix` (an adapter
-    until the C renderer takes a name; its include guard is dropped: one guard for all)."""
-    body = [ln for ln in text.splitlines()
-            if not re.match(r"#(ifndef|define|endif)\s+STEPRAMP_UPLOAD_H|#endif /\* STEPRAMP_UP",
-                            ln) and not ln.startswith("#include")]
-    text = "\n".join(body)
-    text = re.sub(r"\bstepramp_", f"{prefix}_", text)
-    return re.sub(r"\bSTEPRAMP_", f"{prefix.upper()}_", text)
+# Every device file sync writes goes through its device's format table and carries its
+# check: uploads, move commands and command words a CRC-32, Intel HEX its record
+# checksums; axes.h holds each axis's symbols (prefixed with its name) with their own
+# CRC-32 (`profiles.ppmc312.formats.parse_c_set`, `profiles.alink.formats.parse_c_set`
+# read them back verified). The table, axes and report JSON are documents, not bytes a
+# device takes: they carry no check.
+SYNC_HEADER_NAME = "stepramp_sync"  # axes.h's include guard STEPRAMP_SYNC_H
+MOVE_SUFFIX = "_move"              # a PPMC-312 axis's move command in axes.h: NAME_move_…
+# the files of each axis (NAME.suffix) and the shared ones, by device; report.json too
+AXIS_FILES = {"ppmc312": (".table.json", ".upload.hex", ".upload.ihex", ".move.hex"),
+              "alink": (".settings.json", ".commands.hex")}
+SHARED_FILES = {"ppmc312": ("axes.h", "axes.json"), "alink": ("axes.h",)}
+REPORT_FILE = "report.json"
 
 
-def ppmc_files(plan: ppmc_sync.SyncPlan, *, trigger: int = ppmc_sync.TRIGGER_EVENT1
-               ) -> dict[str, bytes]:
-    """Every output file of a PPMC-312 plan, by name: NAME.table.json, NAME.upload.hex,
-    NAME.upload.bin, NAME.move.hex (the move command, trigger bits set), axes.h (every
-    axis's blocks and move command, symbols prefixed NAME_) and axes.json (the tables as an
-    axes file, for `stepramp simulate --axes`)."""
+def output_names(names: Sequence[str], device: str) -> list[str]:
+    """The names of every file sync writes into its folder for axes `names`."""
+    return ([n + suffix for n in names for suffix in AXIS_FILES[device]]
+            + [*SHARED_FILES[device], REPORT_FILE])
+
+
+def check_axis_names(names: Sequence[str], device: str) -> None:
+    """Refuse axis names that cannot prefix the symbols of axes.h, before any planning:
+    a C identifier that is no keyword, and (PPMC-312) no axis named like another's move
+    command (x and x_move would both declare X_MOVE_…; compared ignoring case, as the
+    macros are upper case)."""
+    from profiles.formats import c_name
+
+    taken = {n.lower() for n in names}
+    for n in names:
+        c_name(n, "axis name")
+        if device != "alink" and (n + MOVE_SUFFIX).lower() in taken:
+            raise FormatError(f"axis {n}{MOVE_SUFFIX}: the C symbols of axis {n}'s move "
+                              f"command are named {n}{MOVE_SUFFIX}_…; rename one of the axes")
+
+
+def ppmc_files(plan: ppmc_sync.SyncPlan, *, trigger: int = ppmc_sync.TRIGGER_EVENT1,
+               command: str | None = None) -> dict[str, bytes]:
+    """Every output file of a PPMC-312 plan, by name: NAME.table.json, NAME.upload.hex and
+    NAME.upload.ihex (the upload, CRC-32 / record checksums), NAME.move.hex (the move
+    command, trigger bits set, CRC-32), axes.h (every axis's blocks as NAME_… and move
+    command as NAME_move_…, each with its CRC-32) and axes.json (the tables as an axes
+    file, for `stepramp simulate --axes`). `command` is the command line, for axes.h's
+    provenance."""
+    from profiles.formats import Provenance, RenderOptions
     from profiles.ppmc312 import encode_table
-    from profiles.ppmc312.files import hex_line, render
+    from profiles.ppmc312.formats import FORMATS, render_c_set
     from profiles.ppmc312.table import dump_table
 
+    check_axis_names([a.name for a in plan.axes], "ppmc312")
     files: dict[str, bytes] = {}
-    header = ["/* PPMC-312 uploads and move commands of one synchronised move, generated by",
-              f"   stepramp sync ({plan.mode} mode). Per axis: write its blocks in order, then its",
-              "   move command; every chip starts when event input 1 goes low (TRG 01). */",
-              "#ifndef STEPRAMP_SYNC_H", "#define STEPRAMP_SYNC_H", "",
-              "#include <stdint.h>", "#include <stddef.h>", ""]
+    uploads: list[tuple[str, Sequence[bytes], str]] = []
     for a in plan.axes:
         blocks = encode_table(a.table)
         move = ppmc_sync.move_command(a, trigger)
-        files[f"{a.name}.table.json"] = dump_table(a.table).encode()
-        files[f"{a.name}.upload.hex"] = render(blocks, "hex")
-        files[f"{a.name}.upload.bin"] = render(blocks, "bin")
-        files[f"{a.name}.move.hex"] = (hex_line(move) + "\n").encode()
-        header.append(f"/* axis {a.name}: {a.pulses} pulses, {a.duration_s * 1e3:.6g} ms */")
-        header.append(_c_symbols(render(blocks, "c").decode(), a.name).strip())
-        header.append(f"static const uint8_t {a.name}_move[{len(move)}] = {{"
-                      + ", ".join(f"0x{b:02X}" for b in move) + "};")
-        header.append("")
-    header += ["#endif /* STEPRAMP_SYNC_H */", ""]
-    files["axes.h"] = "\n".join(header).encode()
+        table, hex_file, ihex_file, move_file = (a.name + s for s in AXIS_FILES["ppmc312"])
+        files[table] = dump_table(a.table).encode()
+        files[hex_file] = FORMATS.render(blocks, "text")
+        files[ihex_file] = FORMATS.render(blocks, "ihex")
+        files[move_file] = FORMATS.render([move], "text")
+        uploads += [(a.name, blocks, f"axis {a.name}: {a.pulses} pulses, "
+                                     f"{a.duration_s * 1e3:.6g} ms: its table upload"),
+                    (a.name + MOVE_SUFFIX, [move], f"axis {a.name}: its move command (82), "
+                                                   "held until the trigger")]
+    header, axes_file = SHARED_FILES["ppmc312"]
+    files[header] = render_c_set(uploads, RenderOptions(name=SYNC_HEADER_NAME, provenance=(
+        Provenance(command, (f"One synchronised move ({plan.mode} mode). Per axis: write its "
+                            "blocks in order, then its move command; every chip starts when "
+                            "event input 1 goes low (TRG 01).",)))))
     # the same move as a set of tables: `stepramp simulate --axes DIR/axes.json`
-    files["axes.json"] = (json.dumps(
+    files[axes_file] = (json.dumps(
         {"format": "stepramp.axes/1", "mode": plan.mode, "device": "ppmc312",
-         "axes": [{"name": a.name, "table": f"{a.name}.table.json", "pulses": a.pulses}
+         "axes": [{"name": a.name, "table": a.name + AXIS_FILES["ppmc312"][0],
+                   "pulses": a.pulses}
                   for a in plan.axes]}, indent=1) + "\n").encode()
     return files
 
 
-def alink_commands(plan: alink_sync.AlinkSyncPlan, *, slave_address: int | None = None
-                   ) -> list[list[tuple[int, int, int]]]:
+def alink_command_lists(plan: alink_sync.AlinkSyncPlan, *, slave_address: int | None = None
+                        ) -> list[list[Any]]:
     """Per axis: its settings, MODE_SIG with STA (start with the unit's other axis on the
-    simultaneous-start input), and the relative move — command words with pair codes."""
+    simultaneous-start input), and the relative move — `Command`s with pair codes."""
     from profiles import alink
 
     out = []
@@ -326,30 +363,42 @@ def alink_commands(plan: alink_sync.AlinkSyncPlan, *, slave_address: int | None 
         cmds = alink.settings_commands(a.settings, writer=writer)
         cmds.append(writer.put(alink.Cmd.MODE_SIG, 0, alink_sync.MODE_SIG_STA))
         cmds.append(writer.put(alink.Cmd.MOVE_R, alink.FUNC_MOVE, a.pulses))
-        out.append([c.words for c in cmds])
+        out.append(cmds)
     return out
 
 
-def alink_files(plan: alink_sync.AlinkSyncPlan, commands: list[list[tuple[int, int, int]]]
+def alink_commands(plan: alink_sync.AlinkSyncPlan, *, slave_address: int | None = None
+                   ) -> list[list[tuple[int, int, int]]]:
+    """`alink_command_lists` as each command's words."""
+    return [[c.words for c in cmds]
+            for cmds in alink_command_lists(plan, slave_address=slave_address)]
+
+
+def alink_files(plan: alink_sync.AlinkSyncPlan, *, command: str | None = None
                 ) -> dict[str, bytes]:
+    """Every output file of an A-Link plan, by name: NAME.settings.json (the settings
+    document of the axis's settings commands, with its pulses and duration, CRC-32),
+    NAME.commands.hex (every command: settings, MODE_SIG with STA, MOVE_R; CRC-32) and
+    axes.h (each axis's words as NAME_words with its CRC-32); `stepramp alink read`
+    reads each back verified."""
+    from profiles.alink.formats import FORMATS, render_c_set
+    from profiles.formats import Provenance, RenderOptions
+
+    check_axis_names([a.name for a in plan.axes], "alink")
     files: dict[str, bytes] = {}
-    header = ["/* A-Link ALUM command words of one synchronised move, generated by stepramp",
-              f"   sync ({plan.mode} mode): per axis settings, MODE_SIG (STA), MOVE_R. */",
-              "#ifndef STEPRAMP_SYNC_H", "#define STEPRAMP_SYNC_H", "", "#include <stdint.h>",
-              ""]
-    for a, words in zip(plan.axes, commands, strict=True):
-        s = a.settings
-        files[f"{a.name}.settings.json"] = (json.dumps(
-            {"start_pps": s.start_pps, "high_pps": s.high_pps, "up_time_para": s.accel_para,
-             "multiplier": s.multiplier, "pulses": a.pulses,
-             "duration_s": a.duration_s}, indent=1) + "\n").encode()
-        files[f"{a.name}.commands.hex"] = "".join(
-            " ".join(f"{w:04X}" for w in ws) + "\n" for ws in words).encode()
-        rows = ",\n".join("    {" + ", ".join(f"0x{w:04X}" for w in ws) + "}" for ws in words)
-        header += [f"static const uint16_t {a.name}_words[{len(words)}][3] = {{", rows, "};",
-                   ""]
-    header += ["#endif /* STEPRAMP_SYNC_H */", ""]
-    files["axes.h"] = "\n".join(header).encode()
+    sets: list[tuple[str, Sequence[Any], str]] = []
+    for a, cmds in zip(plan.axes, alink_command_lists(plan), strict=True):
+        settings = cmds[:-2]  # MODE_SIG and MOVE_R are the move, not the settings
+        settings_file, commands_file = (a.name + s for s in AXIS_FILES["alink"])
+        files[settings_file] = FORMATS.render(settings, "json", RenderOptions(
+            header={"pulses": a.pulses, "duration_s": a.duration_s}))
+        files[commands_file] = FORMATS.render(cmds, "hex")
+        sets.append((a.name, cmds, f"axis {a.name}: {a.pulses} pulses, "
+                                   f"{a.duration_s * 1e3:.6g} ms: settings, MODE_SIG (STA), "
+                                   "MOVE_R"))
+    files[SHARED_FILES["alink"][0]] = render_c_set(sets, RenderOptions(
+        name=SYNC_HEADER_NAME,
+        provenance=Provenance(command, (f"One synchronised move ({plan.mode} mode).",))))
     return files
 
 
@@ -366,7 +415,7 @@ def joint_timeline(names: Sequence[str], executions: Sequence[Execution]) -> str
     events.sort(key=lambda ev: (ev[0], names.index(ev[1])))
     width = max(len(n) for n in names)
     lines = [f"{t * 1e3:12.6f} ms  {name:<{width}}  {what}" for t, name, what in events]
-    dev = line_deviation_times([e.pulse_times_s() for e in executions])[0]
+    dev = line_deviation_times([ppmc_sync.pulse_train(e) for e in executions])[0]
     d = [e.duration_s for e in executions]
     lines.append(f"finish spread {(max(d) - min(d)) * 1e6:.3f} µs, line deviation "
                  f"{dev:.4g} pulses")
@@ -374,6 +423,9 @@ def joint_timeline(names: Sequence[str], executions: Sequence[Execution]) -> str
 
 
 # --------------------------------------------------------------------------- figure
+FIGURE_SPEED_POINTS = 400  # an A-Link axis's speed: between this many of its pulses
+
+
 def sync_figure(plan: Plan, ruckig: RuckigSync | None = None) -> Any:
     """Joint path against the line, deviation over time, each axis's speed against time
     (with ruckig's time- and phase-synchronised speeds when given). Positions and speeds
@@ -381,15 +433,15 @@ def sync_figure(plan: Plan, ruckig: RuckigSync | None = None) -> Any:
     from verify.plot import _plt
 
     plt = _plt()
-    times = pulse_times(plan)
-    dev, t, d = line_deviation_times(times)
+    trains = pulse_trains(plan)
+    dev, t, d = line_deviation_times(trains)  # every instant, or a bounded trace
     fig, (ax_p, ax_d, ax_v) = plt.subplots(3, 1, figsize=(8.0, 10.0), constrained_layout=True,
                                            gridspec_kw={"height_ratios": [4, 2, 3]})
     axes = plan_axes_list(plan)
     sign = [1 if a.pulses >= 0 else -1 for a in axes]
-    lead = int(np.argmax([len(ti) for ti in times]))
+    lead = int(np.argmax([tr.count for tr in trains]))
     names = [a.name for a in axes]
-    x = [s * np.searchsorted(ti, t, side="right") for s, ti in zip(sign, times, strict=True)]
+    x = [s * tr.emitted(t) for s, tr in zip(sign, trains, strict=True)]
     for i, name in enumerate(names):
         if i == lead and len(names) > 1:
             continue
@@ -409,11 +461,11 @@ def sync_figure(plan: Plan, ruckig: RuckigSync | None = None) -> Any:
         if isinstance(a, ppmc_sync.AxisMove):
             te, _, v = a.execution.edges()
             ax_v.step(te * 1e3, sign[i] * v, where="post", lw=1.4, color=f"C{i}", label=label)
-        else:
-            ti = times[i]
-            mid = ti[1:] if len(ti) > 1 else ti
-            ax_v.plot(mid * 1e3, sign[i] / np.diff(ti) if len(ti) > 1 else [0], lw=1.4,
-                      color=f"C{i}", label=label)
+        else:  # the modelled speed between pulses spread evenly over the move
+            k = np.unique(np.linspace(1, trains[i].count, FIGURE_SPEED_POINTS).astype(np.int64))
+            tk = trains[i].time_of(k)
+            ax_v.plot(tk[1:] * 1e3, sign[i] * np.diff(k) / np.diff(tk) if len(k) > 1 else [],
+                      lw=1.4, color=f"C{i}", label=label)
     if ruckig is not None:
         for key, ls, dur in (("time", "--", ruckig.time_feasible_s),
                              ("phase", ":", ruckig.phase_feasible_s)):

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from enum import IntEnum
 from typing import Any, Literal
 
-from ..errors import FieldRangeError, FormatError, UnknownCommandError, is_number, require_int
+from ..errors import FieldRangeError, FormatError, UnknownCommandError, echo, is_number, require_int
 from ..fields import Bit, Bits, Frame
 from .model import (
     MODE_DEFAULT,
@@ -104,7 +104,7 @@ def form(cmd: int, func: int, para: int) -> tuple[int, int, int]:
 
 def _form_words(cmd: int, func: int, para: int, pair: int) -> tuple[int, int, int]:
     if not is_number(cmd, integral=True):
-        raise UnknownCommandError(f"cmd: {cmd!r} is not an A-Link ALUM command code")
+        raise UnknownCommandError(f"cmd: {echo(cmd)} is not an A-Link ALUM command code")
     command_name(cmd)
     require_int("func", func, 0, FUNC_MAX)
     require_int("para", para, PARA_MIN, PARA_MAX)
@@ -268,7 +268,7 @@ _SLAVE_MAX = {"full": 53, "half": 58}  # last address of the 2-axis unit must st
 
 def _address(base: int, slave_address: int, axis: int, duplex: str, word: int) -> int:
     if duplex not in _SLAVE_MAX:
-        raise FormatError(f"duplex: {duplex!r} is not 'full' or 'half'")
+        raise FormatError(f"duplex: {echo(duplex)} is not 'full' or 'half'")
     require_int("slave_address", slave_address, 1, _SLAVE_MAX[duplex])
     require_int("axis", axis, 0, AXES - 1)
     require_int("word", word, 0, 2)

@@ -30,13 +30,15 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from fractions import Fraction
 from typing import Literal
 
 import numpy as np
 
-from ..errors import AlinkSyncError
+from ..errors import AlinkSyncError, echo
 from ..motor import Motor
 from ..ppmc312.sync import SyncTimes, envelope_motor, line_deviation_times
+from ..pulses import Piece, PulseTrain
 from . import (
     PARA_RANGE,
     PPS2_PER_INV_PARA,
@@ -80,22 +82,37 @@ class AlinkSyncPlan(SyncTimes):
 def pulse_times_s(settings: AlinkSettings, pulses: int) -> np.ndarray:
     """The instant of each pulse k = 1..pulses: when the modelled trapezoid (or triangle)
     reaches position k. Linear ramps (the S-curve has the same time but other instants)."""
+    return pulse_train(settings, pulses).time_of(np.arange(1, pulses + 1))
+
+
+def pulse_train(settings: AlinkSettings, pulses: int) -> PulseTrain:
+    """`pulse_times_s` as pieces (any number of pulses): the ramps, and the cruise at
+    exactly 1/high speed between them."""
     v0, vh, a = float(settings.start_pps), float(settings.high_pps), settings.accel_pps2
     n = float(pulses)
     ramp = (vh * vh - v0 * v0) / (2 * a)
-    if 2 * ramp > n:                      # triangle: the peak where the ramps meet
+    cruise = 2 * ramp <= n
+    if not cruise:                        # triangle: the peak where the ramps meet
         vh = math.sqrt(v0 * v0 + a * n)
         ramp = n / 2
     t_ramp = (vh - v0) / a
     total = 2 * t_ramp + (n - 2 * ramp) / vh
-    k = np.arange(1, pulses + 1, dtype=float)
 
     def up(x: np.ndarray) -> np.ndarray:  # time to cover x pulses from v0 at acceleration a
         return 2 * x / (v0 + np.sqrt(v0 * v0 + 2 * a * x))
 
-    return np.where(k <= ramp, up(k),
-                    np.where(k <= n - ramp, t_ramp + (k - ramp) / vh,
-                             total - up(np.maximum(n - k, 0.0))))
+    def times(k: np.ndarray) -> np.ndarray:
+        kf = k.astype(float)
+        return np.where(kf <= ramp, up(kf),
+                        np.where(kf <= n - ramp, t_ramp + (kf - ramp) / vh,
+                                 total - up(np.maximum(n - kf, 0.0))))
+
+    k1 = min(math.floor(ramp), pulses)            # the last pulse of the up ramp
+    k2 = max(min(math.floor(n - ramp), pulses), k1)  # the last pulse of the cruise
+    return PulseTrain([Piece(1, k1, times),
+                       Piece(k1 + 1, k2 - k1, times,
+                             Fraction(1, settings.high_pps) if cruise else None),
+                       Piece(k2 + 1, pulses - k2, times)])
 
 
 def is_stall_safe(settings: AlinkSettings, motor: Motor) -> bool:
@@ -218,7 +235,7 @@ def plan_line_sync(axes: Sequence[tuple[str, Motor, int]]) -> AlinkSyncPlan:
                    for s, mo in zip(settings, motors, strict=True)):
                 continue
             chosen = [s for s in settings if s is not None]
-            dev = line_deviation_times([pulse_times_s(s, d)
+            dev = line_deviation_times([pulse_train(s, d)
                                         for s, d in zip(chosen, dist, strict=True)])[0]
             t = max(move_time_s(s, d).duration_s for s, d in zip(chosen, dist, strict=True))
             if best is None or (dev, t) < (best[0], best[1]):
@@ -239,4 +256,4 @@ def plan_sync(axes: Sequence[tuple[str, Motor, int]], mode: Mode) -> AlinkSyncPl
         return plan_time_sync(axes)
     if mode == "line":
         return plan_line_sync(axes)
-    raise AlinkSyncError(f"mode: {mode!r} is not 'time' or 'line'")
+    raise AlinkSyncError(f"mode: {echo(mode)} is not 'time' or 'line'")

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
-from ..errors import DecodeError, FieldRangeError, FormatError
+from ..errors import DecodeError, FieldRangeError, FormatError, echo
 from ..fields import F32, Array, Bit, Bits, Checksum, Frame, Reserved, SInt, UInt
 
 if TYPE_CHECKING:
@@ -95,7 +95,7 @@ class HostPacket:
 
     def encode(self) -> bytes:
         if self.value_kind not in HOST_FRAMES:
-            raise FormatError(f"value_kind: {self.value_kind!r} is not one of "
+            raise FormatError(f"value_kind: {echo(self.value_kind)} is not one of "
                               f"{', '.join(HOST_FRAMES)}")
         return HOST_FRAMES[self.value_kind].encode(
             driver_id=self.driver_id, servo=self.servo, mode_switch=self.mode_switch,
@@ -112,7 +112,7 @@ class HostPacket:
         """Decode with `mode` the control mode in force; a packet carrying a mode-switch
         command and the magic decodes its value as `raw`."""
         if mode not in MODE_CODE:
-            raise FormatError(f"mode: {mode!r} is not one of {', '.join(MODES)}")
+            raise FormatError(f"mode: {echo(mode)} is not one of {', '.join(MODES)}")
         d = HOST_FRAMES["raw"].decode(data, block=block)
         kind: ValueKind = "raw" if d["mode_switch"] and d["value"] == magic else mode
         if kind != "raw":
@@ -183,7 +183,7 @@ def encode_positions(template: HostPacket, positions: np.ndarray) -> bytes:
     packet: the bytes equal `replace(template, value=p).encode()` for every p.
     """
     if template.value_kind != "position":
-        raise FormatError(f"template: a position command, not {template.value_kind!r}")
+        raise FormatError(f"template: a position command, not {echo(template.value_kind)}")
     frame = HOST_FRAMES["position"]
     p = np.asarray(positions)
     if p.ndim != 1 or (p.size and not np.issubdtype(p.dtype, np.integer)):
@@ -227,7 +227,7 @@ def iter_decode(raw: bytes, direction: Direction = "host", *, mode: Mode = "posi
     reads them: a stream of millions is decoded in constant memory. The length is
     checked before the first packet."""
     if direction not in ("host", "driver"):
-        raise FormatError(f"direction: {direction!r} is not 'host' or 'driver'")
+        raise FormatError(f"direction: {echo(direction)} is not 'host' or 'driver'")
     if len(raw) % PACKET_SIZE:
         whole = len(raw) // PACKET_SIZE
         raise DecodeError(f"{len(raw)} bytes is not a whole number of {PACKET_SIZE}-byte "
@@ -264,7 +264,7 @@ def decoded_lines(raw: bytes, direction: Direction = "host", fmt: str = "text", 
     returns: a bad packet raises here, before any line is given. `progress` hears
     (packets listed, packets) as the chunks go out."""
     if fmt not in ("text", "json"):
-        raise FormatError(f"format: {fmt!r} is not 'text' or 'json'")
+        raise FormatError(f"format: {echo(fmt)} is not 'text' or 'json'")
     # A bad packet near the end must not leave half a listing behind its error. Host
     # packets are judged at once by the Frame's rules vectorised (the first bad one
     # decoded for its exact error), driver packets by decoding them.
@@ -324,7 +324,7 @@ def _stream_bytes(data: bytes | str) -> bytes:
     out = bytearray()
     for k, tok in enumerate(tokens):
         if len(tok) != 2 or any(ch not in "0123456789abcdefABCDEF" for ch in tok):
-            raise DecodeError(f"{tok!r} is not a two-digit hex byte", block=k // PACKET_SIZE,
+            raise DecodeError(f"{echo(tok)} is not a two-digit hex byte", block=k // PACKET_SIZE,
                               byte=k % PACKET_SIZE)
         out.append(int(tok, 16))
     return bytes(out)

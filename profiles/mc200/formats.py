@@ -30,7 +30,7 @@ from typing import overload
 
 import numpy as np
 
-from ..errors import CorruptedError, DecodeError, FormatError, StepRampError
+from ..errors import CorruptedError, DecodeError, FormatError, StepRampError, echo
 from ..formats import (
     TEXT_CHUNK_BYTES,
     ChunkRender,
@@ -258,7 +258,7 @@ def _json_packets(raw: bytes) -> tuple[bytes, object]:
     out = bytearray()
     for i, line in enumerate(obj["packets"]):
         if not isinstance(line, str):
-            raise FormatError(f"packets[{i}]: expected a hex string, got {line!r}")
+            raise FormatError(f"packets[{i}]: expected a hex string, got {echo(line)}")
         packet = hex_bytes(line, f"packets[{i}]")
         if len(packet) != PACKET_SIZE:
             raise DecodeError(f"packets[{i}]: {len(packet)} bytes, a packet is {PACKET_SIZE}",
@@ -271,7 +271,7 @@ def _parse_json(raw: bytes) -> Parsed[bytes]:
     payload, claimed = _json_packets(raw)
     if claimed is not None and (not isinstance(claimed, str)
                                 or not re.fullmatch(r"[0-9A-Fa-f]{8}", claimed)):
-        raise CorruptedError(f"crc32: {claimed!r} is not 8 hex digits")
+        raise CorruptedError(f"crc32: {echo(claimed)} is not 8 hex digits")
     integrity, detail = verify_crc(payload, claimed, "the crc32 field")
     return Parsed(split_packets(payload), "json", integrity, detail)
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import DecodeError, FormatError, require_int
+from ..errors import DecodeError, FormatError, echo, require_int
 from .codec import (
     HOST_FRAMES,
     MAGIC_DEFAULT,
@@ -57,7 +57,7 @@ def mode_switch(driver_id: int, mode: Mode, magic: int = MAGIC_DEFAULT, *,
     """The two packets that switch the control mode: the new mode with the magic in
     bytes 3–6, then the magic again. Command values follow, with mode_switch = 0."""
     if mode not in MODE_CODE:
-        raise FormatError(f"mode: {mode!r} is not one of {', '.join(MODES)}")
+        raise FormatError(f"mode: {echo(mode)} is not one of {', '.join(MODES)}")
     require_int("magic", magic, 0, 0xFFFFFFFF)
     packet = HostPacket(driver_id, servo, MODE_CODE[mode], magic, "raw")
     packet.encode()  # refuse a bad driver id here, with its name
@@ -96,7 +96,7 @@ class DriverModel:
     def __init__(self, *, mode: Mode = "position", magic: int = MAGIC_DEFAULT,
                  driver_id: int | None = None) -> None:
         if mode not in MODE_CODE:
-            raise FormatError(f"mode: {mode!r} is not one of {', '.join(MODES)}")
+            raise FormatError(f"mode: {echo(mode)} is not one of {', '.join(MODES)}")
         self.magic = magic
         self.driver_id = driver_id
         self._mode = MODE_CODE[mode]

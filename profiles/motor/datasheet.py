@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import FieldRangeError, FormatError, require_int
+from ..errors import FieldRangeError, FormatError, echo, require_int
 from .loads import Contribution, combine
 from .model import FORMAT
 
@@ -105,6 +105,9 @@ def electrical_periods(step_angle_deg: float, phases: int, rotor_teeth: int | No
     return max(1, round(full_steps_per_rev(step_angle_deg) / (2 * phases)))
 
 
+MICROSTEP_MAX = 1024  # microsteps per full step a driver setting may have
+
+
 @dataclass(frozen=True)
 class Drive:
     """The driver's settings: supply voltage, current setting (RMS per phase), microsteps."""
@@ -115,7 +118,7 @@ class Drive:
     def __post_init__(self) -> None:
         _pos("supply_v", self.supply_v, 1e4)
         _pos("current_a", self.current_a, 1e3)
-        require_int("microstep", self.microstep, 1, 1024)
+        require_int("microstep", self.microstep, 1, MICROSTEP_MAX)
 
 
 def _pos(name: str, value: float, hi: float) -> None:
@@ -312,11 +315,11 @@ def curve_from_csv(text: str, *, speed_unit: str, torque_unit: str, steps_per_re
             if first:   # the header
                 first = False
                 continue
-            raise FormatError(f"{name}: line {lineno}: expected two numbers, got {raw!r}") \
+            raise FormatError(f"{name}: line {lineno}: expected two numbers, got {echo(raw)}") \
                 from None
         first = False
         if len(values) != 2 or not all(math.isfinite(v) for v in values):
-            raise FormatError(f"{name}: line {lineno}: expected two numbers, got {raw!r}")
+            raise FormatError(f"{name}: line {lineno}: expected two numbers, got {echo(raw)}")
         rows.append((values[0], values[1]))
     if len(rows) < 2:
         raise FormatError(f"{name}: needs at least two (speed, torque) rows")

@@ -24,7 +24,7 @@ import math
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
-from ..errors import FieldRangeError, FormatError
+from ..errors import FieldRangeError, FormatError, echo
 from .units import G_MPS2
 
 STEEL_KG_M3 = 7850.0
@@ -244,7 +244,7 @@ def parse_load(spec: str) -> tuple[str, dict[str, float]]:
     kind, _, rest = spec.partition(":")
     kind = _ALIASES.get(kind.strip().lower(), kind.strip().lower())
     if kind not in _KEYS:
-        raise FormatError(f"load {spec!r}: unknown kind {kind!r} (expected one of "
+        raise FormatError(f"load {echo(spec)}: unknown kind {echo(kind)} (expected one of "
                           f"{', '.join(_KEYS)}, cylinder)")
     args: dict[str, float] = {}
     seen = set()
@@ -252,18 +252,18 @@ def parse_load(spec: str) -> tuple[str, dict[str, float]]:
         key, eq, text = item.partition("=")
         key = key.strip()
         if not eq or key not in _KEYS[kind]:
-            raise FormatError(f"load {spec!r}: {item!r} is not one of "
+            raise FormatError(f"load {echo(spec)}: {echo(item)} is not one of "
                               f"{', '.join(k + '=…' for k in _KEYS[kind])}")
         try:
             value = float(text)
         except ValueError:
-            raise FormatError(f"load {spec!r}: {key}: {text!r} is not a number") from None
+            raise FormatError(f"load {echo(spec)}: {key}: {echo(text)} is not a number") from None
         arg, factor = _KEYS[kind][key]
         args[arg] = value * factor
         seen.add(key)
     missing = _REQUIRED_KEYS[kind] - seen
     if missing:
-        raise FormatError(f"load {spec!r}: missing {', '.join(sorted(missing))}")
+        raise FormatError(f"load {echo(spec)}: missing {', '.join(sorted(missing))}")
     return kind, args
 
 

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import FieldRangeError, FormatError, is_number, require_int
+from ..errors import FieldRangeError, FormatError, echo, is_number, require_int
 from ..reading import read_json
 
 FORMAT = "stepramp.motor/1"
@@ -205,7 +205,7 @@ class Motor:
         if not isinstance(obj, dict):
             raise FormatError("a motor file holds one JSON object")
         if obj.get("format") != FORMAT:
-            raise FormatError(f"format: expected {FORMAT!r}, got {obj.get('format')!r}")
+            raise FormatError(f"format: expected {echo(FORMAT)}, got {echo(obj.get('format'))}")
         unknown = set(obj) - _REQUIRED - _OPTIONAL
         if unknown:
             raise FormatError(f"unknown key(s) in motor file: {', '.join(sorted(unknown))}")
@@ -219,10 +219,10 @@ class Motor:
         for key in (_REQUIRED | _OPTIONAL) - {"format", "pullout_torque", "name", "sources",
                                               "tolerances", "resonance_bands_pps"}:
             if key in obj and not _is_num(obj[key]):
-                raise FormatError(f"{key}: expected a number, got {obj[key]!r}")
+                raise FormatError(f"{key}: expected a number, got {echo(obj[key])}")
         for key in ("steps_per_rev", "rotor_teeth", "phases"):
             if key in obj and not isinstance(obj[key], int):
-                raise FormatError(f"{key}: expected an integer, got {obj[key]!r}")
+                raise FormatError(f"{key}: expected an integer, got {echo(obj[key])}")
         return cls(steps_per_rev=obj["steps_per_rev"],
                    curve_speed_pps=np.array([p[0] for p in curve], dtype=float),
                    curve_torque_nm=np.array([p[1] for p in curve], dtype=float),
@@ -275,10 +275,11 @@ def _read_tolerances(obj: Any) -> tuple[tuple[str, float, float], ...]:
     out = []
     for key, pair in obj.items():
         if key not in TOLERANCE_KEYS:
-            raise FormatError(f"tolerances: unknown field {key!r} (allowed: "
+            raise FormatError(f"tolerances: unknown field {echo(key)} (allowed: "
                               f"{', '.join(TOLERANCE_KEYS)})")
         if not (isinstance(pair, list) and len(pair) == 2 and all(_is_num(x) for x in pair)):
-            raise FormatError(f"tolerances.{key}: expected [low, high] (two numbers), got {pair!r}")
+            raise FormatError(f"tolerances.{key}: expected [low, high] (two numbers), got "
+                              f"{echo(pair)}")
         out.append((key, float(pair[0]), float(pair[1])))
     return tuple(sorted(out, key=lambda e: TOLERANCE_KEYS.index(e[0])))
 
@@ -295,7 +296,7 @@ def _check_tolerances(motor: Motor) -> None:
     seen = set()
     for key, lo, hi in motor.tolerances:
         if key not in TOLERANCE_KEYS or key in seen:
-            raise FormatError(f"tolerances: {key!r} is not a tolerance field or is repeated")
+            raise FormatError(f"tolerances: {echo(key)} is not a tolerance field or is repeated")
         seen.add(key)
         if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi:
             raise FormatError(f"tolerances.{key}: low {lo:g} must not exceed high {hi:g}")

@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 import re
 
-from ..errors import FieldRangeError, FormatError
+from ..errors import FieldRangeError, FormatError, echo
 
 G_MPS2 = 9.80665                      # standard gravity (kgf definition)
 OZF_IN_NM = 0.028349523125 * G_MPS2 * 0.0254   # 1 oz·in = 7.0615518e-3 N·m
@@ -38,7 +38,7 @@ def torque_unit(name: str) -> str:
     """The canonical torque unit for `name` (N·m, N.m, Nm, mNm, oz-in, kg·cm, …)."""
     key = re.sub(r"[\s·*.\-_]", "", name).lower()
     if key not in _TORQUE_ALIASES:
-        raise FormatError(f"torque unit {name!r}: expected one of {', '.join(TORQUE_UNITS)}")
+        raise FormatError(f"torque unit {echo(name)}: expected one of {', '.join(TORQUE_UNITS)}")
     return _TORQUE_ALIASES[key]
 
 
@@ -47,7 +47,7 @@ def speed_unit(name: str) -> str:
     for unit in SPEED_UNITS:
         if name.strip().lower() == unit.lower():
             return unit
-    raise FormatError(f"speed unit {name!r}: expected one of {', '.join(SPEED_UNITS)}")
+    raise FormatError(f"speed unit {echo(name)}: expected one of {', '.join(SPEED_UNITS)}")
 
 
 def torque_to_nm(value: float, unit: str) -> float:
@@ -91,7 +91,7 @@ def _pps_per_machine(unit: str, steps_per_rev: int, mm_per_rev: float | None) ->
         return steps_per_rev / 60.0
     mm_per_unit = {"mm/s": 1.0, "m/s": 1000.0, "m/min": 1000.0 / 60.0}.get(unit)
     if mm_per_unit is None:
-        raise FormatError(f"speed unit {unit!r}: expected one of "
+        raise FormatError(f"speed unit {echo(unit)}: expected one of "
                           f"{', '.join(MACHINE_SPEED_UNITS)}")
     if mm_per_rev is None or not math.isfinite(mm_per_rev) or mm_per_rev <= 0:
         raise FormatError(f"a speed in {unit} needs the travel per motor revolution "

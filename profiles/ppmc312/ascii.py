@@ -16,7 +16,7 @@ import string
 from dataclasses import dataclass
 from typing import Any
 
-from ..errors import DecodeError, FormatError, UnsupportedError, require_int
+from ..errors import DecodeError, FormatError, UnsupportedError, echo, require_int
 from ..fields import Bit, Bits, Const, Frame, SInt, UInt
 from .clock import EXTCK_FALLING, Clock
 from .frames import block_bytes
@@ -84,7 +84,7 @@ class AsciiFrame:
 
 def control_byte(kind: str, address: int) -> int:
     if kind not in KINDS:
-        raise FormatError(f"ASCII frame kind: {kind!r} is not one of {', '.join(KINDS)}")
+        raise FormatError(f"ASCII frame kind: {echo(kind)} is not one of {', '.join(KINDS)}")
     address = require_int("address", address, 0, MAX_ADDRESS)
     return CONTROL.encode(type=KINDS[kind], address=address)[0]
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from ..errors import FieldRangeError, FormatError, require_number
+from ..errors import FieldRangeError, FormatError, echo, require_number
 
 INTERNAL_HZ: dict[str, float] = {
     "8MHz": 8_000_000.0,
@@ -54,7 +54,7 @@ class Clock:
     @classmethod
     def internal(cls, name: str) -> Clock:
         if name not in INTERNAL_HZ:
-            raise FormatError(f"clock: {name!r} is not one of {', '.join(INTERNAL_HZ)}")
+            raise FormatError(f"clock: {echo(name)} is not one of {', '.join(INTERNAL_HZ)}")
         return cls(_CODES[name], INTERNAL_HZ[name])
 
     @classmethod
@@ -65,14 +65,14 @@ class Clock:
         for name in INTERNAL_HZ:
             if name.lower() == key:
                 return cls.internal(name)
-        raise FormatError(f"clock: {text!r} is not one of {', '.join(INTERNAL_HZ)} "
+        raise FormatError(f"clock: {echo(text)} is not one of {', '.join(INTERNAL_HZ)} "
                           "(any case)")
 
     @classmethod
     def extck(cls, hz: float, edge: str = "rising") -> Clock:
         require_number("clock.extck_hz", hz, 0, 20_000_000, lo_open=True)
         if edge not in ("rising", "falling"):
-            raise FormatError(f"clock.edge: {edge!r} is not 'rising' or 'falling'")
+            raise FormatError(f"clock.edge: {echo(edge)} is not 'rising' or 'falling'")
         return cls(EXTCK_RISING if edge == "rising" else EXTCK_FALLING, float(hz))
 
     @classmethod
@@ -98,4 +98,5 @@ class Clock:
                                   "\"rising\"|\"falling\"}" + (f"; unknown key(s) {sorted(extra)}"
                                                                if extra else ""))
             return cls.extck(obj["extck_hz"], obj.get("edge", "rising"))
-        raise FormatError(f"clock: {obj!r} is neither a clock name nor an external clock object")
+        raise FormatError(f"clock: {echo(obj)} is neither a clock name nor an external clock "
+                          "object")

@@ -17,8 +17,9 @@ import json
 from dataclasses import asdict, dataclass
 from typing import Any
 
+from ..errors import FieldRangeError, FormatError, echo
 from .init_model import as_free_curve
-from .table import FreeCurveTable, InitTable
+from .table import RATE_FIELD_MAX, FreeCurveTable, InitTable
 
 FORMATS = ("text", "json", "csv")
 
@@ -114,9 +115,7 @@ class StageListing:
             return self.to_csv()
         if fmt == "text":
             return self.to_text()
-        from profiles.errors import FormatError
-
-        raise FormatError(f"format: {fmt!r} is not one of {', '.join(FORMATS)}")
+        raise FormatError(f"format: {echo(fmt)} is not one of {', '.join(FORMATS)}")
 
 
 def list_stages(table: FreeCurveTable | InitTable,
@@ -124,6 +123,9 @@ def list_stages(table: FreeCurveTable | InitTable,
     """The per-stage listing of `table`; `steps_per_rev` adds each stage's speed in rpm."""
     stages = as_free_curve(table)
     hz = stages.clock.hz
+    for i, rate in enumerate(stages.rates):
+        if rate < 1:  # a rate divides the clock: 0 has no speed (the chip wants ≥ 2, code 18)
+            raise FieldRangeError(f"rates[{i}]", rate, 1, RATE_FIELD_MAX)
     n = len(stages.rates)
 
     def side(pulses: tuple[int, ...]) -> tuple[list[float | None], list[float | None]]:

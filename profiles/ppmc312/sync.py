@@ -48,12 +48,15 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from fractions import Fraction
 from typing import Any, Literal
 
 import numpy as np
 
-from ..errors import PlanError, SyncError
+from ..errors import PlanError, SyncError, echo
 from ..motor import Motor
+from ..pulses import Piece, PulseTrain
+from ..pulses import line_deviation as pulse_line_deviation
 from .clock import INTERNAL_HZ, Clock
 from .criterion import all_length_safe
 from .execution import Execution, simulate_move
@@ -555,23 +558,35 @@ def joint_path(pulse_times: Sequence[np.ndarray]) -> tuple[np.ndarray, np.ndarra
     return t, x
 
 
-def line_deviation_times(pulse_times: Sequence[np.ndarray]
+def line_deviation_times(pulse_times: Sequence[np.ndarray | PulseTrain]
                          ) -> tuple[float, np.ndarray, np.ndarray]:
     """(largest distance, instants, distance at each instant) between the joint path and the
     straight line from the start to the end point, in pulses (each axis's pulse one unit),
-    from each axis's pulse instants (its length is its pulse count)."""
-    t, x = joint_path(pulse_times)
-    end = np.array([len(ti) for ti in pulse_times], dtype=float)
-    u = end / np.linalg.norm(end)
-    xf = x.astype(float)
-    resid = xf - np.outer(xf @ u, u)   # the component off the line, never a difference of
-    d = np.sqrt(np.sum(resid * resid, axis=1))  # squares (that cancels at 1e6 pulses)
-    return float(d.max()), t, d
+    from each axis's pulse instants (its length is its pulse count) or pulse train (any
+    length: `profiles.pulses.line_deviation`, memory and time bounded)."""
+    return pulse_line_deviation(pulse_times)
+
+
+def pulse_train(execution: Execution) -> PulseTrain:
+    """The chip's pulse instants as pieces, one per segment: pulse j of a segment ends
+    rate·(j+1) ticks after its start (the exact ticks of `Execution.pulse_times_s`, any
+    number of pulses); its period is exact for the internal clocks."""
+    hz = execution.clock.hz
+    hz_exact = Fraction(int(hz)) if float(hz).is_integer() else Fraction(hz)
+    pieces = []
+    before = 0
+    for s in execution.segments:
+        def times(k: np.ndarray, start: int = s.start_tick, rate: int = s.rate,
+                  first: int = before + 1) -> np.ndarray:
+            return (start + rate * (k - first + 1)) / hz
+        pieces.append(Piece(before + 1, s.pulses, times, Fraction(s.rate) / hz_exact))
+        before += s.pulses
+    return PulseTrain(pieces)
 
 
 def line_deviation(executions: Sequence[Execution]) -> tuple[float, np.ndarray, np.ndarray]:
-    """`line_deviation_times` of the chips' executions (moves up to 10 M pulses an axis)."""
-    return line_deviation_times([e.pulse_times_s() for e in executions])
+    """`line_deviation_times` of the chips' executions (any number of pulses)."""
+    return line_deviation_times([pulse_train(e) for e in executions])
 
 
 def plan_line_sync(axes: Sequence[tuple[str, Motor, int]], *, top_slack: float = TOP_SLACK,
@@ -690,4 +705,4 @@ def plan_sync(axes: Sequence[tuple[str, Motor, int]], mode: Mode, *,
         return plan_time_sync(axes, accept=accept)
     if mode == "line":
         return plan_line_sync(axes, accept=accept)
-    raise SyncError(f"mode: {mode!r} is not 'time' or 'line'")
+    raise SyncError(f"mode: {echo(mode)} is not 'time' or 'line'")

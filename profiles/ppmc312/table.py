@@ -20,7 +20,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from ..errors import FieldRangeError, FormatError, is_number
+from ..errors import FieldRangeError, FormatError, echo, is_number
 from ..reading import read_json
 from .clock import Clock
 
@@ -124,7 +124,7 @@ class InitTable:
 
     def __post_init__(self) -> None:
         if self.shape not in ("linear", "s_curve"):
-            raise FormatError(f"shape: {self.shape!r} is not 'linear' or 's_curve'")
+            raise FormatError(f"shape: {echo(self.shape)} is not 'linear' or 's_curve'")
         if (self.stop_rate is None) != (self.decel_pulses is None):
             raise FormatError("stop_rate and decel_pulses go together (both give LE=1)")
         for name, hi in (("start_rate", RATE_FIELD_MAX), ("high_rate", RATE_FIELD_MAX),
@@ -172,12 +172,12 @@ def table_from_json(obj: Any) -> Table:
     if not isinstance(obj, dict):
         raise FormatError("a table file holds one JSON object")
     if obj.get("format") != FORMAT:
-        raise FormatError(f"format: expected {FORMAT!r}, got {obj.get('format')!r}")
+        raise FormatError(f"format: expected {echo(FORMAT)}, got {echo(obj.get('format'))}")
     if obj.get("device") != DEVICE:
-        raise FormatError(f"device: expected {DEVICE!r}, got {obj.get('device')!r}")
+        raise FormatError(f"device: expected {echo(DEVICE)}, got {echo(obj.get('device'))}")
     kind = obj.get("kind")
     if not isinstance(kind, str) or kind not in _KEYS:
-        raise FormatError(f"kind: expected 'free_curve' or 'init', got {kind!r}")
+        raise FormatError(f"kind: expected 'free_curve' or 'init', got {echo(kind)}")
     required, optional = _KEYS[kind]
     unknown = set(obj) - required - optional
     if unknown:
@@ -214,14 +214,14 @@ def _list(obj: dict[str, Any], key: str) -> list[int]:
         raise FormatError(f"{key}: expected a list of integers, got {type(value).__name__}")
     for i, v in enumerate(value):
         if not is_number(v, integral=True):
-            raise FormatError(f"{key}[{i}]: expected an integer, got {v!r}")
+            raise FormatError(f"{key}[{i}]: expected an integer, got {echo(v)}")
     return value
 
 
 def _int(obj: dict[str, Any], key: str) -> int:
     v = obj[key]
     if not is_number(v, integral=True):
-        raise FormatError(f"{key}: expected an integer, got {v!r}")
+        raise FormatError(f"{key}: expected an integer, got {echo(v)}")
     return v
 
 
@@ -230,7 +230,7 @@ _INT_ONLY = frozenset((int,))
 
 def _int_field(label: str, v: Any, hi: int) -> int:
     if not is_number(v, integral=True):
-        raise FormatError(f"{label}: expected an integer, got {v!r}")
+        raise FormatError(f"{label}: expected an integer, got {echo(v)}")
     if not 0 <= v <= hi:
         raise FieldRangeError(label, int(v), 0, hi)
     return int(v)

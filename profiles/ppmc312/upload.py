@@ -24,6 +24,7 @@ from ..errors import (
     FieldRangeError,
     FormatError,
     UnsupportedError,
+    echo,
     require_int,
 )
 from ..fields import Frame
@@ -302,7 +303,7 @@ def encode_table(table: Table, *, to: str = "parallel", address: int = 0,
                  max_data: int = MAX_BLOCK_DATA) -> list[bytes]:
     """Blocks for the parallel bus, or one ASCII command frame (init tables only)."""
     if to not in ("parallel", "ascii"):
-        raise FormatError(f"to: {to!r} is not 'parallel' or 'ascii'")
+        raise FormatError(f"to: {echo(to)} is not 'parallel' or 'ascii'")
     if isinstance(table, FreeCurveTable):
         if to == "ascii":
             raise UnsupportedError("the free-curve command has no serial (ASCII) form; upload "

@@ -23,11 +23,11 @@ import traceback
 from collections.abc import Sequence
 from typing import NoReturn
 
-from profiles.errors import StepRampError
+from profiles.errors import StepRampError, bounded
 from profiles.reading import display_path
 from verify.output import OutputInterrupted
 
-from ._common import EXIT_OK, EXIT_UNUSABLE, VersionAction
+from ._common import EXIT_OK, EXIT_UNUSABLE, VersionAction, guard_paths
 
 # The order here is the order of `stepramp --help`.
 COMMANDS: tuple[str, ...] = (
@@ -45,7 +45,8 @@ class OneLineParser(argparse.ArgumentParser):
     the class."""
 
     def error(self, message: str) -> NoReturn:
-        print(f"{self.prog}: {display_path(message)} (see {self.prog} --help)", file=sys.stderr)
+        print(f"{self.prog}: {bounded(display_path(message))} (see {self.prog} --help)",
+              file=sys.stderr)
         self.exit(EXIT_UNUSABLE)
 
 
@@ -82,6 +83,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     command = args.command  # the group for alink/mc200 ("stepramp mc200: …"), as before
     args.argv = args_list  # the command line, for the provenance files carry
     try:
+        guard_paths(args)  # before anything is read or written
         return int(args.func(args))
     except StepRampError as e:
         _say(command, str(e))
@@ -109,7 +111,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _say(command: str, message: str) -> None:
-    print(f"stepramp {command}: {display_path(_first_line(message))}", file=sys.stderr)
+    # bounded: a message echoing a hostile input field stays a readable line
+    print(f"stepramp {command}: {bounded(display_path(_first_line(message)))}",
+          file=sys.stderr)
 
 
 def _first_line(e: object) -> str:

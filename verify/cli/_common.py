@@ -14,6 +14,8 @@ from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from typing import TYPE_CHECKING, Any
 
+from profiles.errors import echo
+
 if TYPE_CHECKING:
     from profiles.ppmc312.clock import Clock
     from profiles.progress import Progress
@@ -29,9 +31,9 @@ def positive_int(text: str) -> int:
     try:
         value = int(text, 0)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+        raise argparse.ArgumentTypeError(f"{echo(text)} is not an integer") from None
     if value < 0:
-        raise argparse.ArgumentTypeError(f"{text!r} is negative")
+        raise argparse.ArgumentTypeError(f"{echo(text)} is negative")
     return value
 
 
@@ -50,7 +52,7 @@ def pulse_list(text: str) -> list[int]:
     for part in text.split(","):
         value = positive_int(part.strip())
         if not 1 <= value <= 0xFFFFFFFF:
-            raise argparse.ArgumentTypeError(f"{part.strip()!r} is not a move length "
+            raise argparse.ArgumentTypeError(f"{echo(part.strip())} is not a move length "
                                              "(1..4294967295 pulses)")
         out.append(value)
     return out
@@ -60,7 +62,7 @@ def number(text: str) -> float:
     try:
         return float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+        raise argparse.ArgumentTypeError(f"{echo(text)} is not a number") from None
 
 
 def internal_clock(text: str) -> Clock:
@@ -82,12 +84,15 @@ def clock_or_extck(text: str) -> str:
 
 
 @contextmanager
-def fields_as_options(options: Mapping[str, str]) -> Iterator[None]:
+def fields_as_options(options: Mapping[str, str],
+                      scales: Mapping[str, float] | None = None) -> Iterator[None]:
     """Name the option a user typed, not the library's field: a FieldRangeError for a
     field in `options` is re-raised with the option in its place, keeping the value,
     the range and any chip code. A field matches exactly, by the last dotted part of
     a frame field (`mc200.host.position.header.driver_id`), or by its name before any
-    parenthesised note with spaces as underscores (`high rate (0 = the table's)`)."""
+    parenthesised note with spaces as underscores (`high rate (0 = the table's)`).
+    `scales[field]` converts a field's value and range back to the option's unit (the
+    option in g·cm², the field in kg·m²: 1e7)."""
     from profiles.errors import FieldRangeError
 
     try:
@@ -98,9 +103,18 @@ def fields_as_options(options: Mapping[str, str]) -> Iterator[None]:
         option = options.get(e.field) or options.get(last) or options.get(base)
         if option is None or not str(e).startswith(e.field):
             raise
+        scale = (scales or {}).get(base)
+        if scale is not None and all(isinstance(v, int | float) for v in (e.value, e.lo, e.hi)):
+            note = last[len(last.split(" (")[0]):]  # "(0 excluded)" stays
+            raise FieldRangeError(option + note, _scaled(e.value, scale),
+                                  _scaled(e.lo, scale), _scaled(e.hi, scale)) from None
         e.args = (option + str(e)[len(e.field):],)
         e.field = option
         raise
+
+
+def _scaled(value: Any, scale: float) -> float:
+    return float(f"{value * scale:.12g}")  # 5.7e-6 kg·m² × 1e7 is 57 g·cm², not 56.99…
 
 
 def add_sample_options(p: argparse.ArgumentParser, scope: str) -> None:
@@ -215,6 +229,48 @@ def file_format(args: argparse.Namespace, formats: Any, provenance: Any, *,
                             else c_name_for(args.output, c_default),
                             base_address=base_address, provenance=provenance)
     return fmt, options
+
+
+# Where each command's paths are: the options (by dest) that name files it writes, and the
+# arguments that name files it reads. A command whose -o is a folder says so with
+# `set_defaults(output_folder=True)`.
+OUTPUT_OPTIONS = {"output": "-o", "csv": "--csv", "pulse_times": "--pulse-times",
+                  "samples": "--samples", "plot": "--plot"}
+INPUT_ARGUMENTS = ("files", "table", "upload", "file", "motor", "motors", "axes", "curve",
+                   "moves")
+
+
+def guard_paths(args: argparse.Namespace) -> None:
+    """Refuse a command's unsafe output paths before it reads or writes anything
+    (`verify.output.refuse_unsafe_outputs`): -o naming a folder or one of the inputs."""
+    from verify.output import refuse_unsafe_outputs
+
+    outputs = [(option, value) for dest, option in OUTPUT_OPTIONS.items()
+               if isinstance(value := getattr(args, dest, None), str)]
+    inputs: list[str] = []
+    for dest in INPUT_ARGUMENTS:
+        value = getattr(args, dest, None)
+        inputs += [v for v in (value if isinstance(value, list) else [value])
+                   if isinstance(v, str)]
+    folders = [o for o in outputs if o[0] == "-o"] if getattr(args, "output_folder",
+                                                               False) else []
+    refuse_unsafe_outputs([o for o in outputs if o not in folders], inputs, folders=folders)
+
+
+def refuse_table_errors(path: str, table: Any, remedy: str) -> bool:
+    """Print the chip-rule errors of `table` (each as `check` states it) and a "refused"
+    line on stderr, and say whether there were any: a command that turns a table into
+    something the chip runs gives the same verdict as `check` (exit 1), never an error."""
+    from verify.checks import check_table
+
+    errors = [f for f in check_table(table) if f.severity == "error"]
+    for f in errors:
+        stage = "" if f.stage is None else f" stage {f.stage}"
+        code = "" if f.chip_code is None else f" (chip {f.chip_code_hex})"
+        print(f"{path}: error [{f.rule}]{stage}{code}: {f.message}", file=sys.stderr)
+    if errors:
+        print(f"{path}: refused: {len(errors)} error(s); {remedy}", file=sys.stderr)
+    return bool(errors)
 
 
 def command_line(args: argparse.Namespace) -> str:

@@ -157,7 +157,7 @@ def _do_decode(args: argparse.Namespace) -> int:
     from dataclasses import asdict
 
     from profiles import alink
-    from profiles.errors import FieldRangeError, FormatError
+    from profiles.errors import FieldRangeError, FormatError, echo
     from profiles.reading import json_text
     from verify.output import write_output
 
@@ -166,7 +166,7 @@ def _do_decode(args: argparse.Namespace) -> int:
         try:
             words.append(int(text, 0))
         except ValueError:
-            raise FormatError(f"word {i}: {text!r} is not an integer (hex 0x… or decimal)"
+            raise FormatError(f"word {i}: {echo(text)} is not an integer (hex 0x… or decimal)"
                               ) from None
     for i, w in enumerate(words):
         if not 0 <= w <= 0xFFFF:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ._common import EXIT_OK
+from ._common import EXIT_FINDINGS, EXIT_OK, refuse_table_errors
 
 
 def add_subparser(sub: Any) -> None:
@@ -26,5 +26,8 @@ def _do_expand(args: argparse.Namespace) -> int:
     table = load_table(args.table)
     if isinstance(table, FreeCurveTable):
         raise FormatError(f"{args.table}: already a free curve; expand takes an init table")
+    # a table the chip refuses has no staircase: the same verdict as check and export
+    if refuse_table_errors(args.table, table, "fix them (the chip refuses the table)"):
+        return EXIT_FINDINGS
     write_output(args.output, dump_table(as_free_curve(table)))
     return EXIT_OK

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 from typing import Any
 
 from ._common import (
@@ -12,6 +11,7 @@ from ._common import (
     add_file_format_options,
     fields_as_options,
     positive_int,
+    refuse_table_errors,
     render_upload,
 )
 
@@ -38,18 +38,10 @@ def add_subparser(sub: Any) -> None:
 def _do_export(args: argparse.Namespace) -> int:
     from profiles.ppmc312.table import load_table
     from profiles.ppmc312.upload import encode_table
-    from verify.chip_rules import check_table
     from verify.output import write_output
 
     table = load_table(args.table)
-    errors = [f for f in check_table(table) if f.severity == "error"]
-    if errors and not args.force:
-        for f in errors:
-            stage = "" if f.stage is None else f" stage {f.stage}"
-            code = "" if f.chip_code is None else f" (chip {f.chip_code_hex})"
-            print(f"{args.table}: error [{f.rule}]{stage}{code}: {f.message}", file=sys.stderr)
-        print(f"{args.table}: refused: {len(errors)} error(s); fix them or pass --force",
-              file=sys.stderr)
+    if not args.force and refuse_table_errors(args.table, table, "fix them or pass --force"):
         return EXIT_FINDINGS
     with fields_as_options({"address": "--address", "max_data": "--max-block-data"}):
         blocks = encode_table(table, to=args.to, address=args.address,

@@ -9,7 +9,16 @@ import argparse
 import json
 from typing import Any
 
-from ._common import EXIT_OK, EXIT_UNUSABLE, MOTOR_HELP, MOTOR_METAVAR, number, positive_int
+from ._common import (
+    EXIT_FINDINGS,
+    EXIT_OK,
+    EXIT_UNUSABLE,
+    MOTOR_HELP,
+    MOTOR_METAVAR,
+    fields_as_options,
+    number,
+    positive_int,
+)
 
 
 def add_subparser(sub: Any) -> None:
@@ -23,8 +32,8 @@ def add_subparser(sub: Any) -> None:
     n = msub.add_parser("new", help="a motor file from a datasheet (electrical model) or a "
                                     "vendor curve, plus loads")
     g = n.add_argument_group("motor")
-    g.add_argument("--phases", type=positive_int, default=2,
-                   help="motor phases, 2 or 5 (default 2)")
+    g.add_argument("--phases", type=positive_int, default=2, choices=(2, 5),
+                   help="motor phases, 2 or 5 (default 2; a motor file may state others)")
     g.add_argument("--step-angle", type=number, default=1.8, metavar="DEG",
                    help="full-step angle [°] (default 1.8)")
     g.add_argument("--microstep", type=positive_int, default=1,
@@ -85,12 +94,41 @@ def add_subparser(sub: Any) -> None:
 
 _DATASHEET_OPTS = ("holding_torque_nm", "rated_current_a", "resistance_ohm", "inductance_mh",
                    "supply_v")
+# The library's fields by the options that set them (a refusal names what the user typed),
+# and the factor from a field's unit to its option's.
+OPTIONS = {"microstep": "--microstep", "phases": "--phases", "step_angle_deg": "--step-angle",
+           "rotor_inertia_kgm2": "--rotor-inertia-gcm2", "detent_torque_nm": "--detent-torque-nm",
+           "holding_torque_nm": "--holding-torque-nm", "rated_current_a": "--rated-current-a",
+           "resistance_ohm": "--resistance-ohm", "inductance_h": "--inductance-mh",
+           "supply_v": "--supply-v", "current_a": "--current-a",
+           "safety_factor": "--safety-factor", "start_pps": "--start-pps"}
+SCALES = {"rotor_inertia_kgm2": 1e7, "inductance_h": 1e3}
 
 
 def _do_new(args: argparse.Namespace) -> int:
-    from profiles.errors import FormatError
     from profiles.motor import Motor
+    from verify.output import write_output
+
+    with fields_as_options(OPTIONS, SCALES):
+        obj = _motor_object(args)
+        Motor.from_json(obj)   # refuse here what the planner would refuse later
+    text_out = dump_motor(obj)
+    write_output(args.output, text_out)
+    if args.output not in (None, "-"):
+        curve = obj["pullout_torque"]
+        assert isinstance(curve, list)
+        print(f"{args.output}: {obj['steps_per_rev']} steps/rev, {len(curve)} curve points up to "
+              f"{curve[-1][0]:g} pps, inertia {obj['inertia_kgm2']:.4g} kg·m², friction "
+              f"{obj['friction_torque_nm']:.4g} N·m, load torque "
+              f"{obj.get('load_torque_nm', 0.0):.4g} N·m, start {obj['start_pps']:g} pps")
+    return EXIT_OK
+
+
+def _motor_object(args: argparse.Namespace) -> dict[str, Any]:
+    """The motor file's object from the datasheet or the vendor curve, and the loads."""
+    from profiles.errors import FormatError, require_int
     from profiles.motor.datasheet import (
+        MICROSTEP_MAX,
         Datasheet,
         Drive,
         Mechanics,
@@ -101,8 +139,9 @@ def _do_new(args: argparse.Namespace) -> int:
     )
     from profiles.motor.loads import loads_from_specs
     from profiles.reading import read_bytes
-    from verify.output import write_output
 
+    # first: the curve's speeds are converted with it (a 0 would be blamed on the curve)
+    require_int("microstep", args.microstep, 1, MICROSTEP_MAX)
     loads = loads_from_specs(args.load)
     given = [o for o in _DATASHEET_OPTS if getattr(args, o) is not None]
     if args.curve is None:
@@ -137,17 +176,7 @@ def _do_new(args: argparse.Namespace) -> int:
                            safety_factor=args.safety_factor, start_pps=args.start_pps,
                            name=args.name, curve_from=(f"vendor curve {args.curve} "
                                                        f"({args.speed_unit}, {args.torque_unit})"))
-    Motor.from_json(obj)   # refuse here what the planner would refuse later
-    text_out = dump_motor(obj)
-    write_output(args.output, text_out)
-    if args.output not in (None, "-"):
-        curve = obj["pullout_torque"]
-        assert isinstance(curve, list)
-        print(f"{args.output}: {obj['steps_per_rev']} steps/rev, {len(curve)} curve points up to "
-              f"{curve[-1][0]:g} pps, inertia {obj['inertia_kgm2']:.4g} kg·m², friction "
-              f"{obj['friction_torque_nm']:.4g} N·m, load torque "
-              f"{obj.get('load_torque_nm', 0.0):.4g} N·m, start {obj['start_pps']:g} pps")
-    return EXIT_OK
+    return obj
 
 
 def dump_motor(obj: dict[str, Any]) -> str:
@@ -157,25 +186,33 @@ def dump_motor(obj: dict[str, Any]) -> str:
 
 
 def _do_check(args: argparse.Namespace) -> int:
-    from profiles.errors import StepRampError
+    """The problems of each file on stdout: a verdict (exit 1) like `stepramp check`'s; a
+    file that cannot be read is also named on stderr, one line each (exit 2)."""
+    import sys
+
+    from profiles.errors import StepRampError, bounded
     from profiles.motor.catalogue import resolve
     from profiles.motor.schema import problems
-    from profiles.reading import read_json
+    from profiles.reading import display_path, read_json
 
-    bad = False
+    unusable, bad = [], False
     for path in args.files:
+        name = display_path(path)
         try:
             found = problems(read_json(resolve(path)))
         except StepRampError as e:
-            print(f"{path}: {e}")
-            bad = True
+            line = str(e) if str(e).startswith(name) else f"{name}: {e}"
+            print(bounded(line))
+            unusable.append(line)
             continue
         if not found:
-            print(f"{path}: ok")
-        for where, message in found:
-            print(f"{path}: {where or '/'}: {message}")
+            print(f"{name}: ok")
+        for where, message in found:  # a schema message can quote a whole field
+            print(bounded(f"{name}: {where or '/'}: {message}"))
         bad = bad or bool(found)
-    return EXIT_UNUSABLE if bad else EXIT_OK
+    for line in unusable:
+        print(f"stepramp motor: {bounded(line)}", file=sys.stderr)
+    return EXIT_UNUSABLE if unusable else EXIT_FINDINGS if bad else EXIT_OK
 
 
 def _do_list(args: argparse.Namespace) -> int:

@@ -20,11 +20,17 @@ def add_subparser(sub: Any) -> None:
 
 
 def _do_show(args: argparse.Namespace) -> int:
+    from profiles.errors import FieldRangeError, FormatError
     from profiles.ppmc312.listing import list_stages
     from profiles.ppmc312.table import load_table
+    from profiles.reading import display_path
     from verify.output import write_output
 
+    table = load_table(args.table)
     steps = load_motor(args.motor).steps_per_rev if args.motor else None
-    listing = list_stages(load_table(args.table), steps_per_rev=steps)
+    try:
+        listing = list_stages(table, steps_per_rev=steps)
+    except FieldRangeError as e:  # a stage the listing cannot state (a rate of 0)
+        raise FormatError(f"{display_path(args.table)}: {e}") from None
     write_output(args.output, listing.render(args.format))
     return EXIT_OK

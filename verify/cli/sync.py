@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from ._common import EXIT_FINDINGS, EXIT_OK
+from ._common import EXIT_FINDINGS, EXIT_OK, command_line
 
 
 def add_subparser(sub: Any) -> None:
@@ -30,7 +31,7 @@ def add_subparser(sub: Any) -> None:
                    help="skip ruckig's time/phase-synchronised durations [s]")
     s.add_argument("--format", choices=("text", "json"), default="text",
                    help="summary on stdout (default text; times in ms, JSON in s)")
-    s.set_defaults(func=_do_sync)
+    s.set_defaults(func=_do_sync, output_folder=True)
 
 
 def _do_sync(args: argparse.Namespace) -> int:
@@ -39,7 +40,7 @@ def _do_sync(args: argparse.Namespace) -> int:
     from profiles.errors import FormatError
     from profiles.ppmc312 import sync as ppmc_sync
     from verify import sync
-    from verify.output import write_output
+    from verify.output import Data, refuse_unsafe_outputs, write_output, write_outputs
 
     if args.plot and not args.plot.lower().endswith((".png", ".svg")):
         raise FormatError(f"--plot {args.plot}: the figure format is taken from the "
@@ -50,6 +51,12 @@ def _do_sync(args: argparse.Namespace) -> int:
     axes = load_axes(args.axes)
     if args.mode is not None:
         axes = replace(axes, mode=args.mode)
+    sync.check_axis_names([a.name for a in axes.axes], axes.device)
+    # what the folder will get must not be what is read (an axes file named axes.json in
+    # -o's folder, a motor file there): refused before planning
+    names = sync.output_names([a.name for a in axes.axes], axes.device)
+    refuse_unsafe_outputs([("-o", str(out_dir / n)) for n in names], [
+        args.axes, *(str(a.motor_path) for a in axes.axes if a.motor_path)], folder_ok=True)
     plan = sync.plan_axes(axes)
     ruckig = None
     if not args.no_ruckig:
@@ -58,20 +65,27 @@ def _do_sync(args: argparse.Namespace) -> int:
     commands: list[Any]
     if isinstance(plan, AlinkSyncPlan):
         commands = sync.alink_commands(plan)
-        files = sync.alink_files(plan, commands)
+        files = sync.alink_files(plan, command=command_line(args))
     else:
         commands = [ppmc_sync.move_command(a) for a in plan.axes]
-        files = sync.ppmc_files(plan)
+        files = sync.ppmc_files(plan, command=command_line(args))
     report = sync.sync_report(plan, device=axes.device, ruckig=ruckig, commands=commands)
-    files["report.json"] = (json.dumps(report, indent=1) + "\n").encode()
-    # everything is built before the first file is written: bad input leaves no files
-    out_dir.mkdir(parents=True, exist_ok=True)
-    for name, data in files.items():
-        write_output(str(out_dir / name), data)
+    files[sync.REPORT_FILE] = (json.dumps(report, indent=1) + "\n").encode()
+    outputs: list[tuple[str | None, Data]] = [(str(out_dir / n), d) for n, d in files.items()]
     if args.plot:
-        from verify.plot import save_figure
+        from verify.plot import figure_bytes
 
-        save_figure(sync.sync_figure(plan, ruckig), args.plot)
+        outputs.append((args.plot, figure_bytes(sync.sync_figure(plan, ruckig), args.plot)))
+    # everything is built before the first file is written, then written all or none
+    created = not out_dir.exists()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    try:
+        write_outputs(outputs)
+    except BaseException:
+        if created:  # made for this run and still empty: gone too
+            with contextlib.suppress(OSError):
+                out_dir.rmdir()
+        raise
     if args.format == "json":
         write_output(None, json.dumps(report, indent=1) + "\n")
     else:

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from profiles.errors import FieldRangeError, FormatError, is_number
+from profiles.errors import FieldRangeError, FormatError, echo, is_number
 from profiles.motor import Motor
 
 #: Pulses accepted for a move: at least one, at most ten billion (beyond that the
@@ -88,7 +88,7 @@ class MoveLimits:
 def check_pulses(pulses: Any) -> float:
     """The move length as a float, or a one-line error naming the field."""
     if not is_number(pulses):
-        raise FormatError(f"pulses: expected a number, got {pulses!r}")
+        raise FormatError(f"pulses: expected a number, got {echo(pulses)}")
     value = float(pulses)
     if not math.isfinite(value) or not MIN_PULSES <= value <= MAX_PULSES:
         raise FieldRangeError("pulses", pulses, MIN_PULSES, MAX_PULSES)

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 from typing import Any
 
-from profiles.errors import FormatError, ReferenceSolveError
+from profiles.errors import FormatError, ReferenceSolveError, echo
 from profiles.motor import Motor
 from profiles.progress import Progress, track
 
@@ -46,7 +46,7 @@ def references(motor: Motor, pulses: Any, *, include: Iterable[str] = SOLVERS,
     wanted = list(include)
     for name in wanted:
         if name not in SOLVERS:
-            raise FormatError(f"include: unknown reference {name!r} (known: "
+            raise FormatError(f"include: unknown reference {echo(name)} (known: "
                               f"{', '.join(SOLVERS)})")
     lim = move_limits(motor, pulses)
     out = {"exact": exact_optimum(motor, lim.pulses)}

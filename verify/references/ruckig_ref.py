@@ -14,7 +14,13 @@ from typing import Any
 
 import numpy as np
 
-from profiles.errors import FormatError, ReferenceSolveError, StepRampError, require_number
+from profiles.errors import (
+    FormatError,
+    ReferenceSolveError,
+    StepRampError,
+    echo,
+    require_number,
+)
 from profiles.motor import Motor
 from profiles.ruckig_move import RuckigMove, solve_move
 
@@ -59,7 +65,7 @@ def ruckig_reference(motor: Motor, pulses: Any, *, v_max_pps: float | None = Non
     max_jerk_pps3, else none (ruckig's second-order mode: an exact trapezoid).
     """
     if bound not in ("feasible", "optimistic"):
-        raise FormatError(f"bound: expected 'feasible' or 'optimistic', got {bound!r}")
+        raise FormatError(f"bound: expected 'feasible' or 'optimistic', got {echo(bound)}")
     start = time.perf_counter()
     lim = move_limits(motor, pulses)
     v0 = lim.v0_pps
