@@ -35,7 +35,8 @@ def test_it_opens_on_the_given_motor_with_a_figure(d: Designer) -> None:
     assert d.motor is NEMA17 and d.result is not None
     assert d.image.value[:8] == b"\x89PNG\r\n\x1a\n"
     assert d.result.settings == Settings(pulses=5_000, safety_factor=NEMA17.safety_factor,
-                                         load_torque_nm=NEMA17.load_torque_nm)
+                                         load_torque_nm=NEMA17.load_torque_nm,
+                                         friction_torque_nm=NEMA17.friction_torque_nm)
     assert "5000 pulses" in d.summary.value and "load angle" in d.summary.value
 
 
