@@ -9,6 +9,7 @@ import json
 import os
 import shutil
 import subprocess
+from dataclasses import replace as dataclasses_replace
 from pathlib import Path
 from typing import Any
 
@@ -16,11 +17,20 @@ import ipywidgets  # noqa: F401  (a [dev] dependency: missing, the suite fails)
 import numpy as np
 import pytest
 
+from profiles.errors import StepRampError
 from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312 import decode_upload
 from profiles.ppmc312.files import parse_upload
 from profiles.ppmc312.table import load_table
-from verify.designer import Designer, Settings, design, designer, loaded_motor
+from verify.designer import (
+    Designer,
+    Settings,
+    control_specs,
+    design,
+    designer,
+    loaded_motor,
+    verdict,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 NEMA17 = load_motor(next(p for p in bundled_motor_paths() if "nema17" in p.name))
@@ -60,6 +70,59 @@ def test_each_slider_replans_and_redraws(d: Designer, control: str, value: Any,
     # The plan is the one for the loaded motor the settings describe.
     assert after.motor.to_json() == loaded_motor(NEMA17, after.settings).to_json()
     assert after.plan.table == design(NEMA17, after.settings, load_angle=False).plan.table
+
+
+def test_verdict_reads_the_judges_design_ran() -> None:
+    result = design(NEMA17, Settings(pulses=3_000))
+    assert result.physics is not None
+    worst = abs(result.physics.worst_angle_deg)
+    assert 10 < worst < 90 and result.margins["min"] >= 1
+    assert verdict(result).level == "safe" and verdict(result).safe
+
+    def with_(**kw: Any) -> Any:
+        return dataclasses_replace(result, **kw)
+
+    tight = with_(settings=dataclasses_replace(result.settings, load_angle_aim_deg=worst - 1))
+    assert verdict(tight).level == "past-aim" and verdict(tight).safe
+    stalls = with_(margins={**result.margins, "min": 0.97})
+    assert verdict(stalls).level == "unsafe" and "0.970 < 1" in verdict(stalls).text
+    slips = with_(physics=dataclasses_replace(result.physics, slipped=True))
+    assert verdict(slips).level == "unsafe" and not verdict(slips).safe
+    assert verdict(with_(physics=None)).level == "safe"
+    assert "verdict: SAFE" in result.summary()
+
+
+def test_friction_reaches_the_plan() -> None:
+    base = Settings(pulses=3_000)
+    plain = design(NEMA17, base, load_angle=False)
+    rough = design(NEMA17, dataclasses_replace(base, friction_torque_nm=0.06), load_angle=False)
+    assert rough.motor.friction_torque_nm == 0.06
+    assert rough.execution.duration_s > plain.execution.duration_s
+    with pytest.raises(StepRampError, match="load_angle_aim_deg"):
+        design(NEMA17, dataclasses_replace(base, load_angle_aim_deg=120.0))
+
+
+@pytest.mark.slow
+def test_plan_to_aim_plans_as_stepramp_plan_does() -> None:
+    from profiles.ppmc312.planner import plan_free_curve
+
+    base = Settings(pulses=3_000, load_angle_aim_deg=40.0)
+    aimed = design(NEMA17, dataclasses_replace(base, plan_to_aim=True))
+    assert aimed.plan.table == plan_free_curve(loaded_motor(NEMA17, base), pulses=3_000,
+                                               load_angle_deg=40.0).table
+    assert aimed.plan.table != design(NEMA17, base, load_angle=False).plan.table
+    assert aimed.physics is not None and abs(aimed.physics.worst_angle_deg) <= 40.0
+
+
+def test_control_specs_hold_the_motors_values_within_their_ranges() -> None:
+    specs = control_specs(NEMA17, 5_000)
+    assert specs["pulses"].value == 5_000 and specs["pulses"].integer
+    assert specs["safety_factor"].value == NEMA17.safety_factor
+    assert specs["friction_torque_nm"].value == NEMA17.friction_torque_nm
+    for spec in specs.values():
+        assert spec.lo <= spec.value <= spec.hi and spec.step > 0
+    with pytest.raises(StepRampError, match="pulses"):
+        control_specs(NEMA17, 5)
 
 
 def test_stage_budget_and_clock_reach_the_table(d: Designer) -> None:

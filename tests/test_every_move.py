@@ -57,6 +57,7 @@ def segments(run):  # type: ignore[no-untyped-def]
     return [(s.phase, s.rate) for s in run.segments]
 
 
+@pytest.mark.slow  # against simulate_move for every length; CI runs it
 @settings(max_examples=60, deadline=None)
 @given(tables(), st.integers(0, 3))
 def test_families_partition_every_length_and_fix_the_segment_rates(table, hr_pick) -> None:  # type: ignore[no-untyped-def]
@@ -71,6 +72,7 @@ def test_families_partition_every_length_and_fix_the_segment_rates(table, hr_pic
             assert segments(simulate_move(table, n, high_rate=high)) == ref
 
 
+@pytest.mark.slow  # a reference comparison; CI runs it
 @settings(max_examples=60, deadline=None)
 @given(tables(), st.sampled_from([(300.0, 300.0), (2000.0, 800.0), (6000.0, 3000.0)]))
 def test_all_length_verdict_equals_brute_force(table, limits) -> None:  # type: ignore[no-untyped-def]
