@@ -63,6 +63,20 @@ def test_unusable_options_exit_2_naming_the_option(argv: list[str], says: str,
     assert err.count("\n") == 1 and says in err, err
 
 
+def test_a_port_in_use_exits_2_naming_it(capsys: pytest.CaptureFixture[str]) -> None:
+    import socket
+
+    pytest.importorskip("panel")
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        assert main(["design", "--motor", str(NEMA17_PATH), "--no-browser",
+                     "--port", str(port)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"--port {port}" in err, err
+
+
 # --- the page in-process ----------------------------------------------------------------------
 
 def test_page_controls_drive_the_verdict_and_the_files() -> None:

@@ -149,6 +149,7 @@ def test_load_torque_is_planned_for_both_directions() -> None:
     assert loaded.a_acc_pps2(0.0) == pytest.approx(flipped.a_acc_pps2(0.0))
 
 
+@pytest.mark.slow  # against every single-length plan; CI runs it
 def test_duty_cycle_never_worse_than_any_single_length_plan() -> None:
     motor = MOTORS["motor-pk566-5phase-half"]
     mix = [(200, 5.0), (2000, 2.0), (20_000, 1.0)]

@@ -74,17 +74,19 @@ class DesignPage:
         self._groups = {key: spec.group for key, spec in specs.items()}
         self._groups.update(clock="table", plan_to_aim="aim")
         self.controls: dict[str, Any] = {key: _slider(pn, key, spec) for key, spec in specs.items()}
-        self.controls["clock"] = pn.widgets.Select(
-            name="clock", options=[AUTO_CLOCK, *INTERNAL_HZ], value=AUTO_CLOCK,
+        select, checkbox = pn.widgets.Select, pn.widgets.Checkbox
+        self.controls["clock"] = select(
+            **_label(select, "clock"), options=[AUTO_CLOCK, *INTERNAL_HZ], value=AUTO_CLOCK,
             css_classes=["sr-clock"])
-        self.controls["plan_to_aim"] = pn.widgets.Checkbox(
-            name="plan to the aim (as stepramp plan does; about a second)", value=False,
-            css_classes=["sr-plan_to_aim"])
+        self.controls["plan_to_aim"] = checkbox(
+            **_label(checkbox, "plan to the aim (as stepramp plan does; about a second)"),
+            value=False, css_classes=["sr-plan_to_aim"])
         self.verdict = pn.pane.HTML("", css_classes=["sr-verdict"], sizing_mode="stretch_width")
         self.summary = pn.pane.HTML("", css_classes=["sr-summary"], sizing_mode="stretch_width")
         self.figure = pn.pane.PNG(None, css_classes=["sr-figure"])
-        self.upload_format = pn.widgets.Select(name="upload format", options=list(UPLOAD_FORMATS),
-                                               value="hex", css_classes=["sr-upload-format"])
+        self.upload_format = select(**_label(select, "upload format"),
+                                    options=list(UPLOAD_FORMATS), value="hex",
+                                    css_classes=["sr-upload-format"])
         self.downloads = {
             "table": pn.widgets.FileDownload(callback=lambda: self._file(0), filename="x",
                                              label="download table (JSON)",
@@ -110,6 +112,8 @@ class DesignPage:
                 result = design(self.motor, self.settings)
             except StepRampError as e:
                 self._show_verdict("none", f"NO TABLE for these settings: {e}")
+                self.summary.object = ("<pre class='sr-numbers'>no table: the figure shows the "
+                                       "last design that had one</pre>")
                 for button in self.downloads.values():
                     button.disabled = True
                 return
@@ -161,9 +165,14 @@ def _slider(pn: Any, key: str, spec: ControlSpec) -> Any:
     cls = pn.widgets.IntSlider if spec.integer else pn.widgets.FloatSlider
     from bokeh.models import PrintfTickFormatter
 
-    return cls(name=spec.label, start=spec.lo, end=spec.hi, step=spec.step, value=spec.value,
-               format=PrintfTickFormatter(format=f"%{spec.fmt}"), css_classes=[f"sr-{key}"],
-               width=440)
+    return cls(**_label(cls, spec.label), start=spec.lo, end=spec.hi, step=spec.step,
+               value=spec.value, format=PrintfTickFormatter(format=f"%{spec.fmt}"),
+               css_classes=[f"sr-{key}"], width=440)
+
+
+def _label(cls: Any, text: str) -> dict[str, str]:
+    """A widget's caption: `label` where Panel has it (1.9+ deprecates `name` for it)."""
+    return {"label" if "label" in cls.param else "name": text}
 
 
 def warm(motor: Motor, pulses: int = 10_000) -> float:
@@ -191,15 +200,18 @@ def serve(motor: Motor, *, port: int, open_browser: bool, pulses: int = 10_000,
     pn = require_panel()
     pn.config.throttled = True  # a slider recomputes when released, not while dragged
     control_specs(motor, pulses)  # a bad --pulses is refused before anything starts
-    warm_ms = warm(motor, pulses)
     host = "127.0.0.1"
     port = port or free_port(host)
-    server = pn.serve({"/": lambda: DesignPage(motor, pulses=pulses,
-                                               motor_name=motor_name).view()},
-                      port=port, address=host, show=False, start=False,
-                      title=f"stepramp design: {motor.name or motor_name}", verbose=False,
-                      websocket_origin=[f"{host}:{port}", f"localhost:{port}"])
-    url = f"http://{host}:{server.port}/"
+    try:  # the port is taken now, so a clash is said before the seconds of warming
+        server = pn.serve({"/": lambda: DesignPage(motor, pulses=pulses,
+                                                   motor_name=motor_name).view()},
+                          port=port, address=host, show=False, start=False,
+                          title=f"stepramp design: {motor.name or motor_name}", verbose=False,
+                          websocket_origin=[f"{host}:{port}", f"localhost:{port}"])
+    except OSError as e:
+        raise StepRampError(f"--port {port}: {e.strerror or e}") from None
+    warm_ms = warm(motor, pulses)
+    url = f"http://{host}:{port}/"
     say(f"serving the designer for {motor.name or motor_name} at {url} "
         f"(kernel warmed in {warm_ms:.0f} ms; Ctrl-C stops)")
     loop = server.io_loop
