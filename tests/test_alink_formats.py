@@ -275,7 +275,9 @@ SAMPLE = [COMMANDS, A.settings_commands(A.quantise_settings(800, 40000, 2.5, 600
                                                             s_curve=True), slave_address=7)]
 
 
-@pytest.mark.parametrize("fmt", ALL)
+# The slowest formats to re-parse flip by flip run in CI only (-m slow).
+@pytest.mark.parametrize("fmt", [pytest.param(f, marks=pytest.mark.slow) if f in ("c", "json")
+                                 else f for f in ALL])
 def test_every_single_bit_flip_is_caught(fmt: str) -> None:
     """Flip each bit of each file: refused or read back as the same command words;
     never as other commands."""

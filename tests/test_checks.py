@@ -238,6 +238,7 @@ def tables(draw: st.DrawFn) -> FreeCurveTable:
     return fc(rates, accel, decel)
 
 
+@pytest.mark.slow  # a reference comparison; CI runs it
 @settings(max_examples=150, deadline=None)
 @given(tables())
 def test_errors_agree_with_plain_reference(t: FreeCurveTable) -> None:

@@ -160,6 +160,7 @@ def _run_check_step(script: str, cwd: Path) -> subprocess.CompletedProcess[str]:
                           text=True, timeout=120)
 
 
+@pytest.mark.slow  # the workflow step as a shell script; CI runs it
 def test_workflow_check_step(tmp_path: Path) -> None:
     [script] = check_scripts(yaml.safe_load(workflow_text()))
     report = tmp_path / re.search(r"-o (\S+)", script).group(1)  # type: ignore[union-attr]

@@ -103,6 +103,7 @@ def test_compare_exits_1_on_an_unsafe_move(tmp_path: Path,
     assert code == 1 and "verdict: UNSAFE (failed: criterion, load angle)" in out
 
 
+@pytest.mark.slow  # end-to-end; CI runs it
 def test_plan_moves_writes_one_table_for_a_duty_cycle(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     mix = tmp_path / "mix.csv"

@@ -206,8 +206,8 @@ def test_show_bad_input_is_one_line(capsys: pytest.CaptureFixture[str], tmp_path
 
 # --- plan --kind ------------------------------------------------------------------------------
 
-@pytest.mark.parametrize(("kind", "shape"), [
-    ("linear", "linear"), pytest.param("s-curve", "s_curve", marks=pytest.mark.slow)])
+@pytest.mark.slow  # plan --kind end-to-end (the init planner's search); CI runs it
+@pytest.mark.parametrize(("kind", "shape"), [("linear", "linear"), ("s-curve", "s_curve")])
 def test_plan_init_table_exports_as_ascii(capsys: pytest.CaptureFixture[str], tmp_path: Path,
                                           kind: str, shape: str) -> None:
     from profiles.ppmc312.execution import simulate_move

@@ -52,6 +52,7 @@ def test_staircase_edges_cover_the_move() -> None:
     assert v.max() == pytest.approx(PLAN.table.speeds_pps().max())
 
 
+@pytest.mark.slow  # compare with ruckig, then the figure drawn; CI runs it
 @pytest.mark.parametrize("suffix", ["png", "svg"])
 def test_figure_is_written(tmp_path: Path, suffix: str) -> None:
     cmp = compare_table(PLAN.table, MOTOR, 4000, include=("ruckig",))

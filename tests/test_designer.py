@@ -9,6 +9,7 @@ import json
 import os
 import shutil
 import subprocess
+from dataclasses import replace as dataclasses_replace
 from pathlib import Path
 from typing import Any
 
@@ -16,11 +17,20 @@ import ipywidgets  # noqa: F401  (a [dev] dependency: missing, the suite fails)
 import numpy as np
 import pytest
 
+from profiles.errors import StepRampError
 from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312 import decode_upload
 from profiles.ppmc312.formats import parse_upload
 from profiles.ppmc312.table import load_table
-from verify.designer import Designer, Settings, design, designer, loaded_motor
+from verify.designer import (
+    Designer,
+    Settings,
+    control_specs,
+    design,
+    designer,
+    loaded_motor,
+    verdict,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 NEMA17 = load_motor(next(p for p in bundled_motor_paths() if "nema17" in p.name))
@@ -35,7 +45,8 @@ def test_it_opens_on_the_given_motor_with_a_figure(d: Designer) -> None:
     assert d.motor is NEMA17 and d.result is not None
     assert d.image.value[:8] == b"\x89PNG\r\n\x1a\n"
     assert d.result.settings == Settings(pulses=5_000, safety_factor=NEMA17.safety_factor,
-                                         load_torque_nm=NEMA17.load_torque_nm)
+                                         load_torque_nm=NEMA17.load_torque_nm,
+                                         friction_torque_nm=NEMA17.friction_torque_nm)
     assert "5000 pulses" in d.summary.value and "load angle" in d.summary.value
 
 
@@ -59,6 +70,64 @@ def test_each_slider_replans_and_redraws(d: Designer, control: str, value: Any,
     # The plan is the one for the loaded motor the settings describe.
     assert after.motor.to_json() == loaded_motor(NEMA17, after.settings).to_json()
     assert after.plan.table == design(NEMA17, after.settings).plan.table
+
+
+def test_verdict_is_the_one_safety_verdict_over_every_move() -> None:
+    from profiles.ppmc312.table import FreeCurveTable
+    from verify.safety import judge_safety
+
+    result = design(NEMA17, Settings(pulses=3_000))
+    assert result.verdict is not None and result.physics is not None
+    assert result.verdict.to_json() == judge_safety(
+        result.plan.table, result.motor, aim_deg=result.settings.load_angle_aim_deg).to_json()
+    assert result.verdict.moves is None  # every move the table can run, not only this one
+    worst = result.verdict.load_angle.worst_deg  # type: ignore[union-attr]
+    assert worst >= abs(result.physics.worst_angle_deg) - 0.1
+    level = "safe" if worst <= result.settings.load_angle_aim_deg else "past-aim"
+    assert verdict(result).level == level and verdict(result).safe
+
+    tight = design(NEMA17, dataclasses_replace(result.settings, load_angle_aim_deg=worst - 1))
+    assert verdict(tight).level == "past-aim" and verdict(tight).safe
+    violent = FreeCurveTable(result.plan.table.clock, (200, 10_000), (400, 400))
+    unsafe = dataclasses_replace(result, verdict=judge_safety(violent, result.motor))
+    assert verdict(unsafe).level == "unsafe" and not verdict(unsafe).safe
+    assert "criterion" in verdict(unsafe).text
+    stalls = dataclasses_replace(result, verdict=None, margins={**result.margins, "min": 0.97})
+    assert verdict(stalls).level == "unsafe" and "0.970 < 1" in verdict(stalls).text
+    assert f"verdict: {verdict(result).text}" in result.summary()
+
+
+def test_friction_reaches_the_plan() -> None:
+    base = Settings(pulses=3_000)
+    plain = design(NEMA17, base, load_angle=False)
+    rough = design(NEMA17, dataclasses_replace(base, friction_torque_nm=0.06), load_angle=False)
+    assert rough.motor.friction_torque_nm == 0.06
+    assert rough.execution.duration_s > plain.execution.duration_s
+    with pytest.raises(StepRampError, match="load_angle_aim_deg"):
+        design(NEMA17, dataclasses_replace(base, load_angle_aim_deg=120.0))
+
+
+@pytest.mark.slow
+def test_plan_to_aim_plans_as_stepramp_plan_does() -> None:
+    from profiles.ppmc312.planner import plan_free_curve
+
+    base = Settings(pulses=3_000, load_angle_aim_deg=40.0)
+    aimed = design(NEMA17, dataclasses_replace(base, plan_to_aim=True))
+    assert aimed.plan.table == plan_free_curve(loaded_motor(NEMA17, base), pulses=3_000,
+                                               load_angle_deg=40.0).table
+    assert aimed.plan.table != design(NEMA17, base, load_angle=False).plan.table
+    assert aimed.physics is not None and abs(aimed.physics.worst_angle_deg) <= 40.0
+
+
+def test_control_specs_hold_the_motors_values_within_their_ranges() -> None:
+    specs = control_specs(NEMA17, 5_000)
+    assert specs["pulses"].value == 5_000 and specs["pulses"].integer
+    assert specs["safety_factor"].value == NEMA17.safety_factor
+    assert specs["friction_torque_nm"].value == NEMA17.friction_torque_nm
+    for spec in specs.values():
+        assert spec.lo <= spec.value <= spec.hi and spec.step > 0
+    with pytest.raises(StepRampError, match="pulses"):
+        control_specs(NEMA17, 5)
 
 
 def test_stage_budget_and_clock_reach_the_table(d: Designer) -> None:

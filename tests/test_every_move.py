@@ -58,6 +58,7 @@ def segments(run):  # type: ignore[no-untyped-def]
     return [(s.phase, s.rate) for s in run.segments]
 
 
+@pytest.mark.slow  # against simulate_move for every length; CI runs it
 @settings(max_examples=60, deadline=None)
 @given(tables(), st.integers(0, 3))
 def test_families_partition_every_length_and_fix_the_segment_rates(table, hr_pick) -> None:  # type: ignore[no-untyped-def]
@@ -72,6 +73,7 @@ def test_families_partition_every_length_and_fix_the_segment_rates(table, hr_pic
             assert segments(simulate_move(table, n, high_rate=high)) == ref
 
 
+@pytest.mark.slow  # a reference comparison; CI runs it
 @settings(max_examples=60, deadline=None)
 @given(tables(), st.sampled_from([(300.0, 300.0), (2000.0, 800.0), (6000.0, 3000.0)]))
 def test_all_length_verdict_equals_brute_force(table, limits) -> None:  # type: ignore[no-untyped-def]
@@ -148,6 +150,7 @@ def test_load_torque_is_planned_for_both_directions() -> None:
     assert loaded.a_acc_pps2(0.0) == pytest.approx(flipped.a_acc_pps2(0.0))
 
 
+@pytest.mark.slow  # against every single-length plan; CI runs it
 def test_duty_cycle_never_worse_than_any_single_length_plan() -> None:
     motor = MOTORS["motor-pk566-5phase-half"]
     mix = [(200, 5.0), (2000, 2.0), (20_000, 1.0)]

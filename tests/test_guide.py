@@ -271,6 +271,7 @@ def fast_run() -> Iterator[tuple[Path, list[str]]]:
 
 # --- the commands ---------------------------------------------------------------------
 
+@pytest.mark.slow  # the whole guide in-process; CI runs it, and as subprocesses
 def test_guide_commands(fast_run: tuple[Path, list[str]]) -> None:
     _, problems = fast_run
     assert not problems, "\n\n".join(problems)
@@ -415,6 +416,7 @@ def test_capability_numbers_are_the_motors() -> None:
     assert float(worked.group(1)) == pytest.approx(motor.a_acc_pps2(0.0), rel=1e-5)
 
 
+@pytest.mark.slow  # needs the guide's run
 def test_c_headers_from_the_guide_compile(fast_run: tuple[Path, list[str]], tmp_path: Path
                                           ) -> None:
     root, _ = fast_run

@@ -53,6 +53,7 @@ def test_staircase_time_reference_on_a_hand_example() -> None:
     assert staircase_time_s(t, 30) == 5000e-6
 
 
+@pytest.mark.slow  # every candidate planned and judged; CI runs it
 @pytest.mark.parametrize("motor", MOTORS, ids=lambda m: m.name[:8])
 @pytest.mark.parametrize("shape", ["linear", "s_curve"])
 def test_init_plans_are_stall_safe_legal_and_best_of_their_candidates(

@@ -69,6 +69,7 @@ def test_plans_are_stall_safe_legal_and_beat_baseline(name: str, pulses: int | N
     assert plan.duration_s <= base.duration_s * (1 + 1e-12)
 
 
+@pytest.mark.slow  # a reference comparison; CI runs it
 def test_beats_baseline_by_one_percent_geometric_mean() -> None:
     ratios = []
     for motor in MOTORS.values():
@@ -170,7 +171,8 @@ def brute_force(motor: Motor, clock: Clock, stages: int, pulses: int,
     return best
 
 
-@pytest.mark.parametrize("stages", [2, 3, 4])
+# 4 stages: a brute force over every 4-rate combination (seconds each): CI runs those
+@pytest.mark.parametrize("stages", [2, 3, pytest.param(4, marks=pytest.mark.slow)])
 @pytest.mark.parametrize("pulses", [60, 120, 400, 100000])
 @pytest.mark.parametrize("separate", [False, True])
 def test_dp_matches_brute_force(stages: int, pulses: int, separate: bool) -> None:

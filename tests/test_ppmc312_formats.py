@@ -338,7 +338,9 @@ SAMPLE = [
 ]
 
 
-@pytest.mark.parametrize("fmt", [f for f in ALL if f != "bin"])
+# The slowest formats to re-parse flip by flip run in CI only (-m slow).
+@pytest.mark.parametrize("fmt", [pytest.param(f, marks=pytest.mark.slow) if f in ("c", "bus")
+                                 else f for f in ALL if f != "bin"])
 def test_every_single_bit_flip_is_caught(fmt: str) -> None:
     """Flip each bit of each file in turn: the file is refused (corrupted or malformed)
     or reads back as the same blocks (a flip in a comment, a space, a digit's case);

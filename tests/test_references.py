@@ -235,6 +235,7 @@ def test_toppra_within_0p2_percent_of_exact(name: str, n: int) -> None:
     assert_move(motor, n, ref)
 
 
+@pytest.mark.slow  # a toppra solve; CI runs it
 def test_toppra_short_move() -> None:
     motor = BUNDLED["motor-nema17-1600"]
     ref = toppra_reference(motor, 10, gridpoints=200)

@@ -71,6 +71,7 @@ def test_local_processes_give_the_same_rows(local_rows: list[dict[str, Any]]) ->
     assert seen[0] == (0, 2) and seen[-1] == (2, 2)
 
 
+@pytest.mark.slow  # a Dask cluster; CI runs it
 def test_dask_cluster_gives_the_same_rows(local_rows: list[dict[str, Any]]) -> None:
     import distributed
     with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
@@ -80,6 +81,7 @@ def test_dask_cluster_gives_the_same_rows(local_rows: list[dict[str, Any]]) -> N
     assert stable(rows) == stable(local_rows)
 
 
+@pytest.mark.slow  # end-to-end; CI runs it
 def test_sweep_cli_csv_parquet_plot(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "r.csv"
     fig = tmp_path / "r.png"

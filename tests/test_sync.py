@@ -227,6 +227,7 @@ def _time_property(nx: int, ratio: float, sign: int) -> None:
         assert not check_stall(a.table, a.motor)
 
 
+@pytest.mark.slow  # property over planned axes; CI runs it
 @settings(max_examples=3, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.too_slow])
 @given(nx=st.integers(200, 4_000), ratio=st.floats(0.02, 1.0), sign=st.sampled_from([1, -1]))

@@ -49,6 +49,7 @@ def written(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, int, str]:
     return root, code, "line"
 
 
+@pytest.mark.slow  # stepramp sync end-to-end (the module's `written` run); CI runs it
 def test_sync_writes_every_file(written: tuple[Path, int, str]) -> None:
     root, code, _ = written
     assert code == 0
@@ -62,6 +63,7 @@ def test_sync_writes_every_file(written: tuple[Path, int, str]) -> None:
     assert (root / "xy.png").stat().st_size > 10_000
 
 
+@pytest.mark.slow  # stepramp sync end-to-end (the module's `written` run); CI runs it
 def test_report_matches_the_written_tables(written: tuple[Path, int, str]) -> None:
     root, _, mode = written
     out = root / "out"
@@ -95,6 +97,7 @@ def test_report_matches_the_written_tables(written: tuple[Path, int, str]) -> No
     assert report["ruckig"]["phase_synchronised_s"] >= report["ruckig"]["time_synchronised_s"]
 
 
+@pytest.mark.slow  # stepramp sync end-to-end (the module's `written` run); CI runs it
 def test_c_header_compiles_with_distinct_prefixes(written: tuple[Path, int, str],
                                                    tmp_path: Path) -> None:
     root, _, _ = written
@@ -125,6 +128,7 @@ def test_c_header_compiles_with_distinct_prefixes(written: tuple[Path, int, str]
     assert subprocess.run([str(tmp_path / "a.out")]).returncode == 0
 
 
+@pytest.mark.slow  # stepramp sync end-to-end (the module's `written` run); CI runs it
 def test_simulate_axes_prints_the_joint_timeline(written: tuple[Path, int, str],
                                                  capsys: pytest.CaptureFixture[str]) -> None:
     root, _, _ = written

@@ -1,16 +1,20 @@
 """Interactive free-curve design in a notebook: `designer(motor)`.
 
-Sliders set the move and the load (move length, safety factor, load inertia,
-load torque, clock, stage budget) and a picker the motor; every change replans
-the table (`plan_free_curve`) and redraws, in one figure, the staircase the chip
-runs against the exact continuous optimum, the stall margin of every stage and
-the rotor's load angle (`verify.load_angle.trace_load_angle`). The slow references
-(toppra, ruckig, casadi) are solved on a button; another button writes the
-table and its upload files.
+Sliders set the move, the load and the aim (move length, load inertia, load
+torque, friction, safety factor, load-angle aim, clock, stage budget) and a
+picker the motor; every change replans the table (`plan_free_curve`) and
+redraws, in one figure, the staircase the chip runs against the exact
+continuous optimum, the stall margin of every stage and the rotor's load angle
+(`verify.load_angle.trace_load_angle`), with the verdict over every move the table
+can run (`verify.safety.judge_safety`, read by `verdict`). The slow
+references (toppra, ruckig, casadi) are solved on a button; another button
+writes the table and its upload files.
 
-The computation (`design`) is separate from the widgets so a bench can time it
-(bench/bench_designer.py). Widgets (ipywidgets) and matplotlib are imported
-only when a designer is built.
+The computation (`design`, `verdict`, `design_files`) and the controls' ranges
+(`control_specs`) are separate from the widgets: the notebook widget here and
+the web page of `stepramp design` (verify/webdesigner.py) are two views of them,
+and a bench times them (bench/bench_designer.py). Widgets (ipywidgets) and
+matplotlib are imported only when a designer is built.
 
 The load torque slider sets the motor's `load_torque_nm` (signed: > 0 opposes
 forward motion); the load angle is followed in the direction the load opposes
@@ -22,27 +26,33 @@ from __future__ import annotations
 import dataclasses
 import io
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from profiles.errors import FieldRangeError, StepRampError
 from profiles.motor import Motor, bundled_motor_paths, load_motor
-from profiles.motor.angles import AIM_DEG
+from profiles.motor.angles import AIM_DEG, PEAK_DEG
 from profiles.ppmc312.clock import INTERNAL_HZ, Clock
 from profiles.ppmc312.execution import Execution, simulate_move
 from profiles.ppmc312.planner import Plan, plan_free_curve
 
 AUTO_CLOCK = "auto"
 PULSES_RANGE = (10, 1_000_000)
+PULSES_SLIDER_MAX = 200_000
+AIM_RANGE_DEG = (10.0, PEAK_DEG)
 SLOW_REFERENCES = ("toppra", "ruckig", "casadi")
+UPLOAD_FORMATS = ("hex", "ihex", "c", "json", "bin", "bus")
 
 
 @dataclass(frozen=True)
 class Settings:
     """What the sliders set. `load_inertia_kgm2` adds to the motor's inertia;
-    `load_torque_nm` replaces the motor's (None: the motor file's own)."""
+    `load_torque_nm` and `friction_torque_nm` replace the motor's (None: the motor
+    file's own). `load_angle_aim_deg` is the aim the verdict holds the load angle to;
+    with `plan_to_aim` the planner also tightens the table until it is met, as `stepramp
+    plan --load-angle` does (several plans: about a second instead of a tenth)."""
 
     pulses: int = 10_000
     safety_factor: float = 0.6
@@ -50,7 +60,72 @@ class Settings:
     load_torque_nm: float | None = None
     clock: str = AUTO_CLOCK
     max_stages: int = 127
-    aim_deg: float = AIM_DEG       # the load-angle aim the plan is tightened to
+    friction_torque_nm: float | None = None
+    load_angle_aim_deg: float = AIM_DEG
+    plan_to_aim: bool = False
+
+
+@dataclass(frozen=True)
+class ControlSpec:
+    """One slider of the designer, whichever view draws it: label, range, step, start
+    value, readout (a printf-style spec without the %) and the group it sits in."""
+
+    label: str
+    lo: float
+    hi: float
+    step: float
+    value: float
+    fmt: str = ".3f"
+    group: str = "move"
+
+    @property
+    def integer(self) -> bool:
+        return self.fmt == "d"
+
+
+# The sliders a motor switch resets to the new motor's own values.
+MOTOR_SPECIFIC = ("safety_factor", "load_inertia_kgm2", "load_torque_nm", "friction_torque_nm")
+
+
+def control_specs(motor: Motor, pulses: int = 10_000) -> dict[str, ControlSpec]:
+    """The designer's sliders for `motor`, by `Settings` field: the move, the load
+    (inertia up to 10× the rotor's, load torque and friction up to half the usable
+    standstill torque), the aim (safety factor, load-angle aim) and the stage budget."""
+    lo, hi = PULSES_RANGE
+    if not lo <= pulses <= hi:
+        raise FieldRangeError("pulses", pulses, lo, hi)
+    span = _torque_span(motor)
+
+    def within(value: float, a: float, b: float) -> float:
+        return min(max(value, a), b)
+
+    return {
+        "pulses": ControlSpec("move [pulses]", lo, max(PULSES_SLIDER_MAX, pulses), 10, pulses,
+                              "d", "move"),
+        "load_inertia_kgm2": ControlSpec("load inertia [kg·m²]", 0.0, 10 * motor.inertia_kgm2,
+                                         motor.inertia_kgm2 / 20, 0.0, ".2e", "load"),
+        "load_torque_nm": ControlSpec("load torque [N·m]", -span, span, span / 100,
+                                      within(motor.load_torque_nm, -span, span), ".3f", "load"),
+        "friction_torque_nm": ControlSpec("friction [N·m]", 0.0, span, span / 100,
+                                          within(motor.friction_torque_nm, 0.0, span), ".3f",
+                                          "load"),
+        "safety_factor": ControlSpec("safety factor", 0.1, 1.0, 0.01, motor.safety_factor,
+                                     ".2f", "aim"),
+        "load_angle_aim_deg": ControlSpec("load-angle aim [° el.]", *AIM_RANGE_DEG, 1.0,
+                                          AIM_DEG, ".0f", "aim"),
+        "max_stages": ControlSpec("stage budget", 2, 127, 1, 127, "d", "table"),
+    }
+
+
+def settings_from(values: dict[str, Any]) -> Settings:
+    """`Settings` from the controls' values by field name (missing: the default)."""
+    kinds = {f.name: f.type for f in dataclasses.fields(Settings)}
+    out: dict[str, Any] = {}
+    for key, value in values.items():
+        kind = str(kinds[key])
+        out[key] = (int(value) if kind == "int" else bool(value) if kind == "bool"
+                    else str(value) if kind == "str" else float(value))
+    return Settings(**out)
 
 
 @dataclass
@@ -84,22 +159,58 @@ class Design:
         if self.physics is not None:
             lines.append(f"this move's load angle: worst {self.physics.worst_angle_deg:+.1f}° "
                          f"electrical (peak 90°, pole slip 180°): {_verdict(self.physics)}")
-        if self.verdict is not None:
-            lines.append(f"verdict: {self.verdict.describe()}")
+        lines.append(f"verdict: {verdict(self).text}")
         total = sum(self.timings_ms.values())
         lines.append(f"recomputed in {total:.0f} ms ("
                      + ", ".join(f"{k} {v:.0f}" for k, v in self.timings_ms.items()) + ")")
         return "\n".join(lines)
 
 
+@dataclass(frozen=True)
+class Verdict:
+    """What the designer says of one design: `level` "safe", "past-aim" (stable, but the
+    load angle is past the aim) or "unsafe"; `text` one line saying why."""
+
+    level: str
+    text: str
+
+    @property
+    def safe(self) -> bool:
+        return self.level != "unsafe"
+
+
+def verdict(result: Design) -> Verdict:
+    """The verdict on `result`: the one safety verdict (`verify.safety.judge_safety`) over
+    every move the table can run, as `stepramp check --motor` gives it. Every view shows
+    this one function's answer."""
+    v = result.verdict
+    if v is None:
+        if result.margins["min"] < 1:
+            return Verdict("unsafe", f"UNSAFE: stall margin {result.margins['min']:.3f} < 1")
+        return Verdict("safe", "safe by the stall criterion (load angle not judged)")
+    la = v.load_angle
+    worst = "" if la is None else (f"worst load angle {la.worst_deg:.1f}° el. on a move of "
+                                   f"{la.worst_pulses} pulses")
+    if not v.safe:
+        return Verdict("unsafe", f"UNSAFE ({', '.join(v.failed)}): {worst} "
+                                 f"(peak {PEAK_DEG:g}°)".replace(":  (", ": ("))
+    if not v.within_aim:
+        return Verdict("past-aim", f"PAST THE AIM: {worst} > aim {v.aim_deg:g}° "
+                                   f"(stable below {PEAK_DEG:g}°)")
+    return Verdict("safe", f"SAFE over every move: {worst} ≤ aim {v.aim_deg:g}°")
+
+
 def loaded_motor(motor: Motor, settings: Settings) -> Motor:
-    """`motor` with the settings' safety factor, extra inertia and load torque."""
+    """`motor` with the settings' safety factor, extra inertia, load torque and friction."""
     if not 0 <= settings.load_inertia_kgm2 <= 1e3:
         raise FieldRangeError("load_inertia_kgm2", settings.load_inertia_kgm2, 0, 1e3)
     load = motor.load_torque_nm if settings.load_torque_nm is None else settings.load_torque_nm
+    friction = (motor.friction_torque_nm if settings.friction_torque_nm is None
+                else settings.friction_torque_nm)
     return dataclasses.replace(
         motor, safety_factor=settings.safety_factor,
-        inertia_kgm2=motor.inertia_kgm2 + settings.load_inertia_kgm2, load_torque_nm=load)
+        inertia_kgm2=motor.inertia_kgm2 + settings.load_inertia_kgm2, load_torque_nm=load,
+        friction_torque_nm=friction)
 
 
 def design(motor: Motor, settings: Settings, *, load_angle: bool = True) -> Design:
@@ -111,9 +222,12 @@ def design(motor: Motor, settings: Settings, *, load_angle: bool = True) -> Desi
     t0 = time.perf_counter()
     loaded = loaded_motor(motor, settings)
     clock = None if settings.clock == AUTO_CLOCK else Clock.internal(settings.clock)
+    lo, hi = AIM_RANGE_DEG
+    if not lo <= settings.load_angle_aim_deg <= hi:
+        raise FieldRangeError("load_angle_aim_deg", settings.load_angle_aim_deg, lo, hi)
     plan = plan_free_curve(loaded, clock=clock, max_stages=settings.max_stages,
-                           pulses=settings.pulses,
-                           load_angle_deg=settings.aim_deg if load_angle else None)
+                           pulses=settings.pulses, load_angle_deg=(
+                               settings.load_angle_aim_deg if settings.plan_to_aim else None))
     execution = simulate_move(plan.table, settings.pulses)
     t1 = time.perf_counter()
     exact = exact_optimum(loaded, settings.pulses)
@@ -128,29 +242,44 @@ def design(motor: Motor, settings: Settings, *, load_angle: bool = True) -> Desi
         # T_L > 0 opposes forward motion: follow the direction the load hinders.
         physics = trace_load_angle(execution, loaded,
                                    direction=-1 if loaded.load_torque_nm < 0 else 1)
-        verdict = judge_safety(plan.table, loaded, aim_deg=settings.aim_deg)
+        verdict = judge_safety(plan.table, loaded, aim_deg=settings.load_angle_aim_deg)
     t4 = time.perf_counter()
     timings.update(plan=(t1 - t0) * 1e3, exact=(t2 - t1) * 1e3, margins=(t3 - t2) * 1e3,
                    load_angle=(t4 - t3) * 1e3)
     return Design(settings, loaded, plan, execution, exact, margins, physics, verdict, timings)
 
 
+def design_files(result: Design, stem: str,
+                 upload_formats: Sequence[str] = ("hex", "bin", "c")) -> list[tuple[str, bytes]]:
+    """The table (`stepramp.table/1` JSON) and its upload files, as (file name, bytes):
+    what the notebook writes and the web page offers for download."""
+    from profiles.ppmc312 import encode_table
+    from profiles.ppmc312.formats import FORMATS, render
+    from profiles.ppmc312.table import dump_table
+
+    blocks = encode_table(result.plan.table)
+    files = [(f"{stem}.table.json", dump_table(result.plan.table).encode())]
+    for fmt in upload_formats:
+        suffix = FORMATS.get(fmt).extensions[0]
+        files.append((f"{stem}.upload{suffix}", render(blocks, fmt)))
+    return files
+
+
+def design_stem(motor_name: str, result: Design) -> str:
+    """The file-name stem of a design: `design-<motor>-<pulses>`."""
+    return f"design-{_slug(motor_name)}-{result.settings.pulses}"
+
+
 def write_design(result: Design, out_dir: str | Path, stem: str) -> list[Path]:
     """The table (JSON) and its upload files (hex, bin, C header), each written whole."""
-    from profiles.ppmc312 import encode_table
-    from profiles.ppmc312.formats import render
-    from profiles.ppmc312.table import dump_table
     from verify.output import write_output
 
-    folder = Path(out_dir)
-    blocks = encode_table(result.plan.table)
-    files = [(folder / f"{stem}.table.json", dump_table(result.plan.table).encode()),
-             (folder / f"{stem}.upload.hex", render(blocks, "hex")),
-             (folder / f"{stem}.upload.bin", render(blocks, "bin")),
-             (folder / f"{stem}.upload.h", render(blocks, "c"))]
-    for path, data in files:
+    paths = []
+    for name, data in design_files(result, stem):
+        path = Path(out_dir) / name
         write_output(str(path), data)
-    return [path for path, _ in files]
+        paths.append(path)
+    return paths
 
 
 # --- the figure ----------------------------------------------------------------------------
@@ -312,37 +441,8 @@ class Designer:
         self._held = False
         self._figure: DesignFigure | None = None
         base = self.motors[name]
-        lo, hi = PULSES_RANGE
-        if not lo <= pulses <= hi:
-            raise FieldRangeError("pulses", pulses, lo, hi)
-        style = {"description_width": "11em"}
-        layout = w.Layout(width="34em")
-
-        def slider(cls: Callable[..., Any], **kw: Any) -> Any:
-            return cls(continuous_update=False, style=style, layout=layout, **kw)
-
-        self.controls: dict[str, Any] = {
-            "motor": w.Dropdown(options=list(self.motors), value=name, description="motor",
-                                style=style, layout=layout),
-            "pulses": slider(w.IntSlider, value=pulses, min=lo, max=200_000, step=10,
-                             description="move [pulses]"),
-            "safety_factor": slider(w.FloatSlider, value=base.safety_factor, min=0.1, max=1.0,
-                                    step=0.01, description="safety factor"),
-            "load_inertia_kgm2": slider(w.FloatSlider, value=0.0, min=0.0,
-                                        max=10 * base.inertia_kgm2,
-                                        step=base.inertia_kgm2 / 20, readout_format=".2e",
-                                        description="load inertia [kg·m²]"),
-            "load_torque_nm": slider(w.FloatSlider, value=min(max(
-                                     base.load_torque_nm, -_torque_span(base)),
-                                     _torque_span(base)), min=-_torque_span(base),
-                                     max=_torque_span(base), step=_torque_span(base) / 100,
-                                     readout_format=".3f",
-                                     description="load torque [N·m]"),
-            "clock": w.Dropdown(options=[AUTO_CLOCK, *INTERNAL_HZ], value=AUTO_CLOCK,
-                                description="clock", style=style, layout=layout),
-            "max_stages": slider(w.IntSlider, value=127, min=2, max=127,
-                                 description="stage budget"),
-        }
+        self.controls: dict[str, Any] = _widgets(w, list(self.motors), name,
+                                                 control_specs(base, pulses))
         self.buttons: dict[str, Any] = {
             "references": w.Button(description="solve toppra, ruckig, casadi",
                                    layout=w.Layout(width="17em")),
@@ -367,11 +467,7 @@ class Designer:
     # --- actions ---------------------------------------------------------------------------
     @property
     def settings(self) -> Settings:
-        c = self.controls
-        return Settings(pulses=int(c["pulses"].value), safety_factor=float(
-            c["safety_factor"].value), load_inertia_kgm2=float(c["load_inertia_kgm2"].value),
-            load_torque_nm=float(c["load_torque_nm"].value), clock=str(c["clock"].value),
-            max_stages=int(c["max_stages"].value))
+        return settings_from({k: c.value for k, c in self.controls.items() if k != "motor"})
 
     @property
     def motor(self) -> Motor:
@@ -409,7 +505,7 @@ class Designer:
         """Write the current table and its upload files into `out_dir`."""
         if self.result is None:
             return []
-        stem = f"design-{_slug(self.controls['motor'].value)}-{self.result.settings.pulses}"
+        stem = design_stem(self.controls["motor"].value, self.result)
         try:
             self.written = write_design(self.result, self.out_dir, stem)
         except StepRampError as e:
@@ -420,20 +516,16 @@ class Designer:
 
     # --- display ---------------------------------------------------------------------------
     def _motor_changed(self, change: dict[str, Any]) -> None:
-        base = self.motor
-        c = self.controls
+        specs = control_specs(self.motor, int(self.controls["pulses"].value))
         # One recompute for the whole motor switch, not one per slider it resets.
         self._held = True
         try:
-            c["safety_factor"].value = base.safety_factor
-            c["load_inertia_kgm2"].max = 10 * base.inertia_kgm2
-            c["load_inertia_kgm2"].step = base.inertia_kgm2 / 20
-            c["load_inertia_kgm2"].value = 0.0
-            span = _torque_span(base)
-            c["load_torque_nm"].max = span
-            c["load_torque_nm"].min = -span
-            c["load_torque_nm"].step = span / 100
-            c["load_torque_nm"].value = min(max(base.load_torque_nm, -span), span)
+            for key in MOTOR_SPECIFIC:
+                control, spec = self.controls[key], specs[key]
+                # widen first: ipywidgets clamps the value to the range it has
+                control.min, control.max = min(control.min, spec.lo), max(control.max, spec.hi)
+                control.value = spec.value
+                control.min, control.max, control.step = spec.lo, spec.hi, spec.step
         finally:
             self._held = False
         self.recompute()
@@ -466,6 +558,26 @@ class Designer:
         return self.widget._repr_mimebundle_(**kwargs)
 
 
+def _widgets(w: Any, motors: list[str], motor: str, specs: dict[str, ControlSpec]
+             ) -> dict[str, Any]:
+    """The notebook's controls: the motor picker, a slider per spec, clock, plan-to-aim."""
+    style = {"description_width": "11em"}
+    layout = w.Layout(width="34em")
+    controls: dict[str, Any] = {"motor": w.Dropdown(options=motors, value=motor,
+                                                    description="motor", style=style,
+                                                    layout=layout)}
+    for key, spec in specs.items():
+        cls = w.IntSlider if spec.integer else w.FloatSlider
+        controls[key] = cls(value=spec.value, min=spec.lo, max=spec.hi, step=spec.step,
+                            description=spec.label, readout_format=spec.fmt,
+                            continuous_update=False, style=style, layout=layout)
+    controls["clock"] = w.Dropdown(options=[AUTO_CLOCK, *INTERNAL_HZ], value=AUTO_CLOCK,
+                                   description="clock", style=style, layout=layout)
+    controls["plan_to_aim"] = w.Checkbox(value=False, description="plan to the aim (≈ 1 s)",
+                                         style=style, layout=layout)
+    return controls
+
+
 def designer(motor: Motor | None = None, **kw: Any) -> Designer:
     """The interactive designer for `motor` (default: the first bundled motor)."""
     return Designer(motor, **kw)
@@ -495,5 +607,7 @@ def _escape(text: str) -> str:
     return html.escape(text)
 
 
-__all__: Sequence[str] = ("Design", "DesignFigure", "Designer", "Settings", "design", "designer",
-                          "loaded_motor", "render_figure", "write_design")
+__all__: Sequence[str] = (
+    "ControlSpec", "Design", "DesignFigure", "Designer", "Settings", "Verdict", "control_specs",
+    "design", "design_files", "design_stem", "designer", "loaded_motor", "render_figure",
+    "settings_from", "verdict", "write_design")

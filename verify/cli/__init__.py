@@ -32,7 +32,7 @@ from ._common import EXIT_OK, EXIT_UNUSABLE, VersionAction, guard_paths
 # The order here is the order of `stepramp --help`.
 COMMANDS: tuple[str, ...] = (
     "check", "show", "export", "decode", "move", "expand",
-    "plan", "simulate", "compare", "sync",
+    "plan", "simulate", "compare", "sync", "design",
     "sweep",
     "alink", "mc200", "motor",
     "link", "emulate",

@@ -1,0 +1,231 @@
+"""The designer as a web page: what `stepramp design` serves (Panel, extra `design`).
+
+A page of controls and a figure, no code: sliders for the move, the load (inertia,
+load torque, friction) and the aim (safety factor, load-angle aim), the clock and
+the stage budget; the staircase against the exact optimum, the stall margins and
+the load angle in one figure (`DesignFigure`), the verdict (`verdict`) and the
+numbers beside it; buttons that download the table (`stepramp.table/1`) and an
+upload file in any format. Everything it shows comes from verify/designer.py, which
+the notebook widget uses too: this module only lays out widgets.
+
+One server process serves every tab; `serve` warms the load-angle kernel (numba)
+once before it says where it listens, so the first slider change is as fast as
+the others. Panel is imported only when a page is built or served.
+"""
+
+from __future__ import annotations
+
+import html
+import io
+import signal
+import threading
+import time
+import webbrowser
+from collections.abc import Callable
+from typing import Any
+
+from profiles.errors import StepRampError
+from profiles.motor import Motor
+from profiles.ppmc312.clock import INTERNAL_HZ
+from verify.designer import (
+    AUTO_CLOCK,
+    UPLOAD_FORMATS,
+    ControlSpec,
+    Design,
+    DesignFigure,
+    Settings,
+    control_specs,
+    design,
+    design_files,
+    design_stem,
+    settings_from,
+    verdict,
+)
+
+INSTALL_HINT = "pip install 'stepramp[design]'"
+COLORS = {"safe": "#1b7f3b", "past-aim": "#b36b00", "unsafe": "#b00020", "none": "#b00020"}
+GROUPS = (("move", "The move"), ("load", "The load"), ("aim", "The aim"), ("table", "The table"))
+
+
+def require_panel() -> Any:
+    """The `panel` module, or a one-line error naming the extra that installs it."""
+    try:
+        import panel
+    except ImportError:
+        raise StepRampError(f"the web designer needs Panel: {INSTALL_HINT}") from None
+    return panel
+
+
+class DesignPage:
+    """One browser tab: `controls` by `Settings` field, `downloads` ("table", "upload"),
+    the `verdict`, `summary` and `figure` panes; `result` is the latest `Design`. Setting a
+    control's value from Python recomputes as moving it in the browser does."""
+
+    def __init__(self, motor: Motor, *, pulses: int = 10_000, motor_name: str = "") -> None:
+        """`motor_name`: the short name the downloaded files carry (default: the motor's)."""
+        pn = require_panel()
+        self.motor = motor
+        self.motor_name = motor_name or motor.name or "motor"
+        self.result: Design | None = None
+        self.recompute_ms = 0.0
+        self._figure = DesignFigure(dpi=80)
+        self._lock = threading.Lock()
+        specs = control_specs(motor, pulses)
+        self._groups = {key: spec.group for key, spec in specs.items()}
+        self._groups.update(clock="table", plan_to_aim="aim")
+        self.controls: dict[str, Any] = {key: _slider(pn, key, spec) for key, spec in specs.items()}
+        select, checkbox = pn.widgets.Select, pn.widgets.Checkbox
+        self.controls["clock"] = select(
+            **_label(select, "clock"), options=[AUTO_CLOCK, *INTERNAL_HZ], value=AUTO_CLOCK,
+            css_classes=["sr-clock"])
+        self.controls["plan_to_aim"] = checkbox(
+            **_label(checkbox, "plan to the aim (as stepramp plan does; about a second)"),
+            value=False, css_classes=["sr-plan_to_aim"])
+        self.verdict = pn.pane.HTML("", css_classes=["sr-verdict"], sizing_mode="stretch_width")
+        self.summary = pn.pane.HTML("", css_classes=["sr-summary"], sizing_mode="stretch_width")
+        self.figure = pn.pane.PNG(None, css_classes=["sr-figure"])
+        self.upload_format = select(**_label(select, "upload format"),
+                                    options=list(UPLOAD_FORMATS), value="hex",
+                                    css_classes=["sr-upload-format"])
+        self.downloads = {
+            "table": pn.widgets.FileDownload(callback=lambda: self._file(0), filename="x",
+                                             label="download table (JSON)",
+                                             css_classes=["sr-table"]),
+            "upload": pn.widgets.FileDownload(callback=lambda: self._file(1), filename="x",
+                                              label="download upload file",
+                                              css_classes=["sr-upload"]),
+        }
+        for control in self.controls.values():
+            control.param.watch(lambda _event: self.recompute(), "value")
+        self.upload_format.param.watch(lambda _event: self._name_files(), "value")
+        self.recompute()
+
+    @property
+    def settings(self) -> Settings:
+        return settings_from({key: c.value for key, c in self.controls.items()})
+
+    def recompute(self) -> None:
+        """Replan, judge and redraw for the controls' current values (one at a time)."""
+        with self._lock:
+            t0 = time.perf_counter()
+            try:
+                result = design(self.motor, self.settings)
+            except StepRampError as e:
+                self._show_verdict("none", f"NO TABLE for these settings: {e}")
+                self.summary.object = ("<pre class='sr-numbers'>no table: the figure shows the "
+                                       "last design that had one</pre>")
+                for button in self.downloads.values():
+                    button.disabled = True
+                return
+            self.result = result
+            self.figure.object = self._figure.update(result)
+            self.recompute_ms = (time.perf_counter() - t0) * 1e3
+            said = verdict(result)
+            self._show_verdict(said.level, said.text)
+            text = result.summary() + f"\nshown in {self.recompute_ms:.0f} ms"
+            self.summary.object = f"<pre class='sr-numbers'>{html.escape(text)}</pre>"
+            for button in self.downloads.values():
+                button.disabled = False
+            self._name_files()
+
+    def files(self) -> list[tuple[str, bytes]]:
+        """The table and the upload file (in the chosen format) of the current design."""
+        assert self.result is not None
+        return design_files(self.result, design_stem(self.motor_name, self.result),
+                            (self.upload_format.value,))
+
+    def view(self) -> Any:
+        """The page: the controls by group on the left; the verdict, the downloads, the
+        figure and the numbers on the right."""
+        pn = require_panel()
+        left: list[Any] = [pn.pane.Markdown(f"## stepramp design\n{self.motor.name}")]
+        for group, title in GROUPS:
+            left.append(pn.pane.Markdown(f"**{title}**"))
+            left += [c for key, c in self.controls.items() if self._groups[key] == group]
+        right = [self.verdict, pn.Row(self.downloads["table"], self.upload_format,
+                                      self.downloads["upload"]), self.figure, self.summary]
+        return pn.Row(pn.Column(*left, width=470), pn.Column(*right, width=760))
+
+    def _file(self, index: int) -> io.BytesIO:
+        return io.BytesIO(self.files()[index][1])
+
+    def _name_files(self) -> None:
+        if self.result is not None:
+            for (name, _), button in zip(self.files(), self.downloads.values(), strict=True):
+                button.filename = name
+
+    def _show_verdict(self, level: str, text: str) -> None:
+        self.verdict.object = (
+            f"<div id='sr-verdict' data-level='{level}' style='padding:.5em .8em;"
+            f"border-radius:4px;color:white;background:{COLORS[level]};font-weight:600'>"
+            f"{html.escape(text)}</div>")
+
+
+def _slider(pn: Any, key: str, spec: ControlSpec) -> Any:
+    cls = pn.widgets.IntSlider if spec.integer else pn.widgets.FloatSlider
+    from bokeh.models import PrintfTickFormatter
+
+    return cls(**_label(cls, spec.label), start=spec.lo, end=spec.hi, step=spec.step,
+               value=spec.value, format=PrintfTickFormatter(format=f"%{spec.fmt}"),
+               css_classes=[f"sr-{key}"], width=440)
+
+
+def _label(cls: Any, text: str) -> dict[str, str]:
+    """A widget's caption: `label` where Panel has it (1.9+ deprecates `name` for it)."""
+    return {"label" if "label" in cls.param else "name": text}
+
+
+def warm(motor: Motor, pulses: int = 10_000) -> float:
+    """One design and one drawing, so the load-angle kernel is compiled (or loaded from
+    its cache) and matplotlib imported before the first page asks; milliseconds taken."""
+    t0 = time.perf_counter()
+    DesignFigure().update(design(motor, Settings(pulses=pulses,
+                                                 safety_factor=motor.safety_factor)))
+    return (time.perf_counter() - t0) * 1e3
+
+
+def free_port(host: str) -> int:
+    """A port nobody listens on now (the OS's choice)."""
+    import socket
+
+    with socket.socket() as sock:
+        sock.bind((host, 0))
+        return int(sock.getsockname()[1])
+
+
+def serve(motor: Motor, *, port: int, open_browser: bool, pulses: int = 10_000,
+          motor_name: str = "", say: Callable[[str], None] = print) -> None:
+    """Serve the designer for `motor` on 127.0.0.1:`port` (0: a free port) until Ctrl-C or
+    SIGTERM; `say` is told the address once the server listens."""
+    pn = require_panel()
+    pn.config.throttled = True  # a slider recomputes when released, not while dragged
+    control_specs(motor, pulses)  # a bad --pulses is refused before anything starts
+    host = "127.0.0.1"
+    port = port or free_port(host)
+    try:  # the port is taken now, so a clash is said before the seconds of warming
+        server = pn.serve({"/": lambda: DesignPage(motor, pulses=pulses,
+                                                   motor_name=motor_name).view()},
+                          port=port, address=host, show=False, start=False,
+                          title=f"stepramp design: {motor.name or motor_name}", verbose=False,
+                          websocket_origin=[f"{host}:{port}", f"localhost:{port}"])
+    except OSError as e:
+        raise StepRampError(f"--port {port}: {e.strerror or e}") from None
+    warm_ms = warm(motor, pulses)
+    url = f"http://{host}:{port}/"
+    say(f"serving the designer for {motor.name or motor_name} at {url} "
+        f"(kernel warmed in {warm_ms:.0f} ms; Ctrl-C stops)")
+    loop = server.io_loop
+
+    def stop(_signum: int, _frame: Any) -> None:
+        loop.add_callback_from_signal(loop.stop)
+
+    previous = {s: signal.signal(s, stop) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        server.start()
+        if open_browser:
+            webbrowser.open(url)
+        loop.start()
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+        server.stop()
