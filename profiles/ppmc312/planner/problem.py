@@ -89,6 +89,12 @@ class Shaping:
             scale[b] *= f
         return Shaping(self.edges_pps, tuple(scale), self.start_scale * start)
 
+    def between(self, other: Shaping) -> Shaping:
+        """Halfway (geometrically) between this shaping and `other`, band by band."""
+        return Shaping(self.edges_pps, tuple(math.sqrt(a * b) for a, b in
+                                             zip(self.scale, other.scale, strict=True)),
+                       math.sqrt(self.start_scale * other.start_scale))
+
     @property
     def plain(self) -> bool:
         return self.start_scale == 1.0 and all(s == 1.0 for s in self.scale)

@@ -39,6 +39,7 @@ from .problem import Shaping
 Make = Callable[[Motor, Shaping | None], Plan]
 
 LOCAL_ROUNDS = 8          # band repairs before falling back to uniform tightening
+RELAX_STEPS = 2           # bisections back towards the last shaping past the aim
 CULPRITS = 6              # executions past the aim traced per round (the worst first)
 WINDOW_PERIODS = 0.75     # how far before its worst angle an execution's steps are blamed
 TIGHTEN_STEP = 0.85
@@ -58,18 +59,38 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
     judges = list(judges or [motor])
     shaping = Shaping.bands(motor)
     tried: list[Plan] = []
-    for _ in range(LOCAL_ROUNDS):
+    failed: Shaping | None = None   # the last shaping past the aim
+
+    def attempt(shaping: Shaping) -> tuple[Plan, Angles] | None:
         try:
             plan = make(motor, None if shaping.plain else shaping)
         except PlanError:
             if not tried:
                 raise  # the plain criterion has no table: nothing gentler has one either
-            break      # too gentle for the move: the bands went too far
+            return None  # too gentle for the move: the bands went too far
         found = angles(plan.table, judges)
         plan = _annotated(plan, float(found.deg.max()), shaping, len(judges), t0)
         tried.append(plan)
+        return plan, found
+
+    for _ in range(LOCAL_ROUNDS):
+        done = attempt(shaping)
+        if done is None:
+            break
+        plan, found = done
         if plan.extras["worst_load_angle_deg"] <= load_angle_deg:
-            return plan
+            # the factors are first-order: halfway back towards the last shaping past the
+            # aim is often within it too, and faster
+            for _ in range(RELAX_STEPS if failed is not None else 0):
+                mid = shaping.between(failed)  # type: ignore[arg-type]
+                again = attempt(mid)
+                if again is not None and again[0].extras["worst_load_angle_deg"] \
+                        <= load_angle_deg:
+                    shaping = mid
+                else:
+                    failed = mid
+            return _best(tried, load_angle_deg)
+        failed = shaping
         blame = culprits(plan.table, judges, found, load_angle_deg, shaping)
         shaping = shaping.scaled({b: _factor(w, load_angle_deg) for b, w in blame.bands.items()},
                                  _factor(blame.start, load_angle_deg) if blame.start else 1.0)
