@@ -1,0 +1,97 @@
+"""Tightening for the load angle where the rotor rings (profiles.ppmc312.planner.tightening):
+the bands blamed are the ones whose speed steps drove the worst angles, a long move pays
+little for short moves' ringing, and every table it returns is within the aim at every
+move length, by the compiled model and by the plain-Python oracle."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import rotor_oracle as oracle
+
+from profiles.motor import Motor, bundled_motor_paths, load_motor
+from profiles.motor.angles import AIM_DEG
+from profiles.motor.rotor import rotor_of
+from profiles.ppmc312.execution import simulate_move
+from profiles.ppmc312.load_angle import angles, spans_of, worst_load_angle
+from profiles.ppmc312.planner import Shaping, plan, plan_free_curve
+from profiles.ppmc312.planner.tightening import culprits, tighten_uniform
+from verify.safety import judge_safety
+
+MOTORS = {p.stem.removeprefix("motor-"): load_motor(p) for p in bundled_motor_paths()}
+NEMA23 = MOTORS["nema23-heavy"]
+
+
+def oracle_deg(table: object, motor: Motor, pulses: int) -> float:
+    worst = 0.0
+    for direction in (1, -1) if motor.load_torque_nm else (1,):
+        rotor = rotor_of(motor, direction=direction)
+        step = rotor.step_s()
+        trace = oracle.follow(rotor, spans_of(simulate_move(table, pulses), rotor, step),  # type: ignore[arg-type]
+                              step_s=step, trace=oracle.Trace(record=False))
+        worst = max(worst, math.degrees(rotor.c_e * max(trace.span_max)))
+    return worst
+
+
+def test_short_moves_ringing_is_blamed_on_the_slow_end() -> None:
+    """The plain NEMA23 table rings past the aim on moves of a few tens of pulses: the
+    speed steps before those worst angles lie in the table's slow speed bands."""
+    table = plan_free_curve(NEMA23, pulses=10_000).table
+    found = angles(table, [NEMA23])
+    worst = found.worst(0)
+    assert worst.worst_angle_deg > AIM_DEG and worst.worst_pulses < 100
+    shaping = Shaping.bands(NEMA23)
+    blame = culprits(table, [NEMA23], found, AIM_DEG, shaping)
+    assert blame.bands and max(blame.bands) <= shaping.band(0.5 * NEMA23.top_pps)
+    assert max(blame.bands.values()) == pytest.approx(worst.worst_angle_deg)
+
+
+def test_a_long_move_pays_little_for_short_moves_ringing() -> None:
+    plain = plan_free_curve(NEMA23, pulses=10_000)
+    local = plan_free_curve(NEMA23, pulses=10_000, load_angle_deg=AIM_DEG)
+    shaping = local.extras["shaping"]
+    assert not shaping.plain
+    # only some bands made gentler, and the fast end untouched
+    assert any(s == 1.0 for s in shaping.scale) and shaping.scale[-1] == 1.0
+    assert local.duration_s <= 1.02 * plain.duration_s  # type: ignore[operator]
+
+    def make(m: Motor, sh: Shaping | None = None) -> object:
+        return plan(m, None, 127, 10_000, False, shaping=sh)
+
+    uniform = tighten_uniform(NEMA23, make, AIM_DEG)  # type: ignore[arg-type]
+    assert local.duration_s < uniform.duration_s  # type: ignore[operator]
+
+
+@pytest.mark.parametrize("name", sorted(MOTORS))
+def test_tightened_tables_are_within_the_aim_by_both_models(name: str) -> None:
+    motor = MOTORS[name]
+    table = plan_free_curve(motor, pulses=2000, load_angle_deg=AIM_DEG).table
+    verdict = judge_safety(table, motor)
+    assert verdict.safe and verdict.within_aim
+    fast = worst_load_angle(table, motor)
+    for n in sorted({fast.worst_pulses, 20, 2000}):
+        assert oracle_deg(table, motor, n) <= AIM_DEG + 0.1
+
+
+def test_shaping_scales_capability_and_jump_band_by_band() -> None:
+    from profiles.ppmc312.planner import choose_clock, make_problem
+
+    clock = choose_clock(NEMA23)
+    bands = Shaping.bands(NEMA23)
+    shaping = bands.scaled({bands.band(5000.0): 0.5})
+    plain = make_problem(NEMA23, clock, True)
+    gentle = make_problem(NEMA23, clock, True, shaping)
+    for f_slow, in_band in ((5000.0, True), (310.0, False)):  # the gentler band, another
+        r_slow = np.array([round(clock.hz / f_slow)])
+        r_fast = np.array([round(clock.hz / (f_slow + 100.0))])  # a step of 100 pps
+        n0, d0, ok0 = plain.counts(r_slow, r_fast)
+        n1, d1, ok1 = gentle.counts(r_slow, r_fast)
+        assert ok0[0] and ok1[0]
+        if in_band:  # half the capability share: about twice the pulses for the step
+            assert n1[0] >= 2 * n0[0] - 1 > n0[0] and d1[0] >= 2 * d0[0] - 1
+        else:
+            assert n1[0] == n0[0] and d1[0] == d0[0]
+    assert gentle.jump_at(5000.0)[0] == pytest.approx(0.5 * NEMA23.jump_pps)
+    assert gentle.jump_at(300.0)[0] == pytest.approx(NEMA23.jump_pps)
