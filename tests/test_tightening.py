@@ -89,8 +89,9 @@ def test_shaping_scales_capability_and_jump_band_by_band() -> None:
         n0, d0, ok0 = plain.counts(r_slow, r_fast)
         n1, d1, ok1 = gentle.counts(r_slow, r_fast)
         assert ok0[0] and ok1[0]
-        if in_band:  # half the capability share: about twice the pulses for the step
-            assert n1[0] >= 2 * n0[0] - 1 > n0[0] and d1[0] >= 2 * d0[0] - 1
+        if in_band:  # half the torque share: about twice the accel pulses for the step
+            # (decel less: friction, which helps it, is not scaled)
+            assert n1[0] >= 2 * n0[0] - 1 > n0[0] and d1[0] > d0[0]
         else:
             assert n1[0] == n0[0] and d1[0] == d0[0]
     assert gentle.jump_at(5000.0)[0] == pytest.approx(0.5 * NEMA23.jump_pps)
