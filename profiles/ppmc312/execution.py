@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import io
 from collections.abc import Iterator
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any, Literal, NamedTuple
 
 import numpy as np
@@ -441,19 +441,46 @@ def move_families(table: FreeCurveTable | InitTable, *, high_rate: int = 0) -> l
     1..0xFFFFFFFF (trapezoid, each triangle switch, straight triangles), found from the
     stage boundaries, never by iterating lengths. Ascending and contiguous."""
     free, sides = _sides(table, high_rate)
+    bounds = family_bounds(sides)
+    return [MoveFamily(free, high_rate, lo, hi, SHAPES[shape], sides, bounds.batch, e)
+            for lo, hi, shape, e in zip(bounds.lo.tolist(), bounds.hi.tolist(),
+                                        bounds.shape.tolist(), bounds.index.tolist(),
+                                        strict=True)]
+
+
+class FamilyBounds(NamedTuple):
+    """The move families as arrays: family f runs lengths lo[f]..hi[f], shape index
+    shape[f] (SHAPES), its shortest move is move index[f] of `batch` (the moves at every
+    breakpoint), and `cruise_rate` is what a trapezoid cruises at."""
+
+    lo: np.ndarray
+    hi: np.ndarray
+    shape: np.ndarray
+    index: np.ndarray
+    batch: MoveBatch
+    cruise_rate: int
+
+
+def families(table: FreeCurveTable | InitTable, *, high_rate: int = 0) -> FamilyBounds:
+    """`move_families` as arrays, without an object per family (what a verdict over every
+    move length walks)."""
+    return family_bounds(_sides(table, high_rate)[1])
+
+
+def family_bounds(sides: _Sides) -> FamilyBounds:
     starts = sides.breakpoints()
     batch = sides.moves(np.asarray(starts, dtype=np.int64))
-    out: list[MoveFamily] = []
+    keep: list[int] = []
     last = None
-    for e, (lo, nxt) in enumerate(zip(starts, [*starts[1:], MOVE_PULSES_MAX + 1], strict=True)):
-        key = batch.key(e)
-        shape = SHAPES[int(batch.shape[e])]
-        if out and key == last and shape == out[-1].shape:  # a boundary of no effect
-            out[-1] = replace(out[-1], hi=nxt - 1)
-        else:
-            out.append(MoveFamily(free, high_rate, lo, nxt - 1, shape, sides, batch, e))
+    for e in range(len(starts)):
+        key = (batch.key(e), int(batch.shape[e]))
+        if key != last:  # a boundary where the segment rates or the shape change
+            keep.append(e)
         last = key
-    return out
+    index = np.asarray(keep, dtype=np.int64)
+    lo = np.asarray(starts, dtype=np.int64)[index]
+    hi = np.append(lo[1:] - 1, MOVE_PULSES_MAX)
+    return FamilyBounds(lo, hi, batch.shape[index], index, batch, sides.cruise_rate)
 
 
 class _Split(NamedTuple):
@@ -549,6 +576,15 @@ class MoveBatch:
         return [(PHASES[f], r, c) for f, r, c in zip(self.phase[a:b].tolist(),
                                                      self.rate[a:b].tolist(),
                                                      self.count[a:b].tolist(), strict=True)]
+
+    def subset(self, moves: np.ndarray) -> MoveBatch:
+        """The given moves (indices, ascending) of this batch, as a batch."""
+        sizes = np.diff(self.offsets)[moves]
+        rows = np.repeat(self.offsets[:-1][moves] - np.cumsum(sizes) + sizes, sizes) + \
+            np.arange(int(sizes.sum()))
+        return MoveBatch(self.pulses[moves], self.shape[moves], self.phase[rows],
+                         self.rate[rows], self.count[rows],
+                         np.concatenate(([0], np.cumsum(sizes))))
 
     def key(self, e: int) -> tuple[bytes, bytes]:
         """Move e's sequence of (phase, rate), comparable between moves."""

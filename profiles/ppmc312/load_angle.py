@@ -44,7 +44,7 @@ from ..motor.rotor import (
     settle_s,
     too_stiff,
 )
-from .execution import Execution, MoveBatch, move_families, moves
+from .execution import SHAPES, Execution, MoveBatch, families, moves
 from .init_model import as_free_curve
 from .table import FreeCurveTable, InitTable
 
@@ -148,16 +148,16 @@ def samples(table: FreeCurveTable, motors: Sequence[Motor]
     slow ones many lengths. A trapezoid's longest judged move cruises long enough for
     each motor to settle (longer cruises repeat that settled state)."""
     rotor_list = [rotor_of(m) for m in motors]
-    fams = move_families(table)
-    lo = np.asarray([f.lo for f in fams], dtype=np.int64)
-    hi = np.asarray([f.hi for f in fams], dtype=np.int64)
+    fams = families(table)
+    lo, hi = fams.lo, fams.hi.copy()
     hz = table.clock.hz
-    for i, fam in enumerate(fams):
-        if fam.shape == "trapezoid" and fam.hi > fam.lo:
-            top = hz / fam.cruise_rate
-            settle = max(min(r.natural_period_s(top), 1.0) for r in rotor_list)
-            hi[i] = min(fam.hi, fam.lo + max(math.ceil(top * SETTLE_CRUISE_PERIODS * settle), 1))
-    short, long = moves(table, lo), moves(table, hi)
+    trapezoid = np.flatnonzero((fams.shape == SHAPES.index("trapezoid")) & (hi > lo))
+    if len(trapezoid):
+        top = hz / fams.cruise_rate
+        settle = max(min(r.natural_period_s(top), 1.0) for r in rotor_list)
+        i = trapezoid
+        hi[i] = np.minimum(hi[i], lo[i] + max(math.ceil(top * SETTLE_CRUISE_PERIODS * settle), 1))
+    short, long = fams.batch.subset(fams.index), moves(table, hi)
     # the slowest segment whose pulse count changes within each family: a pulse of it is
     # the largest step in dwell between two neighbouring lengths
     changes = np.where(short.count != long.count, short.rate, 0)
@@ -170,7 +170,7 @@ def samples(table: FreeCurveTable, motors: Sequence[Motor]
         if math.isfinite(period):
             spacing[i] = max(1, min(int(spacing[i]), int(period * speed / PHASE_SAMPLES)))
     count = (hi - lo) // spacing + 1
-    family = np.repeat(np.arange(len(fams)), count)
+    family = np.repeat(np.arange(len(lo)), count)
     within = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
     lengths = np.minimum(lo[family] + within * spacing[family], hi[family])
     lengths[np.cumsum(count) - 1] = hi  # each family's longest judged move
