@@ -444,19 +444,19 @@ def move_families(table: FreeCurveTable | InitTable, *, high_rate: int = 0) -> l
     bounds = family_bounds(sides)
     return [MoveFamily(free, high_rate, lo, hi, SHAPES[shape], sides, bounds.batch, e)
             for lo, hi, shape, e in zip(bounds.lo.tolist(), bounds.hi.tolist(),
-                                        bounds.shape.tolist(), bounds.index.tolist(),
+                                        bounds.shape.tolist(), bounds.first.tolist(),
                                         strict=True)]
 
 
 class FamilyBounds(NamedTuple):
     """The move families as arrays: family f runs lengths lo[f]..hi[f], shape index
-    shape[f] (SHAPES), its shortest move is move index[f] of `batch` (the moves at every
+    shape[f] (SHAPES), its shortest move is move first[f] of `batch` (the moves at every
     breakpoint), and `cruise_rate` is what a trapezoid cruises at."""
 
     lo: np.ndarray
     hi: np.ndarray
     shape: np.ndarray
-    index: np.ndarray
+    first: np.ndarray
     batch: MoveBatch
     cruise_rate: int
 

@@ -155,9 +155,9 @@ def samples(table: FreeCurveTable, motors: Sequence[Motor]
     if len(trapezoid):
         top = hz / fams.cruise_rate
         settle = max(min(r.natural_period_s(top), 1.0) for r in rotor_list)
-        i = trapezoid
-        hi[i] = np.minimum(hi[i], lo[i] + max(math.ceil(top * SETTLE_CRUISE_PERIODS * settle), 1))
-    short, long = fams.batch.subset(fams.index), moves(table, hi)
+        hi[trapezoid] = np.minimum(hi[trapezoid], lo[trapezoid] + max(
+            math.ceil(top * SETTLE_CRUISE_PERIODS * settle), 1))
+    short, long = fams.batch.subset(fams.first), moves(table, hi)
     # the slowest segment whose pulse count changes within each family: a pulse of it is
     # the largest step in dwell between two neighbouring lengths
     changes = np.where(short.count != long.count, short.rate, 0)
@@ -165,7 +165,7 @@ def samples(table: FreeCurveTable, motors: Sequence[Motor]
     slowest = np.where(np.diff(short.offsets) > 0, slowest, 0)
     spacing = np.maximum(hi - lo, 1)
     for i in np.flatnonzero(slowest).tolist():
-        speed = hz / slowest[i]
+        speed = hz / float(slowest[i])
         period = min(r.natural_period_s(speed) for r in rotor_list)
         if math.isfinite(period):
             spacing[i] = max(1, min(int(spacing[i]), int(period * speed / PHASE_SAMPLES)))
