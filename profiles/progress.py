@@ -9,7 +9,7 @@ tests record the calls, notebooks pass nothing.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator
 from typing import TypeVar
 
 Progress = Callable[[int, int], None]  # (units done, units in all)
@@ -23,9 +23,11 @@ def report(progress: Progress | None, done: int, total: int) -> None:
         progress(done, total)
 
 
-def track(items: Sequence[T], progress: Progress | None) -> Iterator[T]:
-    """Yield `items`, reporting (0, n) first and (k, n) after the k-th item is done."""
-    total = len(items)
+def track(items: Iterable[T], progress: Progress | None, total: int | None = None
+          ) -> Iterator[T]:
+    """Yield `items`, reporting (0, n) first and (k, n) after the k-th item is done (n:
+    `total`, or len(items))."""
+    total = len(items) if total is None else total  # type: ignore[arg-type]
     report(progress, 0, total)
     for done, item in enumerate(items, start=1):
         yield item

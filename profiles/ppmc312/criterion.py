@@ -174,16 +174,25 @@ def switch_safe(n: np.ndarray, d: np.ndarray) -> bool:
     as fast as the one its accel reached, and never starts a decel-only move above the
     slowest stage (the move model of profiles.ppmc312.execution: shares
     q_a = ⌊rest·a/(a+d)⌋ and q_d = rest − q_a, each from its side's slow end)."""
+    return bool(switch_safe_rows(n, np.asarray(d, dtype=np.int64)[None, :])[0])
+
+
+def switch_safe_rows(n: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """`switch_safe` for each row of decel counts `d` (rows × stages) against the same
+    accel counts `n`, at once."""
     n = np.asarray(n, dtype=np.int64)
     d = np.asarray(d, dtype=np.int64)
-    a, dd = int(n.sum()), int(d.sum())
-    if a == 0 or dd == 0:
-        return False
-    cn, cd = np.cumsum(n)[:-1], np.cumsum(d)[:-1]
-    rest = -(-(cn + 1) * (a + dd) // a)        # first rest whose accel enters stage j + 1
-    q_dec = -(-(rest * dd) // (a + dd))
-    decel_only = -(-(a + dd) // a) - 1          # longest rest with no accel pulse
-    return bool(np.all(q_dec >= cd + 1)) and decel_only <= d[0]
+    a = int(n.sum())
+    if a == 0:
+        return np.zeros(len(d), dtype=bool)
+    dd = d.sum(axis=1)
+    total = (a + dd)[:, None]
+    cn = np.cumsum(n)[:-1][None, :]
+    cd = np.cumsum(d, axis=1)[:, :-1]
+    rest = -(-(cn + 1) * total // a)                 # first rest whose accel enters j + 1
+    q_dec = -(-(rest * dd[:, None]) // total)
+    decel_only = -(-(a + dd) // a) - 1                 # longest rest with no accel pulse
+    return (dd > 0) & np.all(q_dec >= cd + 1, axis=1) & (decel_only <= d[:, 0])
 
 
 def length_problems(table: FreeCurveTable | InitTable, motor: Motor, pulses: Iterable[int], *,

@@ -12,7 +12,9 @@ trapezoids, whose difference is one cruise pulse; the longer ones follow exactly
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 
 import numpy as np
@@ -61,15 +63,19 @@ def mix_arrays(mix: Sequence[tuple[int, float]]) -> tuple[np.ndarray, np.ndarray
 
 def candidate_lengths(lengths: np.ndarray, weights: np.ndarray,
                       count: int = CANDIDATES) -> list[int]:
-    """At most `count` lengths to plan a table for: count // 2 weighted quantiles of the
-    mix (at the middle of each of count // 2 equal shares of its weight; every length of
-    the mix when it has no more), and the rest spread geometrically from its shortest to
-    its longest length, both included, less those within NEAR of a quantile (plans for
-    lengths 5 % apart differ little; each costs a plan). Ascending, distinct."""
+    """At most `count` lengths to plan a table for. A mix of at most count // 2 lengths:
+    every length, and the geometric middle of each two neighbours (a table for a length
+    between them may serve both better). A larger mix: count // 2 weighted quantiles (at
+    the middle of each of count // 2 equal shares of its weight), and the rest spread
+    geometrically from its shortest to its longest length, both included, less those
+    within NEAR of a quantile (plans for lengths 5 % apart differ little; each costs a
+    plan). Ascending, distinct."""
     require_int("candidates", count, 4, 64)
     half = count // 2
     if len(lengths) <= half:
-        picked = lengths
+        middles = np.round(np.sqrt(lengths[1:].astype(float) * lengths[:-1]))
+        apart = middles > (1 + NEAR) * lengths[:-1]
+        return sorted({int(n) for n in lengths} | {int(n) for n in middles[apart]})
     else:
         cumulative = np.cumsum(weights)
         levels = (np.arange(half) + 0.5) / half * cumulative[-1]
@@ -122,7 +128,11 @@ def plan_duty_cycle(motor: Motor, mix: list[tuple[int, float]], *, clock: Clock 
     lengths spread geometrically from its shortest to its longest (`candidate_lengths`).
     Guarantee: never worse on the mix than the plan for any of those lengths (so, for a
     mix of at most candidates // 2 lengths, than the plan for any length of it); the
-    cost is a bounded number of plans, each table timed on every length at once.
+    cost is a bounded number of plans, each table timed on every length at once. With
+    `load_angle_deg`, every candidate is planned by the criterion first, and only those
+    whose plain table could still beat the best tightened one so far are tightened,
+    best first (tightening makes a table gentler, so its mix is no faster than the
+    plain table's: they are the bound).
     `progress` hears each candidate planned. Returns the plan (`duration_s` the weighted
     time, `extras["candidates"]` the lengths planned for) and each length's time."""
     from ...progress import track
@@ -131,12 +141,34 @@ def plan_duty_cycle(motor: Motor, mix: list[tuple[int, float]], *, clock: Clock 
     lengths, weights = mix_arrays(mix)
     targets = candidate_lengths(lengths, weights, candidates)
     best: tuple[float, Plan, np.ndarray] | None = None
-    for target in track(targets, progress):
+    plain: list[tuple[float, int]] = []
+
+    def planned(target: int) -> Plan | None:
+        try:
+            return plan_free_curve(motor, clock=clock, max_stages=max_stages, pulses=target,
+                                   separate_decel=separate_decel)
+        except PlanError:
+            return None  # e.g. too short a move for a table: the other candidates remain
+
+    # the candidates' plans are independent: two at a time (the DP and numpy release the GIL)
+    with ThreadPoolExecutor(min(2, os.cpu_count() or 1)) as pool:
+        found = list(track(pool.map(planned, targets), progress, total=len(targets)))
+    for target, plan in zip(targets, found, strict=True):
+        if plan is None:
+            continue
+        times = move_times_s(plan.table, lengths)
+        total = float(np.dot(weights, times))
+        plain.append((total, target))
+        if load_angle_deg is None and (best is None or total < best[0]):
+            best = (total, plan, times)
+    for bound, target in sorted(plain) if load_angle_deg is not None else ():
+        if best is not None and bound >= best[0]:
+            break  # neither this plain table nor any later one beats the best tightened
         try:
             plan = plan_free_curve(motor, clock=clock, max_stages=max_stages, pulses=target,
                                    separate_decel=separate_decel, load_angle_deg=load_angle_deg)
         except PlanError:
-            continue  # e.g. too short a move for a table: the other candidates remain
+            continue
         times = move_times_s(plan.table, lengths)
         total = float(np.dot(weights, times))
         if best is None or total < best[0]:

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..criterion import switch_safe
+from ..criterion import switch_safe_rows
 from ..limits import RATE_MAX, SIDE_TOTAL_MAX, STAGE_PULSES_MAX, STAGES_MIN
 from .problem import Problem, base_pulses
 
@@ -185,35 +185,43 @@ def switch_safe_decel(pb: Problem, ev: Staircase, budget: int) -> Staircase | No
     Two levers, both only raising decel counts: a floor proportional to the accel counts,
     d_k ≥ c·n_k (c = 1 is the symmetric table, always switch-safe), and extra pulses on
     the top stage (free on the planned move, but they count against its pulses). For
-    each c on a grid the fewest top pulses that make the table `switch_safe` are found
-    by bisection (more of them only help: they raise the decel total, not its slow end)."""
+    each c on a grid the fewest top pulses that make the table `switch_safe` are found,
+    every c at once: doubling until safe, then bisection back. (Safe top pulses are an
+    interval, not a ray: far too many shift the accel:decel ratio so that short
+    triangles switch down again — doubling from 1 finds its first part.)"""
+    floors = np.linspace(0.0, 1.0, 21)
+    d0 = np.maximum(ev.d[None, :], np.ceil(floors[:, None] * ev.n[None, :])).astype(np.int64)
+    room = np.minimum(SIDE_TOTAL_MAX, budget) - d0.sum(axis=1)  # top pulses that can fit
+
+    def safe(extra: np.ndarray) -> np.ndarray:
+        d = d0.copy()
+        d[:, -1] += extra
+        return switch_safe_rows(ev.n, d)
+
+    hi = np.zeros(len(floors), dtype=np.int64)
+    found = safe(hi)
+    searching = ~found & (room >= 1)
+    hi[searching] = 1
+    while searching.any():  # double each unsafe row's top pulses until safe or too many
+        ok = safe(hi) & searching
+        found |= ok
+        searching &= ~ok
+        hi = np.where(searching, hi * 2, hi)
+        searching &= hi <= room
+    lo = np.where(found & (hi > 0), hi // 2, 0)  # unsafe at lo (or hi = 0), safe at hi
+    while True:
+        open_ = found & (hi - lo > 1)
+        if not open_.any():
+            break
+        mid = (lo + hi) // 2
+        ok = safe(np.where(open_, mid, hi))
+        hi = np.where(open_ & ok, mid, hi)
+        lo = np.where(open_ & ~ok, mid, lo)
     best: Staircase | None = None
-    for c in np.linspace(0.0, 1.0, 21):
-        d0 = np.maximum(ev.d, np.ceil(c * ev.n))
-
-        def with_extra(x: int, d0: np.ndarray = d0) -> np.ndarray:
-            d = d0.copy()
-            d[-1] += x
-            return d
-
-        if switch_safe(ev.n, d0):
-            hi = 0
-        else:
-            hi = 1
-            while not switch_safe(ev.n, with_extra(hi)):
-                hi *= 2
-                if d0.sum() + hi > min(SIDE_TOTAL_MAX, budget):
-                    break
-            else:
-                lo = 0  # not safe at lo, safe at hi
-                while hi - lo > 1:
-                    mid = (lo + hi) // 2
-                    lo, hi = (lo, mid) if switch_safe(ev.n, with_extra(mid)) else (mid, hi)
-            if not switch_safe(ev.n, with_extra(hi)):
-                continue
-        cand = evaluate(pb, ev.rates, budget, (ev.n, with_extra(hi)))
+    for k in np.flatnonzero(found).tolist():
+        d = d0[k].astype(float)
+        d[-1] += hi[k]
+        cand = evaluate(pb, ev.rates, budget, (ev.n, d))
         if cand is not None and (best is None or cand.time_s < best.time_s):
             best = cand
     return best
-
-

@@ -39,7 +39,8 @@ from .problem import Shaping
 Make = Callable[[Motor, Shaping | None], Plan]
 
 LOCAL_ROUNDS = 8          # band repairs before falling back to uniform tightening
-RELAX_STEPS = 2           # bisections back towards the last shaping past the aim
+RELAX_STEPS = 2           # bisections back towards the last shaping past the aim,
+RELAX_ROOM_DEG = 2.0      # when the plan came out this far within the aim
 CULPRITS = 6              # executions past the aim traced per round (the worst first)
 WINDOW_PERIODS = 0.75     # how far before its worst angle an execution's steps are blamed
 TIGHTEN_STEP = 0.85
@@ -81,7 +82,8 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
         if plan.extras["worst_load_angle_deg"] <= load_angle_deg:
             # the factors are first-order: halfway back towards the last shaping past the
             # aim is often within it too, and faster
-            for _ in range(RELAX_STEPS if failed is not None else 0):
+            room = plan.extras["worst_load_angle_deg"] < load_angle_deg - RELAX_ROOM_DEG
+            for _ in range(RELAX_STEPS if failed is not None and room else 0):
                 mid = shaping.between(failed)  # type: ignore[arg-type]
                 again = attempt(mid)
                 if again is not None and again[0].extras["worst_load_angle_deg"] \
