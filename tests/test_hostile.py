@@ -277,3 +277,11 @@ def test_expand_exits_1_where_check_and_export_do(capsys: pytest.CaptureFixture[
     assert not (tmp_path / "out").exists()
     code, out, _ = run(capsys, "expand", INIT)
     assert code == 0 and '"kind": "free_curve"' in out
+
+
+def test_plan_moves_with_an_empty_file_name_is_refused(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # `--moves ''` planned without the mix and exited 0 (an empty string is falsy)
+    out = tmp_path / "t.json"
+    code, _, err = run(capsys, "plan", "--motor", "nema17-1600", "--moves", "", "-o", out)
+    assert code == 2 and "empty file name" in err and not out.exists()

@@ -90,7 +90,7 @@ def _do_plan(args: argparse.Namespace) -> int:
             table, summary = _init(args, motor)
         elif args.source:
             table, summary = _from_reference(args, motor)
-        elif args.moves:
+        elif args.moves is not None:
             table, summary = _duty_cycle(args, motor)
         else:
             table, summary = _free(args, motor)
