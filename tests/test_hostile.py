@@ -285,3 +285,14 @@ def test_plan_moves_with_an_empty_file_name_is_refused(
     out = tmp_path / "t.json"
     code, _, err = run(capsys, "plan", "--motor", "nema17-1600", "--moves", "", "-o", out)
     assert code == 2 and "empty file name" in err and not out.exists()
+
+
+@pytest.mark.parametrize("command", ["check", "sweep"])
+def test_samples_are_bounded(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                             command: str) -> None:
+    # an unbounded --samples ran out of memory
+    args = (["check", "examples/free-curve-nema17.json", "--motor", "nema17-1600"]
+            if command == "check" else
+            ["sweep", "--motors", "nema17-1600", "--pulses", "2000", "-o", tmp_path / "s.csv"])
+    code, _, err = run(capsys, *args, "--samples", "10000000")
+    assert code == 2 and "at most 100000" in err and len(err.strip().splitlines()) == 1

@@ -271,15 +271,12 @@ def design_stem(motor_name: str, result: Design) -> str:
 
 
 def write_design(result: Design, out_dir: str | Path, stem: str) -> list[Path]:
-    """The table (JSON) and its upload files (hex, bin, C header), each written whole."""
-    from verify.output import write_output
+    """The table (JSON) and its upload files (hex, bin, C header): all written, or none."""
+    from verify.output import write_outputs
 
-    paths = []
-    for name, data in design_files(result, stem):
-        path = Path(out_dir) / name
-        write_output(str(path), data)
-        paths.append(path)
-    return paths
+    files = [(Path(out_dir) / name, data) for name, data in design_files(result, stem)]
+    write_outputs([(str(path), data) for path, data in files])
+    return [path for path, _ in files]
 
 
 # --- the figure ----------------------------------------------------------------------------

@@ -26,6 +26,17 @@ CLOCK_NAMES = "8MHz, 1MHz, 500kHz, 250kHz, 62.5kHz or 15.625kHz (any case)"
 PROGRESS_DELAY_S = 1.0  # a bar appears only for work that has run this long
 
 
+SAMPLES_MAX = 100_000  # Monte Carlo samples of a tolerance box (each one a row of the kernel)
+
+
+def sample_count(text: str) -> int:
+    """A number of Monte Carlo samples, 0..SAMPLES_MAX (a huge one would exhaust memory)."""
+    value = positive_int(text)
+    if value > SAMPLES_MAX:
+        raise argparse.ArgumentTypeError(f"{value} samples: at most {SAMPLES_MAX}")
+    return value
+
+
 def positive_int(text: str) -> int:
     """A non-negative integer, decimal or with a 0x/0o/0b prefix."""
     try:
@@ -119,7 +130,7 @@ def _scaled(value: Any, scale: float) -> float:
 
 def add_sample_options(p: argparse.ArgumentParser, scope: str) -> None:
     """`--samples` and `--seed`: the Monte Carlo sample of a motor's tolerance box."""
-    p.add_argument("--samples", type=positive_int, default=1000, metavar="N",
+    p.add_argument("--samples", type=sample_count, default=1000, metavar="N",
                    help=f"{scope}Monte Carlo samples of the motor's tolerance box for the load "
                         "angle (default 1000; 0: its corners only; a motor without "
                         "tolerances has none)")
