@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import re
 from pathlib import Path
@@ -41,8 +42,9 @@ def test_python_example_runs(monkeypatch: pytest.MonkeyPatch,
     [code] = fenced("python")
     exec(compile(code, "README.md", "exec"), {})  # the README's own example
     out = capsys.readouterr().out.splitlines()
-    assert out[0].startswith("worst load angle ")  # the load angle over every move
-    assert out[1].startswith("02 ")  # then the upload, its command block first
+    assert out[0].startswith("SAFE over every move length; worst load angle ")  # the verdict
+    assert json.loads(out[1])["safe"] is True  # its JSON object
+    assert out[2].startswith("02 ")  # then the upload, its command block first
 
 
 # --- the command table: every command of `stepramp --help`, each with an example ----------
