@@ -402,6 +402,9 @@ ARGV_TEMPLATES: list[tuple[str, list[str]]] = [
               "0", "poll"]),
     ("emulate", ["emulate", "--address", "V"]),           # without --pty: a usage error
     ("emulate", ["emulate", "--pty", "--address", "BADADDR"]),
+    # design serves until Ctrl-C once its options are good: the port is never a usable one
+    ("design", ["design", "--motor", "PATH", "--pulses", "V", "--port", "BADPORT",
+                "--no-browser"]),
 ]
 
 HEAVY_ARGV_TEMPLATES: list[tuple[str, list[str]]] = [
@@ -457,6 +460,8 @@ def argv_case(rnd: random.Random, folder: Path, index: int | None = None,
             argv.append(rnd.choice(OPTION_VALUES))
         elif a == "BADADDR":  # emulate --pty with a valid address serves until Ctrl-C
             argv.append(rnd.choice(["16", "99", "-1", "abc", "", "0x100"]))
+        elif a == "BADPORT":  # design with a usable port serves until Ctrl-C
+            argv.append(rnd.choice(["-1", "65536", "abc", "", "1e3", "0x1FFFF"]))
         elif a == "VMAX":
             argv.append(rnd.choice(["1e-9", "0", "-1", "nan", "inf", "", "20000", "1e9"]))
         elif a == "PERIOD":

@@ -142,38 +142,44 @@ def samples(table: FreeCurveTable, motors: Sequence[Motor]
 
     Within a family only the partial stages (or the cruise) change length, a pulse at a
     time; the worst angle then varies with the phase of the ringing at the next speed
-    change, so a family is sampled from its shortest to its longest move every
-    `spacing` pulses, which moves those dwells by at most 1/PHASE_SAMPLES of the natural
-    period at their speed (the stiffest motor's): fast stages need their two ends,
-    slow ones many lengths. A trapezoid's longest judged move cruises long enough for
-    each motor to settle (longer cruises repeat that settled state)."""
+    change, so a family is sampled from its shortest move every `spacing` pulses, which
+    moves those dwells by at most 1/PHASE_SAMPLES of the natural period at their speed
+    (the stiffest motor's): fast stages need their two ends, slow ones many lengths.
+    Once that stage (or the cruise) has lasted SETTLE_CRUISE_PERIODS natural periods
+    for every motor the rotor has settled in it and a longer dwell repeats that state:
+    the rest of the family is judged by its longest move alone (a trapezoid's by that
+    settled cruise)."""
     rotor_list = [rotor_of(m) for m in motors]
     fams = families(table)
-    lo, hi = fams.lo, fams.hi.copy()
+    lo, hi = fams.lo, fams.hi
     hz = table.clock.hz
-    trapezoid = np.flatnonzero((fams.shape == SHAPES.index("trapezoid")) & (hi > lo))
-    if len(trapezoid):
-        top = hz / fams.cruise_rate
-        settle = max(min(r.natural_period_s(top), 1.0) for r in rotor_list)
-        hi[trapezoid] = np.minimum(hi[trapezoid], lo[trapezoid] + max(
-            math.ceil(top * SETTLE_CRUISE_PERIODS * settle), 1))
+    trapezoid = fams.shape == SHAPES.index("trapezoid")
+    # what changes within a family: a trapezoid's cruise, else its slowest partial stage
+    # (the largest step in dwell between two neighbouring lengths)
     short, long = fams.batch.subset(fams.first), moves(table, hi)
-    # the slowest segment whose pulse count changes within each family: a pulse of it is
-    # the largest step in dwell between two neighbouring lengths
     changes = np.where(short.count != long.count, short.rate, 0)
     slowest = np.maximum.reduceat(np.append(changes, 0), short.offsets[:-1])
     slowest = np.where(np.diff(short.offsets) > 0, slowest, 0)
+    slowest = np.where(trapezoid, fams.cruise_rate, slowest)
     spacing = np.maximum(hi - lo, 1)
+    dense = hi.copy()  # the lengths sampled finely; the family's longest is judged too
     for i in np.flatnonzero(slowest).tolist():
         speed = hz / float(slowest[i])
         period = min(r.natural_period_s(speed) for r in rotor_list)
+        settle = max(min(r.natural_period_s(speed), 1.0) for r in rotor_list)
         if math.isfinite(period):
             spacing[i] = max(1, min(int(spacing[i]), int(period * speed / PHASE_SAMPLES)))
-    count = (hi - lo) // spacing + 1
+        # past this much dwell the rotor has settled in that stage (or cruise): a longer
+        # one repeats the settled state (two partial stages share the growth: twice it)
+        dense[i] = min(int(hi[i]), int(lo[i]) + 2 * max(
+            math.ceil(speed * SETTLE_CRUISE_PERIODS * settle), 1))
+    hi = np.where(trapezoid, dense, hi)  # a longer cruise repeats the settled one
+    count = (dense - lo) // spacing + 1
     family = np.repeat(np.arange(len(lo)), count)
     within = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
-    lengths = np.minimum(lo[family] + within * spacing[family], hi[family])
-    lengths[np.cumsum(count) - 1] = hi  # each family's longest judged move
+    lengths = np.concatenate((np.minimum(lo[family] + within * spacing[family], dense[family]),
+                              dense, hi))
+    family = np.concatenate((family, np.arange(len(lo)), np.arange(len(lo))))
     lengths, first = np.unique(lengths, return_index=True)
     return lengths, family[first], spacing
 
