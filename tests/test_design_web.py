@@ -92,9 +92,12 @@ def test_page_controls_drive_the_verdict_and_the_files() -> None:
     assert verdict(first).text in page.verdict.object
     assert design(NEMA17, page.settings).plan.table == first.plan.table
 
+    page.controls["plan_to_aim"].value = False  # the plain criterion's table: the aim
+    plain = page.result                          # then only moves the verdict
+    assert plain is not None and plain is not first
     page.controls["load_angle_aim_deg"].value = 10.0
     assert "past-aim" in page.verdict.object and "aim 10°" in page.verdict.object
-    assert page.result is not first and page.result.plan.table == first.plan.table
+    assert page.result is not plain and page.result.plan.table == plain.plan.table
 
     page.upload_format.value = "ihex"
     names = [b.filename for b in page.downloads.values()]
@@ -216,10 +219,13 @@ def test_in_a_browser_sliders_change_the_verdict_and_downloads_check(
             assert done.returncode == 0, done.stdout + done.stderr
             assert decode_upload(parse_upload(upload.read_bytes())) == load_table(table)
 
-            # Tighten the aim below the design's load angle: the verdict says so.
-            _drag(page, "load_angle_aim_deg", 0.0)
+            # Plan by the plain criterion, then tighten the aim below the design's load
+            # angle: the verdict says so.
+            page.click(".sr-plan_to_aim input")
             page.locator("#sr-verdict[data-level='past-aim']").wait_for(timeout=60_000)
-            assert "aim 10°" in verdict.inner_text()
+            _drag(page, "load_angle_aim_deg", 0.0)
+            page.locator("#sr-verdict[data-level='past-aim']", has_text="aim 10°").wait_for(
+                timeout=60_000)
             # Plan at the whole pull-out torque: the rotor slips a pole.
             _drag(page, "safety_factor", 1.0)
             page.locator("#sr-verdict[data-level='unsafe']").wait_for(timeout=60_000)

@@ -86,7 +86,8 @@ def test_verdict_is_the_one_safety_verdict_over_every_move() -> None:
     level = "safe" if worst <= result.settings.load_angle_aim_deg else "past-aim"
     assert verdict(result).level == level and verdict(result).safe
 
-    tight = design(NEMA17, dataclasses_replace(result.settings, load_angle_aim_deg=worst - 1))
+    tight = design(NEMA17, dataclasses_replace(result.settings, load_angle_aim_deg=worst - 1,
+                                               plan_to_aim=False))
     assert verdict(tight).level == "past-aim" and verdict(tight).safe
     violent = FreeCurveTable(result.plan.table.clock, (200, 10_000), (400, 400))
     unsafe = dataclasses_replace(result, verdict=judge_safety(violent, result.motor))
@@ -115,7 +116,8 @@ def test_plan_to_aim_plans_as_stepramp_plan_does() -> None:
     aimed = design(NEMA17, dataclasses_replace(base, plan_to_aim=True))
     assert aimed.plan.table == plan_free_curve(loaded_motor(NEMA17, base), pulses=3_000,
                                                load_angle_deg=40.0).table
-    assert aimed.plan.table != design(NEMA17, base, load_angle=False).plan.table
+    assert aimed.plan.table != design(NEMA17, dataclasses_replace(base, plan_to_aim=False),
+                                      load_angle=False).plan.table
     assert aimed.physics is not None and abs(aimed.physics.worst_angle_deg) <= 40.0
 
 

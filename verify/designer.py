@@ -51,8 +51,9 @@ class Settings:
     """What the sliders set. `load_inertia_kgm2` adds to the motor's inertia;
     `load_torque_nm` and `friction_torque_nm` replace the motor's (None: the motor
     file's own). `load_angle_aim_deg` is the aim the verdict holds the load angle to;
-    with `plan_to_aim` the planner also tightens the table until it is met, as `stepramp
-    plan --load-angle` does (several plans: about a second instead of a tenth)."""
+    with `plan_to_aim` (the default) the planner tightens the table where the rotor rings
+    until it is met, as `stepramp plan` does (a few plans instead of one); without it the
+    plain criterion's table is shown, and the verdict says how far past the aim it is."""
 
     pulses: int = 10_000
     safety_factor: float = 0.6
@@ -62,7 +63,7 @@ class Settings:
     max_stages: int = 127
     friction_torque_nm: float | None = None
     load_angle_aim_deg: float = AIM_DEG
-    plan_to_aim: bool = False
+    plan_to_aim: bool = True
 
 
 @dataclass(frozen=True)
@@ -570,7 +571,7 @@ def _widgets(w: Any, motors: list[str], motor: str, specs: dict[str, ControlSpec
                             continuous_update=False, style=style, layout=layout)
     controls["clock"] = w.Dropdown(options=[AUTO_CLOCK, *INTERNAL_HZ], value=AUTO_CLOCK,
                                    description="clock", style=style, layout=layout)
-    controls["plan_to_aim"] = w.Checkbox(value=False, description="plan to the aim (≈ 1 s)",
+    controls["plan_to_aim"] = w.Checkbox(value=True, description="plan to the aim",
                                          style=style, layout=layout)
     return controls
 

@@ -79,8 +79,8 @@ class DesignPage:
             **_label(select, "clock"), options=[AUTO_CLOCK, *INTERNAL_HZ], value=AUTO_CLOCK,
             css_classes=["sr-clock"])
         self.controls["plan_to_aim"] = checkbox(
-            **_label(checkbox, "plan to the aim (as stepramp plan does; about a second)"),
-            value=False, css_classes=["sr-plan_to_aim"])
+            **_label(checkbox, "plan to the aim (as stepramp plan does)"),
+            value=True, css_classes=["sr-plan_to_aim"])
         self.verdict = pn.pane.HTML("", css_classes=["sr-verdict"], sizing_mode="stretch_width")
         self.summary = pn.pane.HTML("", css_classes=["sr-summary"], sizing_mode="stretch_width")
         self.figure = pn.pane.PNG(None, css_classes=["sr-figure"])
@@ -212,15 +212,16 @@ def serve(motor: Motor, *, port: int, open_browser: bool, pulses: int = 10_000,
         raise StepRampError(f"--port {port}: {e.strerror or e}") from None
     warm_ms = warm(motor, pulses)
     url = f"http://{host}:{port}/"
-    say(f"serving the designer for {motor.name or motor_name} at {url} "
-        f"(kernel warmed in {warm_ms:.0f} ms; Ctrl-C stops)")
     loop = server.io_loop
 
     def stop(_signum: int, _frame: Any) -> None:
         loop.add_callback_from_signal(loop.stop)
 
+    # the handlers first: a signal right after the address is said must stop the loop too
     previous = {s: signal.signal(s, stop) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
+        say(f"serving the designer for {motor.name or motor_name} at {url} "
+            f"(kernel warmed in {warm_ms:.0f} ms; Ctrl-C stops)")
         server.start()
         if open_browser:
             webbrowser.open(url)

@@ -137,13 +137,15 @@ def _duty_cycle(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, An
                                       separate_decel=args.separate_decel,
                                       load_angle_deg=args.load_angle, progress=progress)
     candidates = plan.extras["candidates"]
-    if len(mix) > len(times) or len(times) > len(candidates) // 2:
+    if len(mix) > len(times) or not set(times) <= set(candidates):
         # the planner did not plan a table for each row: say what it did instead
         print(f"stepramp plan: note: {display_path(args.moves)}: {len(mix)} rows, "
               f"{_count(len(times), 'distinct move length')} (equal lengths' weights summed); "
-              f"{_count(len(candidates), 'candidate table')} planned (the mix's weighted "
-              "quantiles and lengths spread from its shortest to its longest), each timed on "
-              "every length", file=sys.stderr)
+              f"{_count(len(candidates), 'candidate table')} planned ("
+              + ("every length and the middles of neighbours" if set(times) <= set(candidates)
+                 else "the mix's weighted quantiles and lengths spread from its shortest to "
+                      "its longest")
+              + "), each timed on every length", file=sys.stderr)
     table = plan.table
     return table, {"stages": len(table.rates), "clock": table.clock.name,
                    "separate_decel": table.separate, "weighted_time_s": plan.duration_s,
