@@ -59,6 +59,7 @@ def cases(tmp: Path) -> list[tuple[str, Path, Path]]:
             ("loaded", loaded_table, loaded_path)]
 
 
+@pytest.mark.slow  # four cases through four commands and 1 000 samples: ~20 s
 def test_check_compare_sweep_and_the_designer_give_one_verdict(tmp_path: Path) -> None:
     from verify.designer import Settings, design
     from verify.sweep import judge
