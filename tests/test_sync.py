@@ -18,7 +18,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from profiles.axes import FORMAT, axes_from_json, load_axes
+from profiles.axes import FORMAT, axes_from_json
 from profiles.errors import FieldRangeError, FormatError, StepRampError, SyncError
 from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312.execution import Execution, simulate_move
@@ -33,6 +33,7 @@ from profiles.ppmc312.sync import (
 )
 from profiles.ppmc312.upload import decode_move
 from verify.criterion import check_stall
+from verify.devices import axes_entries, load_axes
 from verify.sync import ruckig_sync, sync_report
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -96,7 +97,7 @@ def test_axes_file_loads_with_paths_relative_to_it(motor_dir: Path) -> None:
 def test_defaults_mode_time_device_ppmc312(motor_dir: Path) -> None:
     doc = axes_doc()
     del doc["mode"]
-    axes = axes_from_json(doc, motor_dir)
+    axes = axes_from_json(doc, axes_entries(), motor_dir)
     assert (axes.mode, axes.device) == ("time", "ppmc312")
 
 
@@ -126,7 +127,7 @@ BAD = [
 @pytest.mark.parametrize(("over", "word"), BAD)
 def test_bad_axes_files_give_one_line_errors(motor_dir: Path, over: dict, word: str) -> None:
     with pytest.raises(StepRampError) as err:
-        axes_from_json(axes_doc(**over), motor_dir)
+        axes_from_json(axes_doc(**over), axes_entries(), motor_dir)
     assert word in str(err.value) and "\n" not in str(err.value)
 
 
@@ -146,7 +147,7 @@ def test_names_differing_only_in_case_pass_the_schema_and_the_loader_refuses_the
                          {"name": "X", "motor": "m.json", "pulses": 10}])
     jsonschema.validate(doc, SCHEMA)
     with pytest.raises(StepRampError, match="used twice"):
-        axes_from_json(doc, motor_dir)
+        axes_from_json(doc, axes_entries(), motor_dir)
 
 
 def test_schema_accepts_the_examples() -> None:
@@ -324,4 +325,4 @@ def test_move_commands_carry_the_trigger(time_plan) -> None:
 def test_bad_pulses_for_the_chip_are_refused() -> None:
     with pytest.raises(FieldRangeError):
         axes_from_json(axes_doc(axes=[{"name": "x", "motor": "m.json", "pulses": -2**32}]),
-                       None, load_motors=False)
+                       axes_entries(), None, load_motors=False)
