@@ -19,17 +19,17 @@ from profiles.alink.sync import (
     plan_time_sync,
     pulse_times_s,
 )
+from profiles.joint import spread_tolerance_s
 from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312 import decode_upload
 from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.formats import parse, parse_c_set
-from profiles.joint import spread_tolerance_s
 from profiles.ppmc312.table import load_table
 from profiles.ppmc312.upload import decode_move
 from verify.cli import main
 from verify.criterion import check_stall
-from verify.safety import judge_safety
 from verify.devices import load_axes
+from verify.safety import judge_safety
 from verify.sync import output_names
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-_STYLE = {"toppra": ("tab:blue", "-"), "ruckig": ("tab:green", "--"),
+REFERENCE_STYLE = {"toppra": ("tab:blue", "-"), "ruckig": ("tab:green", "--"),
           "casadi": ("tab:purple", "-."), "exact": ("0.4", ":")}
 
 
@@ -39,7 +39,7 @@ def comparison_figure(comparison: Any) -> Any:
     ax_t.step(t * 1e3, v, where="post", color="tab:red", lw=1.6, label=label)
     ax_x.step(x, v, where="post", color="tab:red", lw=1.6, label=label)
     for name, ref in comparison.references.items():
-        color, ls = _STYLE.get(name, ("k", "-"))
+        color, ls = REFERENCE_STYLE.get(name, ("k", "-"))
         lab = f"{name} ({ref.duration_s * 1e3:.2f} ms)"
         ax_t.plot(ref.t_s * 1e3, ref.v_pps, color=color, ls=ls, lw=1.2, label=lab)
         ax_x.plot(ref.x_pulses, ref.v_pps, color=color, ls=ls, lw=1.2, label=lab)

@@ -47,6 +47,12 @@ class Judge(Protocol):
     def check(self, raw: bytes, path: str, options: CheckOptions) -> FileResult: ...
 
 
+class SyncJudge(Judge, Protocol):
+    """The judge of a device with synchronised moves: each axis's safety in sync's report."""
+
+    def axis_verdict(self, axis: Any) -> dict[str, Any]: ...
+
+
 class SyncModule(Protocol):
     """A device's synchronised moves (profiles/<name>/sync/)."""
 
@@ -87,6 +93,10 @@ class Device:
 
     def judge_module(self) -> Judge:
         return cast(Judge, importlib.import_module(self.judge))
+
+    def sync_judge(self) -> SyncJudge:
+        self.sync_module()  # a device without synchronised moves: one line naming those with
+        return cast(SyncJudge, self.judge_module())
 
     def sync_module(self) -> SyncModule:
         from profiles.errors import FormatError

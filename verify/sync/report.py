@@ -23,14 +23,14 @@ def sync_report(plan: Any, *, device: str, ruckig: RuckigSync | None = None,
     length, over the motor's tolerance box when it has one) and whether it is `safe`; the
     finish spread and its tolerance, the line deviation, and ruckig's synchronised
     durations beside ours."""
-    judge = get(device).judge_module()
+    judge = get(device).sync_judge()
     dev = line_deviation([a.pulse_train() for a in plan.axes])[0]
     d = [a.duration_s for a in plan.axes]
     axes = []
     for i, a in enumerate(plan.axes):
         item: dict[str, Any] = {"name": a.name, "pulses": a.pulses, "duration_s": d[i],
                                 "fastest_s": a.fastest_s, "how": a.how, **a.facts()}
-        verdict = judge.axis_verdict(a)  # type: ignore[attr-defined]
+        verdict = judge.axis_verdict(a)
         item.update(verdict)
         item["safe"] = all(v.get("safe", True) if isinstance(v, dict) else v is not False
                            for v in verdict.values())
