@@ -183,10 +183,16 @@ def test_time_mode_finishes_together(time_plan) -> None:
 
 
 def test_time_mode_slowest_keeps_its_fastest_table_others_slowed_safely(time_plan) -> None:
+    from profiles.motor.angles import AIM_DEG
+    from profiles.ppmc312.load_angle import worst_load_angle
+
     slowest = max(time_plan.axes, key=lambda a: a.fastest_s)
-    assert slowest.table == plan_free_curve(slowest.motor, pulses=abs(slowest.pulses)).table
+    # the table `stepramp plan` makes: the criterion and the load angle within the aim
+    assert slowest.table == plan_free_curve(slowest.motor, pulses=abs(slowest.pulses),
+                                            load_angle_deg=AIM_DEG).table
     for a in time_plan.axes:
         assert not check_stall(a.table, a.motor), a.name
+        assert worst_load_angle(a.table, a.motor).worst_angle_deg <= AIM_DEG, a.name
         assert a.duration_s >= a.fastest_s - 1e-12
         assert a.execution.shape == "trapezoid"   # same first-pulse latency on every chip
     assert time_plan.duration_s == pytest.approx(time_plan.unsynchronised_s, abs=1e-12)
@@ -326,3 +332,26 @@ def test_bad_pulses_for_the_chip_are_refused() -> None:
     with pytest.raises(FieldRangeError):
         axes_from_json(axes_doc(axes=[{"name": "x", "motor": "m.json", "pulses": -2**32}]),
                        axes_entries(), None, load_motors=False)
+
+
+def test_line_mode_falls_back_below_the_peak_and_says_so(monkeypatch: pytest.MonkeyPatch
+                                                         ) -> None:
+    """Where no line-synchronised set keeps the load angle within the aim, sync takes
+    one below the 90° peak, and its info says so; another judge's failure stands."""
+    import profiles.ppmc312.sync as sync
+
+    calls = []
+
+    def fake(axes, *, accept):  # type: ignore[no-untyped-def]
+        calls.append(accept)
+        if accept is not sync.accepted_below_peak:
+            raise SyncError("nothing this judge passes")
+        return sync.SyncPlan("line", (), "line: leader x")
+
+    monkeypatch.setattr(sync, "plan_line_sync", fake)
+    plan = sync.plan_sync([("x", NEMA17, 1000)], "line")
+    assert calls == [sync.accepted, sync.accepted_below_peak]
+    assert "no set within the 75° load-angle aim" in plan.info
+    with pytest.raises(SyncError):  # a caller's own judge gets no fallback
+        sync.plan_sync([("x", NEMA17, 1000)], "line", accept=lambda t, m: True)
+    assert len(calls) == 3  # tried once, no fallback

@@ -81,6 +81,7 @@ def test_report_matches_the_written_tables(written: tuple[Path, int, str]) -> No
         assert item["safety"] == judge_safety(table, motor).to_json()
         assert item["safety"]["safe"] and item["safety"]["criterion_findings"] == []
         assert item["safety"]["moves"] == "every"
+        assert item["safety"]["within_aim"] and item["safe"]  # planned like `plan` plans
         # the upload files decode back to the table, each verified by its own check
         for ext in ("hex", "ihex"):
             parsed = parse((out / f"{item['name']}.upload.{ext}").read_bytes())

@@ -1,10 +1,12 @@
 """time mode: every axis finishes together.
 
-Each axis gets its fastest table (`plan_free_curve`); the slowest keeps it. Every other
+Each axis gets its fastest table (`plan_free_curve` with the load-angle aim, as `stepramp
+plan` plans); the slowest keeps it. Every other
 axis is slowed as little as needed, in two steps:
 1. top-speed cap: the fastest table for the motor capped at speed v (`Motor.max_pps`;
    below the start speed the start speed is lowered with it), v found by bisection as
-   the smallest cap whose move is not slower than the target (planning stays optimal
+   the smallest cap whose move is not slower than the target and whose table `accept`
+   takes (each planned with the load-angle aim too; planning stays optimal
    for the lower top, so the axis runs at lower speeds rather than dwelling at low ones);
 2. padding (`padding.pad_to_ticks`): pulses move from the cruise into the stages next
    to the top until the duration is within one tick step of the target.
@@ -21,6 +23,7 @@ from dataclasses import replace
 
 from ...errors import PlanError
 from ...motor import Motor
+from ...motor.angles import AIM_DEG
 from ..execution import Execution, simulate_move
 from ..planner import plan_free_curve
 from ..table import FreeCurveTable
@@ -41,8 +44,9 @@ def capped_motor(motor: Motor, v_pps: float) -> Motor:
 
 
 def fastest_table(motor: Motor, pulses: int) -> tuple[FreeCurveTable, Execution]:
-    """The axis's own fastest table and its move."""
-    table = plan_free_curve(motor, pulses=pulses).table
+    """The axis's own fastest table and its move, planned as `stepramp plan` plans: the
+    criterion over every move length and the load angle within the aim."""
+    table = plan_free_curve(motor, pulses=pulses, load_angle_deg=AIM_DEG).table
     return table, simulate_move(table, pulses)
 
 
@@ -58,8 +62,8 @@ def capped_table(motor: Motor, pulses: int, target_s: float, fast: FreeCurveTabl
             break
         v = math.sqrt(lo * hi)
         try:
-            table: FreeCurveTable | None = plan_free_curve(capped_motor(motor, v),
-                                                           pulses=pulses).table
+            table: FreeCurveTable | None = plan_free_curve(
+                capped_motor(motor, v), pulses=pulses, load_angle_deg=AIM_DEG).table
         except PlanError:
             table = None
         if table is not None and accept is not None and not accept(table, motor):
