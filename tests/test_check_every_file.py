@@ -17,6 +17,9 @@ from pathlib import Path
 
 import pytest
 
+from profiles.alink.formats import FORMATS as ALINK_TABLE
+from profiles.mc200.formats import FORMATS as MC200_TABLE
+from profiles.ppmc312.formats import FORMATS as PPMC_FORMATS
 from verify import cli
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -24,7 +27,10 @@ EXAMPLES = ROOT / "examples"
 TABLE = str(EXAMPLES / "free-curve-nema17.json")
 INIT = str(EXAMPLES / "init-linear.json")
 READ = str(EXAMPLES / "free-curve-nema17.read.hex")
-UPLOAD_FORMATS = ("text", "bin", "ihex", "c", "json", "bus")
+# every format of each device's format table (a new format is written and checked too)
+UPLOAD_FORMATS = tuple(PPMC_FORMATS.formats)
+ALINK_FORMATS = tuple(ALINK_TABLE.formats)
+STREAM_FORMATS = tuple(MC200_TABLE.formats)
 DATASHEET = ["--holding-torque-nm", "0.45", "--rated-current-a", "1.5", "--resistance-ohm",
              "1.8", "--inductance-mh", "3.2", "--supply-v", "24", "--microstep", "8",
              "--rotor-inertia-gcm2", "57"]
@@ -46,10 +52,10 @@ def encoding_commands(out: Path) -> Iterator[list[str]]:
     yield ["decode", f"{out}/free.text", "-o", f"{out}/decoded.table.json"]
     yield ["decode", READ, "--table-read", "--clock", "8mhz", "-o", f"{out}/read.table.json"]
     yield ["expand", INIT, "-o", f"{out}/expanded.table.json"]
-    for fmt in ("text", "json", "hex", "c"):
+    for fmt in ALINK_FORMATS:
         yield ["alink", "settings", "--start-pps", "500", "--high-pps", "20000",
                "--accel-ms-per-kpps", "2", "--format", fmt, "-o", f"{out}/alink.{fmt}"]
-    for fmt in ("hex", "bin", "json", "c", "ihex"):
+    for fmt in STREAM_FORMATS:
         yield ["mc200", "stream", "--vmax", "5000", "--amax", "5e4", "--jmax", "5e6",
                "--pulses", "800", "--period-us", "1000", "--format", fmt, "-o",
                f"{out}/stream.{fmt}"]
@@ -112,7 +118,9 @@ def test_every_encoded_file_gets_a_verdict(tmp_path: Path,
     # every format of each kind, and the device files of all three devices
     assert {f"move.{fmt}" for fmt in UPLOAD_FORMATS} <= set(verdicts)
     assert {"stream.hex", "alink.json", "axis.motor.json", "read.table.json"} <= set(verdicts)
-    assert len(verdicts) == 47  # 6 formats × 4 + 5 × 2 serial, 3 tables, 4 + 5 + 1
+    n = len(UPLOAD_FORMATS)
+    assert len(verdicts) == 4 * n + 2 * (n - 1) + 3 + len(ALINK_FORMATS) + \
+        len(STREAM_FORMATS) + 1
     # what the chip would refuse is a verdict, never "unusable": the held 7-pulse move with
     # an override rate of 300 is legal (exit 0)
     assert verdicts["held.text"] == 0 and verdicts["move.bin"] == 0

@@ -145,3 +145,39 @@ def test_the_axes_schema_agrees_with_the_registry() -> None:
         then = schema["then"]["properties"]["axes"]
         assert then["maxItems"] == entry.most
         assert then["items"]["properties"]["pulses"]["maximum"] == entry.pulses_max
+
+
+def architecture_paths() -> dict[str, set[str]]:
+    """The module paths docs/architecture.md's tables name, by package root: each cell's
+    backticked `*.py` names, a name without a folder taking the cell's previous folder."""
+    import re
+
+    text = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
+    out: dict[str, set[str]] = {"profiles": set(), "verify": set()}
+    root = None
+    for line in text.splitlines():
+        if line.startswith("## profiles/"):
+            root = "profiles"
+        elif line.startswith("## verify/"):
+            root = "verify"
+        elif line.startswith("## "):
+            root = None
+        if root is None or not line.startswith("| `"):
+            continue
+        folder = ""
+        for name in re.findall(r"`([\w/]+\.py)`", line.split("|")[1]):
+            if "/" in name:
+                folder = name.rpartition("/")[0]
+            else:
+                name = f"{folder}/{name}" if folder else name
+            out[root].add(name)
+    return out
+
+
+def test_the_architecture_lists_every_module_and_no_other() -> None:
+    listed = architecture_paths()
+    for root, names in listed.items():
+        files = {str(p.relative_to(ROOT / root)) for p in (ROOT / root).rglob("*.py")}
+        assert names - files == set(), f"{root}: listed but gone"
+        assert {f for f in files if not f.endswith("__init__.py")} - names == set(), \
+            f"{root}: missing from docs/architecture.md"
