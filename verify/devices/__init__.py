@@ -50,7 +50,7 @@ class Judge(Protocol):
 class SyncJudge(Judge, Protocol):
     """The judge of a device with synchronised moves: each axis's safety in sync's report."""
 
-    def axis_verdict(self, axis: Any) -> dict[str, Any]: ...
+    def axis_verdict(self, axis: Any) -> tuple[bool, dict[str, Any]]: ...
 
 
 class SyncModule(Protocol):

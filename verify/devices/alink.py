@@ -29,12 +29,14 @@ def check(raw: bytes, path: str, options: CheckOptions) -> FileResult:
     return device_result(path, findings(raw, path), TITLE, options)
 
 
-def axis_verdict(axis: Any) -> dict[str, Any]:
-    """What sync's report says of one axis's safety: its settings against the rule the
-    planner plans by (`profiles.alink.sync.is_stall_safe`)."""
+def axis_verdict(axis: Any) -> tuple[bool, dict[str, Any]]:
+    """Whether one axis of a synchronised move is safe, and what sync's report says of it:
+    its settings against the rule the planner plans by
+    (`profiles.alink.sync.is_stall_safe`)."""
     from profiles.alink.sync import is_stall_safe
 
-    return {"stall_safe": is_stall_safe(axis.settings, axis.motor)}
+    safe = is_stall_safe(axis.settings, axis.motor)
+    return safe, {"stall_safe": safe}
 
 
 def findings(raw: bytes, path: str) -> list[Finding]:

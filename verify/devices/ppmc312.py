@@ -225,12 +225,14 @@ def safety_findings(table: FreeCurveTable | InitTable, options: CheckOptions,
     return found
 
 
-def axis_verdict(axis: Any) -> dict[str, Any]:
-    """What sync's report says of one axis's safety: the safety verdict of its table over
-    every move length (over the motor's tolerance box when it has one)."""
+def axis_verdict(axis: Any) -> tuple[bool, dict[str, Any]]:
+    """Whether one axis of a synchronised move is safe, and what sync's report says of it:
+    the safety verdict of its table over every move length (over the motor's tolerance box
+    when it has one)."""
     from verify.safety import judge_safety
 
-    return {"safety": judge_safety(axis.table, axis.motor).to_json()}
+    verdict = judge_safety(axis.table, axis.motor)
+    return verdict.safe, {"safety": verdict.to_json()}
 
 
 def load_checkable(path: str, extck_hz: float | None = None, *, raw: bytes | None = None

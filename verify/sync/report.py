@@ -30,10 +30,8 @@ def sync_report(plan: Any, *, device: str, ruckig: RuckigSync | None = None,
     for i, a in enumerate(plan.axes):
         item: dict[str, Any] = {"name": a.name, "pulses": a.pulses, "duration_s": d[i],
                                 "fastest_s": a.fastest_s, "how": a.how, **a.facts()}
-        verdict = judge.axis_verdict(a)
-        item.update(verdict)
-        item["safe"] = all(v.get("safe", True) if isinstance(v, dict) else v is not False
-                           for v in verdict.values())
+        safe, verdict = judge.axis_verdict(a)
+        item.update(verdict, safe=safe)
         if commands is not None:
             item["move_command"] = command_text(commands[i])
         axes.append(item)
