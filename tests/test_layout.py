@@ -12,6 +12,7 @@ independent of each other, profiles never importing verify, lazy imports include
 from __future__ import annotations
 
 import ast
+import functools
 import importlib
 import json
 import tomllib
@@ -68,9 +69,14 @@ def sources() -> list[Path]:
     return sorted([*(ROOT / "profiles").rglob("*.py"), *(ROOT / "verify").rglob("*.py")])
 
 
+@functools.cache
+def parsed(path: Path) -> ast.Module:
+    return ast.parse(path.read_text(encoding="utf-8"), str(path))
+
+
 def private_imports(path: Path) -> list[str]:
     """`from x import _name` anywhere in `path` (module top or inside a function)."""
-    tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
+    tree = parsed(path)
     return [f"{node.lineno}: {alias.name}" for node in ast.walk(tree)
             if isinstance(node, ast.ImportFrom) for alias in node.names
             if alias.name.startswith("_") and not alias.name.startswith("__")]
@@ -85,7 +91,7 @@ def test_no_private_name_is_imported_across_modules() -> None:
 def long_functions(path: Path) -> list[tuple[str, int]]:
     """Every function (methods and nested ones too) over MAX_FUNCTION_LINES lines, from
     its `def` to its last line, docstring and comments included."""
-    tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
+    tree = parsed(path)
     return [(node.name, node.end_lineno - node.lineno + 1) for node in ast.walk(tree)
             if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef)
             and node.end_lineno is not None
