@@ -75,11 +75,21 @@ def parsed(path: Path) -> ast.Module:
 
 
 def private_imports(path: Path) -> list[str]:
-    """`from x import _name` anywhere in `path` (module top or inside a function)."""
+    """`from x import _name` anywhere in `path` (module top or inside a function), and
+    `module._name` of a module it imports (`import x.y as m; m._name`)."""
     tree = parsed(path)
-    return [f"{node.lineno}: {alias.name}" for node in ast.walk(tree)
-            if isinstance(node, ast.ImportFrom) for alias in node.names
-            if alias.name.startswith("_") and not alias.name.startswith("__")]
+    found = [f"{node.lineno}: {alias.name}" for node in ast.walk(tree)
+             if isinstance(node, ast.ImportFrom) for alias in node.names
+             if _private(alias.name)]
+    modules = {alias.asname or alias.name.partition(".")[0] for node in ast.walk(tree)
+               if isinstance(node, ast.Import) for alias in node.names}
+    return found + [f"{node.lineno}: {node.value.id}.{node.attr}" for node in ast.walk(tree)
+                    if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
+                    and node.value.id in modules and _private(node.attr)]
+
+
+def _private(name: str) -> bool:
+    return name.startswith("_") and not name.startswith("__")
 
 
 def test_no_private_name_is_imported_across_modules() -> None:
@@ -110,8 +120,9 @@ def test_the_scans_see_what_they_look_for(tmp_path: Path) -> None:
     src.write_text("from a import _hidden, __version__, shown\n"
                    "def f():\n    from .b import _also\n"
                    f"def g():\n{body}\n"
-                   "class C:\n    def short(self):\n        return 1\n", encoding="utf-8")
-    assert private_imports(src) == ["1: _hidden", "3: _also"]
+                   "class C:\n    def short(self):\n        return 1\n"
+                   "import p.q as m\nm._inner(m.__name__, self._own)\n", encoding="utf-8")
+    assert private_imports(src) == ["1: _hidden", "3: _also", "89: m._inner"]
     assert long_functions(src) == [("g", 81)]
 
 
