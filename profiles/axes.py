@@ -1,20 +1,22 @@
 """Axes files (`stepramp.axes/1`): several axes that make one move together.
 
-    {"format": "stepramp.axes/1", "mode": "time" | "line",
-     "device": "ppmc312" | "alink",
+    {"format": "stepramp.axes/1", "mode": "time" | "line", "device": NAME,
      "axes": [{"name": "x", "motor": "x.motor.json", "pulses": 12000}, ...]}
 
 `mode` (default "time"): every axis finishes together, or positions stay
-proportional (the joint path follows the straight line). `device` (default
-"ppmc312"): one PPMC-312 per axis, or the two axes of one A-Link ALUM unit.
-Each axis names a motor file (to plan) or a table file (`"table"`: to simulate a
-hand-made set), with paths relative to the axes file; `pulses` is signed
-(negative = CCW). The JSON Schema is profiles/data/axes.schema.json.
+proportional (the joint path follows the straight line). `device`: which device
+runs the axes; the devices an axes file may name, how many axes and pulses each
+takes, and the default are the caller's (`devices`: the registry's entries,
+verify/devices, e.g. one PPMC-312 per axis or the two axes of one A-Link ALUM
+unit). Each axis names a motor file (to plan) or a table file (`"table"`: to
+simulate a hand-made set), with paths relative to the axes file; `pulses` is
+signed (negative = CCW). The JSON Schema is profiles/data/axes.schema.json.
 """
 
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -26,17 +28,20 @@ from .reading import read_json
 
 FORMAT = "stepramp.axes/1"
 MODES = ("time", "line")
-DEVICES = ("ppmc312", "alink")
-MAX_AXES = 16
-ALINK_AXES = 2
-# The PPMC-312 move takes 1..0xFFFFFFFF pulses; the A-Link 28-bit signed para.
-PULSES_MAX = {"ppmc312": 0xFFFFFFFF, "alink": (1 << 27) - 1}
 NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,31}$")
 _KEYS = {"format", "mode", "device", "axes"}
 _AXIS_KEYS = {"name", "motor", "table", "pulses"}
 
 Mode = Literal["time", "line"]
-Device = Literal["ppmc312", "alink"]
+
+
+@dataclass(frozen=True)
+class AxesEntry:
+    """A device's entry in axes files: how many axes it takes, and the most pulses of one
+    axis's move (either direction)."""
+
+    most: int
+    pulses_max: int
 
 
 @dataclass(frozen=True)
@@ -61,7 +66,7 @@ class Axis:
 @dataclass(frozen=True)
 class AxesFile:
     mode: Mode
-    device: Device
+    device: str
     axes: tuple[Axis, ...]
     path: Path | None = None
 
@@ -78,8 +83,10 @@ class AxesFile:
                 "axes": [axis(a) for a in self.axes]}
 
 
-def axes_from_json(obj: Any, base: Path | None = None, *, load_motors: bool = True) -> AxesFile:
-    """An axes file's JSON object; relative paths resolve against `base` (the file's folder)."""
+def axes_from_json(obj: Any, devices: Mapping[str, AxesEntry], base: Path | None = None, *,
+                   load_motors: bool = True) -> AxesFile:
+    """An axes file's JSON object; relative paths resolve against `base` (the file's folder).
+    `devices`: the devices it may name and their entries, the first the default."""
     if not isinstance(obj, dict):
         raise FormatError("an axes file holds one JSON object")
     if obj.get("format") != FORMAT:
@@ -90,19 +97,19 @@ def axes_from_json(obj: Any, base: Path | None = None, *, load_motors: bool = Tr
     mode = obj.get("mode", "time")
     if mode not in MODES:
         raise FormatError(f"mode: expected one of {', '.join(MODES)}, got {echo(mode)}")
-    device = obj.get("device", "ppmc312")
-    if device not in DEVICES:
-        raise FormatError(f"device: expected one of {', '.join(DEVICES)}, got {echo(device)}")
+    device = obj.get("device", next(iter(devices)))
+    if not isinstance(device, str) or device not in devices:
+        raise FormatError(f"device: expected one of {', '.join(devices)}, got {echo(device)}")
+    entry = devices[device]
     items = obj.get("axes")
     if not isinstance(items, list) or not items:
         raise FormatError("axes: expected a non-empty list of axis objects")
-    most = ALINK_AXES if device == "alink" else MAX_AXES
-    if len(items) > most:
-        raise FieldRangeError(f"axes (number of axes for {device})", len(items), 1, most)
+    if len(items) > entry.most:
+        raise FieldRangeError(f"axes (number of axes for {device})", len(items), 1, entry.most)
     axes = []
     seen: set[str] = set()
     for i, item in enumerate(items):
-        axis = _axis(item, i, device, base, load_motors)
+        axis = _axis(item, i, entry.pulses_max, base, load_motors)
         if axis.name.lower() in seen:
             raise FormatError(f"axes[{i}].name: {echo(axis.name)} is used twice (names are file "
                               "names and C prefixes: they must differ, ignoring case)")
@@ -111,7 +118,7 @@ def axes_from_json(obj: Any, base: Path | None = None, *, load_motors: bool = Tr
     return AxesFile(mode, device, tuple(axes), None)
 
 
-def _axis(item: Any, i: int, device: str, base: Path | None, load_motors: bool) -> Axis:
+def _axis(item: Any, i: int, hi: int, base: Path | None, load_motors: bool) -> Axis:
     where = f"axes[{i}]"
     if not isinstance(item, dict):
         raise FormatError(f"{where}: expected an object with name, motor (or table) and pulses")
@@ -122,7 +129,6 @@ def _axis(item: Any, i: int, device: str, base: Path | None, load_motors: bool) 
     if not isinstance(name, str) or not NAME_RE.match(name):
         raise FormatError(f"{where}.name: {echo(name)} is not a name of 1-32 letters, digits or _ "
                           "starting with a letter or _ (it names files and C symbols)")
-    hi = PULSES_MAX[device]
     label = f"{where}.pulses (signed, 0 excluded)"
     pulses = require_int(label, item.get("pulses"), -hi, hi)
     if pulses == 0:
@@ -151,12 +157,14 @@ def _axis(item: Any, i: int, device: str, base: Path | None, load_motors: bool) 
     return Axis(name, pulses, motor, path, None)
 
 
-def load_axes(path: str | Path, *, load_motors: bool = True) -> AxesFile:
-    """Read an axes file; motor (and table) paths are relative to the file's folder."""
+def load_axes(path: str | Path, devices: Mapping[str, AxesEntry], *,
+              load_motors: bool = True) -> AxesFile:
+    """Read an axes file; motor (and table) paths are relative to the file's folder.
+    `devices` as for `axes_from_json` (`verify.devices.load_axes` gives the registry's)."""
     p = Path(path)
     obj = read_json(p)
     try:
-        out = axes_from_json(obj, p.parent, load_motors=load_motors)
+        out = axes_from_json(obj, devices, p.parent, load_motors=load_motors)
     except FormatError as e:
         raise FormatError(f"{p}: {e}") from None
     except FieldRangeError as e:

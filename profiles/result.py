@@ -11,12 +11,20 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Generic, TypeVar
-
-if TYPE_CHECKING:
-    from .ppmc312.clock import Clock
+from typing import Any, Generic, Protocol, TypeVar
 
 T = TypeVar("T")
+
+
+class Clock(Protocol):
+    """What a plan result says of the clock a device's table runs on (the PPMC-312's
+    `profiles.ppmc312.clock.Clock` is one): the shared noun knows no device."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def hz(self) -> float: ...
 
 
 @dataclass(frozen=True)
@@ -28,7 +36,7 @@ class PlanResult(Generic[T]):
       length (the A-Link's long-move setting);
     - `binds`: what limits the plan, a short phrase ("top speed", "stall criterion …");
     - `info`: one line for people;
-    - `clock`: the PPMC-312 clock the table runs on (None for other devices);
+    - `clock`: the clock the table runs on (a PPMC-312 `Clock`; None for other devices);
     - `solve_s`: wall time of the planning;
     - `warnings`: what the planner had to round or give up, one line each;
     - `extras`: planner-specific numbers (e.g. the quantiser's `max_step_error_us`).

@@ -186,7 +186,7 @@ def test_names_work_in_commands(tmp_path: Path, capsys: pytest.CaptureFixture[st
 
 
 def test_axes_files_take_names(tmp_path: Path) -> None:
-    from profiles.axes import load_axes
+    from verify.devices import load_axes
 
     shutil.copy(NEMA17, tmp_path / "local.json")
     (tmp_path / "axes.json").write_text(json.dumps({

@@ -90,17 +90,21 @@ def test_plan_stream_from_motor_follows_the_chip_staircase() -> None:
     from profiles.ppmc312.planner import plan_free_curve
 
     motor = load_motor(MOTOR)
-    packets, duration = M.plan_stream(3000, period_us=500, motor=motor)
     run = simulate_move(plan_free_curve(motor, pulses=3000).table, 3000)
+    packets, duration = M.plan_stream(3000, period_us=500,
+                                      profile=(run.position_at, run.duration_s))
     assert duration == run.duration_s
     commands = [p.value for p in packets[5:-10]]
     t = np.minimum(np.arange(1, len(commands) + 1) * 500e-6, duration)
     assert commands == [int(x) for x in run.position_at(t)]
 
 
-def test_plan_stream_needs_motor_or_all_limits() -> None:
+def test_plan_stream_needs_a_profile_or_all_limits() -> None:
     with pytest.raises(FormatError, match="j_max_pps3"):
         M.plan_stream(100, period_us=1000, v_max_pps=1.0, a_max_pps2=1.0)
+    with pytest.raises(FormatError, match="not both"):
+        M.plan_stream(100, period_us=1000, profile=M.ruckig_profile(100, 1e3, 1e4, 1e6),
+                      v_max_pps=1.0)
 
 
 def test_render_stream_formats() -> None:

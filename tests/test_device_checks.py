@@ -20,7 +20,7 @@ from profiles.mc200.formats import render as render_stream
 from profiles.mc200.model import read_stream
 from verify.check_file import check_file
 from verify.cli import main
-from verify.device_checks import device_of
+from verify.devices import detect
 
 SETTINGS = settings(max_examples=60, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])
@@ -109,7 +109,7 @@ def test_check_a_planned_stream_in_every_format(tmp_path: Path) -> None:
     for fmt in ("hex", "json", "c", "ihex", "bin"):
         path = tmp_path / f"s.{fmt}"
         path.write_bytes(render_stream(_packets(STREAM), fmt))
-        assert device_of(path.read_bytes()) == "mc200"
+        assert detect(path.read_bytes()).name == "mc200"
         want = [("warning", "mc200-unchecked")] if fmt == "bin" else []
         assert _rules(path) == want, fmt
         assert main(["check", str(path)]) == 0
@@ -195,7 +195,7 @@ def _write(tmp_path: Path, name: str, commands: list[A.Command], fmt: str = "hex
 def test_check_settings_files(tmp_path: Path) -> None:
     for fmt in ("text", "json", "hex", "c"):
         path = _write(tmp_path, f"a.{fmt}", SETTINGS_COMMANDS, fmt)
-        assert device_of(path.read_bytes()) == "alink"
+        assert detect(path.read_bytes()).name == "alink"
         assert _rules(path) == [], fmt
     w = A.CommandWriter()
     nak = [w.put(A.Cmd.MAX_SPEED, 1, 5000), w.put(A.Cmd.MODE, 0, 5),
@@ -260,14 +260,15 @@ def test_ppmc312_uploads_are_never_claimed(rates: list[int], fmt: str, max_data:
     table = FreeCurveTable(Clock.internal("8MHz"), tuple(rates), tuple(range(1, len(rates) + 1)))
     data = render(encode_free_curve(table, max_data=max_data), fmt,
                   RenderOptions(name="axis"))
-    assert device_of(data) is None
+    assert detect(data).name == "ppmc312"
 
 
 def test_examples_are_told_apart() -> None:
     root = Path(__file__).resolve().parents[1] / "examples"
     for path in root.iterdir():
-        want = "mc200" if ".mc200." in path.name else "alink" if ".alink." in path.name else None
-        assert device_of(path.read_bytes()) == want, path
+        want = ("mc200" if ".mc200." in path.name else "alink" if ".alink." in path.name
+                else "ppmc312")
+        assert detect(path.read_bytes()).name == want, path
 
 
 @pytest.mark.slow

@@ -38,8 +38,8 @@ from pathlib import Path
 
 import pytest
 
-from profiles.motor import _OPTIONAL as MOTOR_OPTIONAL
-from profiles.motor import _REQUIRED as MOTOR_REQUIRED
+from profiles.motor import OPTIONAL_KEYS as MOTOR_OPTIONAL
+from profiles.motor import REQUIRED_KEYS as MOTOR_REQUIRED
 from profiles.motor import Motor, load_motor
 from profiles.ppmc312.table import _KEYS as TABLE_KEYS
 from profiles.ppmc312.table import table_from_json
@@ -379,9 +379,10 @@ def test_json_examples_load() -> None:
             import jsonschema
 
             from profiles.axes import axes_from_json
+            from verify.devices import axes_entries
             schema = json.loads((REPO / "profiles/data/axes.schema.json").read_text())
             jsonschema.validate(obj, schema)
-            assert axes_from_json(obj, None, load_motors=False).axes, line
+            assert axes_from_json(obj, axes_entries(), None, load_motors=False).axes, line
         else:
             assert Motor.from_json(obj).to_json()["format"] == "stepramp.motor/1", line
 

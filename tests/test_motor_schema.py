@@ -11,7 +11,7 @@ from typing import Any
 import jsonschema  # a [dev] dependency: missing, the suite fails (never skips)
 import pytest
 
-from profiles.motor import _OPTIONAL, _REQUIRED, Motor, bundled_motor_paths
+from profiles.motor import OPTIONAL_KEYS, REQUIRED_KEYS, Motor, bundled_motor_paths
 from profiles.motor.datasheet import Datasheet, Drive, motor_from_datasheet
 from profiles.motor.loads import disc
 from profiles.motor.schema import pointer, problems, schema, schema_problems
@@ -27,10 +27,10 @@ def test_schema_is_a_valid_draft_2020_12_schema() -> None:
 
 def test_schema_describes_every_loader_key_and_the_new_ones() -> None:
     props = set(schema()["properties"])
-    assert _REQUIRED | _OPTIONAL <= props
+    assert REQUIRED_KEYS | OPTIONAL_KEYS <= props
     assert {"phases", "damping_ratio", "load_torque_nm", "tolerances",
             "resonance_bands_pps", "sources"} <= props
-    assert set(schema()["required"]) == _REQUIRED
+    assert set(schema()["required"]) == REQUIRED_KEYS
 
 
 @pytest.mark.parametrize("path", bundled_motor_paths(), ids=lambda p: p.name)

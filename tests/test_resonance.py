@@ -11,9 +11,10 @@ import numpy as np
 import pytest
 
 from profiles.motor import Motor, load_motor
-from profiles.motor.resonance import forbidden_dwells, in_bands
+from profiles.motor.resonance import in_bands
 from profiles.ppmc312.criterion import all_length_problems
 from profiles.ppmc312.planner import plan_free_curve
+from profiles.ppmc312.resonance import forbidden_dwells
 from profiles.ppmc312.table import FreeCurveTable, dump_table
 from verify import cli
 from verify.resonance import resonance_findings

@@ -18,7 +18,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from profiles.axes import FORMAT, axes_from_json, load_axes
+from profiles.axes import FORMAT, axes_from_json
 from profiles.errors import FieldRangeError, FormatError, StepRampError, SyncError
 from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312.execution import Execution, simulate_move
@@ -33,6 +33,7 @@ from profiles.ppmc312.sync import (
 )
 from profiles.ppmc312.upload import decode_move
 from verify.criterion import check_stall
+from verify.devices import axes_entries, load_axes
 from verify.sync import ruckig_sync, sync_report
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -96,7 +97,7 @@ def test_axes_file_loads_with_paths_relative_to_it(motor_dir: Path) -> None:
 def test_defaults_mode_time_device_ppmc312(motor_dir: Path) -> None:
     doc = axes_doc()
     del doc["mode"]
-    axes = axes_from_json(doc, motor_dir)
+    axes = axes_from_json(doc, axes_entries(), motor_dir)
     assert (axes.mode, axes.device) == ("time", "ppmc312")
 
 
@@ -126,7 +127,7 @@ BAD = [
 @pytest.mark.parametrize(("over", "word"), BAD)
 def test_bad_axes_files_give_one_line_errors(motor_dir: Path, over: dict, word: str) -> None:
     with pytest.raises(StepRampError) as err:
-        axes_from_json(axes_doc(**over), motor_dir)
+        axes_from_json(axes_doc(**over), axes_entries(), motor_dir)
     assert word in str(err.value) and "\n" not in str(err.value)
 
 
@@ -146,7 +147,7 @@ def test_names_differing_only_in_case_pass_the_schema_and_the_loader_refuses_the
                          {"name": "X", "motor": "m.json", "pulses": 10}])
     jsonschema.validate(doc, SCHEMA)
     with pytest.raises(StepRampError, match="used twice"):
-        axes_from_json(doc, motor_dir)
+        axes_from_json(doc, axes_entries(), motor_dir)
 
 
 def test_schema_accepts_the_examples() -> None:
@@ -182,10 +183,16 @@ def test_time_mode_finishes_together(time_plan) -> None:
 
 
 def test_time_mode_slowest_keeps_its_fastest_table_others_slowed_safely(time_plan) -> None:
+    from profiles.motor.angles import AIM_DEG
+    from profiles.ppmc312.load_angle import worst_load_angle
+
     slowest = max(time_plan.axes, key=lambda a: a.fastest_s)
-    assert slowest.table == plan_free_curve(slowest.motor, pulses=abs(slowest.pulses)).table
+    # the table `stepramp plan` makes: the criterion and the load angle within the aim
+    assert slowest.table == plan_free_curve(slowest.motor, pulses=abs(slowest.pulses),
+                                            load_angle_deg=AIM_DEG).table
     for a in time_plan.axes:
         assert not check_stall(a.table, a.motor), a.name
+        assert worst_load_angle(a.table, a.motor).worst_angle_deg <= AIM_DEG, a.name
         assert a.duration_s >= a.fastest_s - 1e-12
         assert a.execution.shape == "trapezoid"   # same first-pulse latency on every chip
     assert time_plan.duration_s == pytest.approx(time_plan.unsynchronised_s, abs=1e-12)
@@ -324,4 +331,27 @@ def test_move_commands_carry_the_trigger(time_plan) -> None:
 def test_bad_pulses_for_the_chip_are_refused() -> None:
     with pytest.raises(FieldRangeError):
         axes_from_json(axes_doc(axes=[{"name": "x", "motor": "m.json", "pulses": -2**32}]),
-                       None, load_motors=False)
+                       axes_entries(), None, load_motors=False)
+
+
+def test_line_mode_falls_back_below_the_peak_and_says_so(monkeypatch: pytest.MonkeyPatch
+                                                         ) -> None:
+    """Where no line-synchronised set keeps the load angle within the aim, sync takes
+    one below the 90° peak, and its info says so; another judge's failure stands."""
+    import profiles.ppmc312.sync as sync
+
+    calls = []
+
+    def fake(axes, *, accept):  # type: ignore[no-untyped-def]
+        calls.append(accept)
+        if accept is not sync.accepted_below_peak:
+            raise SyncError("nothing this judge passes")
+        return sync.SyncPlan("line", (), "line: leader x")
+
+    monkeypatch.setattr(sync, "plan_line_sync", fake)
+    plan = sync.plan_sync([("x", NEMA17, 1000)], "line")
+    assert calls == [sync.accepted, sync.accepted_below_peak]
+    assert "no set within the 75° load-angle aim" in plan.info
+    with pytest.raises(SyncError):  # a caller's own judge gets no fallback
+        sync.plan_sync([("x", NEMA17, 1000)], "line", accept=lambda t, m: True)
+    assert len(calls) == 3  # tried once, no fallback

@@ -19,16 +19,16 @@ from profiles.alink.sync import (
     plan_time_sync,
     pulse_times_s,
 )
-from profiles.axes import load_axes
+from profiles.joint import spread_tolerance_s
 from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312 import decode_upload
 from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.formats import parse, parse_c_set
-from profiles.ppmc312.sync import spread_tolerance_s
 from profiles.ppmc312.table import load_table
 from profiles.ppmc312.upload import decode_move
 from verify.cli import main
 from verify.criterion import check_stall
+from verify.devices import load_axes
 from verify.safety import judge_safety
 from verify.sync import output_names
 
@@ -81,6 +81,7 @@ def test_report_matches_the_written_tables(written: tuple[Path, int, str]) -> No
         assert item["safety"] == judge_safety(table, motor).to_json()
         assert item["safety"]["safe"] and item["safety"]["criterion_findings"] == []
         assert item["safety"]["moves"] == "every"
+        assert item["safety"]["within_aim"] and item["safe"]  # planned like `plan` plans
         # the upload files decode back to the table, each verified by its own check
         for ext in ("hex", "ihex"):
             parsed = parse((out / f"{item['name']}.upload.{ext}").read_bytes())
@@ -194,7 +195,7 @@ def test_alink_line_sync_keeps_the_line() -> None:
     xa = np.array([np.count_nonzero(a <= ti) for ti in t], dtype=float)
     xb = np.array([np.count_nonzero(b <= ti) for ti in t], dtype=float)
     dev = float(np.max(np.abs(xa * 3_000 - xb * 8_000)) / np.hypot(8_000, 3_000))
-    from profiles.ppmc312.sync import line_deviation_times
+    from profiles.pulses import line_deviation as line_deviation_times
 
     assert line_deviation_times([a, b])[0] == pytest.approx(dev, rel=1e-9)
     assert dev < 3

@@ -95,13 +95,26 @@ def _stop_rate_min(hz: float) -> int:
 # --- free curve ----------------------------------------------------------------
 
 def _check_free_curve(t: FreeCurveTable) -> list[Finding]:
-    out: list[Finding] = []
-    rates = t.rates
-    hz = t.clock.hz
     sides: list[tuple[str, str, tuple[int, ...]]] = [("accel", "accel_pulses", t.accel_pulses)]
     if t.decel_pulses is not None:
         sides.append(("decel", "decel_pulses", t.decel_pulses))
+    out = _stage_counts(t, sides)
+    if not t.rates:
+        return out
+    # One pass in C per rule answers "all fine" for the common case (fields bound every
+    # value below 2**24, every product below 2**40: int64 is exact).
+    rate_array = np.array(t.rates, dtype=np.int64)
+    out += _rate_rules(t, rate_array)
+    for side, field, pulses in sides:
+        if pulses:
+            out += _side_rules(t, side, field, pulses, rate_array)
+    return out + _stop_speed(t)
 
+
+def _stage_counts(t: FreeCurveTable, sides: list[tuple[str, str, tuple[int, ...]]]
+                  ) -> list[Finding]:
+    """Each side's stage count (2..127), and sides of different counts (legal, warned)."""
+    out: list[Finding] = []
     for side, _, pulses in sides:
         if not STAGES_MIN <= len(pulses) <= STAGES_MAX:
             out.append(Finding("error", "stage-count",
@@ -111,19 +124,20 @@ def _check_free_curve(t: FreeCurveTable) -> list[Finding]:
     if t.decel_pulses is not None and len(t.decel_pulses) != len(t.accel_pulses):
         n_acc, n_dec = len(t.accel_pulses), len(t.decel_pulses)
         short, n_short = ("decel", n_dec) if n_dec < n_acc else ("accel", n_acc)
-        end_rate = rates[n_short - 1] if 0 < n_short <= len(rates) else 0
+        end_rate = t.rates[n_short - 1] if 0 < n_short <= len(t.rates) else 0
         at = f" and starts/stops at rate {end_rate}" if end_rate else ""
         out.append(Finding("warning", "decel-stage-count",
                            f"{n_acc} accel stages but {n_dec} decel stages: legal, but the sides "
                            f"share rates, so {short} uses only the {n_short} fastest rates "
                            f"(rates[0..{n_short - 1}]){at}; give both sides the same count "
                            f"unless that is intended"))
-    if not rates:
-        return out
+    return out
 
-    # One pass in C per rule answers "all fine" for the common case (fields bound every
-    # value below 2**24, every product below 2**40: int64 is exact).
-    rate_array = np.array(rates, dtype=np.int64)
+
+def _rate_rules(t: FreeCurveTable, rate_array: np.ndarray) -> list[Finding]:
+    """Rates ≤ 1 (0x18), speeds above 2 Mpps, rates that do not grow fastest to slowest."""
+    out: list[Finding] = []
+    rates, hz = t.rates, t.clock.hz
     increasing = bool((rate_array[1:] > rate_array[:-1]).all())
     rmin = rates[0] if increasing else int(rate_array.min())
     if rmin <= 1 or hz / rmin > MAX_OUTPUT_PPS:
@@ -146,53 +160,61 @@ def _check_free_curve(t: FreeCurveTable) -> list[Finding]:
                                    f"{rates[i - 1]}: rates must grow from fastest to slowest; "
                                    f"make it > {rates[i - 1]} (sort or drop the stage)",
                                    None, i))
-
-    for side, field, pulses in sides:
-        if not pulses:
-            continue
-        pulse_array = np.array(pulses, dtype=np.int64)
-        if pulse_array.min() < STAGE_PULSES_MIN:
-            for i, p in enumerate(pulses):
-                if p < STAGE_PULSES_MIN:
-                    need = _pulses_needed(rates, i)
-                    out.append(Finding("error", "pulses-min",
-                                       f"{field}[{i}] = {p} is ≤ 1: raise it to ≥ {need}",
-                                       0x19, i))
-        if pulse_array.max() > STAGE_PULSES_MAX:
-            for i, p in enumerate(pulses):
-                if p > STAGE_PULSES_MAX:
-                    out.append(Finding("error", "pulses-field",
-                                       f"{field}[{i}] = {p} exceeds 0xFFFFF ({STAGE_PULSES_MAX})"
-                                       f": lower it to ≤ {STAGE_PULSES_MAX}", None, i))
-        total = int(pulse_array.sum())
-        if total > SIDE_TOTAL_MAX:
-            out.append(Finding("error", f"{side}-total-max",
-                               f"{side} total {total} pulses exceeds 0xFFFFF "
-                               f"({SIDE_TOTAL_MAX}): remove {total - SIDE_TOTAL_MAX} pulses "
-                               f"from {field}", 0x1A))
-        # pulses × rate per stage (a side uses the fastest len(pulses) rates)
-        ticks = pulse_array * rate_array[:len(pulses)]
-        if ticks.min() < MIN_STAGE_TICKS:
-            clk = t.clock.name
-            for i, (p, r) in enumerate(zip(pulses, rates, strict=False)):
-                if p * r < MIN_STAGE_TICKS and p > 1 and r > 1:
-                    out.append(Finding("error", "stage-ticks-min",
-                                       f"{field}[{i}]: rate {r} at {clk} × {p} pulses = {p * r} "
-                                       f"ticks < {MIN_STAGE_TICKS}: raise the count to "
-                                       f"≥ {_pulses_needed(rates, i)}", None, i))
-        out.extend(_short_stages(side, field, ticks, rates))
-
-    n_dec = len(t.decel)
-    if n_dec and n_dec <= len(rates):
-        r_stop = rates[n_dec - 1]
-        if r_stop > 0 and hz / r_stop >= STOP_SPEED_WARN_PPS:
-            clk = t.clock.name
-            out.append(Finding("warning", "stop-speed-high",
-                               f"slowest decel stage rates[{n_dec - 1}] = {r_stop} at {clk} "
-                               f"stops at {hz / r_stop:.0f} pps ≥ 62500 pps: the chip emits tens "
-                               f"of extra pulses at the stop rate; raise that rate to "
-                               f"≥ {_stop_rate_min(hz)} or add a slower stage", None, n_dec - 1))
     return out
+
+
+def _side_rules(t: FreeCurveTable, side: str, field: str, pulses: tuple[int, ...],
+                rate_array: np.ndarray) -> list[Finding]:
+    """One side's pulse counts: ≤ 1 (0x19), above the field, its total (0x1A), too few
+    clock ticks a stage, and stages far shorter than their neighbours."""
+    out: list[Finding] = []
+    rates = t.rates
+    pulse_array = np.array(pulses, dtype=np.int64)
+    if pulse_array.min() < STAGE_PULSES_MIN:
+        for i, p in enumerate(pulses):
+            if p < STAGE_PULSES_MIN:
+                need = _pulses_needed(rates, i)
+                out.append(Finding("error", "pulses-min",
+                                   f"{field}[{i}] = {p} is ≤ 1: raise it to ≥ {need}",
+                                   0x19, i))
+    if pulse_array.max() > STAGE_PULSES_MAX:
+        for i, p in enumerate(pulses):
+            if p > STAGE_PULSES_MAX:
+                out.append(Finding("error", "pulses-field",
+                                   f"{field}[{i}] = {p} exceeds 0xFFFFF ({STAGE_PULSES_MAX})"
+                                   f": lower it to ≤ {STAGE_PULSES_MAX}", None, i))
+    total = int(pulse_array.sum())
+    if total > SIDE_TOTAL_MAX:
+        out.append(Finding("error", f"{side}-total-max",
+                           f"{side} total {total} pulses exceeds 0xFFFFF "
+                           f"({SIDE_TOTAL_MAX}): remove {total - SIDE_TOTAL_MAX} pulses "
+                           f"from {field}", 0x1A))
+    # pulses × rate per stage (a side uses the fastest len(pulses) rates)
+    ticks = pulse_array * rate_array[:len(pulses)]
+    if ticks.min() < MIN_STAGE_TICKS:
+        clk = t.clock.name
+        for i, (p, r) in enumerate(zip(pulses, rates, strict=False)):
+            if p * r < MIN_STAGE_TICKS and p > 1 and r > 1:
+                out.append(Finding("error", "stage-ticks-min",
+                                   f"{field}[{i}]: rate {r} at {clk} × {p} pulses = {p * r} "
+                                   f"ticks < {MIN_STAGE_TICKS}: raise the count to "
+                                   f"≥ {_pulses_needed(rates, i)}", None, i))
+    return out + _short_stages(side, field, ticks, rates)
+
+
+def _stop_speed(t: FreeCurveTable) -> list[Finding]:
+    """A stop at ≥ 62.5 kpps: the chip emits extra pulses at the stop rate (warned)."""
+    n_dec, rates, hz = len(t.decel), t.rates, t.clock.hz
+    if not n_dec or n_dec > len(rates):
+        return []
+    r_stop = rates[n_dec - 1]
+    if r_stop <= 0 or hz / r_stop < STOP_SPEED_WARN_PPS:
+        return []
+    return [Finding("warning", "stop-speed-high",
+                    f"slowest decel stage rates[{n_dec - 1}] = {r_stop} at {t.clock.name} "
+                    f"stops at {hz / r_stop:.0f} pps ≥ 62500 pps: the chip emits tens "
+                    f"of extra pulses at the stop rate; raise that rate to "
+                    f"≥ {_stop_rate_min(hz)} or add a slower stage", None, n_dec - 1)]
 
 
 def _pulses_needed(rates: tuple[int, ...], i: int) -> int:

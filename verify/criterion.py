@@ -133,91 +133,108 @@ def findings_from_problems(table: FreeCurveTable, motor: Motor,
 
 
 def _finding(table: FreeCurveTable, motor: Motor, group: list[StepProblem]) -> Finding:
+    """The finding of one distinct problem: its message by rule, naming the shortest move
+    that runs it (the jerk's names the stage's counts instead)."""
     p = min(group, key=lambda q: q.pulses)
-    hz = table.clock.hz
     shortest = f" (shortest move that runs it: {p.pulses} pulses)" if p.pulses else ""
+    if p.rule == "jerk":
+        return Finding("error", "stall-jerk",
+                       f"{p.dwell_side} slope changes from {p.v_from_pps:.6g} to "
+                       f"{p.v_to_pps:.6g} pps² over stage {p.stage_from}: {p.need_pps2:.6g} "
+                       f"pps³ exceeds max_jerk_pps3 {p.cap_pps2:.6g}: raise "
+                       f"{p.dwell_side}_pulses[{p.stage_from}] (and the counts around it)",
+                       stage=p.stage_from)
+    message, stage = _MESSAGES[p.rule](table, motor, group, p)
+    return Finding("error", f"stall-{p.rule}", message + shortest, stage=stage)
 
-    def rate(stage: int | None) -> str:
-        return "the high-rate override" if stage is None else f"rates[{stage}]"
 
-    if p.rule == "top-speed":
-        need_rate = math.ceil(hz / motor.top_pps)
-        msg = (f"stage {rate(p.stage_from)} runs {p.v_from_pps:.6g} pps, above the motor's top "
-               f"usable speed {motor.top_pps:.6g} pps: raise it to ≥ {need_rate}")
-        return Finding("error", "stall-top-speed", msg + shortest, stage=p.stage_from)
-    if p.rule == "start-speed":
-        kinds = {q.kind for q in group}
-        verb = ("start and stop" if kinds == {"start", "stop"} else
-                "start from rest" if kinds == {"start"} else "stop")
-        # The side the move starts (stops) on, as the criterion saw it: an LE=1 move can
-        # start on a decel stage (its accel share empty) or stop on an accel one.
-        sides = {q.dwell_side for q in group} & {"accel", "decel"}
-        side = (sides.pop() if len(sides) == 1 else
-                "accel" if kinds == {"start"} else "decel")
-        start_rate = math.ceil(hz / motor.start_pps * (1 - REL_TOL))
-        k = p.stage_from
-        slowest = k is not None and k == len(table.accel_pulses if side == "accel"
-                                             else table.decel) - 1
-        fix = (f"raise {rate(k)} to ≥ {start_rate}" if slowest else
-               "give both sides the same stage count (LE=1 shares the fastest stages), so no "
-               "move starts or stops on a faster stage"
-               if len(table.accel_pulses) != len(table.decel) else
-               f"change the LE=1 pulse counts so that no move {verb.split()[0]}s on this "
-               "faster stage" + ("" if k is None else f", or raise {rate(k)} to ≥ {start_rate}"))
-        what = f"slowest {side} stage" if slowest else f"{side} stage"
-        msg = (f"moves {verb} at the {what} {rate(k)} = "
-               f"{'' if k is None else table.rates[k]} ({p.v_from_pps:.6g} pps), above the start "
-               f"speed {motor.start_pps:.6g} pps: {fix}")
-        return Finding("error", "stall-start-speed", msg + shortest, stage=k)
-    if p.rule == "jump":
-        slow, fast = sorted(((p.stage_from, p.v_from_pps), (p.stage_to, p.v_to_pps)),
-                            key=lambda sv: sv[1])
-        jump = fast[1] - slow[1]
-        msg = (f"stage {_idx(slow[0])} → {_idx(fast[0])} steps from {slow[1]:.6g} to "
-               f"{fast[1]:.6g} pps (+{jump:.6g}), above the largest jump {motor.jump_pps:.6g} pps:"
-               f" insert a stage between {rate(slow[0])} and {rate(fast[0])}")
-        return Finding("error", "stall-jump", msg + shortest, stage=slow[0])
-    if p.rule in ("accel", "decel"):
-        side = p.rule
-        k = p.dwell_stage
-        slow_v = min(p.v_from_pps, p.v_to_pps)
-        delta = abs(p.jump_pps)
-        head = (f"{side}_pulses[{_idx(k)}] = {p.dwell_pulses} at {slow_v:.6g} pps then "
-                f"{'+' if side == 'accel' else '−'}{delta:.6g} pps needs {p.need_pps2:.6g} pps²")
-        if p.cap_pps2 <= 0:
-            msg = (f"{head}, but the motor cannot {side}erate between {slow_v:.6g} and "
-                   f"{max(p.v_from_pps, p.v_to_pps):.6g} pps at all: lower the top speed below "
-                   f"{slow_v:.6g} pps")
-        else:
-            want = math.ceil(delta * slow_v / p.cap_pps2)
-            msg = (f"{head}, the motor gives {p.cap_pps2:.6g} pps²: raise {side}_pulses[{_idx(k)}]"
-                   f" from {p.dwell_pulses} to ≥ {want}")
-        return Finding("error", f"stall-{side}", msg + shortest, stage=k)
-    if p.rule == "switch":
-        worst = max(group, key=lambda q: abs(q.jump_pps))
-        lengths = sorted({q.family for q in group})
-        span = ", ".join(f"{lo}–{hi}" if hi > lo else f"{lo}" for lo, hi in lengths[:4])
-        more = f" and {len(lengths) - 4} more ranges" if len(lengths) > 4 else ""
-        why = []
-        if abs(p.jump_pps) > motor.jump_pps * (1 + REL_TOL):
-            why.append(f"above the largest jump {motor.jump_pps:.6g} pps")
-        if p.need_pps2 > p.cap_pps2 * (1 + REL_TOL):
-            why.append(f"with {p.dwell_pulses} pulse(s) at {p.v_to_pps:.6g} pps it needs "
-                       f"{p.need_pps2:.6g} pps², the motor gives {p.cap_pps2:.6g} pps²")
-        msg = (f"triangle moves of {span}{more} pulses switch from accel stage "
-               f"{_idx(p.stage_from)} ({p.v_from_pps:.6g} pps) to decel stage {_idx(p.stage_to)} "
-               f"({p.v_to_pps:.6g} pps), {p.jump_pps:+.6g} pps, {'; '.join(why)}: the chip keeps "
-               "the accel:decel pulse ratio, so the decel counts must be proportional to the "
-               "accel counts from the slow end (stepramp plan makes them so), or use LE=0; "
-               f"largest switch jump {worst.jump_pps:+.6g} pps (accel stage "
-               f"{_idx(worst.stage_from)} → decel stage {_idx(worst.stage_to)})")
-        return Finding("error", "stall-switch", msg + shortest, stage=p.stage_to)
-    # jerk
-    return Finding("error", "stall-jerk",
-                   f"{p.dwell_side} slope changes from {p.v_from_pps:.6g} to {p.v_to_pps:.6g} "
-                   f"pps² over stage {p.stage_from}: {p.need_pps2:.6g} pps³ exceeds "
-                   f"max_jerk_pps3 {p.cap_pps2:.6g}: raise {p.dwell_side}_pulses[{p.stage_from}] "
-                   "(and the counts around it)", stage=p.stage_from)
+def _rate(stage: int | None) -> str:
+    return "the high-rate override" if stage is None else f"rates[{stage}]"
+
+
+def _top_speed(table: FreeCurveTable, motor: Motor, group: list[StepProblem],
+               p: StepProblem) -> tuple[str, int | None]:
+    need_rate = math.ceil(table.clock.hz / motor.top_pps)
+    return (f"stage {_rate(p.stage_from)} runs {p.v_from_pps:.6g} pps, above the motor's top "
+            f"usable speed {motor.top_pps:.6g} pps: raise it to ≥ {need_rate}", p.stage_from)
+
+
+def _start_speed(table: FreeCurveTable, motor: Motor, group: list[StepProblem],
+                 p: StepProblem) -> tuple[str, int | None]:
+    kinds = {q.kind for q in group}
+    verb = ("start and stop" if kinds == {"start", "stop"} else
+            "start from rest" if kinds == {"start"} else "stop")
+    # The side the move starts (stops) on, as the criterion saw it: an LE=1 move can
+    # start on a decel stage (its accel share empty) or stop on an accel one.
+    sides = {q.dwell_side for q in group} & {"accel", "decel"}
+    side = (sides.pop() if len(sides) == 1 else
+            "accel" if kinds == {"start"} else "decel")
+    start_rate = math.ceil(table.clock.hz / motor.start_pps * (1 - REL_TOL))
+    k = p.stage_from
+    slowest = k is not None and k == len(table.accel_pulses if side == "accel"
+                                         else table.decel) - 1
+    fix = (f"raise {_rate(k)} to ≥ {start_rate}" if slowest else
+           "give both sides the same stage count (LE=1 shares the fastest stages), so no "
+           "move starts or stops on a faster stage"
+           if len(table.accel_pulses) != len(table.decel) else
+           f"change the LE=1 pulse counts so that no move {verb.split()[0]}s on this "
+           "faster stage" + ("" if k is None else f", or raise {_rate(k)} to ≥ {start_rate}"))
+    what = f"slowest {side} stage" if slowest else f"{side} stage"
+    return (f"moves {verb} at the {what} {_rate(k)} = "
+            f"{'' if k is None else table.rates[k]} ({p.v_from_pps:.6g} pps), above the start "
+            f"speed {motor.start_pps:.6g} pps: {fix}", k)
+
+
+def _jump(table: FreeCurveTable, motor: Motor, group: list[StepProblem],
+          p: StepProblem) -> tuple[str, int | None]:
+    slow, fast = sorted(((p.stage_from, p.v_from_pps), (p.stage_to, p.v_to_pps)),
+                        key=lambda sv: sv[1])
+    jump = fast[1] - slow[1]
+    return (f"stage {_idx(slow[0])} → {_idx(fast[0])} steps from {slow[1]:.6g} to "
+            f"{fast[1]:.6g} pps (+{jump:.6g}), above the largest jump {motor.jump_pps:.6g} pps:"
+            f" insert a stage between {_rate(slow[0])} and {_rate(fast[0])}", slow[0])
+
+
+def _capability(table: FreeCurveTable, motor: Motor, group: list[StepProblem],
+                p: StepProblem) -> tuple[str, int | None]:
+    side = p.rule
+    k = p.dwell_stage
+    slow_v = min(p.v_from_pps, p.v_to_pps)
+    delta = abs(p.jump_pps)
+    head = (f"{side}_pulses[{_idx(k)}] = {p.dwell_pulses} at {slow_v:.6g} pps then "
+            f"{'+' if side == 'accel' else '−'}{delta:.6g} pps needs {p.need_pps2:.6g} pps²")
+    if p.cap_pps2 <= 0:
+        return (f"{head}, but the motor cannot {side}erate between {slow_v:.6g} and "
+                f"{max(p.v_from_pps, p.v_to_pps):.6g} pps at all: lower the top speed below "
+                f"{slow_v:.6g} pps", k)
+    want = math.ceil(delta * slow_v / p.cap_pps2)
+    return (f"{head}, the motor gives {p.cap_pps2:.6g} pps²: raise {side}_pulses[{_idx(k)}]"
+            f" from {p.dwell_pulses} to ≥ {want}", k)
+
+
+def _switch(table: FreeCurveTable, motor: Motor, group: list[StepProblem],
+            p: StepProblem) -> tuple[str, int | None]:
+    worst = max(group, key=lambda q: abs(q.jump_pps))
+    lengths = sorted({q.family for q in group})
+    span = ", ".join(f"{lo}–{hi}" if hi > lo else f"{lo}" for lo, hi in lengths[:4])
+    more = f" and {len(lengths) - 4} more ranges" if len(lengths) > 4 else ""
+    why = []
+    if abs(p.jump_pps) > motor.jump_pps * (1 + REL_TOL):
+        why.append(f"above the largest jump {motor.jump_pps:.6g} pps")
+    if p.need_pps2 > p.cap_pps2 * (1 + REL_TOL):
+        why.append(f"with {p.dwell_pulses} pulse(s) at {p.v_to_pps:.6g} pps it needs "
+                   f"{p.need_pps2:.6g} pps², the motor gives {p.cap_pps2:.6g} pps²")
+    return (f"triangle moves of {span}{more} pulses switch from accel stage "
+            f"{_idx(p.stage_from)} ({p.v_from_pps:.6g} pps) to decel stage {_idx(p.stage_to)} "
+            f"({p.v_to_pps:.6g} pps), {p.jump_pps:+.6g} pps, {'; '.join(why)}: the chip keeps "
+            "the accel:decel pulse ratio, so the decel counts must be proportional to the "
+            "accel counts from the slow end (stepramp plan makes them so), or use LE=0; "
+            f"largest switch jump {worst.jump_pps:+.6g} pps (accel stage "
+            f"{_idx(worst.stage_from)} → decel stage {_idx(worst.stage_to)})", p.stage_to)
+
+
+_MESSAGES = {"top-speed": _top_speed, "start-speed": _start_speed, "jump": _jump,
+             "accel": _capability, "decel": _capability, "switch": _switch}
 
 
 def shortest_failing_pulses(problems: list[StepProblem]) -> int | None:

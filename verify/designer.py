@@ -326,7 +326,7 @@ class DesignFigure:
         """Show `result` (and `slow` references); the PNG."""
         import numpy as np
 
-        from verify.plot import _STYLE
+        from verify.plot import REFERENCE_STYLE
 
         t, _, v = result.execution.edges()
         self.table_line.set_data(t * 1e3, v)
@@ -338,7 +338,7 @@ class DesignFigure:
                 self.ref_lines.pop(name).remove()
         for name, ref in refs.items():
             if name not in self.ref_lines:
-                color, ls = _STYLE.get(name, ("k", "-"))
+                color, ls = REFERENCE_STYLE.get(name, ("k", "-"))
                 self.ref_lines[name], = self.ax_v.plot([], [], color=color, ls=ls, lw=1.1)
             line = self.ref_lines[name]
             line.set_data(ref.t_s * 1e3, ref.v_pps)

@@ -12,11 +12,11 @@ from typing import Any
 
 import numpy as np
 
-_STYLE = {"toppra": ("tab:blue", "-"), "ruckig": ("tab:green", "--"),
+REFERENCE_STYLE = {"toppra": ("tab:blue", "-"), "ruckig": ("tab:green", "--"),
           "casadi": ("tab:purple", "-."), "exact": ("0.4", ":")}
 
 
-def _plt() -> Any:
+def pyplot() -> Any:
     import matplotlib
 
     if "matplotlib.pyplot" not in __import__("sys").modules:
@@ -29,7 +29,7 @@ def _plt() -> Any:
 def comparison_figure(comparison: Any) -> Any:
     """Speed against time and against position (staircase as steps, references as
     lines), and the stall margin of each stage."""
-    plt = _plt()
+    plt = pyplot()
     fig, axes = plt.subplots(3, 1, figsize=(8.0, 9.0), constrained_layout=True,
                              gridspec_kw={"height_ratios": [3, 3, 2]})
     ax_t, ax_x, ax_m = axes
@@ -39,7 +39,7 @@ def comparison_figure(comparison: Any) -> Any:
     ax_t.step(t * 1e3, v, where="post", color="tab:red", lw=1.6, label=label)
     ax_x.step(x, v, where="post", color="tab:red", lw=1.6, label=label)
     for name, ref in comparison.references.items():
-        color, ls = _STYLE.get(name, ("k", "-"))
+        color, ls = REFERENCE_STYLE.get(name, ("k", "-"))
         lab = f"{name} ({ref.duration_s * 1e3:.2f} ms)"
         ax_t.plot(ref.t_s * 1e3, ref.v_pps, color=color, ls=ls, lw=1.2, label=lab)
         ax_x.plot(ref.x_pulses, ref.v_pps, color=color, ls=ls, lw=1.2, label=lab)
@@ -101,7 +101,7 @@ def comparison_figure(comparison: Any) -> Any:
 
 def motor_figure(motor: Any) -> Any:
     """Pull-out torque (×safety factor) and the acceleration capability."""
-    plt = _plt()
+    plt = pyplot()
     fig, (ax_t, ax_a) = plt.subplots(1, 2, figsize=(10.0, 4.0), constrained_layout=True)
     v = np.linspace(0, motor.top_curve_pps, 500)
     ax_t.plot(v, motor.torque_nm(v), label="pull-out torque")
@@ -146,7 +146,7 @@ def figure_bytes(fig: Any, path: str | Path) -> bytes:
     fit_texts(fig)
     buf = io.BytesIO()
     fig.savefig(buf, format=suffix, dpi=SAVE_DPI)
-    _plt().close(fig)
+    pyplot().close(fig)
     return buf.getvalue()
 
 

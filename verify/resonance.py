@@ -4,7 +4,7 @@ resonance bands (the rules: profiles.motor.resonance)."""
 from __future__ import annotations
 
 from profiles.motor import Motor
-from profiles.motor.resonance import forbidden_dwells
+from profiles.ppmc312.resonance import forbidden_dwells
 from profiles.ppmc312.table import FreeCurveTable
 
 from .findings import Finding

@@ -376,9 +376,9 @@ def _cell(v: Any) -> Any:
 
 def sweep_figure(rows: Sequence[dict[str, Any]]) -> Any:
     """Move time and worst load angle against move length, one line per motor."""
-    from verify.plot import _plt
+    from verify.plot import pyplot
 
-    plt = _plt()
+    plt = pyplot()
     fig, (ax_t, ax_a) = plt.subplots(2, 1, figsize=(8, 7), sharex=True)
     for name in dict.fromkeys(r["motor"] for r in rows):
         mine = sorted((r for r in rows if r["motor"] == name and not r["error"]),

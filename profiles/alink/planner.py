@@ -32,6 +32,43 @@ from .model import (
 S_CURVE_PEAK_FACTOR = math.pi / 2  # peak / average acceleration of the 1 − cos law
 
 
+def high_speeds(top: float, max_int: int, motor_top: float) -> tuple[np.ndarray, np.ndarray]:
+    """Every high speed the unit can set up to `top` [pps] (each whole multiple of its
+    multiplier, by the bands of MAX_SPEED `max_int`, 0: unset) and its multiplier."""
+    bands = BANDS_BY_HIGH if max_int == 0 else BANDS_BY_MAX
+    vh_all, m_all = [], []
+    lower = 0
+    for upper, m in bands:
+        if max_int and not lower < max_int <= upper:
+            lower = upper
+            continue
+        hi = min(upper, top) if max_int == 0 else min(max_int, top)
+        first = (lower // m + 1) * m if max_int == 0 else m
+        if hi >= first:
+            speeds = np.arange(first, math.floor(hi) // m * m + 1, m, dtype=np.int64)
+            vh_all.append(speeds)
+            m_all.append(np.full(len(speeds), m, dtype=np.int64))
+        lower = upper
+    if not vh_all:
+        raise FieldRangeError("motor.top_pps", motor_top, 2, SPEED_MAX_PPS)
+    return np.concatenate(vh_all), np.concatenate(m_all)
+
+
+def _binds(shape: Shape | None, at_fastest: bool, top: float, motor_top: float,
+           max_int: int, ramp_limit_s: float | None) -> str:
+    """What limits the chosen settings (`ramp_limit_s`: planned without a move length)."""
+    if shape == "triangle":
+        return "move length (the ramps meet before the high speed)"
+    if at_fastest:
+        return ("top speed (" + ("the motor's" if top == motor_top else
+                                 "MAX_SPEED" if top == max_int else "the unit's maximum")
+                + f", {top:g} pps)")
+    if ramp_limit_s is not None:
+        return f"ramp time limit ({ramp_limit_s:g} s)"
+    # a higher speed would need a slower ramp (less torque up there) and lose time
+    return "motor torque (a higher speed needs a slower ramp)"
+
+
 def plan_settings(motor: Motor, *, pulses: int | None = None, max_pps: float = 0,
                   s_curve: bool = False,
                   ramp_limit_s: float = 1.0) -> PlanResult[AlinkSettings]:
@@ -56,25 +93,8 @@ def plan_settings(motor: Motor, *, pulses: int | None = None, max_pps: float = 0
     max_int = max_setting(max_pps)
     top = min(motor.top_pps, max_int or SPEED_MAX_PPS, SPEED_MAX_PPS)
     start_cap = min(motor.start_pps, motor.jump_pps)
-    bands = BANDS_BY_HIGH if max_int == 0 else BANDS_BY_MAX
-    vh_all, m_all = [], []
-    lower = 0
-    for upper, m in bands:
-        if max_int and not lower < max_int <= upper:
-            lower = upper
-            continue
-        hi = min(upper, top) if max_int == 0 else min(max_int, top)
-        first = (lower // m + 1) * m if max_int == 0 else m
-        if hi >= first:
-            speeds = np.arange(first, math.floor(hi) // m * m + 1, m, dtype=np.int64)
-            vh_all.append(speeds)
-            m_all.append(np.full(len(speeds), m, dtype=np.int64))
-        lower = upper
-    if not vh_all:
-        raise FieldRangeError("motor.top_pps", motor.top_pps, 2, SPEED_MAX_PPS)
-    vh = np.concatenate(vh_all)
+    vh, mult = high_speeds(top, max_int, motor.top_pps)
     fastest = int(vh[-1])  # the fastest high speed the unit and the motor allow
-    mult = np.concatenate(m_all)
     v0 = np.floor(start_cap / mult) * mult
     v0 = np.minimum(v0, vh)
     a_lim = np.minimum(motor.min_a_acc_pps2(v0, vh), motor.min_a_dec_pps2(v0, vh))
@@ -112,16 +132,8 @@ def plan_settings(motor: Motor, *, pulses: int | None = None, max_pps: float = 0
     if pulses is not None:
         mt = move_time_s(settings, pulses)
         predicted, shape = mt.duration_s, mt.shape
-    if shape == "triangle":
-        binds = "move length (the ramps meet before the high speed)"
-    elif vh[best] == fastest:
-        binds = ("top speed (" + ("the motor's" if top == motor.top_pps else
-                                  "MAX_SPEED" if top == max_int else "the unit's maximum")
-                 + f", {top:g} pps)")
-    elif pulses is None:
-        binds = f"ramp time limit ({ramp_limit_s:g} s)"
-    else:  # a higher speed would need a slower ramp (less torque up there) and lose time
-        binds = "motor torque (a higher speed needs a slower ramp)"
+    binds = _binds(shape, vh[best] == fastest, top, motor.top_pps, max_int,
+                   None if pulses is not None else ramp_limit_s)
     ramp_pulses = float((vh[best] ** 2 - v0[best] ** 2) / (2 * a[best]))
     info = (f"×{settings.multiplier}: start {settings.start_pps} pps, high {settings.high_pps} "
             f"pps, UP_TIME para {settings.accel_para} ({settings.accel_pps2:.6g} pps/s, motor "

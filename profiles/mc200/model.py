@@ -246,13 +246,8 @@ def read_stream(payload: bytes, *, mode: Mode = "position", magic: int = MAGIC_D
             i = j
             continue
         if faulty[i]:
-            try:
-                HOST_FRAMES["raw"].decode(rows[i].tobytes(), block=i)
-                why = "refused"  # pragma: no cover - packet_faults follows the Frame
-            except DecodeError as e:
-                why = str(e)
             if len(bad) < REPORT_MAX:
-                bad.append((i, why))
+                bad.append((i, _fault(rows[i], i)))
             i += 1
             continue
         before = st
@@ -282,6 +277,15 @@ def read_stream(payload: bytes, *, mode: Mode = "position", magic: int = MAGIC_D
                          tuple(servo_off[:REPORT_MAX]), tuple(switches[:REPORT_MAX]),
                          tuple(errors[:REPORT_MAX]), ignored, moved_while_off, reversals,
                          reversal_count, hold, target)
+
+
+def _fault(row: np.ndarray, index: int) -> str:
+    """Why packet `index` fails its own check (the frame's one-line error)."""
+    try:
+        HOST_FRAMES["raw"].decode(row.tobytes(), block=index)
+    except DecodeError as e:
+        return str(e)
+    return "refused"  # pragma: no cover - packet_faults follows the Frame
 
 
 def _positions_read(applied: list[np.ndarray], applied_at: list[np.ndarray],

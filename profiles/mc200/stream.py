@@ -1,7 +1,7 @@
 """Streaming a move to the MC-200: one position command per SPI period, lazily.
 
-`stream_profile` picks the profile (a motor's PPMC-312 staircase or ruckig's
-jerk-limited move); `stream_chunks` yields the packets of a move as bytes, a
+`stream_profile` picks the profile (one it is handed, e.g. a PPMC-312 staircase's
+positions, or ruckig's jerk-limited move); `stream_chunks` yields the packets of a move as bytes, a
 chunk at a time, so a stream of millions of packets never sits in memory (issue
 13: a 4 M-pulse stream stays far below 200 MB); `render_chunks` turns them into
 a file of the stream's format table (`formats`: hex, bin, json, c, ihex), also a
@@ -30,7 +30,6 @@ from .formats import FORMATS
 from .model import SEQUENCE_MAX, mode_switch, servo_on
 
 if TYPE_CHECKING:
-    from ..motor import Motor
     from ..progress import Progress
 
 PositionFn = Callable[[np.ndarray], np.ndarray]
@@ -44,35 +43,37 @@ StreamFormat = str  # a name of `formats.FORMATS` (hex, bin, json, c, ihex; text
 STREAM_FORMATS: tuple[str, ...] = FORMATS.names
 
 
-def stream_profile(pulses: int, *, motor: Motor | None = None, v_max_pps: float | None = None,
-                   a_max_pps2: float | None = None,
-                   j_max_pps3: float | None = None) -> tuple[PositionFn, float]:
+Profile = tuple[PositionFn, float]  # (position_at(t_s) → pulses, duration_s)
+
+
+def stream_profile(pulses: int, *, profile: Profile | None = None,
+                   v_max_pps: float | None = None, a_max_pps2: float | None = None,
+                   j_max_pps3: float | None = None) -> Profile:
     """The profile a stream of `pulses` follows and its duration [s].
 
-    With `motor`: the PPMC-312's stall-safe planned staircase for this move (the
-    profile a chip would run); otherwise ruckig's jerk-limited profile with the
-    three limits, which must then all be given.
+    `profile`: one the caller hands (any monotone position_at, e.g. a PPMC-312 staircase's
+    `Execution.position_at` with its duration: the stream knows no other device);
+    otherwise ruckig's jerk-limited profile with the three limits, which must then all be
+    given.
     """
-    if motor is not None:
-        from profiles.ppmc312.execution import simulate_move
-        from profiles.ppmc312.planner import plan_free_curve
-
-        plan = plan_free_curve(motor, pulses=pulses)
-        execution = simulate_move(plan.table, pulses)
-        return execution.position_at, execution.duration_s
+    if profile is not None:
+        if any(v is not None for v in (v_max_pps, a_max_pps2, j_max_pps3)):
+            raise FormatError("a stream follows a profile it is handed, or ruckig's from "
+                              "v_max_pps, a_max_pps2 and j_max_pps3: not both")
+        return profile
     if v_max_pps is None or a_max_pps2 is None or j_max_pps3 is None:
-        raise FormatError("a stream needs a motor, or all of v_max_pps, a_max_pps2 and "
+        raise FormatError("a stream needs a profile, or all of v_max_pps, a_max_pps2 and "
                           "j_max_pps3")
     return ruckig_profile(pulses, v_max_pps, a_max_pps2, j_max_pps3)
 
 
 def plan_stream(pulses: int, *, period_us: float, driver_id: int = 0,
-                motor: Motor | None = None, v_max_pps: float | None = None,
+                profile: Profile | None = None, v_max_pps: float | None = None,
                 a_max_pps2: float | None = None,
                 j_max_pps3: float | None = None) -> tuple[list[HostPacket], float]:
     """The packets (objects: small moves) that run a move of `pulses` along
     `stream_profile`, and the move's duration [s]."""
-    position_at, duration_s = stream_profile(pulses, motor=motor, v_max_pps=v_max_pps,
+    position_at, duration_s = stream_profile(pulses, profile=profile, v_max_pps=v_max_pps,
                                              a_max_pps2=a_max_pps2, j_max_pps3=j_max_pps3)
     packets = stream_move(position_at, duration_s, pulses, period_us=period_us,
                           driver_id=driver_id)

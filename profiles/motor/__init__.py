@@ -5,12 +5,12 @@ load-angle dynamics (`rotor`, compiled in `rotor_kernel`), tolerance boxes (`tol
 resonance bands (`resonance`)."""
 
 from .model import (
-    _OPTIONAL,
-    _REQUIRED,
     DEFAULT_DAMPING_RATIO,
     DEFAULT_PHASES,
     DEFAULT_ROTOR_TEETH,
     FORMAT,
+    OPTIONAL_KEYS,
+    REQUIRED_KEYS,
     Motor,
     bundled_motor_paths,
     load_motor,
@@ -21,8 +21,8 @@ __all__ = [
     "DEFAULT_PHASES",
     "DEFAULT_ROTOR_TEETH",
     "FORMAT",
-    "_OPTIONAL",
-    "_REQUIRED",
+    "OPTIONAL_KEYS",
+    "REQUIRED_KEYS",
     "Motor",
     "bundled_motor_paths",
     "load_motor",

@@ -23,11 +23,11 @@ from ..errors import FieldRangeError, FormatError, echo, is_number, require_int
 from ..reading import read_json
 
 FORMAT = "stepramp.motor/1"
-_REQUIRED = {"format", "steps_per_rev", "pullout_torque", "inertia_kgm2", "safety_factor",
-             "start_pps"}
-_OPTIONAL = {"friction_torque_nm", "max_jump_pps", "max_pps", "max_jerk_pps3", "name",
-             "holding_torque_nm", "rotor_teeth", "phases", "damping_ratio", "load_torque_nm",
-             "sources", "tolerances", "resonance_bands_pps"}
+REQUIRED_KEYS = {"format", "steps_per_rev", "pullout_torque", "inertia_kgm2",
+                 "safety_factor", "start_pps"}
+OPTIONAL_KEYS = {"friction_torque_nm", "max_jump_pps", "max_pps", "max_jerk_pps3", "name",
+                 "holding_torque_nm", "rotor_teeth", "phases", "damping_ratio",
+                 "load_torque_nm", "sources", "tolerances", "resonance_bands_pps"}
 # Parameters a `tolerances` entry may range over (docs/manual-notes.md, "Tolerance box").
 TOLERANCE_KEYS = ("inertia_kgm2", "friction_torque_nm", "load_torque_nm", "torque_scale",
                   "damping_ratio")
@@ -206,17 +206,17 @@ class Motor:
             raise FormatError("a motor file holds one JSON object")
         if obj.get("format") != FORMAT:
             raise FormatError(f"format: expected {echo(FORMAT)}, got {echo(obj.get('format'))}")
-        unknown = set(obj) - _REQUIRED - _OPTIONAL
+        unknown = set(obj) - REQUIRED_KEYS - OPTIONAL_KEYS
         if unknown:
             raise FormatError(f"unknown key(s) in motor file: {', '.join(sorted(unknown))}")
-        missing = _REQUIRED - set(obj)
+        missing = REQUIRED_KEYS - set(obj)
         if missing:
             raise FormatError(f"missing key(s) in motor file: {', '.join(sorted(missing))}")
         curve = obj["pullout_torque"]
         if not isinstance(curve, list) or not all(
                 isinstance(p, list) and len(p) == 2 and all(_is_num(x) for x in p) for p in curve):
             raise FormatError("pullout_torque: expected a list of [speed_pps, torque_nm] pairs")
-        for key in (_REQUIRED | _OPTIONAL) - {"format", "pullout_torque", "name", "sources",
+        for key in (REQUIRED_KEYS | OPTIONAL_KEYS) - {"format", "pullout_torque", "name", "sources",
                                               "tolerances", "resonance_bands_pps"}:
             if key in obj and not _is_num(obj[key]):
                 raise FormatError(f"{key}: expected a number, got {echo(obj[key])}")

@@ -10,6 +10,9 @@ hold to (docs/manual-notes.md, "Resonance bands: what dwelling means"):
   staircase steps from below it to above it in one jump;
 - a wider band cannot be jumped: its stages are crossed with the criterion's
   minimal counts (the fewest pulses the motor can follow), and are no finding.
+
+These rules are the motor's, whatever drives it (`dwell_kind`); which dwells a
+device's executions run is the device's (profiles/ppmc312/resonance.py).
 """
 
 from __future__ import annotations
@@ -19,8 +22,6 @@ from typing import Any
 
 import numpy as np
 
-from ..ppmc312.execution import move_families
-from ..ppmc312.table import FreeCurveTable
 from .model import Motor
 
 
@@ -69,31 +70,16 @@ class Dwell:
     pulses_hi: int
 
 
-def forbidden_dwells(table: FreeCurveTable, motor: Motor) -> list[Dwell]:
-    """Every dwell in a band that some execution of `table` runs (every move length,
-    through the table's move families): a cruise in any band, or a stage in a band
-    narrower than the jump limit."""
-    bands = motor.resonance_bands_pps
-    if not bands:
-        return []
-    hz = table.clock.hz
-    index = {r: i for i, r in enumerate(table.rates)}
-    narrow = narrow_bands(motor)
-    found: dict[tuple[str, int], list[int]] = {}
-    for fam in move_families(table):
-        for phase, rate, _ in fam.runs():
-            v = hz / rate
-            if phase == "cruise" and in_bands(v, bands):
-                kind = "cruise"
-            elif phase != "cruise" and in_bands(v, narrow):
-                kind = "stage"
-            else:
-                continue
-            span = found.setdefault((kind, rate), [fam.lo, fam.hi])
-            span[0], span[1] = min(span[0], fam.lo), max(span[1], fam.hi)
-    out = []
-    for (kind, rate), (lo, hi) in sorted(found.items(), key=lambda e: (e[0][1], e[0][0])):
-        v = hz / rate
-        band = next(b for b in bands if b[0] <= v <= b[1])
-        out.append(Dwell(kind, index.get(rate), v, band, lo, hi))
-    return out
+def dwell_kind(speed_pps: float, cruise: bool, motor: Motor) -> str | None:
+    """Which rule a dwell at `speed_pps` breaks: "cruise" (a cruise in any band), "stage"
+    (a stage in a band narrower than the jump limit), or None (allowed)."""
+    if cruise and bool(in_bands(speed_pps, motor.resonance_bands_pps)):
+        return "cruise"
+    if not cruise and bool(in_bands(speed_pps, narrow_bands(motor))):
+        return "stage"
+    return None
+
+
+def band_of(speed_pps: float, motor: Motor) -> tuple[float, float]:
+    """The first resonance band holding `speed_pps` (the speed lies in one)."""
+    return next(b for b in motor.resonance_bands_pps if b[0] <= speed_pps <= b[1])

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import FieldRangeError, StepRampError
-from .model import _OPTIONAL, _REQUIRED, Motor
+from .model import OPTIONAL_KEYS, REQUIRED_KEYS, Motor
 
 SCHEMA_PATH = Path(__file__).parent.parent / "data" / "motor.schema.json"
 Problem = tuple[str, str]   # (JSON pointer, message)
@@ -69,7 +69,7 @@ def _loader_problem(obj: dict[str, Any]) -> Problem | None:
         return pointer([e.field.split(" ")[0]]), str(e)
     except StepRampError as e:
         head = str(e).split(":", 1)[0]
-        where = pointer([head]) if head in _REQUIRED | _OPTIONAL else ""
+        where = pointer([head]) if head in REQUIRED_KEYS | OPTIONAL_KEYS else ""
         return where, str(e)
     return None
 

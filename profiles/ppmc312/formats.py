@@ -236,6 +236,12 @@ def _parse_c(raw: bytes) -> Parsed[bytes]:
     return _parse_c_upload(text, names[0] if names else "")
 
 
+def c_upload_names(raw: bytes) -> list[str]:
+    """The symbol prefixes of the uploads in a C header (several in `render_c_set`'s, one
+    in an upload header's); none for a file that is no C header."""
+    return c_prefixes(text_of(raw), _C_ARRAY) if looks_like_c(raw) else []
+
+
 def parse_c_set(raw: bytes) -> dict[str, Parsed[bytes]]:
     """Every upload of a C header of several (`render_c_set`) by prefix, each verified
     against its own CRC-32 (`CorruptedError` on a mismatch)."""
@@ -420,5 +426,5 @@ def provenance(table: Table | None = None, *, command: str | None = None,
     return Provenance(command, tuple(lines))
 
 
-__all__ = ["FORMATS", "c_symbols", "hex_line", "parse", "parse_c_set", "parse_upload",
-           "provenance", "render", "render_c_set", "split_payload"]
+__all__ = ["FORMATS", "c_symbols", "c_upload_names", "hex_line", "parse", "parse_c_set",
+           "parse_upload", "provenance", "render", "render_c_set", "split_payload"]

@@ -7,7 +7,8 @@ check` never pays for toppra, casadi or matplotlib.
 
 One module per command group, each with `add_subparser(sub)` registering its
 parser and handler (`set_defaults(func=…)`). A new command is one module in
-this package plus one entry in `COMMANDS`. Command modules share only
+this package plus one entry in `COMMANDS` (a device's own group: its registry entry,
+verify/devices). Command modules share only
 `_common` and never import each other; the logic they call lives in the library.
 """
 
@@ -25,16 +26,19 @@ from typing import NoReturn
 
 from profiles.errors import StepRampError, bounded
 from profiles.reading import display_path
+from verify.devices import command_groups
 from verify.output import OutputInterrupted
 
 from ._common import EXIT_OK, EXIT_UNUSABLE, VersionAction, guard_paths
 
-# The order here is the order of `stepramp --help`.
+# The order here is the order of `stepramp --help`; each device's own command group
+# (verify/devices) comes after the commands every device shares.
 COMMANDS: tuple[str, ...] = (
     "check", "show", "export", "decode", "move", "expand",
     "plan", "simulate", "compare", "sync", "design",
     "sweep",
-    "alink", "mc200", "motor",
+    *command_groups(),
+    "motor",
     "link", "emulate",
 )
 

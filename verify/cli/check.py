@@ -7,11 +7,13 @@ import sys
 from typing import Any
 
 from ._common import (
+    CLOCK_NAMES,
     EXIT_FINDINGS,
     EXIT_OK,
     EXIT_UNUSABLE,
     MOTOR_METAVAR,
     add_sample_options,
+    clock_or_extck,
     load_motor,
     number,
     progress_bar,
@@ -20,9 +22,12 @@ from ._common import (
 
 
 def add_subparser(sub: Any) -> None:
-    c = sub.add_parser("check", help="check table or upload files against the chip's rules")
+    c = sub.add_parser("check", help="check any file stepramp writes or reads against its "
+                                     "device's rules")
     c.add_argument("files", nargs="+", metavar="FILE",
-                   help="table files (JSON) or upload files (hex, bin, json)")
+                   help="any file stepramp writes or reads: tables, uploads and move commands "
+                        "(every format), the chip's table-read answer, sync's files, A-Link "
+                        "settings, MC-200 streams, axes and motor files")
     c.add_argument("--format", choices=("text", "json", "junit"), default="text",
                    help="report format (default text: a rule with many findings in a file is "
                         "summarised; json and junit hold every finding)")
@@ -42,6 +47,9 @@ def add_subparser(sub: Any) -> None:
                    help="with --motor: report resonance-dwell as an error, not a warning")
     c.add_argument("--extck-hz", type=number,
                    help="external clock frequency of EXTCK uploads [Hz]")
+    c.add_argument("--clock", type=clock_or_extck,
+                   help=f"the clock of the chip's table-read answer (41), which does not carry "
+                        f"it: {CLOCK_NAMES}, or EXTCK with --extck-hz")
     c.add_argument("-o", "--output", metavar="OUT", help="write the report here (default stdout)")
     c.set_defaults(func=_do_check)
 
@@ -64,7 +72,7 @@ def _do_check(args: argparse.Namespace) -> int:
     with progress_bar("check over the tolerance box", unit="part") as progress:
         results = [check_file(path, motor, args.extck_hz, pulses=args.pulses,
                               physics=args.physics, samples=args.samples, seed=args.seed,
-                              strict=args.strict, progress=progress)
+                              strict=args.strict, clock=args.clock, progress=progress)
                    for path in args.files]
     write_output(args.output, render(results, args.format, verbose=args.verbose))
     if any(r.error for r in results):

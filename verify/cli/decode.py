@@ -51,18 +51,15 @@ def _do_decode(args: argparse.Namespace) -> int:
 
 
 def _not_another_device(raw: bytes) -> None:
-    """An MC-200 stream or A-Link settings file is no upload: say which command reads it
-    (else the PPMC-312 reader would report its bytes as broken blocks)."""
+    """Another device's file is no upload: say which command reads it (else the PPMC-312
+    reader would report its bytes as broken blocks)."""
     from profiles.errors import FormatError
-    from verify.device_checks import device_of
+    from verify.devices import detect
 
-    device = device_of(raw)
-    if device == "mc200":
-        raise FormatError("an MC-200 stream file, not a PPMC-312 upload: read it with "
-                          "stepramp mc200 decode")
-    if device == "alink":
-        raise FormatError("an A-Link settings file, not a PPMC-312 upload: read it with "
-                          "stepramp alink read")
+    device = detect(raw)
+    if device.reader != "stepramp decode":
+        raise FormatError(f"an {device.title} {device.files} file, not a PPMC-312 upload: "
+                          f"read it with {device.reader}")
 
 
 def _decode(args: argparse.Namespace, blocks: Any) -> Any:

@@ -79,8 +79,8 @@ def _do_stream(args: argparse.Namespace) -> int:
     with progress_bar("encode packets", unit="packet") as progress:
         with fields_as_options(OPTIONS):  # everything is checked before the first byte
             position_at, duration_s = mc200.stream_profile(
-                args.pulses, motor=motor, v_max_pps=args.vmax, a_max_pps2=args.amax,
-                j_max_pps3=args.jmax)
+                args.pulses, profile=None if motor is None else _staircase(motor, args.pulses),
+                v_max_pps=args.vmax, a_max_pps2=args.amax, j_max_pps3=args.jmax)
             chunks = mc200.stream_chunks(position_at, duration_s, args.pulses,
                                          period_us=args.period_us, driver_id=args.driver_id,
                                          progress=progress)
@@ -96,6 +96,20 @@ def _do_stream(args: argparse.Namespace) -> int:
                                                       duration_s=duration_s,
                                                       pulses=args.pulses, options=options))
     return EXIT_OK
+
+
+def _staircase(motor: Any, pulses: int) -> Any:
+    """The PPMC-312's stall-safe planned move for `motor` as a profile the stream follows
+    (its exact positions against time): the MC-200 stream knows no other device."""
+    from profiles.errors import require_int
+    from profiles.mc200 import INT32_MAX
+    from profiles.ppmc312.execution import simulate_move
+    from profiles.ppmc312.planner import plan_free_curve
+
+    with fields_as_options(OPTIONS):  # the stream's own range first (pulses ≤ 2³¹ − 1)
+        require_int("pulses", pulses, 1, INT32_MAX)
+    run = simulate_move(plan_free_curve(motor, pulses=pulses).table, pulses)
+    return run.position_at, run.duration_s
 
 
 def _do_decode(args: argparse.Namespace) -> int:

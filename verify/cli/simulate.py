@@ -79,18 +79,20 @@ def _do_simulate(args: argparse.Namespace) -> int:
 
 
 def _simulate_axes(args: argparse.Namespace) -> int:
-    from profiles.axes import load_axes
     from profiles.errors import FormatError
     from profiles.ppmc312.execution import simulate_move
     from profiles.ppmc312.sync import line_deviation
     from profiles.ppmc312.table import load_table
     from profiles.reading import json_text
+    from verify.devices import get, load_axes
     from verify.output import write_output
-    from verify.sync import joint_timeline
+    from verify.sync.timeline import joint_timeline
 
     axes = load_axes(args.axes, load_motors=False)
-    if axes.device != "ppmc312":
-        raise FormatError(f"{args.axes}: simulate --axes runs PPMC-312 tables, not {axes.device}")
+    device = get(axes.device)
+    if not device.simulates:
+        raise FormatError(f"{args.axes}: simulate --axes runs PPMC-312 tables, not "
+                          f"{device.title} {device.files}")
     runs = []
     for a in axes.axes:
         if a.table_path is None:

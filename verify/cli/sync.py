@@ -13,11 +13,14 @@ from ._common import EXIT_FINDINGS, EXIT_OK, command_line
 
 
 def add_subparser(sub: Any) -> None:
+    from verify.devices import synchronised
+
+    devices = "|".join(d.name for d in synchronised())
     s = sub.add_parser("sync", help="tables for several axes that finish together or keep "
                                     "a straight line")
     s.add_argument("axes", metavar="AXES.json",
-                   help="a stepramp.axes/1 file (mode time|line, device ppmc312|alink, axes "
-                        "with motor files and signed pulses)")
+                   help=f"a stepramp.axes/1 file (mode time|line, device {devices}, axes with "
+                        "motor files and signed pulses)")
     s.add_argument("-o", "--output", metavar="DIR", required=True,
                    help="folder for the per-axis tables, upload files, move commands, the "
                         "C header axes.h and report.json (created if missing)")
@@ -35,12 +38,11 @@ def add_subparser(sub: Any) -> None:
 
 
 def _do_sync(args: argparse.Namespace) -> int:
-    from profiles.alink.sync import AlinkSyncPlan
-    from profiles.axes import load_axes
     from profiles.errors import FormatError
-    from profiles.ppmc312 import sync as ppmc_sync
     from verify import sync
+    from verify.devices import get, load_axes
     from verify.output import Data, refuse_unsafe_outputs, write_output, write_outputs
+    from verify.sync.files import check_axis_names, plan_files
 
     if args.plot and not args.plot.lower().endswith((".png", ".svg")):
         raise FormatError(f"--plot {args.plot}: the figure format is taken from the "
@@ -51,7 +53,7 @@ def _do_sync(args: argparse.Namespace) -> int:
     axes = load_axes(args.axes)
     if args.mode is not None:
         axes = replace(axes, mode=args.mode)
-    sync.check_axis_names([a.name for a in axes.axes], axes.device)
+    check_axis_names([a.name for a in axes.axes], axes.device)
     # what the folder will get must not be what is read (an axes file named axes.json in
     # -o's folder, a motor file there): refused before planning
     names = sync.output_names([a.name for a in axes.axes], axes.device)
@@ -61,22 +63,23 @@ def _do_sync(args: argparse.Namespace) -> int:
     ruckig = None
     if not args.no_ruckig:
         ruckig = sync.ruckig_sync([a.motor for a in plan.axes], [a.pulses for a in plan.axes])
-    files: dict[str, bytes]
-    commands: list[Any]
-    if isinstance(plan, AlinkSyncPlan):
-        commands = sync.alink_commands(plan)
-        files = sync.alink_files(plan, command=command_line(args))
-    else:
-        commands = [ppmc_sync.move_command(a) for a in plan.axes]
-        files = sync.ppmc_files(plan, command=command_line(args))
+    commands = get(axes.device).sync_module().move_commands(plan)
     report = sync.sync_report(plan, device=axes.device, ruckig=ruckig, commands=commands)
-    files[sync.REPORT_FILE] = (json.dumps(report, indent=1) + "\n").encode()
+    files = plan_files(plan, axes.device, report, command=command_line(args))
     outputs: list[tuple[str | None, Data]] = [(str(out_dir / n), d) for n, d in files.items()]
     if args.plot:
         from verify.plot import figure_bytes
 
         outputs.append((args.plot, figure_bytes(sync.sync_figure(plan, ruckig), args.plot)))
     # everything is built before the first file is written, then written all or none
+    _write_all(out_dir, outputs, write_outputs)
+    write_output(None, json.dumps(report, indent=1) + "\n" if args.format == "json"
+                 else _text(report))
+    return EXIT_FINDINGS if sync.report_problems(report) else EXIT_OK
+
+
+def _write_all(out_dir: Path, outputs: Any, write_outputs: Any) -> None:
+    """Every output, all or none; a folder made for this run goes too when nothing lands."""
     created = not out_dir.exists()
     out_dir.mkdir(parents=True, exist_ok=True)
     try:
@@ -86,14 +89,6 @@ def _do_sync(args: argparse.Namespace) -> int:
             with contextlib.suppress(OSError):
                 out_dir.rmdir()
         raise
-    if args.format == "json":
-        write_output(None, json.dumps(report, indent=1) + "\n")
-    else:
-        write_output(None, _text(report))
-    bad = (report["finish_spread_s"] > report["finish_spread_tolerance_s"]
-           or any(a.get("stall_safe") is False or not a.get("safety", {"safe": True})["safe"]
-                  for a in report["axes"]))
-    return EXIT_FINDINGS if bad else EXIT_OK
 
 
 def _text(r: dict[str, Any]) -> str:

@@ -30,7 +30,7 @@ from ._common import Reference, move_limits
 RUCKIG_SAMPLES = 2001
 
 
-def _max_over(motor: Motor, f: Any, lo: float, hi: float) -> float:
+def max_over(motor: Motor, f: Any, lo: float, hi: float) -> float:
     """Largest value of a piecewise-linear capability over [lo, hi] (ends or curve points)."""
     bps = motor.curve_speed_pps
     speeds = np.concatenate([[lo, hi], bps[(bps > lo) & (bps < hi)]])
@@ -43,7 +43,7 @@ def _limit(name: str, value: float | None, lo: float, hi: float) -> float | None
     return float(require_number(name, value, lo, hi))
 
 
-def _v_max_candidates(motor: Motor, v0: float, v_lim: float) -> list[float]:
+def v_max_candidates(motor: Motor, v0: float, v_lim: float) -> list[float]:
     """Speed caps to try: geometric between v0 and v_lim, plus the curve's points."""
     if v_lim <= v0 * (1 + 1e-9):
         return [v_lim]
@@ -80,8 +80,8 @@ def ruckig_reference(motor: Motor, pulses: Any, *, v_max_pps: float | None = Non
         if bound == "feasible":
             return (float(motor.min_a_acc_pps2(v0, v_max)),
                     float(motor.min_a_dec_pps2(v0, v_max)))
-        return (_max_over(motor, motor.a_acc_pps2, 0.0, v_max),
-                _max_over(motor, motor.a_dec_pps2, 0.0, v_max))
+        return (max_over(motor, motor.a_acc_pps2, 0.0, v_max),
+                max_over(motor, motor.a_dec_pps2, 0.0, v_max))
 
     def solve(v_max: float) -> RuckigMove:
         a_up, a_down = limits(v_max)
@@ -99,7 +99,7 @@ def ruckig_reference(motor: Motor, pulses: Any, *, v_max_pps: float | None = Non
         # over [v0, v_max]: a higher cap can make every move slower (down to nothing
         # near the speed where a_acc reaches 0). Choose the cap that gives the fastest
         # feasible move; one calculate takes about a microsecond.
-        v_max = min(_v_max_candidates(motor, v0, lim.v_lim_pps),
+        v_max = min(v_max_candidates(motor, v0, lim.v_lim_pps),
                     key=lambda v: solve(v).duration_s if limits(v)[0] > 0 else math.inf)
     a_up, a_down = limits(v_max)
     move = solve(v_max)

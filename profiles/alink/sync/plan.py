@@ -31,15 +31,16 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import Literal
+from typing import Any
 
 import numpy as np
 
-from ..errors import AlinkSyncError, echo
-from ..motor import Motor
-from ..ppmc312.sync import SyncTimes, envelope_motor, line_deviation_times
-from ..pulses import Piece, PulseTrain
-from . import (
+from ...errors import AlinkSyncError, echo
+from ...joint import Mode, SyncTimes
+from ...motor import Motor
+from ...motor.envelope import envelope_motor
+from ...pulses import Piece, PulseTrain, line_deviation
+from .. import (
     PARA_RANGE,
     PPS2_PER_INV_PARA,
     STEPS_MAX,
@@ -49,7 +50,7 @@ from . import (
     plan_settings,
 )
 
-Mode = Literal["time", "line"]
+SPEED_POINTS = 400          # an axis's modelled speed: between this many of its pulses
 LINE_HIGH_CANDIDATES = 24   # leader high speeds tried (the fastest multiples)
 LINE_PARA_CANDIDATES = 12   # leader paras tried (from the stall-safe least up)
 MODE_SIG_STA = 1 << 5       # MODE_SIG D5: all axes start on the STA input
@@ -70,6 +71,25 @@ class AlinkAxisMove:
 
     def pulse_times_s(self) -> np.ndarray:
         return pulse_times_s(self.settings, abs(self.pulses))
+
+    def pulse_train(self) -> PulseTrain:
+        return pulse_train(self.settings, abs(self.pulses))
+
+    def facts(self) -> dict[str, Any]:
+        """What the sync report says of this axis's settings."""
+        s = self.settings
+        return {"start_pps": s.start_pps, "high_pps": s.high_pps, "up_time_para": s.accel_para,
+                "multiplier": s.multiplier}
+
+    def speed_steps(self, points: int = SPEED_POINTS) -> tuple[np.ndarray, np.ndarray, bool]:
+        """(t [s], speed [pps], stepped): the modelled speed between pulses spread evenly
+        over the move (`points` of them), drawn as a line."""
+        train = self.pulse_train()
+        k = np.unique(np.linspace(1, train.count, points).astype(np.int64))
+        tk = train.time_of(k)
+        if len(k) < 2:
+            return tk[:0], tk[:0], False
+        return tk[1:], np.diff(k) / np.diff(tk), False
 
 
 @dataclass(frozen=True)
@@ -235,7 +255,7 @@ def plan_line_sync(axes: Sequence[tuple[str, Motor, int]]) -> AlinkSyncPlan:
                    for s, mo in zip(settings, motors, strict=True)):
                 continue
             chosen = [s for s in settings if s is not None]
-            dev = line_deviation_times([pulse_train(s, d)
+            dev = line_deviation([pulse_train(s, d)
                                         for s, d in zip(chosen, dist, strict=True)])[0]
             t = max(move_time_s(s, d).duration_s for s, d in zip(chosen, dist, strict=True))
             if best is None or (dev, t) < (best[0], best[1]):

@@ -1,0 +1,29 @@
+"""How `stepramp check` judges a file: the options every device's judge receives."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from profiles.motor import Motor
+    from profiles.progress import Progress
+
+
+@dataclass(frozen=True)
+class CheckOptions:
+    """`motor` adds the safety verdict (over every execution; `pulses`: only the moves of
+    those lengths; `physics`: the load angle too; `samples`/`seed`: the tolerance box's
+    Monte Carlo; `strict`: resonance dwells are errors). `extck_hz`: the external clock of
+    EXTCK uploads; `clock`: the clock of a table-read answer (which does not carry it)."""
+
+    motor: Motor | None = None
+    extck_hz: float | None = None
+    clock: str | None = None
+    pulses: Iterable[int] | None = None
+    physics: bool = True
+    samples: int = 1000
+    seed: int = 0
+    strict: bool = False
+    progress: Progress | None = None

@@ -1,0 +1,125 @@
+"""`stepramp check` for A-Link settings files: the file's CRC-32 (`alink-corrupted` /
+`alink-unchecked`), pair codes that change from command to command, and the settings
+the unit would refuse (Nak) or silently correct (`profiles.alink.unit_applies`); in
+sync's report, each axis's settings against the rule the planner plans by."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+from profiles.errors import CorruptedError, StepRampError
+
+from ..findings import Finding
+from .common import device_result, integrity_findings
+
+if TYPE_CHECKING:
+    from profiles.alink import Command
+
+    from ..check_options import CheckOptions
+    from ..report import FileResult
+
+TITLE = "A-Link settings"
+
+
+def check(raw: bytes, path: str, options: CheckOptions) -> FileResult:
+    """`stepramp check`'s verdict on one of the device's files: its own check, then the
+    device's rules (a file whose own check fails has that one finding: its content
+    cannot be trusted for more)."""
+    return device_result(path, findings(raw, path), TITLE, options)
+
+
+def axis_verdict(axis: Any) -> tuple[bool, dict[str, Any]]:
+    """Whether one axis of a synchronised move is safe, and what sync's report says of it:
+    its settings against the rule the planner plans by
+    (`profiles.alink.sync.is_stall_safe`)."""
+    from profiles.alink.sync import is_stall_safe
+
+    safe = is_stall_safe(axis.settings, axis.motor)
+    return safe, {"stall_safe": safe}
+
+
+def findings(raw: bytes, path: str) -> list[Finding]:
+    from profiles.alink.formats import parse
+
+    try:
+        parsed = parse(raw, path)
+    except CorruptedError as e:
+        return [Finding("error", "alink-corrupted", str(e))]
+    out = integrity_findings("alink", parsed.format, parsed.integrity, parsed.detail)
+    return out + command_findings(parsed.items)
+
+
+def command_findings(commands: Sequence[Command]) -> list[Finding]:
+    """The unit's rules on a list of `Command`s: pair codes, then the settings they leave."""
+    from profiles.alink import FUNC_ACCEL_PARA, FUNC_SPEED_PPS, Cmd
+
+    out: list[Finding] = []
+    previous = None
+    for k, c in enumerate(commands):
+        if c.pair == 0:
+            out.append(Finding("error", "alink-pair-code",
+                               f"command {k} ({c.name}): pair code 0 is the no-op: the unit "
+                               "does not run it"))
+        elif c.pair == previous:
+            out.append(Finding("error", "alink-pair-code",
+                               f"command {k} ({c.name}): pair code {c.pair} again: the sender "
+                               "must change it for every command (manual 10-4 (3)); the unit "
+                               "cannot tell this one from the one before"))
+        previous = c.pair
+    last: dict[int, Command] = {}
+    for c in commands:
+        last[c.cmd] = c
+    settings = (Cmd.MAX_SPEED, Cmd.MODE, Cmd.H_SPEED, Cmd.L_SPEED, Cmd.UP_TIME)
+    present = [Cmd(k).name for k in settings if k in last]
+    if not present:
+        return out
+    missing = [Cmd(k).name for k in settings if k not in last]
+    if missing:
+        out.append(Finding("warning", "alink-incomplete",
+                           f"the file sets {', '.join(present)} but not {', '.join(missing)}: "
+                           "the unit keeps what it holds, which the file cannot show"))
+    for k in (Cmd.MAX_SPEED, Cmd.H_SPEED, Cmd.L_SPEED):
+        if k in last and last[k].func != FUNC_SPEED_PPS:
+            out.append(Finding("warning", "alink-func",
+                               f"{Cmd(k).name} func {last[k].func}: stepramp models func "
+                               f"{FUNC_SPEED_PPS} only (×1 pps)"))
+    if Cmd.MODE in last:
+        mode = last[Cmd.MODE].para
+        if mode & 0x5 != 0x5:
+            out.append(Finding("error", "alink-mode",
+                               f"MODE 0x{mode:X}: D0 and D2 are fixed at 1 (manual 11-2 (2))"))
+    if Cmd.UP_TIME in last and last[Cmd.UP_TIME].func == 1:
+        out.append(Finding("warning", "alink-func",
+                           "UP_TIME func 1: the legacy axis-chip rate, whose conversion to "
+                           "pps/s the manual lacks (stepramp writes func 2, 0.01 ms per 1000 "
+                           "pps)"))
+    if Cmd.UP_TIME in last and last[Cmd.UP_TIME].func not in (1, FUNC_ACCEL_PARA):
+        out.append(Finding("error", "alink-range",
+                           f"UP_TIME func {last[Cmd.UP_TIME].func}: nn is 1 (rate) or 2 (0.01 "
+                           "ms per 1000 pps)"))
+        return out
+    if {Cmd.L_SPEED, Cmd.H_SPEED, Cmd.UP_TIME} <= set(last):
+        out += _unit_findings(last)
+    return out
+
+
+def _unit_findings(last: dict[int, Command]) -> list[Finding]:
+    """What the unit makes of the speeds and ramp: Nak, range, silent corrections."""
+    from profiles.alink import Cmd, unit_applies
+
+    max_pps = last[Cmd.MAX_SPEED].para if Cmd.MAX_SPEED in last else 0
+    try:
+        run = unit_applies(last[Cmd.L_SPEED].para, last[Cmd.H_SPEED].para,
+                           last[Cmd.UP_TIME].para, max_pps=max_pps,
+                           nn=last[Cmd.UP_TIME].func)
+    except StepRampError as e:
+        return [Finding("error", "alink-range", f"the unit answers Nak (parameter value not "
+                                                f"valid): {e}")]
+    out = []
+    if run.nak:
+        out.append(Finding("error", "alink-nak", f"the unit answers a drive command with Nak: "
+                                                 f"{run.nak}"))
+    out += [Finding("warning", "alink-corrected", f"the unit silently changes it: {note}")
+            for note in run.corrections]
+    return out

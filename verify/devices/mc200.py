@@ -1,0 +1,91 @@
+"""`stepramp check` for MC-200 stream files: the file's CRC-32 (`mc200-corrupted` /
+`mc200-unchecked`), every packet's own check (`mc200-packet`), and the driver's reading
+of the sequence (`profiles.mc200.model.read_stream`): the servo turns on, no SPI error,
+the mode switch, commands that move with the servo off, reversals of a move, and a
+stream that ends holding one target."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from profiles.errors import CorruptedError
+
+from ..findings import Finding
+from .common import device_result, integrity_findings
+
+if TYPE_CHECKING:
+    from profiles.mc200.model import StreamReading
+
+    from ..check_options import CheckOptions
+    from ..report import FileResult
+
+TITLE = "MC-200 stream"
+
+
+def check(raw: bytes, path: str, options: CheckOptions) -> FileResult:
+    """`stepramp check`'s verdict on one of the device's files: its own check, then the
+    device's rules (a file whose own check fails has that one finding: its content
+    cannot be trusted for more)."""
+    return device_result(path, findings(raw, path), TITLE, options)
+
+
+def findings(raw: bytes, path: str) -> list[Finding]:
+    from profiles.mc200.formats import parse, payload_of_parsed
+    from profiles.mc200.model import read_stream
+
+    try:
+        parsed = parse(raw, path)
+    except CorruptedError as e:  # a verdict on the file, not unusable input
+        return [Finding("error", "mc200-corrupted", str(e))]
+    out = integrity_findings("mc200", parsed.format, parsed.integrity, parsed.detail)
+    return out + stream_findings(read_stream(payload_of_parsed(parsed)))
+
+
+def stream_findings(r: StreamReading) -> list[Finding]:
+    """The driver rules on a `StreamReading`."""
+    from profiles.mc200 import HOLD_PACKETS_MIN as HOLD_TARGET_MIN
+
+    out: list[Finding] = []
+    if r.bad_count:
+        shown = "; ".join(f"packet {i}: {why}" for i, why in r.bad_packets)
+        out.append(Finding("error", "mc200-packet",
+                           f"{r.bad_count} packet(s) fail their own check (checksum, bits that "
+                           f"must be 0), read as lost by the driver: {shown}"))
+    if len(r.driver_ids) > 1:
+        out.append(Finding("warning", "mc200-driver-ids",
+                           f"packets for drivers {', '.join(map(str, r.driver_ids))}: each "
+                           "driver reads only its own"))
+    if r.servo_on_at is None:
+        out.append(Finding("error", "mc200-servo",
+                           "the servo never turns on (3 consecutive packets with the servo "
+                           "bit): the motor never moves"))
+    for at, cause in r.spi_errors:
+        out.append(Finding("error", "mc200-spi-error",
+                           f"packet {at}: the driver raises the SPI error ({cause}); it ignores "
+                           "every command until a packet with the reset bit"
+                           + (f" ({r.ignored} packets ignored in all)" if r.ignored else "")))
+    if not r.mode_switches:
+        out.append(Finding("warning", "mc200-mode-switch",
+                           "the stream never switches the control mode: its positions count "
+                           "on the driver being in position mode already"))
+    if r.moved_while_off is not None:
+        out.append(Finding("warning", "mc200-servo-off",
+                           f"packet {r.moved_while_off}: a position command moves the target "
+                           "while the servo is off (the motor jumps when it turns on)"))
+    if r.reversal_count:
+        shown = "; ".join(f"packet {at}: {a} → {b} → {c}" for at, a, b, c in r.reversals)
+        out.append(Finding("warning", "mc200-position-reversal",
+                           f"the commanded position turns back {r.reversal_count} time(s) "
+                           f"({shown}); a planned move is monotone, and bit 7 of byte 3 or 5 "
+                           "flipped (±128, ±8388608 pulses) passes the packet checksum"))
+    if r.hold < HOLD_TARGET_MIN:
+        st = r.state
+        why = ("the servo is off at the end" if not st.servo_on else
+               "the SPI error stands at the end" if st.spi_error else
+               "the driver is not in position mode at the end" if st.mode != 1 else
+               f"the last {r.hold} packet(s) hold position {r.target}" if r.target is not None
+               else "no position command is applied")
+        out.append(Finding("error", "mc200-hold",
+                           f"the stream does not end holding one target for ≥ "
+                           f"{HOLD_TARGET_MIN} packets: {why}"))
+    return out

@@ -1,0 +1,269 @@
+"""`stepramp check` for PPMC-312 files: every file stepramp writes for the chip or reads
+from it, by what its blocks (or ASCII frames) hold:
+
+- a table file, or a table upload (free curve, init; parallel blocks or an ASCII init
+  frame), asked first what the chip would answer (profiles/ppmc312/emulator.py), then
+  the chip rules (verify/chip_rules.py) and, with a motor, the one safety verdict
+  (verify/safety.py);
+- move commands (82), parallel or ASCII: the chip's rules for them
+  (verify/command_rules.py);
+- the chip's table-read answer (41): the table it holds, judged like a table file; the
+  answer does not carry the clock, so `--clock` says it;
+- a C header of several uploads (sync's axes.h): each upload by its symbol prefix,
+  verified against its own CRC-32 and judged as above.
+
+In sync's report, each axis's safety verdict (`axis_verdict`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+from profiles.errors import CorruptedError, DecodeError, FormatError
+
+from ..command_rules import (
+    SERIAL_MOVE_CODES,
+    frame_payload,
+    is_move_block,
+    move_block_findings,
+    move_notes,
+    serial_move_findings,
+    serial_move_notes,
+)
+from ..findings import Finding
+from ..report import FileResult
+from .common import dedupe, integrity_findings
+
+if TYPE_CHECKING:
+    from profiles.ppmc312.clock import Clock
+    from profiles.ppmc312.table import FreeCurveTable, InitTable
+
+    from ..check_options import CheckOptions
+
+TABLE_READ_HEAD = b"\x02\x0a\x41"   # the table-read answer's first block: PAL, length, 41
+
+
+@dataclass
+class Verdict:
+    """What the judges found in one file (or one upload of a C header)."""
+
+    findings: list[Finding] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    details: dict[str, object] = field(default_factory=dict)
+
+    def add(self, other: Verdict, prefix: str) -> None:
+        """`other`'s findings and notes, each naming `prefix` (an upload's symbols)."""
+        self.findings += [Finding(f.severity, f.rule, f"{prefix}: {f.message}", f.chip_code,
+                                  f.stage) for f in other.findings]
+        self.notes += [f"{prefix}: {n}" for n in other.notes]
+        if other.details:
+            uploads = self.details.setdefault("uploads", {})
+            assert isinstance(uploads, dict)
+            uploads[prefix] = other.details
+
+
+def check(raw: bytes, path: str, options: CheckOptions) -> FileResult:
+    """The verdict on a PPMC-312 file (see the module docstring); its safety verdict's
+    JSON form is the result's `details["safety"]` (per upload of a C header:
+    `details["uploads"][prefix]["safety"]`)."""
+    from profiles.ppmc312.formats import c_upload_names
+    from profiles.reading import display_path, require_size
+
+    require_size(len(raw), display_path(path))
+    if looks_like_table_json(raw):
+        from profiles.ppmc312.table import table_from_json
+        from profiles.reading import parse_json
+
+        verdict = table_verdict(table_from_json(parse_json(raw, path)), options)
+    elif len(names := c_upload_names(raw)) > 1:
+        verdict = c_set_verdict(raw, names, options)
+    else:
+        verdict = file_verdict(raw, path, options)
+    found = dedupe(verdict.findings)
+    return FileResult(path=path, ok=not any(f.severity == "error" for f in found),
+                      findings=found, notes=verdict.notes, details=verdict.details)
+
+
+def file_verdict(raw: bytes, path: str, options: CheckOptions) -> Verdict:
+    """The verdict on an upload, move or table-read file in any format."""
+    from profiles.ppmc312.formats import parse
+    from profiles.reading import require_shallow_json
+
+    require_shallow_json(raw, path)  # a JSON upload is parsed by formats.parse
+    try:
+        parsed = parse(raw, path)
+    except CorruptedError as e:  # the file's own check failed: a verdict, not unusable input
+        return Verdict([Finding("error", "upload-corrupted", str(e))])
+    # A file without a check (hand-made, or bin: no room for one) is judged, with a warning.
+    blocks = list(parsed.items)
+    verdict = blocks_verdict(blocks, options)
+    if not is_table_read(blocks):  # a capture from the bus carries no check: none expected
+        verdict.findings[:0] = integrity_findings("upload", parsed.format, parsed.integrity,
+                                                  parsed.detail)
+    return verdict
+
+
+def c_set_verdict(raw: bytes, names: list[str], options: CheckOptions) -> Verdict:
+    """Every upload of a C header of several (sync's axes.h), each by its prefix."""
+    from profiles.ppmc312.formats import parse_c_set
+
+    out = Verdict(notes=[f"C header of {len(names)} uploads: {', '.join(names)}"])
+    try:
+        uploads = parse_c_set(raw)
+    except CorruptedError as e:
+        return Verdict([Finding("error", "upload-corrupted", str(e))])
+    for name, parsed in uploads.items():
+        out.add(blocks_verdict(list(parsed.items), options), name)
+    return out
+
+
+def blocks_verdict(blocks: list[bytes], options: CheckOptions) -> Verdict:
+    """The verdict on the blocks (or ASCII frames) of one command file."""
+    if not blocks:
+        raise DecodeError("the file holds no blocks")
+    if blocks[0][:1] and blocks[0][0] & 0x80:
+        payloads = [frame_payload(f, i) for i, f in enumerate(blocks)]
+        if all(p[0] in SERIAL_MOVE_CODES for p in payloads):
+            return Verdict([f for i, p in enumerate(payloads)
+                            for f in serial_move_findings(p, i)],
+                           serial_move_notes(payloads) + motor_note(options))
+    elif all(is_move_block(b) for b in blocks):
+        return Verdict([f for i, b in enumerate(blocks) for f in move_block_findings(b, i)],
+                       move_notes(blocks) + motor_note(options))
+    elif is_table_read(blocks):
+        from profiles.ppmc312.upload import decode_table_read
+
+        out = table_verdict(decode_table_read(blocks, clock=read_clock(options)), options)
+        out.notes.insert(0, "the chip's table-read answer (41): the table it holds")
+        return out
+    return upload_verdict(blocks, options)
+
+
+def is_table_read(blocks: list[bytes]) -> bool:
+    """Whether the blocks are the chip's table-read answer (41)."""
+    return bool(blocks) and blocks[0][:3] == TABLE_READ_HEAD
+
+
+def motor_note(options: CheckOptions) -> list[str]:
+    return (["--motor judges tables: a move command carries none (check the table it runs "
+             "with)"] if options.motor is not None else [])
+
+
+def read_clock(options: CheckOptions) -> Clock:
+    """The clock a table-read answer's table runs on: `--clock`, which the answer lacks."""
+    from profiles.ppmc312.clock import Clock
+
+    if options.clock is None:
+        raise FormatError("a table-read answer (41) does not carry the table's clock: give "
+                          "--clock CLK (8MHz, 1MHz, …, or EXTCK with --extck-hz)")
+    if options.clock.upper() != "EXTCK":
+        return Clock.named(options.clock)
+    if options.extck_hz is None:
+        raise FormatError("--clock EXTCK needs --extck-hz (the external frequency)")
+    return Clock.extck(options.extck_hz, "rising")
+
+
+def upload_verdict(blocks: list[bytes], options: CheckOptions) -> Verdict:
+    """A table upload, judged first by what the chip would answer, then as its table."""
+    from profiles.ppmc312.upload import decode_upload
+
+    refused = chip_refusal(blocks)
+    if refused is not None:
+        return Verdict([refused])
+    return table_verdict(decode_upload(blocks, extck_hz=options.extck_hz), options)
+
+
+def chip_refusal(blocks: list[bytes]) -> Finding | None:
+    """The chip's refusal of a parallel table upload (its emulator's answer), or None."""
+    from profiles.ppmc312.emulator import accept_upload
+
+    if blocks[0][:1] not in (b"\x02", b"\x03"):  # an ASCII frame: no emulator answer
+        return None
+    answer = accept_upload(blocks)
+    if answer.ok:
+        return None
+    # F0 carries a parameter-error code; F1/F6 (state, size) are the code themselves.
+    code = answer.error_code if answer.response_code == 0xF0 else answer.response_code
+    return Finding("error", "chip-rejects-upload", answer.message, chip_code=code, stage=None)
+
+
+def table_verdict(table: FreeCurveTable | InitTable, options: CheckOptions) -> Verdict:
+    """The chip rules of a table and, with a motor, its safety verdict."""
+    from verify.chip_rules import check_table
+
+    out = Verdict(check_table(table))
+    if options.motor is not None:
+        out.findings += safety_findings(table, options, out.notes, out.details)
+    return out
+
+
+def safety_findings(table: FreeCurveTable | InitTable, options: CheckOptions,
+                    notes: list[str], details: dict[str, object]) -> list[Finding]:
+    """The safety verdict's findings for `table` (none for an init table the chip cannot
+    build: check_table has said why, with the code); its summaries go to `notes`, its
+    JSON to `details["safety"]`."""
+    from profiles.errors import InitBuildError
+    from profiles.ppmc312.init_model import as_free_curve
+    from verify.safety import judge_safety
+
+    assert options.motor is not None
+    try:
+        stages = as_free_curve(table)
+    except InitBuildError:
+        return []
+    verdict = judge_safety(stages, options.motor, pulses=options.pulses,
+                           samples=options.samples, seed=options.seed, strict=options.strict,
+                           load_angle=options.physics, progress=options.progress)
+    found = verdict.findings()
+    details["safety"] = verdict.to_json()
+    if not any(f.rule.startswith("load-angle") for f in found) and \
+            verdict.load_angle is not None:
+        notes.append(verdict.load_angle.describe())
+    if verdict.box is not None:
+        notes.append(verdict.box.describe())
+    return found
+
+
+def axis_verdict(axis: Any) -> tuple[bool, dict[str, Any]]:
+    """Whether one axis of a synchronised move is safe, and what sync's report says of it:
+    the safety verdict of its table over every move length (over the motor's tolerance box
+    when it has one)."""
+    from verify.safety import judge_safety
+
+    verdict = judge_safety(axis.table, axis.motor)
+    return verdict.safe, {"safety": verdict.to_json()}
+
+
+def load_checkable(path: str, extck_hz: float | None = None, *, raw: bytes | None = None
+                   ) -> tuple[FreeCurveTable | InitTable | None, list[Finding]]:
+    """A table file, or a table upload judged first by what the chip would answer:
+    (the table, [its file's integrity findings]) or, for an upload the chip refuses or
+    whose check fails, (None, [its finding, …]). `raw`: the file's bytes, when the caller
+    has read them."""
+    from profiles.ppmc312.formats import parse
+    from profiles.ppmc312.table import table_from_json
+    from profiles.ppmc312.upload import decode_upload
+    from profiles.reading import parse_json, read_bytes, require_shallow_json
+
+    raw = read_bytes(path) if raw is None else raw
+    if looks_like_table_json(raw):
+        return table_from_json(parse_json(raw, path)), []
+    require_shallow_json(raw, path)
+    try:
+        parsed = parse(raw, path)
+    except CorruptedError as e:
+        return None, [Finding("error", "upload-corrupted", str(e))]
+    integrity = integrity_findings("upload", parsed.format, parsed.integrity, parsed.detail)
+    blocks = list(parsed.items)
+    if blocks and (refused := chip_refusal(blocks)) is not None:
+        return None, [refused, *integrity]
+    return decode_upload(blocks, extck_hz=extck_hz), integrity
+
+
+def looks_like_table_json(raw: bytes) -> bool:
+    """A JSON object that is not a `{"blocks": …}` upload is judged as a table file, so
+    a wrong or missing "format" is reported as such."""
+    if raw.lstrip()[:1] != b"{":
+        return False
+    return b"stepramp.table/1" in raw or b'"blocks"' not in raw
