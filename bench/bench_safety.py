@@ -24,6 +24,7 @@ on threads (2 cores), so its goal is read on wall time.
 from __future__ import annotations
 
 import argparse
+import ast
 import json
 import math
 import os
@@ -131,8 +132,9 @@ def judge_one(label: str, table: FreeCurveTable, motor: Motor, repeats: int,
               sample: int) -> dict[str, object]:
     """judge_safety's warm time on one table, its executions and RK4 steps, and the
     oracle on a sample of the same executions (CPU, scaled to all of them)."""
+    crit_wall, _, _ = timed(lambda: judge_safety(table, motor, load_angle=False), repeats)
     out: dict[str, object] = {"label": label, "stages": len(table.rates),
-                              "LE": int(table.separate)}
+                              "LE": int(table.separate), "criterion_wall_s": crit_wall}
     try:
         judge_safety(table, motor)  # warm: compiled, cached arrays
     except StepRampError as e:  # the verdict's step budget: it refuses, saying why
@@ -140,7 +142,6 @@ def judge_one(label: str, table: FreeCurveTable, motor: Motor, repeats: int,
         return {**out, "refused": str(e), "wall_s": wall, "cpu_s": cpu,
                 "move_lengths": len(samples(table, [motor])[0])}
     wall, cpu, v = timed(lambda: judge_safety(table, motor), repeats)
-    crit_wall, _, _ = timed(lambda: judge_safety(table, motor, load_angle=False), repeats)
     found = angles(table, [motor])
     per_move = found.deg.max(axis=0)
     lengths = [int(n) for n in found.lengths]
@@ -152,7 +153,7 @@ def judge_one(label: str, table: FreeCurveTable, motor: Motor, repeats: int,
     la = v.load_angle
     return {**out, "executions": la.executions, "move_lengths": len(lengths),
             "rk4_steps": kernel_steps(table, motor), "wall_s": wall, "cpu_s": cpu,
-            "criterion_wall_s": crit_wall, "worst_deg": la.worst_deg, "safe": v.safe,
+            "worst_deg": la.worst_deg, "safe": v.safe,
             "oracle_sampled": len(pick), "oracle_cpu_s_scaled": o_cpu * scale,
             "oracle_rk4_steps_scaled": o_steps * scale,
             "oracle_vs_kernel_max_diff_deg": max(
@@ -172,8 +173,8 @@ def judge_row(r: dict[str, object]) -> list[str]:
     head = [str(r["label"]), f"{r['stages']} (LE={r['LE']})"]
     if "refused" in r:
         return [*head, f"{r['move_lengths']} move lengths", "> 8 M for one rotor",
-                f"refused after {r['wall_s']:.1f} s", "—", "—", "—",
-                f"≤ 25 ms: {verdict(False)}"]
+                f"refused after {r['wall_s']:.1f} s", f"{r['criterion_wall_s'] * 1e3:.1f} ms",
+                "—", "—", f"≤ 25 ms: {verdict(False)}"]
     return [*head, f"{r['executions']}", f"{r['rk4_steps'] / 1e6:.2f} M",
             f"{r['wall_s'] * 1e3:.1f} ms (CPU {r['cpu_s'] * 1e3:.1f})",
             f"{r['criterion_wall_s'] * 1e3:.1f} ms",
@@ -273,8 +274,10 @@ def cold_call(res: Results) -> None:
                      "rotor's kernels and writes them; the second loads them.")
 
 
+HEAVY = ("numba", "toppra", "casadi", "matplotlib", "ruckig", "scipy", "jsonschema")
 PROBE = ("import sys; from verify.cli import main; rc = main(['check', sys.argv[1]]); "
-         "print('numba' in sys.modules, file=sys.stderr); sys.exit(rc)")
+         f"print(sorted(m for m in {HEAVY!r} if m in sys.modules), file=sys.stderr); "
+         "sys.exit(rc)")
 # As installed: pip compiles the bytecode once; this environment may forbid writing it
 INSTALLED = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
 
@@ -299,17 +302,19 @@ def check_start(res: Results) -> None:
                                    str(EXAMPLE_TABLE)])
     probe = subprocess.run([sys.executable, "-c", PROBE, str(EXAMPLE_TABLE)], cwd=ROOT,
                            capture_output=True, text=True, check=True)
-    numba = probe.stderr.strip().splitlines()[-1] == "True"
+    heavy = ast.literal_eval(probe.stderr.strip().splitlines()[-1])
+    numba = "numba" in heavy
     res.values["check_cold_start"] = {"check_wall_s": check, "check_cpu_s": check_cpu,
                                       "python_pass_wall_s": bare, "python_pass_cpu_s": bare_cpu,
-                                      "imports_numba": numba}
+                                      "imports_numba": numba, "heavy_imported": heavy}
     res.section("check", ["what", "measured", "goal"], [
         ["cold start of `stepramp check` on a table without `--motor` (median of 9 fresh "
          "processes; CPU time, wall time in brackets)",
          f"{check_cpu:.3f} s ({check:.3f} s); {check_cpu / bare_cpu:.1f}× `python -c pass` "
          f"({bare_cpu:.3f} s)", f"≤ 0.3 s: {verdict(check_cpu <= CHECK_GOAL_S)}"],
         ["numba imported by `stepramp check` without `--motor`", "yes" if numba else "no",
-         f"never: {verdict(not numba)}"]])
+         f"never: {verdict(not numba)}"],
+        [f"of {', '.join(HEAVY)}: imported by it", ", ".join(heavy) or "none", "—"]])
 
 
 def main() -> None:

@@ -78,7 +78,7 @@ class Results:
         with os.fdopen(fd, "w", encoding="utf-8") as f:
             f.write(text + "\n")
         os.replace(tmp, path)
-        print(f"\nwrote {path.relative_to(ROOT)}")
+        print(f"\nwrote {path.relative_to(ROOT) if path.is_relative_to(ROOT) else path}")
         return path
 
 
@@ -123,9 +123,6 @@ def verdict(ok: bool) -> str:
     return "met" if ok else "**missed**"
 
 
-def ms(seconds: float) -> str:
-    return f"{seconds * 1e3:.1f} ms" if seconds < 10 else f"{seconds:.1f} s"
-
-
-def secs(seconds: float) -> str:
-    return f"{seconds:.2f} s"
+def count(x: float) -> str:
+    """A large number with thin groups: 40 900."""
+    return f"{x:,.0f}".replace(",", " ")
