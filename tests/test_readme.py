@@ -6,6 +6,7 @@ import json
 import os
 import re
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -113,3 +114,37 @@ def test_every_example_in_the_table_parses(capsys: pytest.CaptureFixture[str]) -
             for arg in argv:   # the example files it names exist
                 if arg.startswith("examples/"):
                     assert (ROOT / arg).is_file(), arg
+
+
+# --- the measured sections: generated from bench/results, never typed -------------------
+
+def bench_readme() -> Any:
+    """bench/readme.py, the generator of the README's measured blocks and figures."""
+    import importlib.util
+    import sys
+
+    spec = importlib.util.spec_from_file_location("stepramp_bench_readme",
+                                                  ROOT / "bench" / "readme.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_readme_agrees_with_the_committed_bench_results() -> None:
+    """Every `<!-- bench:… -->` block is its results file's section as the generator
+    renders it, and every bench figure was drawn from the committed data."""
+    assert bench_readme().problems() == [], \
+        "the README disagrees with bench/results: run python bench/readme.py"
+
+
+def test_the_performance_section_is_generated() -> None:
+    """No hand-typed table is left in "How good, how fast": every table there sits
+    inside a generated block."""
+    start = README.index("## How good, how fast")
+    section = README[start:README.index("\n## ", start + 1)]
+    outside = re.sub(r"<!-- bench:[\w.-]+:[\w.-]+ -->\n.*?<!-- /bench -->", "", section,
+                     flags=re.S)
+    assert "|---" not in outside
+    assert section.count("<!-- bench:") >= 10
