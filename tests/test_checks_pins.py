@@ -1,4 +1,4 @@
-"""verify.chip_rules rules at the boundaries the mutation run found unpinned (bench/mutation.py).
+"""verify.chip_rules rules at the boundaries the mutation run found unpinned (tools/mutation.py).
 
 8 MHz clock: a rate r runs 8e6 / r pps. Limits: a stage holds at most 0xFFFFF pulses,
 and runs at least 256 ticks (pulses × rate); a stop above 62500 pps is warned about.

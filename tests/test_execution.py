@@ -457,7 +457,7 @@ def test_segments_are_merged_and_contiguous(accel: list[int], data: st.DataObjec
     assert all(a.end_tick == b.start_tick for a, b in itertools.pairwise(e.segments))
 
 
-# --- time queries at their exact edges (found by bench/mutation.py) -------------------------
+# --- time queries at their exact edges (found by tools/mutation.py) -------------------------
 # A 2**20 Hz clock makes every dyadic instant exact in ticks (t · hz = the ticks written).
 DYADIC = Clock.extck(2.0**20)
 

@@ -633,7 +633,7 @@ def test_well_formed_uploads_take_the_bulk_path(table: FreeCurveTable, max_data:
         assert decode_free_curve(wire, extck_hz=1e6) == table
 
 
-# --- where each error points, at the boundaries (found by bench/mutation.py) ---------------
+# --- where each error points, at the boundaries (found by tools/mutation.py) ---------------
 @pytest.mark.parametrize(("block", "says", "byte"), [
     ("03", "the init block is 1 byte(s)", 1),
     ("03 09", "init (LE=0) is 2 bytes, expected 11", 2),  # the frame's own check

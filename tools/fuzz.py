@@ -22,7 +22,7 @@ the working directory: nothing is ever written beside the repository.
 `tests/test_fuzz.py` drives the same generators from hypothesis; this script runs a
 longer seeded campaign and prints counts per command:
 
-    python bench/fuzz.py [--cases 20000] [--seed 1]
+    python tools/fuzz.py [--cases 20000] [--seed 1]
 """
 
 from __future__ import annotations
