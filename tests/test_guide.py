@@ -38,9 +38,9 @@ from pathlib import Path
 
 import pytest
 
-from profiles.motor import _OPTIONAL as MOTOR_OPTIONAL
-from profiles.motor import _REQUIRED as MOTOR_REQUIRED
 from profiles.motor import Motor, load_motor
+from profiles.motor.model import _OPTIONAL as MOTOR_OPTIONAL
+from profiles.motor.model import _REQUIRED as MOTOR_REQUIRED
 from profiles.ppmc312.table import _KEYS as TABLE_KEYS
 from profiles.ppmc312.table import table_from_json
 from verify import cli

@@ -11,9 +11,10 @@ from typing import Any
 import jsonschema  # a [dev] dependency: missing, the suite fails (never skips)
 import pytest
 
-from profiles.motor import _OPTIONAL, _REQUIRED, Motor, bundled_motor_paths
+from profiles.motor import Motor, bundled_motor_paths
 from profiles.motor.datasheet import Datasheet, Drive, motor_from_datasheet
 from profiles.motor.loads import disc
+from profiles.motor.model import _OPTIONAL, _REQUIRED
 from profiles.motor.schema import pointer, problems, schema, schema_problems
 
 

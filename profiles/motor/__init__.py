@@ -5,8 +5,6 @@ load-angle dynamics (`rotor`, compiled in `rotor_kernel`), tolerance boxes (`tol
 resonance bands (`resonance`)."""
 
 from .model import (
-    _OPTIONAL,
-    _REQUIRED,
     DEFAULT_DAMPING_RATIO,
     DEFAULT_PHASES,
     DEFAULT_ROTOR_TEETH,
@@ -21,8 +19,6 @@ __all__ = [
     "DEFAULT_PHASES",
     "DEFAULT_ROTOR_TEETH",
     "FORMAT",
-    "_OPTIONAL",
-    "_REQUIRED",
     "Motor",
     "bundled_motor_paths",
     "load_motor",

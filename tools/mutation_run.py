@@ -1,0 +1,158 @@
+"""One module's mutants, each in a forked child that imports it in place of the module.
+
+The worker imports the heavy libraries once (numpy, numba, scipy, hypothesis, pytest),
+never the project's modules: each child imports them fresh, the mutant among them.
+Numba's on-disk cache is sent to a temporary folder for the run (a mutated kernel must
+never find, nor leave, a compiled copy beside the sources).
+"""
+
+from __future__ import annotations
+
+import ast
+import importlib.abc
+import importlib.machinery
+import importlib.util
+import json
+import os
+import signal
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import mutants
+from mutation_config import ROOT, Module, log_path, read_log, source_hash
+
+BASELINE_LIMIT_S = 900.0
+MIN_TIMEOUT_S = 30.0
+TIMEOUT_FACTOR = 4.0  # a mutant may take 4× the unmutated run before it counts as a hang
+
+
+class _MutantFinder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
+    """Serves the mutated source for one module name; everything else imports as usual."""
+
+    def __init__(self, name: str, path: Path, source: str) -> None:
+        self.name, self.path, self.source = name, path, source
+
+    def find_spec(self, fullname: str, path: object, target: object = None
+                  ) -> importlib.machinery.ModuleSpec | None:
+        if fullname != self.name:
+            return None
+        return importlib.util.spec_from_file_location(
+            fullname, self.path, loader=self,
+            submodule_search_locations=[str(self.path.parent)]
+            if self.path.name == "__init__.py" else None)
+
+    def create_module(self, spec: importlib.machinery.ModuleSpec) -> None:
+        return None
+
+    def exec_module(self, module: Any) -> None:
+        exec(compile(self.source, str(self.path), "exec"), module.__dict__)
+
+
+class _FastFirst:
+    """Example-based tests before hypothesis ones (with -x most mutants die in the
+    table-driven tests); hypothesis derandomised, no database, and no shrinking: a
+    mutant needs only *a* failing example, and shrinking one can take longer than every
+    other test together. Registered after the suite's conftest loaded its profile."""
+
+    def pytest_configure(self, config: object) -> None:
+        from hypothesis import Phase, settings
+
+        settings.register_profile("mutation", settings.default, derandomize=True,
+                                  database=None, deadline=None,
+                                  phases=(Phase.explicit, Phase.reuse, Phase.generate))
+        settings.load_profile("mutation")
+
+    def pytest_collection_modifyitems(self, items: list[Any]) -> None:
+        items.sort(key=lambda item: bool(getattr(getattr(item, "obj", None),
+                                                 "is_hypothesis_test", False)))
+
+
+def _run_child(name: str, path: Path, source: str, tests: list[str]) -> int:
+    import pytest
+
+    sys.meta_path.insert(0, _MutantFinder(name, path, source))
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 1)
+    os.dup2(devnull, 2)
+    return int(pytest.main(["-x", "-q", "-m", "not slow", "-p", "no:cacheprovider",
+                            "--no-header", "-o", "addopts=", *tests], plugins=[_FastFirst()]))
+
+
+def run_one(name: str, path: Path, source: str, tests: list[str], timeout_s: float) -> str:
+    """'killed', 'survived' or 'timeout' for one source of the module."""
+    pid = os.fork()
+    if pid == 0:  # child
+        code = 3
+        try:
+            code = _run_child(name, path, source, tests)
+        finally:
+            os._exit(code)
+    deadline = time.monotonic() + timeout_s
+    while True:
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if done:
+            return "survived" if os.waitstatus_to_exitcode(status) == 0 else "killed"
+        if time.monotonic() > deadline:
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+            return "timeout"
+        time.sleep(0.02)
+
+
+def _prepare() -> None:
+    """Heavy imports once, before forking; not the project's modules."""
+    os.environ.setdefault("CI", "true")
+    os.environ["NUMBA_CACHE_DIR"] = tempfile.mkdtemp(prefix="stepramp-mutation-numba-")
+    os.environ.setdefault("MPLBACKEND", "Agg")
+    os.chdir(ROOT)
+    sys.path.insert(0, str(ROOT))
+    import hypothesis  # noqa: F401
+    import matplotlib  # noqa: F401
+    import numba  # noqa: F401
+    import numpy  # noqa: F401
+    import pytest  # noqa: F401
+    import scipy  # noqa: F401
+
+
+def _todo(m: Module, digest: str, resume: bool, survivors: bool) -> set[str] | None:
+    """The mutant ids to skip (already judged) or to run only (survivors); None: all."""
+    last = {e["id"]: e["verdict"] for e in read_log(m.name) if e["sha"] == digest}
+    if survivors:
+        return {i for i, v in last.items() if v == "survived"}
+    return set(last) if resume else None
+
+
+def worker(m: Module, resume: bool, survivors: bool) -> int:
+    _prepare()
+    source = m.path.read_text()
+    digest = source_hash(source)
+    sites = mutants.sites(source)
+    chosen = _todo(m, digest, resume, survivors)
+    wanted = [s for s in sites if chosen is None
+              or (s.id in chosen if survivors else s.id not in chosen)]
+    log = log_path(m.name)
+    if not wanted:
+        return 0
+    t0 = time.monotonic()
+    base = run_one(m.name, m.path, ast.unparse(ast.parse(source)), m.tests, BASELINE_LIMIT_S)
+    base_s = time.monotonic() - t0
+    if base != "survived":
+        print(f"{m.name}: the tests fail on the unmutated module ({base})", file=sys.stderr)
+        with log.open("a") as f:
+            f.write(json.dumps({"id": "<baseline>", "verdict": base, "sha": digest}) + "\n")
+        return 1
+    timeout_s = max(MIN_TIMEOUT_S, TIMEOUT_FACTOR * base_s)
+    print(f"{m.name}: {len(wanted)} mutants, baseline {base_s:.1f} s", file=sys.stderr,
+          flush=True)
+    for site in wanted:
+        t1 = time.monotonic()
+        verdict = run_one(m.name, m.path, mutants.mutant(source, site.index), m.tests,
+                          timeout_s)
+        entry = {"id": site.id, "verdict": verdict, "sha": digest, "line": site.line,
+                 "s": round(time.monotonic() - t1, 2)}
+        with log.open("a") as f:
+            f.write(json.dumps(entry, ensure_ascii=False) + "\n")
+    return 0
