@@ -4,7 +4,7 @@ One mutant per site, in a fixed order over the syntax tree:
 - comparisons: < ↔ <=, > ↔ >=, == ↔ !=, in ↔ not in, is ↔ is not
 - arithmetic: + ↔ −, * ↔ /, // → /, % → //
 - integer constants ± 1; True ↔ False
-- a unary minus dropped (`x[-1]` → `x[+1]`)
+- a unary minus dropped (`x[-1]` → `x[+1]`), a `not` dropped
 - min ↔ max, any ↔ all; and ↔ or
 - a call made for its effect (a statement `f(…)`) replaced by `None`
 Not mutated: docstrings, f-strings (messages), annotations, imports.
@@ -58,6 +58,21 @@ def _set(obj: object, attr: str, value: object) -> Undo:
     old = getattr(obj, attr)
     setattr(obj, attr, value)
     return lambda: setattr(obj, attr, old)
+
+
+def _replace(parent: ast.AST, old: ast.AST, new: ast.AST) -> Undo:
+    """Put `new` where `parent` holds `old` (a field or an item of a list field)."""
+    for name, value in ast.iter_fields(parent):
+        if value is old:
+            return _set(parent, name, new)
+        if isinstance(value, list) and any(v is old for v in value):
+            i = next(k for k, v in enumerate(value) if v is old)
+            value[i] = new
+
+            def undo(value: list[ast.AST] = value, i: int = i) -> None:
+                value[i] = old
+            return undo
+    raise AssertionError("the node is not a child of its parent")
 
 
 def _set_item(seq: list[ast.cmpop], i: int, value: ast.cmpop) -> Undo:
@@ -147,6 +162,10 @@ class _Mutator(ast.NodeVisitor):
         self.generic_visit(node)
         if isinstance(node.op, ast.USub):
             self._site(node, lambda: _set(node, "op", ast.UAdd()))
+        elif isinstance(node.op, ast.Not):
+            parent = self.stack[-2]
+            self._site(node, lambda: _replace(parent, node, node.operand),
+                       replaced_by=node.operand)
 
     def visit_Constant(self, node: ast.Constant) -> None:
         v = node.value
@@ -167,7 +186,8 @@ class _Mutator(ast.NodeVisitor):
         self._site(node, lambda: _set(node, "op", ast.Or() if isinstance(node.op, ast.And)
                                       else ast.And()))
 
-    def _site(self, node: ast.AST, apply: Callable[[], Undo]) -> None:
+    def _site(self, node: ast.AST, apply: Callable[[], Undo], *,
+              replaced_by: ast.AST | None = None) -> None:
         index = len(self.sites)
         if self.target is not None:
             self.sites.append(Site(index, 0, "", "", ""))
@@ -176,9 +196,12 @@ class _Mutator(ast.NodeVisitor):
             return
         context = _context(self.stack)
         before = ast.unparse(context)
-        undo = apply()
-        after = ast.unparse(context)
-        undo()
+        if replaced_by is not None:  # the context may be the node itself: edit its text
+            after = before.replace(ast.unparse(node), ast.unparse(replaced_by), 1)
+        else:
+            undo = apply()
+            after = ast.unparse(context)
+            undo()
         scope = ".".join(self.scopes) or "<module>"
         self.sites.append(Site(index, getattr(node, "lineno", 0), scope, _one_line(before),
                                _one_line(after)))
