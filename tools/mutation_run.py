@@ -52,10 +52,15 @@ class _MutantFinder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
 
 
 class _FastFirst:
-    """Example-based tests before hypothesis ones (with -x most mutants die in the
-    table-driven tests); hypothesis derandomised, no database, and no shrinking: a
-    mutant needs only *a* failing example, and shrinking one can take longer than every
-    other test together. Registered after the suite's conftest loaded its profile."""
+    """The quickest tests first (by their time in the unmutated run, which records it;
+    with -x most mutants then die in a cheap test); hypothesis derandomised, no
+    database, and no shrinking: a mutant needs only *a* failing example, and shrinking
+    one can take longer than every other test together. The profile is registered after
+    the suite's conftest loaded its own."""
+
+    def __init__(self, durations: dict[str, float], record: Path | None) -> None:
+        self.durations, self.record = durations, record
+        self.seen: dict[str, float] = {}
 
     def pytest_configure(self, config: object) -> None:
         from hypothesis import Phase, settings
@@ -66,11 +71,21 @@ class _FastFirst:
         settings.load_profile("mutation")
 
     def pytest_collection_modifyitems(self, items: list[Any]) -> None:
-        items.sort(key=lambda item: bool(getattr(getattr(item, "obj", None),
-                                                 "is_hypothesis_test", False)))
+        def key(item: Any) -> tuple[float, bool]:
+            hyp = bool(getattr(getattr(item, "obj", None), "is_hypothesis_test", False))
+            return (self.durations.get(item.nodeid, 1e9 if hyp else 1e6), hyp)
+        items.sort(key=key)
+
+    def pytest_runtest_logreport(self, report: Any) -> None:
+        self.seen[report.nodeid] = self.seen.get(report.nodeid, 0.0) + report.duration
+
+    def pytest_sessionfinish(self) -> None:
+        if self.record is not None:
+            self.record.write_text(json.dumps(self.seen))
 
 
-def _run_child(name: str, path: Path, source: str, tests: list[str]) -> int:
+def _run_child(name: str, path: Path, source: str, tests: list[str], plugin: _FastFirst
+               ) -> int:
     import pytest
 
     sys.meta_path.insert(0, _MutantFinder(name, path, source))
@@ -78,16 +93,17 @@ def _run_child(name: str, path: Path, source: str, tests: list[str]) -> int:
     os.dup2(devnull, 1)
     os.dup2(devnull, 2)
     return int(pytest.main(["-x", "-q", "-m", "not slow", "-p", "no:cacheprovider",
-                            "--no-header", "-o", "addopts=", *tests], plugins=[_FastFirst()]))
+                            "--no-header", "-o", "addopts=", *tests], plugins=[plugin]))
 
 
-def run_one(name: str, path: Path, source: str, tests: list[str], timeout_s: float) -> str:
+def run_one(name: str, path: Path, source: str, tests: list[str], timeout_s: float,
+            plugin: _FastFirst | None = None) -> str:
     """'killed', 'survived' or 'timeout' for one source of the module."""
     pid = os.fork()
     if pid == 0:  # child
         code = 3
         try:
-            code = _run_child(name, path, source, tests)
+            code = _run_child(name, path, source, tests, plugin or _FastFirst({}, None))
         finally:
             os._exit(code)
     deadline = time.monotonic() + timeout_s
@@ -137,8 +153,11 @@ def worker(m: Module, resume: bool, survivors: bool) -> int:
     if not wanted:
         return 0
     t0 = time.monotonic()
-    base = run_one(m.name, m.path, ast.unparse(ast.parse(source)), m.tests, BASELINE_LIMIT_S)
+    record = Path(os.environ["NUMBA_CACHE_DIR"]) / "durations.json"
+    base = run_one(m.name, m.path, ast.unparse(ast.parse(source)), m.tests, BASELINE_LIMIT_S,
+                   _FastFirst({}, record))
     base_s = time.monotonic() - t0
+    durations = json.loads(record.read_text()) if record.exists() else {}
     if base != "survived":
         print(f"{m.name}: the tests fail on the unmutated module ({base})", file=sys.stderr)
         with log.open("a") as f:
@@ -150,7 +169,7 @@ def worker(m: Module, resume: bool, survivors: bool) -> int:
     for site in wanted:
         t1 = time.monotonic()
         verdict = run_one(m.name, m.path, mutants.mutant(source, site.index), m.tests,
-                          timeout_s)
+                          timeout_s, _FastFirst(durations, None))
         entry = {"id": site.id, "verdict": verdict, "sha": digest, "line": site.line,
                  "s": round(time.monotonic() - t1, 2)}
         with log.open("a") as f:
