@@ -286,3 +286,159 @@ def test_box_rows_for_a_motor_with_no_tolerances_are_its_rotor() -> None:
     assert rotors(motor, direction=-1).rotor(0) == rotor_of(motor, direction=-1)
     assert rotors(motor, {"torque_scale": [0.8]}).rotor(0) == rotor_of(
         variant(motor, {"torque_scale": 0.8}))
+
+
+# --- the model's numbers and edges, stated so that an off-by-one fails -------------------
+
+def test_the_rk4_step_is_a_fiftieth_and_the_rest_four_hundred_natural_periods() -> None:
+    """The step is 1/50 of the natural period at rest; the rest after a move lasts 400
+    natural periods (the module docstring's numbers)."""
+    rotor = rotor_of(plain_motor())
+    period = rotor.natural_period_s(0.0)
+    assert rotor.step_s() == pytest.approx(period / 50, rel=1e-12)
+    assert settle_s(rotor, rotor.step_s()) == pytest.approx(400 * period, rel=1e-12)
+
+
+def test_the_natural_period_at_rest_is_that_of_the_rotor_teeth_stiffness() -> None:
+    """Small-signal stiffness at rest Nr·T_pk(0) [N·m/rad] against the inertia J:
+    ω_n = √(Nr·T(0)/J), 2- and 5-phase alike (the load angle is Nr × the rotor's angle);
+    the damping is 2ζω_n from that same first curve point, not the second."""
+    for steps, teeth, phases in ((1600, 50, 2), (1000, 50, 5), (400, 100, 2)):
+        motor = plain_motor(steps_per_rev=steps, rotor_teeth=teeth, phases=phases,
+                            curve_torque_nm=np.array([0.5, 0.4, 0.32, 0.04]),
+                            damping_ratio=0.25)
+        rotor = rotor_of(motor)
+        omega_n = math.sqrt(teeth * 0.5 / 6.8e-6)
+        assert rotor.natural_period_s(0.0) == pytest.approx(2 * math.pi / omega_n, rel=1e-9)
+        assert rotor.damping_per_s == pytest.approx(2 * 0.25 * omega_n, rel=1e-9)
+
+
+def test_a_weak_rotor_still_has_a_finite_natural_period() -> None:
+    """Stiffness k·c_e·T = 0.25 /s² (well below 1): the period is 2π/0.5 = 4π s, in the
+    model and in its kernel; a rotor with no torque has none."""
+    from profiles.motor import rotor_kernel as rk
+    from profiles.motor.rotor import Rotor
+
+    weak = Rotor(1.0, 1.0, (0.0, 10.0), (0.25, 0.25), 0.0, 0.0, 0.0)
+    assert weak.natural_period_s(0.0) == pytest.approx(4 * math.pi)
+    assert rk.natural_period_s(*weak.curve(), weak.row(), 0.0) == pytest.approx(4 * math.pi)
+    assert math.isinf(rk.natural_period_s(*weak.curve(), weak.row(), 20.0))
+
+
+def test_the_peak_torque_is_the_curve_exactly_at_its_points_and_zero_beyond() -> None:
+    """T_pk(v) of a 5-point curve: exactly the curve's torque at each point (both
+    directions), linear between, 0 past the last point; the kernel agrees bit for bit."""
+    from profiles.motor import rotor_kernel as rk
+
+    speeds = (0.0, 1000.0, 3000.0, 6000.0, 12000.0)
+    torques = (0.4, 0.1, 0.3, 0.2, 0.05)  # values whose differences do not round back
+    motor = plain_motor(curve_speed_pps=np.array(speeds), curve_torque_nm=np.array(torques))
+    rotor = rotor_of(motor)
+    cv, ct = rotor.curve()
+    for v, t in zip(speeds, torques, strict=True):
+        for signed in (v, -v):
+            assert rotor.t_peak(signed) == t
+            assert rk._t_peak(cv, ct, signed) == t
+    for v in (500.0, 2000.0, 4500.0, 9000.0, 11999.0):
+        expected = float(np.interp(v, speeds, torques))
+        assert rotor.t_peak(v) == pytest.approx(expected, rel=1e-12)
+        assert rk._t_peak(cv, ct, v) == pytest.approx(expected, rel=1e-12)
+    for v in (12000.5, 5e4):
+        assert rotor.t_peak(v) == 0.0 and rk._t_peak(cv, ct, v) == 0.0
+
+
+def test_a_span_of_no_duration_takes_no_step() -> None:
+    rotor = rotor_of(plain_motor())
+    step = rotor.step_s()
+    plain = follow(rotor, [(2e-3, 500.0)], step_s=step)
+    with_empty = follow(rotor, [(0.0, 500.0), (2e-3, 500.0)], step_s=step)
+    assert with_empty.steps == plain.steps
+    np.testing.assert_array_equal(with_empty.lag, plain.lag)
+
+
+def test_a_run_past_its_step_budget_is_refused_naming_it() -> None:
+    """`max_steps` RK4 steps at most: a run that needs more is refused (a verdict that
+    would take minutes)."""
+    from profiles.errors import StepRampError
+
+    rotor = rotor_of(plain_motor(damping_ratio=0.0))
+    step = rotor.step_s()
+    long_span = [(200 * step, 300.0)]  # 200 steps
+    assert follow(rotor, long_span, step_s=step, max_steps=201).steps == 200
+    for record in (True, False):
+        with pytest.raises(StepRampError, match="more than 200 RK4 steps"):
+            follow(rotor, long_span, step_s=step, max_steps=200, record=record)
+
+
+def test_the_default_step_budget_is_two_million_steps() -> None:
+    from profiles.errors import StepRampError
+
+    rotor = rotor_of(plain_motor(damping_ratio=0.0))
+    step = rotor.step_s()
+    period = rotor.natural_period_s(0.0)
+    # undamped, each span skipped after 400 windows of a period (20 000 steps)
+    many = [(1000 * period, 300.0 * (k % 2)) for k in range(130)]
+    assert follow(rotor, many, step_s=step, record=False, max_steps=10**8).steps > 2_000_000
+    with pytest.raises(StepRampError, match="more than 2000000 RK4 steps"):
+        follow(rotor, many, step_s=step, record=False)
+
+
+def test_a_coarse_step_settles_by_windows_of_at_least_8_steps_like_the_oracle() -> None:
+    """With a step of a quarter natural period the settling window is its floor of 8
+    steps; a speed past the curve (no restoring torque) never settles within a span.
+    The kernel takes the oracle's steps in both."""
+    rotor = rotor_of(plain_motor(damping_ratio=0.7))
+    period = rotor.natural_period_s(0.0)
+    for step, spans in ((period / 4, [(40 * period, 800.0), (40 * period, 0.0)]),
+                        (period / 50, [(1e-3, 800.0), (0.02, 60_000.0)])):
+        fast = follow(rotor, spans, step_s=step)
+        slow = oracle.follow(rotor, spans, step_s=step)
+        assert fast.steps == slow.steps
+        np.testing.assert_allclose(fast.lag, slow.lag, atol=1e-9, rtol=1e-9)
+
+
+def test_rotor_sets_stack_only_alike_rotors_and_broadcast_their_parameters() -> None:
+    """Rotors judged together share their curve speeds and c_e (else refused); a
+    parameter array and a scalar give one row per array value."""
+    from profiles.motor.rotor import Rotors
+
+    base = rotors(plain_motor())
+    other_speeds = rotors(plain_motor(curve_speed_pps=np.array([0.0, 2000.0, 9000.0,
+                                                                 48000.0])))
+    other_teeth = rotors(plain_motor(rotor_teeth=100))
+    for odd in (other_speeds, other_teeth):
+        for parts in ([base, odd], [odd, base], [base, base, odd]):
+            with pytest.raises(ValueError, match="share their curve speeds and c_e"):
+                Rotors.stack(parts)
+    assert len(Rotors.stack([base, base, base])) == 3
+    rows = rotors(plain_motor(), {"torque_scale": [0.8, 0.9, 1.0], "inertia_kgm2": 1e-5})
+    assert len(rows) == 3
+    assert rows.rotor(2) == rotor_of(variant(plain_motor(), {"inertia_kgm2": 1e-5}))
+
+
+def test_rotors_and_traces_are_values() -> None:
+    """A rotor is immutable and hashable (a cache key); rotor sets and traces are
+    immutable."""
+    import dataclasses
+
+    rotor = rotor_of(plain_motor())
+    assert hash(rotor) == hash(rotor_of(plain_motor()))
+    trace = follow(rotor, [(1e-3, 100.0)], step_s=rotor.step_s())
+    for value, attr in ((rotor, "k"), (rotors(plain_motor()), "c_e"), (trace, "steps")):
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            setattr(value, attr, 1)
+
+
+def test_a_few_moves_of_a_tiny_table_are_the_oracles_whole_moves() -> None:
+    """Every execution kernel on a 3-stage table (LE=1: the decel side differs), a few
+    lengths, both directions under a load: the verdict's worst angle per length is the
+    oracle's whole move. Small enough to run as plain Python (the kernel's mutation
+    run)."""
+    motor = plain_motor(load_torque_nm=0.05, friction_torque_nm=0.02, damping_ratio=0.3)
+    table = FreeCurveTable(MHZ1, (120, 200, 400), (3, 3, 2), (2, 4))
+    lengths = [1, 4, 9, 15, 40]
+    angles = worst_load_angles(table, [motor], pulses=lengths)[0]
+    assert angles.executions == 2 * len(lengths)
+    for n in lengths:
+        assert worst_load_angle(table, motor, pulses=[n]).worst_angle_deg == pytest.approx(
+            oracle_worst_deg(table, motor, n), abs=AGREE_DEG)
