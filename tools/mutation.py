@@ -25,7 +25,7 @@ results format: `per-module` table) and bench/results/mutation.md (the survivors
 equivalent mutants with their reasons), without running anything.
 
 Usage:
-    python tools/mutation.py [MODULE …] [--jobs N] [--resume] [--survivors]
+    python tools/mutation.py [MODULE …] [--jobs N] [--resume] [--again survived,timeout]
     python tools/mutation.py --list MODULE        # every mutant id
     python tools/mutation.py --show MODULE ID     # the mutant's diff
     python tools/mutation.py --report
@@ -66,7 +66,7 @@ def show(name: str, wanted: str) -> int:
     return 2
 
 
-def run_many(chosen: list[Module], jobs: int, resume: bool, survivors: bool) -> None:
+def run_many(chosen: list[Module], jobs: int, resume: bool, again: str) -> None:
     """Each module in a worker process of its own (its env set before numba loads), at
     most `jobs` at once."""
     LOGS.mkdir(parents=True, exist_ok=True)
@@ -77,7 +77,7 @@ def run_many(chosen: list[Module], jobs: int, resume: bool, survivors: bool) -> 
             m = queue.pop(0)
             argv = [sys.executable, __file__, "--worker", m.name]
             argv += ["--resume"] if resume else []
-            argv += ["--survivors"] if survivors else []
+            argv += ["--again", again] if again else []
             running.append((m, subprocess.Popen(argv, env={**os.environ, **m.env}, cwd=ROOT)))
         for m, p in list(running):
             if p.poll() is not None:
@@ -92,8 +92,9 @@ def main() -> int:
     ap.add_argument("--jobs", type=int, default=1, help="modules run at once")
     ap.add_argument("--resume", action="store_true",
                     help="skip mutants already logged for the current source")
-    ap.add_argument("--survivors", action="store_true",
-                    help="run only the mutants whose last verdict is 'survived'")
+    ap.add_argument("--again", metavar="VERDICTS", default="",
+                    help="run only the mutants whose last verdict is one of these "
+                         "(comma-separated: survived,timeout), e.g. after new tests")
     ap.add_argument("--list", action="store_true", help="print the mutant ids")
     ap.add_argument("--show", metavar="ID", help="print one mutant's diff (id or index)")
     ap.add_argument("--report", action="store_true", help="write the results from the logs")
@@ -102,7 +103,8 @@ def main() -> int:
     config = load_config()
     mapped = {m.name: m for m in modules(config)}
     if args.worker:
-        return mutation_run.worker(mapped[args.worker], args.resume, args.survivors)
+        again = {v for v in args.again.split(",") if v}
+        return mutation_run.worker(mapped[args.worker], args.resume, again)
     unknown = set(args.modules) - set(mapped)
     if unknown:
         ap.error(f"not in tools/mutation.toml: {sorted(unknown)}")
@@ -115,7 +117,7 @@ def main() -> int:
     if args.show:
         return show(chosen[0].name, args.show)
     if not args.report:
-        run_many(chosen, args.jobs, args.resume, args.survivors)
+        run_many(chosen, args.jobs, args.resume, args.again)
     mutation_report.write(config, " ".join(["python tools/mutation.py", *sys.argv[1:]]))
     return 0
 

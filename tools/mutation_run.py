@@ -25,8 +25,10 @@ import mutants
 from mutation_config import ROOT, Module, log_path, read_log, source_hash
 
 BASELINE_LIMIT_S = 900.0
-MIN_TIMEOUT_S = 30.0
-TIMEOUT_FACTOR = 4.0  # a mutant may take 4× the unmutated run before it counts as a hang
+MIN_TIMEOUT_S = 120.0
+# a mutant may take 6× the unmutated run before it counts as a hang: the machine is shared,
+# and a survivor runs every test (a tight limit would count slow survivors as killed)
+TIMEOUT_FACTOR = 6.0
 
 
 class _MutantFinder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
@@ -133,22 +135,23 @@ def _prepare() -> None:
     import scipy  # noqa: F401
 
 
-def _todo(m: Module, digest: str, resume: bool, survivors: bool) -> set[str] | None:
-    """The mutant ids to skip (already judged) or to run only (survivors); None: all."""
-    last = {e["id"]: e["verdict"] for e in read_log(m.name) if e["sha"] == digest}
-    if survivors:
-        return {i for i, v in last.items() if v == "survived"}
+def _todo(m: Module, digest: str, resume: bool, again: set[str]) -> set[str] | None:
+    """The mutant ids to skip (already judged) or, with `again`, the only ones to run
+    (those whose last verdict is in it); None: all."""
+    last = {str(e["id"]): str(e["verdict"]) for e in read_log(m.name) if e["sha"] == digest}
+    if again:
+        return {i for i, v in last.items() if v in again}
     return set(last) if resume else None
 
 
-def worker(m: Module, resume: bool, survivors: bool) -> int:
+def worker(m: Module, resume: bool, again: set[str]) -> int:
     _prepare()
     source = m.path.read_text()
     digest = source_hash(source)
     sites = mutants.sites(source)
-    chosen = _todo(m, digest, resume, survivors)
+    chosen = _todo(m, digest, resume, again)
     wanted = [s for s in sites if chosen is None
-              or (s.id in chosen if survivors else s.id not in chosen)]
+              or (s.id in chosen if again else s.id not in chosen)]
     log = log_path(m.name)
     if not wanted:
         return 0
