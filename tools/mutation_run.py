@@ -94,7 +94,10 @@ def _run_child(name: str, path: Path, source: str, tests: list[str], plugin: _Fa
     devnull = os.open(os.devnull, os.O_WRONLY)
     os.dup2(devnull, 1)
     os.dup2(devnull, 2)
+    # no:repo_clean: the suite's check that a session leaves the checkout unchanged would
+    # fail a mutant's run whenever the checkout changes meanwhile (a log, an edit)
     return int(pytest.main(["-x", "-q", "-m", "not slow", "-p", "no:cacheprovider",
+                            "-p", "no:repo_clean",
                             "--no-header", "-o", "addopts=", *tests], plugins=[plugin]))
 
 
@@ -174,7 +177,7 @@ def worker(m: Module, resume: bool, again: set[str]) -> int:
         verdict = run_one(m.name, m.path, mutants.mutant(source, site.index), m.tests,
                           timeout_s, _FastFirst(durations, None))
         entry = {"id": site.id, "verdict": verdict, "sha": digest, "line": site.line,
-                 "s": round(time.monotonic() - t1, 2)}
+                 "s": round(time.monotonic() - t1, 2), "at": round(time.time())}
         with log.open("a") as f:
             f.write(json.dumps(entry, ensure_ascii=False) + "\n")
     return 0
