@@ -445,3 +445,29 @@ def test_a_few_moves_of_a_tiny_table_are_the_oracles_whole_moves() -> None:
     for n in lengths:
         assert worst_load_angle(table, motor, pulses=[n]).worst_angle_deg == pytest.approx(
             oracle_worst_deg(table, motor, n), abs=AGREE_DEG)
+
+
+@pytest.mark.parametrize("load_nm, accel, decel, top_rate", [
+    (0.0, (6, 5, 4, 3), None, 200),            # LE=0, safe: the worst is sampled right
+    (0.03, (6, 5, 4, 3), (3, 8), 200),         # LE=1 under a load: both directions
+    (0.0, (3, 3, 3, 3), None, 40),             # too fast: past 90° from some length on
+])
+def test_the_sampled_verdict_is_brute_force_over_every_length(
+        load_nm: float, accel: tuple[int, ...], decel: tuple[int, ...] | None,
+        top_rate: int) -> None:
+    """The all-length verdict (each move family sampled by the ringing's phase, the
+    worst families refined) against every length judged one by one, up to a cruise long
+    enough to settle: the same worst angle, the same shortest unstable move."""
+    motor = plain_motor(load_torque_nm=load_nm, friction_torque_nm=0.01, damping_ratio=0.2)
+    rates = (top_rate, 2 * top_rate, 4 * top_rate, 8 * top_rate)
+    table = FreeCurveTable(MHZ1, rates, accel, decel)
+    verdict = worst_load_angle(table, motor)
+    rotor = rotor_of(motor)
+    top = MHZ1.hz / rates[0]
+    cruise = math.ceil(top * 10 * min(rotor.natural_period_s(top), 1.0)) + 1
+    every = worst_load_angle(table, motor, pulses=range(
+        1, table.accel_total + table.decel_total + cruise + 1))
+    assert verdict.slipped == every.slipped
+    assert verdict.worst_angle_deg == pytest.approx(every.worst_angle_deg, abs=AGREE_DEG)
+    assert verdict.first_unstable_pulses == every.first_unstable_pulses
+    assert verdict.worst_direction == every.worst_direction
