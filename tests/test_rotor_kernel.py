@@ -471,3 +471,18 @@ def test_the_sampled_verdict_is_brute_force_over_every_length(
     assert verdict.worst_angle_deg == pytest.approx(every.worst_angle_deg, abs=AGREE_DEG)
     assert verdict.first_unstable_pulses == every.first_unstable_pulses
     assert verdict.worst_direction == every.worst_direction
+
+
+def test_a_span_shorter_than_a_step_is_one_step() -> None:
+    """Half a step of command is one RK4 step of that length, recorded; a budget of one
+    step is already spent by it (refused), whatever is recorded."""
+    from profiles.errors import StepRampError
+
+    rotor = rotor_of(plain_motor())
+    step = rotor.step_s()
+    trace = follow(rotor, [(step / 2, 100.0)], step_s=step)
+    assert trace.steps == 1 and len(trace.lag) == 2
+    assert trace.t_s[-1] == pytest.approx(step / 2)
+    for record in (True, False):
+        with pytest.raises(StepRampError, match="more than 1 RK4 steps"):
+            follow(rotor, [(step / 2, 100.0)], step_s=step, max_steps=1, record=record)
