@@ -36,9 +36,9 @@ def module_result(name: str, path: Any, equivalent: dict[tuple[str, str], str]
     for e in read_log(name):
         if e["sha"] == digest:
             last[str(e["id"])] = str(e["verdict"])
-    if "<baseline>" in last:
-        return {"mutants": 0, "run": 0, "baseline": last["<baseline>"]}
     sites = mutants.sites(source)
+    if last.get("<baseline>", "survived") != "survived":  # the tests failed unmutated
+        return {"mutants": len(sites), "run": 0, "baseline": last["<baseline>"]}
     counts: Counter[str] = Counter()
     survivors: list[dict[str, Any]] = []
     for s in sites:
@@ -59,6 +59,10 @@ def module_result(name: str, path: Any, equivalent: dict[tuple[str, str], str]
 
 
 def _row(name: str, r: dict[str, Any]) -> list[str]:
+    if r["mutants"] == 0:
+        return [name, "0", "", "", "", "", "no mutants"]
+    if "baseline" in r:
+        return [name, str(r["mutants"]), "", "", "", "", "not run: its tests fail unmutated"]
     if r.get("run", 0) == 0:
         return [name, str(r["mutants"]), "", "", "", "", "not run"]
     score = "" if r["score"] is None else f"{100 * r['score']:.1f} %"
@@ -78,7 +82,7 @@ def _totals(results: dict[str, dict[str, Any]]) -> dict[str, Any]:
 def write(config: dict[str, Any], command: str) -> None:
     equivalent = equivalents(config)
     results = {m.name: module_result(m.name, m.path, equivalent) for m in modules(config)}
-    not_run = [n for n, r in results.items() if r.get("run", 0) == 0]
+    not_run = [n for n, r in results.items() if r.get("run", 0) == 0 and r["mutants"]]
     partial = [n for n, r in results.items() if r.get("not_run")
                and n not in not_run]
     total = _totals(results)

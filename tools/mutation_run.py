@@ -169,6 +169,9 @@ def worker(m: Module, resume: bool, again: set[str]) -> int:
         with log.open("a") as f:
             f.write(json.dumps({"id": "<baseline>", "verdict": base, "sha": digest}) + "\n")
         return 1
+    with log.open("a") as f:  # the unmutated run passed (a later failure is logged too)
+        f.write(json.dumps({"id": "<baseline>", "verdict": base, "sha": digest,
+                            "s": round(base_s, 2), "at": round(time.time())}) + "\n")
     timeout_s = max(MIN_TIMEOUT_S, TIMEOUT_FACTOR * base_s)
     print(f"{m.name}: {len(wanted)} mutants, baseline {base_s:.1f} s", file=sys.stderr,
           flush=True)
