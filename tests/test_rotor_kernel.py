@@ -486,3 +486,73 @@ def test_a_span_shorter_than_a_step_is_one_step() -> None:
     for record in (True, False):
         with pytest.raises(StepRampError, match="more than 1 RK4 steps"):
             follow(rotor, [(step / 2, 100.0)], step_s=step, max_steps=1, record=record)
+
+
+# --- the all-length verdict's sampling and its refusals ----------------------------------
+
+def test_families_are_sampled_every_eighth_period_and_cruise_ten_periods() -> None:
+    """Within a family only partial stages and the cruise change length: lengths are
+    taken every 1/8 natural period of dwell at the slowest changing segment's speed, and
+    a trapezoid family is judged up to a cruise of 10 natural periods at its top speed
+    (1 s at most): longer cruises repeat that settled state."""
+    from profiles.ppmc312.execution import move_families
+    from profiles.ppmc312.load_angle import samples
+
+    motor = plain_motor(damping_ratio=0.3)
+    rotor = rotor_of(motor)
+    table = FreeCurveTable(MHZ1, (100, 200, 400, 800), (40, 30, 20, 10))
+    lengths, family, spacing = samples(table, [motor])
+    fams = move_families(table)
+    trapezoid = next(i for i, f in enumerate(fams) if f.shape == "trapezoid" and f.hi > f.lo)
+    top = MHZ1.hz / fams[trapezoid].cruise_rate
+    cruise = math.ceil(top * 10 * min(rotor.natural_period_s(top), 1.0))
+    assert lengths[family == trapezoid].max() == fams[trapezoid].lo + cruise
+    # the family whose slowest changing stage is the 800-rate one (1250 pps): 1/8 period
+    slow = next(i for i, f in enumerate(fams) if f.hi - f.lo > 20 and f.shape != "trapezoid"
+                and f.execution().segments[-1].rate == 800)
+    speed = MHZ1.hz / 800
+    assert spacing[slow] == max(1, int(rotor.natural_period_s(speed) * speed / 8))
+    assert np.all(np.diff(lengths[family == slow]) <= spacing[slow])
+
+
+def test_a_move_at_exactly_the_peak_angle_is_unstable() -> None:
+    """90° is the top of the torque–angle curve: a move reaching it has no margin left
+    and is the shortest unstable move."""
+    from profiles.ppmc312.load_angle import Angles
+
+    found = Angles(np.array([10, 20, 30]), np.array([[40.0, 90.0, 95.0]]),
+                   np.zeros((1, 3), bool), np.array([0]), np.array([1]))
+    assert found.worst(0).first_unstable_pulses == 20
+    assert found.worst(0).worst_pulses == 30
+
+
+def test_verdicts_are_values() -> None:
+    import dataclasses
+
+    motor = plain_motor()
+    table = FreeCurveTable(MHZ1, (200, 400), (4, 4))
+    verdict = worst_load_angle(table, motor, pulses=[5])
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        verdict.worst_angle_deg = 0.0  # type: ignore[misc]
+    from profiles.ppmc312.load_angle import angles
+
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        angles(table, [motor], pulses=[5]).deg = np.zeros(1)  # type: ignore[misc]
+
+
+def test_a_verdict_refuses_no_lengths_a_bad_step_and_an_endless_run() -> None:
+    """No move length to judge, a step outside 1 ns..1 s, or a verdict past its budget
+    (here: steps of 1 ns over a 2 ms move): refused, naming the field or the budget."""
+    from profiles.errors import FieldRangeError, StepRampError
+
+    motor = plain_motor()
+    table = FreeCurveTable(MHZ1, (200, 400), (4, 4))
+    with pytest.raises(FieldRangeError) as empty:
+        worst_load_angle(table, motor, pulses=[])
+    assert (empty.value.field, empty.value.value, empty.value.lo, empty.value.hi) == (
+        "move lengths to judge", 0, 1, 0xFFFFFFFF)
+    for step in (0.0, 2.0):
+        with pytest.raises(FieldRangeError, match=r"max step \[s\]"):
+            worst_load_angle(table, motor, pulses=[5], max_step_s=step)
+    with pytest.raises(StepRampError, match="more than 8000000 RK4 steps"):
+        worst_load_angle(table, motor, pulses=[10], max_step_s=1e-9)
