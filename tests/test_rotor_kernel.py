@@ -551,8 +551,9 @@ def test_a_verdict_refuses_no_lengths_a_bad_step_and_an_endless_run() -> None:
         worst_load_angle(table, motor, pulses=[])
     assert (empty.value.field, empty.value.value, empty.value.lo, empty.value.hi) == (
         "move lengths to judge", 0, 1, 0xFFFFFFFF)
-    for step in (0.0, 2.0):
+    for step in (0.0, 0.99e-9, 1.01, 2.0):
         with pytest.raises(FieldRangeError, match=r"max step \[s\]"):
             worst_load_angle(table, motor, pulses=[5], max_step_s=step)
+    assert worst_load_angle(table, motor, pulses=[5], max_step_s=1.0).executions == 1
     with pytest.raises(StepRampError, match="more than 8000000 RK4 steps"):
         worst_load_angle(table, motor, pulses=[10], max_step_s=1e-9)
