@@ -434,17 +434,26 @@ def test_rotors_and_traces_are_values() -> None:
 
 def test_a_few_moves_of_a_tiny_table_are_the_oracles_whole_moves() -> None:
     """Every execution kernel on a 3-stage table (LE=1: the decel side differs), a few
-    lengths, both directions under a load: the verdict's worst angle per length is the
-    oracle's whole move. Small enough to run as plain Python (the kernel's mutation
-    run)."""
+    lengths judged together (each from where it parts from the longest one until it
+    rejoins it), both directions under a load: each length's worst angle in each
+    direction is the oracle's whole move. Small enough to run as plain Python (the
+    kernel's mutation run)."""
+    from profiles.ppmc312.load_angle import angles
+
     motor = plain_motor(load_torque_nm=0.05, friction_torque_nm=0.02, damping_ratio=0.3)
     table = FreeCurveTable(MHZ1, (120, 200, 400), (3, 3, 2), (2, 4))
     lengths = [1, 4, 9, 15, 40]
-    angles = worst_load_angles(table, [motor], pulses=lengths)[0]
-    assert angles.executions == 2 * len(lengths)
-    for n in lengths:
-        assert worst_load_angle(table, motor, pulses=[n]).worst_angle_deg == pytest.approx(
-            oracle_worst_deg(table, motor, n), abs=AGREE_DEG)
+    found = angles(table, [motor], pulses=lengths)
+    assert found.deg.shape == (2, len(lengths)) and list(found.lengths) == lengths
+    for row, direction in enumerate(found.direction):
+        rotor = rotor_of(motor, direction=int(direction))
+        step = rotor.step_s()
+        for e, n in enumerate(lengths):
+            whole = oracle.follow(rotor, spans_of(simulate_move(table, n), rotor, step),
+                                  step_s=step, trace=oracle.Trace(record=False))
+            assert found.deg[row, e] == pytest.approx(deg(rotor.c_e, max(whole.span_max)),
+                                                      abs=AGREE_DEG), (direction, n)
+    assert not found.slipped.any()
 
 
 @pytest.mark.parametrize("load_nm, accel, decel, top_rate", [

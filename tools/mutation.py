@@ -118,7 +118,9 @@ def main() -> int:
         return show(chosen[0].name, args.show)
     if not args.report:
         run_many(chosen, args.jobs, args.resume, args.again)
-    mutation_report.write(config, " ".join(["python tools/mutation.py", *sys.argv[1:]]))
+    command = ("python tools/mutation.py --jobs 2 --resume, then --again survived,timeout "
+               "after new tests; --report rewrites this from the verdict logs")
+    mutation_report.write(config, command)
     return 0
 
 

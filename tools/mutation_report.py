@@ -33,9 +33,11 @@ def module_result(name: str, path: Any, equivalent: dict[tuple[str, str], str]
     source = path.read_text()
     digest = source_hash(source)
     last: dict[str, str] = {}
+    seconds = 0.0
     for e in read_log(name):
         if e["sha"] == digest:
             last[str(e["id"])] = str(e["verdict"])
+            seconds += float(e.get("s", 0.0))  # type: ignore[arg-type]
     sites = mutants.sites(source)
     if last.get("<baseline>", "survived") != "survived":  # the tests failed unmutated
         return {"mutants": len(sites), "run": 0, "baseline": last["<baseline>"]}
@@ -55,7 +57,7 @@ def module_result(name: str, path: Any, equivalent: dict[tuple[str, str], str]
             "timeout": counts["timeout"], "equivalent": counts["equivalent"],
             "survived": counts["survived"], "not_run": counts["not run"],
             "score": round(killed / scored, 4) if scored else None,
-            "survivors": survivors}
+            "seconds": round(seconds), "survivors": survivors}
 
 
 def _row(name: str, r: dict[str, Any]) -> list[str]:
@@ -72,7 +74,7 @@ def _row(name: str, r: dict[str, Any]) -> list[str]:
 
 
 def _totals(results: dict[str, dict[str, Any]]) -> dict[str, Any]:
-    keys = ("mutants", "run", "killed", "timeout", "equivalent", "survived")
+    keys = ("mutants", "run", "killed", "timeout", "equivalent", "survived", "seconds")
     total = {k: sum(int(r.get(k, 0)) for r in results.values()) for k in keys}
     scored = total["run"] - total["equivalent"]
     total["score"] = round((total["killed"] + total["timeout"]) / scored, 4) if scored else None
@@ -110,7 +112,8 @@ def _note(total: dict[str, Any], not_run: list[str], partial: list[str],
           excluded_: dict[str, str]) -> str:
     score = "" if total["score"] is None else f"{100 * total['score']:.1f} %"
     parts = [f"{total['run']} of {total['mutants']} mutants run, score {score} "
-             "(killed + timeout) / (run − equivalent)"]
+             "(killed + timeout) / (run − equivalent), "
+             f"{total['seconds'] / 3600:.1f} h of mutant runs on the shared 2-core machine"]
     if not_run:
         parts.append(f"not run: {len(not_run)} module(s)")
     if partial:
