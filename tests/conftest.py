@@ -37,3 +37,7 @@ def _bundled_motors_only() -> Iterator[None]:
                     os.environ.pop(key, None)
                 else:
                     os.environ[key] = value
+
+
+# The session fails when it leaves a new or changed file in the checkout (tests/repo_clean.py).
+pytest_plugins = ["repo_clean"]

@@ -1,4 +1,4 @@
-"""verify.chip_rules rules at the boundaries the mutation run found unpinned (bench/mutation.py).
+"""verify.chip_rules rules at the boundaries the mutation run found unpinned (tools/mutation.py).
 
 8 MHz clock: a rate r runs 8e6 / r pps. Limits: a stage holds at most 0xFFFFF pulses,
 and runs at least 256 ticks (pulses × rate); a stop above 62500 pps is warned about.
@@ -69,3 +69,14 @@ def test_init_rates_of_0_are_range_errors_only() -> None:
         ["rate-range"]
     got = [f.rule for f in check_table(InitTable(C8, "linear", 0, 0, 0x1000))]
     assert "stop-speed-high" not in got and "speed-max" not in got and "rate-range" in got
+
+
+def test_a_last_stage_of_0_ticks_is_short_against_its_one_neighbour() -> None:
+    # 1 MHz, rates 100/200/300, accel 10/10/0: the last stage lasts 0 × 300 = 0 ticks, under
+    # 1/10 of its only neighbour's 10 × 200 = 2000 ticks (the last stage has one neighbour,
+    # the one before it); stage 1 lasts 2000 ticks against stage 2's 0: not short.
+    found = [f for f in check_table(FreeCurveTable(Clock.internal("1MHz"), (100, 200, 300),
+                                                   (10, 10, 0))) if f.rule == "stage-short"]
+    assert [f.stage for f in found] == [2]
+    assert found[0].message.startswith("accel stage 2 lasts 0 ticks, under 1/10 of its "
+                                       "neighbours' mean 2000 ticks")

@@ -157,6 +157,26 @@ def test_high_rate_slower_than_second_stage_gives_straight_triangle() -> None:
     assert runs(d) == [("cruise", 300, 83), ("decel", 400, 8), ("decel", 500, 9)]
 
 
+def test_a_move_that_cannot_accelerate_cruises_at_the_high_rate_then_runs_slower_stages() -> None:
+    # Rates 10/60/20/30 (not ascending: the execution still follows the chip's rule), high
+    # rate 50: slower than the second stage from the start (20), so no acceleration. The
+    # level is the slower of the high rate and the start stage's (30): 50. Every decel
+    # stage slower than that level is run on the way down: here the one at rate 60 (listed
+    # second), which takes all 3 pulses. A level taken from another stage (60) would leave
+    # nothing slower to run: 3 pulses of cruise.
+    t = FreeCurveTable(MHZ1, (10, 60, 20, 30), (5, 5, 5, 5))
+    e = simulate_move(t, 3, high_rate=50)
+    assert e.high_rate == 50
+    assert runs(e) == [("decel", 60, 3)]
+
+
+def test_equal_executions_compare_equal() -> None:
+    # Executions are values: the same move twice is equal (their cached arrays are left out
+    # of the comparison), a different one is not.
+    assert simulate_move(COMMON, 1000) == simulate_move(COMMON, 1000)
+    assert simulate_move(COMMON, 1000) != simulate_move(COMMON, 999)
+
+
 @pytest.mark.parametrize("rate", [99, 401, 0xFFFF, -1])
 def test_high_rate_outside_table_range_is_refused(rate: int) -> None:
     with pytest.raises(MoveParameterError) as err:
@@ -457,7 +477,7 @@ def test_segments_are_merged_and_contiguous(accel: list[int], data: st.DataObjec
     assert all(a.end_tick == b.start_tick for a, b in itertools.pairwise(e.segments))
 
 
-# --- time queries at their exact edges (found by bench/mutation.py) -------------------------
+# --- time queries at their exact edges (found by tools/mutation.py) -------------------------
 # A 2**20 Hz clock makes every dyadic instant exact in ticks (t · hz = the ticks written).
 DYADIC = Clock.extck(2.0**20)
 

@@ -2,7 +2,7 @@
 input in-process. A reader returns or raises a one-line StepRampError; a command exits
 0/1 with the right verdict or 2 with one line on stderr, never a traceback or an
 internal error, and leaves no output or temp file behind on failure. The generators
-are bench/fuzz.py's (its longer campaign reports counts per command).
+are tools/fuzz.py's (its longer campaign reports counts per command).
 
 The fast part runs one seeded case of every light template (every command, a few
 seconds); the hypothesis-driven campaign over every template, the planner-bound ones
@@ -35,7 +35,7 @@ from profiles.ppmc312.upload import decode_table_read, decode_upload
 from profiles.reading import parse_json
 
 ROOT = Path(__file__).resolve().parents[1]
-_spec = importlib.util.spec_from_file_location("stepramp_fuzz", ROOT / "bench" / "fuzz.py")
+_spec = importlib.util.spec_from_file_location("stepramp_fuzz", ROOT / "tools" / "fuzz.py")
 assert _spec is not None and _spec.loader is not None
 fuzz = importlib.util.module_from_spec(_spec)
 sys.modules["stepramp_fuzz"] = fuzz

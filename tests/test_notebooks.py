@@ -56,9 +56,14 @@ def test_committed_notebook_is_valid_and_stripped(stem: str) -> None:
     assert nb.metadata.kernelspec.name == "python3"
 
 
-def test_notebook_folder_holds_exactly_the_built_notebooks() -> None:
+def test_notebook_folder_holds_exactly_the_built_notebooks_and_their_sources() -> None:
     assert sorted(p.stem for p in NOTEBOOK_DIR.glob("*.ipynb")) == sorted(NOTEBOOKS)
     assert sorted(_load_build().NOTEBOOKS) == sorted(NOTEBOOKS)
+    # each notebook's source is a jupytext percent-format file beside it, nothing else
+    sources = sorted(p.stem for p in NOTEBOOK_DIR.glob("*.py") if p.name != "build.py")
+    assert sources == sorted(NOTEBOOKS)
+    for stem in NOTEBOOKS:
+        assert (NOTEBOOK_DIR / f"{stem}.py").read_text().startswith("# %%"), stem
 
 
 def test_committed_notebooks_match_a_fresh_build(tmp_path: Path) -> None:
@@ -68,8 +73,8 @@ def test_committed_notebooks_match_a_fresh_build(tmp_path: Path) -> None:
     for path in written:
         committed = NOTEBOOK_DIR / path.name
         assert path.read_text() == committed.read_text(), (
-            f"{path.name} differs from notebooks/build.py: run `python notebooks/build.py "
-            "notebooks` and commit")
+            f"{path.name} differs from its source notebooks/{path.stem}.py: run "
+            "`python notebooks/build.py notebooks` and commit")
 
 
 def test_notebooks_find_the_repository_through_the_packages() -> None:

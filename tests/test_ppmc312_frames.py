@@ -198,7 +198,7 @@ def test_a_length_byte_above_the_limit_names_byte_1() -> None:
     assert F.check_length_byte(bytes([0, 30]) + bytes(30), 3) == 30
 
 
-# --- limits at their exact boundary, both sides (found by bench/mutation.py) --------------
+# --- limits at their exact boundary, both sides (found by tools/mutation.py) --------------
 def test_mode_bits_name_the_le_bit() -> None:
     # bit 4 is LE: an LE=1 init read as LE=0 names it; bit 5 is simply never set
     with pytest.raises(DecodeError, match=r"mode\.le is 1, expected 0"):

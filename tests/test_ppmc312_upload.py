@@ -633,7 +633,7 @@ def test_well_formed_uploads_take_the_bulk_path(table: FreeCurveTable, max_data:
         assert decode_free_curve(wire, extck_hz=1e6) == table
 
 
-# --- where each error points, at the boundaries (found by bench/mutation.py) ---------------
+# --- where each error points, at the boundaries (found by tools/mutation.py) ---------------
 @pytest.mark.parametrize(("block", "says", "byte"), [
     ("03", "the init block is 1 byte(s)", 1),
     ("03 09", "init (LE=0) is 2 bytes, expected 11", 2),  # the frame's own check
@@ -710,3 +710,11 @@ def test_the_block_by_block_walk_decodes_every_golden_upload(
 
     with mock.patch.object(upload, "_decode_sections", return_value=None):
         assert decode_free_curve([bytes.fromhex(b) for b in blocks], extck_hz=1e6) == table
+
+
+def test_encode_free_curve_refuses_an_init_table() -> None:
+    # An init table has no stage lists: encoding it as a free curve would send the chip a
+    # command block with no parameter blocks. Refused, naming what was given.
+    init = InitTable(Clock.internal("8MHz"), "linear", 0x1122, 0x5566, 0xABCDEF)
+    with pytest.raises(FormatError, match="needs a free-curve table, got InitTable"):
+        encode_free_curve(init)  # type: ignore[arg-type]

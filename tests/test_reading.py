@@ -251,7 +251,7 @@ def test_an_empty_path_is_refused_by_name() -> None:
 
 def test_the_depth_scan_is_linear_on_unclosed_escaped_quotes() -> None:
     # `"\"\"\"…` with no closing quote made a one-regex scan quadratic (minutes at this
-    # size; found by bench/fuzz.py). Run in a thread: a regression fails, never hangs.
+    # size; found by tools/fuzz.py). Run in a thread: a regression fails, never hangs.
     data = b'"' + b'\\"' * 400_000
     box: list[BaseException | None] = []
 

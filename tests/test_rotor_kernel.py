@@ -286,3 +286,283 @@ def test_box_rows_for_a_motor_with_no_tolerances_are_its_rotor() -> None:
     assert rotors(motor, direction=-1).rotor(0) == rotor_of(motor, direction=-1)
     assert rotors(motor, {"torque_scale": [0.8]}).rotor(0) == rotor_of(
         variant(motor, {"torque_scale": 0.8}))
+
+
+# --- the model's numbers and edges, stated so that an off-by-one fails -------------------
+
+def test_the_rk4_step_is_a_fiftieth_and_the_rest_four_hundred_natural_periods() -> None:
+    """The step is 1/50 of the natural period at rest; the rest after a move lasts 400
+    natural periods (the module docstring's numbers)."""
+    rotor = rotor_of(plain_motor())
+    period = rotor.natural_period_s(0.0)
+    assert rotor.step_s() == pytest.approx(period / 50, rel=1e-12)
+    assert settle_s(rotor, rotor.step_s()) == pytest.approx(400 * period, rel=1e-12)
+
+
+def test_the_natural_period_at_rest_is_that_of_the_rotor_teeth_stiffness() -> None:
+    """Small-signal stiffness at rest Nr·T_pk(0) [N·m/rad] against the inertia J:
+    ω_n = √(Nr·T(0)/J), 2- and 5-phase alike (the load angle is Nr × the rotor's angle);
+    the damping is 2ζω_n from that same first curve point, not the second."""
+    for steps, teeth, phases in ((1600, 50, 2), (1000, 50, 5), (400, 100, 2)):
+        motor = plain_motor(steps_per_rev=steps, rotor_teeth=teeth, phases=phases,
+                            curve_torque_nm=np.array([0.5, 0.4, 0.32, 0.04]),
+                            damping_ratio=0.25)
+        rotor = rotor_of(motor)
+        omega_n = math.sqrt(teeth * 0.5 / 6.8e-6)
+        assert rotor.natural_period_s(0.0) == pytest.approx(2 * math.pi / omega_n, rel=1e-9)
+        assert rotor.damping_per_s == pytest.approx(2 * 0.25 * omega_n, rel=1e-9)
+
+
+def test_a_weak_rotor_still_has_a_finite_natural_period() -> None:
+    """Stiffness k·c_e·T = 0.25 /s² (well below 1): the period is 2π/0.5 = 4π s, in the
+    model and in its kernel; a rotor with no torque has none."""
+    from profiles.motor import rotor_kernel as rk
+    from profiles.motor.rotor import Rotor
+
+    weak = Rotor(1.0, 1.0, (0.0, 10.0), (0.25, 0.25), 0.0, 0.0, 0.0)
+    assert weak.natural_period_s(0.0) == pytest.approx(4 * math.pi)
+    assert rk.natural_period_s(*weak.curve(), weak.row(), 0.0) == pytest.approx(4 * math.pi)
+    assert math.isinf(rk.natural_period_s(*weak.curve(), weak.row(), 20.0))
+
+
+def test_the_peak_torque_is_the_curve_exactly_at_its_points_and_zero_beyond() -> None:
+    """T_pk(v) of a 5-point curve: exactly the curve's torque at each point (both
+    directions), linear between, 0 past the last point; the kernel agrees bit for bit."""
+    from profiles.motor import rotor_kernel as rk
+
+    speeds = (0.0, 1000.0, 3000.0, 6000.0, 12000.0)
+    torques = (0.4, 0.1, 0.3, 0.2, 0.05)  # values whose differences do not round back
+    motor = plain_motor(curve_speed_pps=np.array(speeds), curve_torque_nm=np.array(torques))
+    rotor = rotor_of(motor)
+    cv, ct = rotor.curve()
+    for v, t in zip(speeds, torques, strict=True):
+        for signed in (v, -v):
+            assert rotor.t_peak(signed) == t
+            assert rk._t_peak(cv, ct, signed) == t
+    for v in (500.0, 2000.0, 4500.0, 9000.0, 11999.0):
+        expected = float(np.interp(v, speeds, torques))
+        assert rotor.t_peak(v) == pytest.approx(expected, rel=1e-12)
+        assert rk._t_peak(cv, ct, v) == pytest.approx(expected, rel=1e-12)
+    for v in (12000.5, 5e4):
+        assert rotor.t_peak(v) == 0.0 and rk._t_peak(cv, ct, v) == 0.0
+
+
+def test_a_span_of_no_duration_takes_no_step() -> None:
+    rotor = rotor_of(plain_motor())
+    step = rotor.step_s()
+    plain = follow(rotor, [(2e-3, 500.0)], step_s=step)
+    with_empty = follow(rotor, [(0.0, 500.0), (2e-3, 500.0)], step_s=step)
+    assert with_empty.steps == plain.steps
+    np.testing.assert_array_equal(with_empty.lag, plain.lag)
+
+
+def test_a_run_past_its_step_budget_is_refused_naming_it() -> None:
+    """`max_steps` RK4 steps at most: a run that needs more is refused (a verdict that
+    would take minutes)."""
+    from profiles.errors import StepRampError
+
+    rotor = rotor_of(plain_motor(damping_ratio=0.0))
+    step = rotor.step_s()
+    long_span = [(200 * step, 300.0)]  # 200 steps
+    assert follow(rotor, long_span, step_s=step, max_steps=201).steps == 200
+    for record in (True, False):
+        with pytest.raises(StepRampError, match="more than 200 RK4 steps"):
+            follow(rotor, long_span, step_s=step, max_steps=200, record=record)
+
+
+def test_the_default_step_budget_is_two_million_steps() -> None:
+    from profiles.errors import StepRampError
+
+    rotor = rotor_of(plain_motor(damping_ratio=0.0))
+    step = rotor.step_s()
+    period = rotor.natural_period_s(0.0)
+    # undamped, each span skipped after 400 windows of a period (20 000 steps)
+    many = [(1000 * period, 300.0 * (k % 2)) for k in range(130)]
+    assert follow(rotor, many, step_s=step, record=False, max_steps=10**8).steps > 2_000_000
+    with pytest.raises(StepRampError, match="more than 2000000 RK4 steps"):
+        follow(rotor, many, step_s=step, record=False)
+
+
+def test_a_coarse_step_settles_by_windows_of_at_least_8_steps_like_the_oracle() -> None:
+    """With a step of a quarter natural period the settling window is its floor of 8
+    steps; a speed past the curve (no restoring torque) never settles within a span; an
+    undamped rotor is skipped after 400 windows. The kernel takes the oracle's steps."""
+    damped = rotor_of(plain_motor(damping_ratio=0.7))
+    undamped = rotor_of(plain_motor(damping_ratio=0.0))  # skipped after 400 windows
+    period = damped.natural_period_s(0.0)
+    for rotor, step, spans in (
+            (damped, period / 4, [(40 * period, 800.0), (40 * period, 0.0)]),
+            (damped, period / 50, [(1e-3, 800.0), (0.02, 60_000.0)]),
+            (undamped, period / 20, [(600 * period, 300.0)])):
+        fast = follow(rotor, spans, step_s=step)
+        slow = oracle.follow(rotor, spans, step_s=step)
+        assert fast.steps == slow.steps
+        np.testing.assert_allclose(fast.lag, slow.lag, atol=1e-9, rtol=1e-9)
+
+
+def test_rotor_sets_stack_only_alike_rotors_and_broadcast_their_parameters() -> None:
+    """Rotors judged together share their curve speeds and c_e (else refused); a
+    parameter array and a scalar give one row per array value."""
+    from profiles.motor.rotor import Rotors
+
+    base = rotors(plain_motor())
+    other_speeds = rotors(plain_motor(curve_speed_pps=np.array([0.0, 2000.0, 9000.0,
+                                                                 48000.0])))
+    other_teeth = rotors(plain_motor(rotor_teeth=100))
+    for odd in (other_speeds, other_teeth):
+        for parts in ([base, odd], [odd, base], [base, base, odd]):
+            with pytest.raises(ValueError, match="share their curve speeds and c_e"):
+                Rotors.stack(parts)
+    assert len(Rotors.stack([base, base, base])) == 3
+    rows = rotors(plain_motor(), {"torque_scale": [0.8, 0.9, 1.0], "inertia_kgm2": 1e-5})
+    assert len(rows) == 3
+    assert rows.rotor(2) == rotor_of(variant(plain_motor(), {"inertia_kgm2": 1e-5}))
+
+
+def test_rotors_and_traces_are_values() -> None:
+    """A rotor is immutable and hashable (a cache key); rotor sets and traces are
+    immutable."""
+    import dataclasses
+
+    rotor = rotor_of(plain_motor())
+    assert hash(rotor) == hash(rotor_of(plain_motor()))
+    trace = follow(rotor, [(1e-3, 100.0)], step_s=rotor.step_s())
+    for value, attr in ((rotor, "k"), (rotors(plain_motor()), "c_e"), (trace, "steps")):
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            setattr(value, attr, 1)
+
+
+def test_a_few_moves_of_a_tiny_table_are_the_oracles_whole_moves() -> None:
+    """Every execution kernel on a 3-stage table (LE=1: the decel side differs), a few
+    lengths judged together (each from where it parts from the longest one until it
+    rejoins it), both directions under a load: each length's worst angle in each
+    direction is the oracle's whole move. Small enough to run as plain Python (the
+    kernel's mutation run)."""
+    from profiles.ppmc312.load_angle import angles
+
+    motor = plain_motor(load_torque_nm=0.05, friction_torque_nm=0.02, damping_ratio=0.3)
+    table = FreeCurveTable(MHZ1, (120, 200, 400), (3, 3, 2), (2, 4))
+    lengths = [1, 4, 9, 15, 40]
+    found = angles(table, [motor], pulses=lengths)
+    assert found.deg.shape == (2, len(lengths)) and list(found.lengths) == lengths
+    for row, direction in enumerate(found.direction):
+        rotor = rotor_of(motor, direction=int(direction))
+        step = rotor.step_s()
+        for e, n in enumerate(lengths):
+            whole = oracle.follow(rotor, spans_of(simulate_move(table, n), rotor, step),
+                                  step_s=step, trace=oracle.Trace(record=False))
+            assert found.deg[row, e] == pytest.approx(deg(rotor.c_e, max(whole.span_max)),
+                                                      abs=AGREE_DEG), (direction, n)
+    assert not found.slipped.any()
+
+
+@pytest.mark.parametrize("load_nm, accel, decel, top_rate", [
+    (0.0, (6, 5, 4, 3), None, 200),            # LE=0, safe: the worst is sampled right
+    (0.03, (6, 5, 4, 3), (3, 8), 200),         # LE=1 under a load: both directions
+    (0.0, (3, 3, 3, 3), None, 40),             # too fast: past 90° from some length on
+])
+def test_the_sampled_verdict_is_brute_force_over_every_length(
+        load_nm: float, accel: tuple[int, ...], decel: tuple[int, ...] | None,
+        top_rate: int) -> None:
+    """The all-length verdict (each move family sampled by the ringing's phase, the
+    worst families refined) against every length judged one by one, up to a cruise long
+    enough to settle: the same worst angle, the same shortest unstable move."""
+    motor = plain_motor(load_torque_nm=load_nm, friction_torque_nm=0.01, damping_ratio=0.2)
+    rates = (top_rate, 2 * top_rate, 4 * top_rate, 8 * top_rate)
+    table = FreeCurveTable(MHZ1, rates, accel, decel)
+    verdict = worst_load_angle(table, motor)
+    rotor = rotor_of(motor)
+    top = MHZ1.hz / rates[0]
+    cruise = math.ceil(top * 10 * min(rotor.natural_period_s(top), 1.0)) + 1
+    every = worst_load_angle(table, motor, pulses=range(
+        1, table.accel_total + table.decel_total + cruise + 1))
+    assert verdict.slipped == every.slipped
+    assert verdict.worst_angle_deg == pytest.approx(every.worst_angle_deg, abs=AGREE_DEG)
+    assert verdict.first_unstable_pulses == every.first_unstable_pulses
+    assert verdict.worst_direction == every.worst_direction
+
+
+def test_a_span_shorter_than_a_step_is_one_step() -> None:
+    """Half a step of command is one RK4 step of that length, recorded; a budget of one
+    step is already spent by it (refused), whatever is recorded."""
+    from profiles.errors import StepRampError
+
+    rotor = rotor_of(plain_motor())
+    step = rotor.step_s()
+    trace = follow(rotor, [(step / 2, 100.0)], step_s=step)
+    assert trace.steps == 1 and len(trace.lag) == 2
+    assert trace.t_s[-1] == pytest.approx(step / 2)
+    for record in (True, False):
+        with pytest.raises(StepRampError, match="more than 1 RK4 steps"):
+            follow(rotor, [(step / 2, 100.0)], step_s=step, max_steps=1, record=record)
+
+
+# --- the all-length verdict's sampling and its refusals ----------------------------------
+
+def test_families_are_sampled_every_eighth_period_and_cruise_ten_periods() -> None:
+    """Within a family only partial stages and the cruise change length: lengths are
+    taken every 1/8 natural period of dwell at the slowest changing segment's speed, and
+    a trapezoid family is judged up to a cruise of 10 natural periods at its top speed
+    (1 s at most): longer cruises repeat that settled state."""
+    from profiles.ppmc312.execution import move_families
+    from profiles.ppmc312.load_angle import samples
+
+    motor = plain_motor(damping_ratio=0.3)
+    rotor = rotor_of(motor)
+    table = FreeCurveTable(MHZ1, (100, 200, 400, 800), (40, 30, 20, 10))
+    lengths, family, spacing = samples(table, [motor])
+    fams = move_families(table)
+    trapezoid = next(i for i, f in enumerate(fams) if f.shape == "trapezoid" and f.hi > f.lo)
+    top = MHZ1.hz / fams[trapezoid].cruise_rate
+    cruise = math.ceil(top * 10 * min(rotor.natural_period_s(top), 1.0))
+    assert lengths[family == trapezoid].max() == fams[trapezoid].lo + cruise
+    # the family whose slowest changing stage is the 800-rate one (1250 pps): 1/8 period
+    slow = next(i for i, f in enumerate(fams) if f.hi - f.lo > 20 and f.shape != "trapezoid"
+                and f.execution().segments[-1].rate == 800)
+    speed = MHZ1.hz / 800
+    assert spacing[slow] == max(1, int(rotor.natural_period_s(speed) * speed / 8))
+    assert np.all(np.diff(lengths[family == slow]) <= spacing[slow])
+
+
+def test_a_move_at_exactly_the_peak_angle_is_unstable() -> None:
+    """90° is the top of the torque–angle curve: a move reaching it has no margin left
+    and is the shortest unstable move."""
+    from profiles.ppmc312.load_angle import Angles
+
+    found = Angles(np.array([10, 20, 30]), np.array([[40.0, 90.0, 95.0]]),
+                   np.zeros((1, 3), bool), np.array([0]), np.array([1]))
+    assert found.worst(0).first_unstable_pulses == 20
+    assert found.worst(0).worst_pulses == 30
+
+
+def test_verdicts_are_values() -> None:
+    import dataclasses
+
+    motor = plain_motor()
+    table = FreeCurveTable(MHZ1, (200, 400), (4, 4))
+    verdict = worst_load_angle(table, motor, pulses=[5])
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        verdict.worst_angle_deg = 0.0  # type: ignore[misc]
+    from profiles.ppmc312.load_angle import angles
+
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        angles(table, [motor], pulses=[5]).deg = np.zeros(1)  # type: ignore[misc]
+
+
+def test_a_verdict_refuses_no_lengths_a_bad_step_and_an_endless_run() -> None:
+    """No move length to judge, a step outside 1 ns..1 s, or a verdict past its budget
+    (here: steps of 1 ns over a 2 ms move): refused, naming the field or the budget."""
+    from profiles.errors import FieldRangeError, StepRampError
+
+    motor = plain_motor()
+    table = FreeCurveTable(MHZ1, (200, 400), (4, 4))
+    with pytest.raises(FieldRangeError) as empty:
+        worst_load_angle(table, motor, pulses=[])
+    assert (empty.value.field, empty.value.value, empty.value.lo, empty.value.hi) == (
+        "move lengths to judge", 0, 1, 0xFFFFFFFF)
+    for step in (0.0, 0.99e-9, 1.01, 2.0):
+        with pytest.raises(FieldRangeError, match=r"max step \[s\]"):
+            worst_load_angle(table, motor, pulses=[5], max_step_s=step)
+    assert worst_load_angle(table, motor, pulses=[5], max_step_s=1.0).executions == 1
+    with pytest.raises(StepRampError, match="more than 8000000 RK4 steps"):
+        worst_load_angle(table, motor, pulses=[10], max_step_s=1e-9)

@@ -1,18 +1,14 @@
-"""Cells of notebooks/machine-to-table.ipynb (built by notebooks/build.py; edit here)."""
+# %% [markdown]
+# # From a machine to a table
+#
+# A stepper motor known only from its datasheet, lifting a carriage on a
+# vertical lead screw: the motor file (pull-out curve from the electrical model of
+# `profiles/datasheet.py`, inertia and friction reflected from the screw, every
+# number with its source, the carriage's weight as a load torque), the fastest
+# stall-safe PPMC-312 free curve for a 100 mm move, and the upload file the chip
+# takes.
 
-from __future__ import annotations
-
-CELLS: list[tuple[str, str]] = [
-    ("md", """\
-# From a machine to a table
-
-A stepper motor known only from its datasheet, lifting a carriage on a
-vertical lead screw: the motor file (pull-out curve from the electrical model of
-`profiles/datasheet.py`, inertia and friction reflected from the screw, every
-number with its source, the carriage's weight as a load torque), the fastest
-stall-safe PPMC-312 free curve for a 100 mm move, and the upload file the chip
-takes."""),
-    ("code", """\
+# %%
 import json
 import math
 import tempfile
@@ -45,18 +41,20 @@ motor = Motor.from_json(obj)
 print(json.dumps({k: v for k, v in obj.items() if k not in ("pullout_torque", "sources")},
                  ensure_ascii=False, indent=1))
 for field, parts in obj["sources"].items():
-    print(f"\\n{field}:")
+    print(f"\n{field}:")
     for part in parts:
-        print(f"  {part['value']:.4g}  {part['from']}")"""),
-    ("md", """\
-## The pull-out curve
+        print(f"  {part['value']:.4g}  {part['from']}")
 
-The model is a lower bound of the ideal circuit: torque is flat up to where the
-supply can no longer push the set current through the winding's impedance and
-against back-EMF, then falls to 0 where back-EMF reaches the supply. The file
-keeps a few points that never lie above the model. For scale, the bundled
-NEMA17 (a hand-typed curve for the same class of motor) is drawn too."""),
-    ("code", """\
+# %% [markdown]
+# ## The pull-out curve
+#
+# The model is a lower bound of the ideal circuit: torque is flat up to where the
+# supply can no longer push the set current through the winding's impedance and
+# against back-EMF, then falls to 0 where back-EMF reaches the supply. The file
+# keeps a few points that never lie above the model. For scale, the bundled
+# NEMA17 (a hand-typed curve for the same class of motor) is drawn too.
+
+# %%
 spr = motor.steps_per_rev
 speeds = np.linspace(0, motor.top_curve_pps * 1.05, 600)
 model = pullout_torque_nm(datasheet, drive, speeds * 2 * math.pi / spr)
@@ -78,15 +76,17 @@ ax.set_ylim(bottom=0)
 ax.grid(alpha=0.3)
 ax.legend()
 fig.tight_layout()
-plt.show()"""),
-    ("md", """\
-## The table for a 100 mm move
+plt.show()
 
-100 mm on an 8 mm lead at 1600 pulses per revolution is 20 000 pulses. The
-planner finds the fastest stall-safe staircase the chip runs for that move; the
-chip runs one table both ways, so the weight counts against the motor in both
-(up it opposes the motor accelerating, down it opposes the motor braking)."""),
-    ("code", """\
+# %% [markdown]
+# ## The table for a 100 mm move
+#
+# 100 mm on an 8 mm lead at 1600 pulses per revolution is 20 000 pulses. The
+# planner finds the fastest stall-safe staircase the chip runs for that move; the
+# chip runs one table both ways, so the weight counts against the motor in both
+# (up it opposes the motor accelerating, down it opposes the motor braking).
+
+# %%
 MOVE_MM = 100.0
 pulses = round(MOVE_MM / LEAD_MM * spr)
 plan = plan_free_curve(motor, pulses=pulses)
@@ -95,8 +95,9 @@ top_pps = float(table.speeds_pps()[0])   # stages are listed fastest first
 print(plan.info)
 print(f"{pulses} pulses = {MOVE_MM:g} mm in {plan.duration_s * 1e3:.1f} ms; top speed "
       f"{top_pps:.0f} pps = "
-      f"{pps_to_machine(top_pps, 'mm/s', steps_per_rev=spr, mm_per_rev=LEAD_MM):.1f} mm/s")"""),
-    ("code", """\
+      f"{pps_to_machine(top_pps, 'mm/s', steps_per_rev=spr, mm_per_rev=LEAD_MM):.1f} mm/s")
+
+# %%
 # The acceleration side as the carriage sees it: each stage's speed over the travel it takes.
 # Stages are listed fastest first; the carriage meets them slowest first.
 stage_speeds = table.speeds_pps()[:len(table.accel_pulses)][::-1]
@@ -112,20 +113,21 @@ ax.set_title(f"{len(stage_speeds)} accel stages, {plan.duration_s * 1e3:.1f} ms 
              f"for {MOVE_MM:g} mm")
 ax.grid(alpha=0.3)
 fig.tight_layout()
-plt.show()"""),
-    ("md", """\
-## The upload file
+plt.show()
 
-The free-curve blocks as a hex file, read back and decoded to the same table."""),
-    ("code", """\
+# %% [markdown]
+# ## The upload file
+#
+# The free-curve blocks as a hex file, read back and decoded to the same table.
+
+# %%
 workdir = tempfile.TemporaryDirectory(prefix="stepramp-machine-")
 path = Path(workdir.name) / "axis.upload.hex"
 blocks = encode_free_curve(table)
 path.write_bytes(render(blocks, "hex"))
 text = path.read_text().splitlines()
 print(f"{path.name}: {len(blocks)} blocks, {path.stat().st_size} bytes")
-print("\\n".join(text[:4] + ["…"]))
+print("\n".join(text[:4] + ["…"]))
 assert decode_upload(parse_upload(path.read_bytes())) == table
 print("decoded back: equal")
-workdir.cleanup()"""),
-]
+workdir.cleanup()

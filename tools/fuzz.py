@@ -22,7 +22,7 @@ the working directory: nothing is ever written beside the repository.
 `tests/test_fuzz.py` drives the same generators from hypothesis; this script runs a
 longer seeded campaign and prints counts per command:
 
-    python bench/fuzz.py [--cases 20000] [--seed 1]
+    python tools/fuzz.py [--cases 20000] [--seed 1]
 """
 
 from __future__ import annotations
@@ -223,7 +223,8 @@ def run_cli(argv: list[str], timeout_s: float | None = None) -> tuple[int, str, 
     if timed:
         signal.setitimer(signal.ITIMER_REAL, float(timeout_s or 0))
     try:
-        code = main(argv)
+        with _no_server(argv):
+            code = main(argv)
     except SystemExit as e:  # main must not exit; report it as a problem below
         code = -1 if not isinstance(e.code, int) else 100 + e.code
     except CaseTimeout:
@@ -234,6 +235,23 @@ def run_cli(argv: list[str], timeout_s: float | None = None) -> tuple[int, str, 
             signal.signal(signal.SIGALRM, previous)
         sys.stdout, sys.stderr, sys.stdin = saved
     return code, out.text(), err.text()
+
+
+@contextlib.contextmanager
+def _no_server(argv: list[str]) -> Iterator[None]:
+    """`design` checks every input, then serves its page until stopped: a case stops
+    where the server would start (the page itself is tests/test_design_web.py's)."""
+    if not argv or argv[0] != "design":
+        yield
+        return
+    import verify.webdesigner as web
+
+    saved = web.serve
+    web.serve = lambda *args, **kwargs: None
+    try:
+        yield
+    finally:
+        web.serve = saved
 
 
 def judge(command: str, argv: list[str], folder: Path, before: set[str],
@@ -319,6 +337,7 @@ FILE_COMMANDS: list[tuple[str, str, list[str]]] = [
     # (--no-physics: the load-angle judge of an odd but valid motor can run for minutes,
     # which is its business, not the contract's)
     ("check --motor", "motor", ["check", "EXAMPLE", "--motor", "FILE", "--no-physics"]),
+    ("design", "motor", ["design", "--motor", "FILE", "--port", "0", "--no-browser"]),
     ("export", "table-free", ["export", "FILE", "-o", "OUT"]),
     ("export", "table-init", ["export", "FILE", "--format", "json", "-o", "OUT"]),
     ("decode", "upload-hex", ["decode", "FILE", "-o", "OUT"]),
@@ -405,6 +424,7 @@ ARGV_TEMPLATES: list[tuple[str, list[str]]] = [
     # design serves until Ctrl-C once its options are good: the port is never a usable one
     ("design", ["design", "--motor", "PATH", "--pulses", "V", "--port", "BADPORT",
                 "--no-browser"]),
+    ("design", ["design", "--motor", "MOTOR", "--port", "V", "--pulses", "V", "--no-browser"]),
 ]
 
 HEAVY_ARGV_TEMPLATES: list[tuple[str, list[str]]] = [

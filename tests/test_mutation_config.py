@@ -1,0 +1,90 @@
+"""tools/mutation.toml against the code: every module of profiles/ and verify/ is mapped
+to tests or excluded with a reason, every test it names exists, and every mutant it
+calls equivalent still exists (ids are code, so a stale one is found here, not kept
+silently). And the mutants' ids are code: lines moving leave them unchanged."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tools"))
+
+import mutants  # noqa: E402
+from mutation_config import equivalents, excluded, load_config, module_path, modules  # noqa: E402
+
+CONFIG = load_config()
+
+
+def package_modules() -> set[str]:
+    names = set()
+    for path in [*ROOT.glob("profiles/**/*.py"), *ROOT.glob("verify/**/*.py")]:
+        name = ".".join(path.relative_to(ROOT).with_suffix("").parts)
+        names.add(name.removesuffix(".__init__"))
+    return names
+
+
+def test_every_module_is_mapped_or_excluded_with_a_reason() -> None:
+    mapped = {m.name for m in modules(CONFIG)}
+    left_out = excluded(CONFIG)
+    assert not mapped & set(left_out)
+    assert mapped | set(left_out) == package_modules()
+    assert all(why.strip() for why in left_out.values())
+
+
+def test_every_mapped_test_exists() -> None:
+    for m in modules(CONFIG):
+        files = [t.split("::")[0] for t in m.tests if t.startswith("tests/")]
+        assert files, m.name
+        for f in files:
+            assert (ROOT / f).is_file(), (m.name, f)
+
+
+def test_every_equivalent_mutant_exists_and_says_why() -> None:
+    ids: dict[str, set[str]] = {}
+    for (name, mid), why in equivalents(CONFIG).items():
+        if name not in ids:
+            ids[name] = {s.id for s in mutants.sites(module_path(name).read_text())}
+        assert mid in ids[name], f"{name}: no mutant {mid!r} (stale: the code changed)"
+        assert len(why) > 20, (name, mid)
+
+
+def test_ids_are_the_code_not_its_line() -> None:
+    source = (ROOT / "profiles" / "motor" / "rotor.py").read_text()
+    moved = source.replace("\nimport bisect\n", "\nimport bisect\n\n\ndef _new(x):\n"
+                                                "    return x[-1] + 1 if x else max(x)\n", 1)
+    before = [s.id for s in mutants.sites(source)]
+    after = {s.id for s in mutants.sites(moved)}
+    assert len(before) == len(set(before))
+    assert set(before) <= after and len(after) > len(before)
+
+
+def test_each_operator_makes_the_mutant_its_id_says() -> None:
+    source = ("def f(a, fr, u, xs):\n"
+              "    if not xs:\n"
+              "        print(a)\n"
+              "    return max(a + fr, xs[-1] * 2) if u > 0 and True else None\n")
+    sites = mutants.sites(source)
+    ret = "return max(a + fr, xs[-1] * 2) if u > 0 and True else None"
+    expected = {
+        "f: not xs → xs", "f: print(a) → None",
+        f"f: {ret} → return max(a - fr, xs[-1] * 2) if u > 0 and True else None",
+        f"f: {ret} → return max(a + fr, xs[+1] * 2) if u > 0 and True else None",
+        f"f: {ret} → return max(a + fr, xs[-2] * 2) if u > 0 and True else None",
+        f"f: {ret} → return max(a + fr, xs[-1] / 2) if u > 0 and True else None",
+        f"f: {ret} → return min(a + fr, xs[-1] * 2) if u > 0 and True else None",
+        f"f: {ret} → return max(a + fr, xs[-1] * 2) if u >= 0 and True else None",
+        f"f: {ret} → return max(a + fr, xs[-1] * 2) if u > 1 and True else None",
+        f"f: {ret} → return max(a + fr, xs[-1] * 2) if u > 0 or True else None",
+        f"f: {ret} → return max(a + fr, xs[-1] * 2) if u > 0 and False else None",
+    }
+    assert expected <= {site.id for site in sites} and len(sites) == 15
+    plain = mutants.mutant(source, -1)  # no site: the source unparsed
+    for site in sites:
+        changed = mutants.mutant(source, site.index)
+        assert changed != plain
+        assert site.after in changed or site.after == "None"
+    catalogue = (ROOT / "profiles" / "motor" / "catalogue.py").read_text()
+    for site in mutants.sites(catalogue):  # every mutant of a real module compiles
+        compile(mutants.mutant(catalogue, site.index), "catalogue", "exec")

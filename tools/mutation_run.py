@@ -1,0 +1,186 @@
+"""One module's mutants, each in a forked child that imports it in place of the module.
+
+The worker imports the heavy libraries once (numpy, numba, scipy, hypothesis, pytest),
+never the project's modules: each child imports them fresh, the mutant among them.
+Numba's on-disk cache is sent to a temporary folder for the run (a mutated kernel must
+never find, nor leave, a compiled copy beside the sources).
+"""
+
+from __future__ import annotations
+
+import ast
+import importlib.abc
+import importlib.machinery
+import importlib.util
+import json
+import os
+import signal
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import mutants
+from mutation_config import ROOT, Module, log_path, read_log, source_hash
+
+BASELINE_LIMIT_S = 900.0
+MIN_TIMEOUT_S = 120.0
+# a mutant may take 6× the unmutated run before it counts as a hang: the machine is shared,
+# and a survivor runs every test (a tight limit would count slow survivors as killed)
+TIMEOUT_FACTOR = 6.0
+
+
+class _MutantFinder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
+    """Serves the mutated source for one module name; everything else imports as usual."""
+
+    def __init__(self, name: str, path: Path, source: str) -> None:
+        self.name, self.path, self.source = name, path, source
+
+    def find_spec(self, fullname: str, path: object, target: object = None
+                  ) -> importlib.machinery.ModuleSpec | None:
+        if fullname != self.name:
+            return None
+        return importlib.util.spec_from_file_location(
+            fullname, self.path, loader=self,
+            submodule_search_locations=[str(self.path.parent)]
+            if self.path.name == "__init__.py" else None)
+
+    def create_module(self, spec: importlib.machinery.ModuleSpec) -> None:
+        return None
+
+    def exec_module(self, module: Any) -> None:
+        exec(compile(self.source, str(self.path), "exec"), module.__dict__)
+
+
+class _FastFirst:
+    """The quickest tests first (by their time in the unmutated run, which records it;
+    with -x most mutants then die in a cheap test); hypothesis derandomised, no
+    database, and no shrinking: a mutant needs only *a* failing example, and shrinking
+    one can take longer than every other test together. The profile is registered after
+    the suite's conftest loaded its own."""
+
+    def __init__(self, durations: dict[str, float], record: Path | None) -> None:
+        self.durations, self.record = durations, record
+        self.seen: dict[str, float] = {}
+
+    def pytest_configure(self, config: object) -> None:
+        from hypothesis import Phase, settings
+
+        settings.register_profile("mutation", settings.default, derandomize=True,
+                                  database=None, deadline=None,
+                                  phases=(Phase.explicit, Phase.reuse, Phase.generate))
+        settings.load_profile("mutation")
+
+    def pytest_collection_modifyitems(self, items: list[Any]) -> None:
+        def key(item: Any) -> tuple[float, bool]:
+            hyp = bool(getattr(getattr(item, "obj", None), "is_hypothesis_test", False))
+            return (self.durations.get(item.nodeid, 1e9 if hyp else 1e6), hyp)
+        items.sort(key=key)
+
+    def pytest_runtest_logreport(self, report: Any) -> None:
+        self.seen[report.nodeid] = self.seen.get(report.nodeid, 0.0) + report.duration
+
+    def pytest_sessionfinish(self) -> None:
+        if self.record is not None:
+            self.record.write_text(json.dumps(self.seen))
+
+
+def _run_child(name: str, path: Path, source: str, tests: list[str], plugin: _FastFirst
+               ) -> int:
+    import pytest
+
+    sys.meta_path.insert(0, _MutantFinder(name, path, source))
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 1)
+    os.dup2(devnull, 2)
+    # no:repo_clean: the suite's check that a session leaves the checkout unchanged would
+    # fail a mutant's run whenever the checkout changes meanwhile (a log, an edit)
+    return int(pytest.main(["-x", "-q", "-m", "not slow", "-p", "no:cacheprovider",
+                            "-p", "no:repo_clean",
+                            "--no-header", "-o", "addopts=", *tests], plugins=[plugin]))
+
+
+def run_one(name: str, path: Path, source: str, tests: list[str], timeout_s: float,
+            plugin: _FastFirst | None = None) -> str:
+    """'killed', 'survived' or 'timeout' for one source of the module."""
+    pid = os.fork()
+    if pid == 0:  # child
+        code = 3
+        try:
+            code = _run_child(name, path, source, tests, plugin or _FastFirst({}, None))
+        finally:
+            os._exit(code)
+    deadline = time.monotonic() + timeout_s
+    while True:
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if done:
+            return "survived" if os.waitstatus_to_exitcode(status) == 0 else "killed"
+        if time.monotonic() > deadline:
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+            return "timeout"
+        time.sleep(0.02)
+
+
+def _prepare() -> None:
+    """Heavy imports once, before forking; not the project's modules."""
+    os.environ.setdefault("CI", "true")
+    os.environ["NUMBA_CACHE_DIR"] = tempfile.mkdtemp(prefix="stepramp-mutation-numba-")
+    os.environ.setdefault("MPLBACKEND", "Agg")
+    os.chdir(ROOT)
+    sys.path.insert(0, str(ROOT))
+    import hypothesis  # noqa: F401
+    import matplotlib  # noqa: F401
+    import numba  # noqa: F401
+    import numpy  # noqa: F401
+    import pytest  # noqa: F401
+    import scipy  # noqa: F401
+
+
+def _todo(m: Module, digest: str, resume: bool, again: set[str]) -> set[str] | None:
+    """The mutant ids to skip (already judged) or, with `again`, the only ones to run
+    (those whose last verdict is in it); None: all."""
+    last = {str(e["id"]): str(e["verdict"]) for e in read_log(m.name) if e["sha"] == digest}
+    if again:
+        return {i for i, v in last.items() if v in again}
+    return set(last) if resume else None
+
+
+def worker(m: Module, resume: bool, again: set[str]) -> int:
+    _prepare()
+    source = m.path.read_text()
+    digest = source_hash(source)
+    sites = mutants.sites(source)
+    chosen = _todo(m, digest, resume, again)
+    wanted = [s for s in sites if chosen is None
+              or (s.id in chosen if again else s.id not in chosen)]
+    log = log_path(m.name)
+    if not wanted:
+        return 0
+    t0 = time.monotonic()
+    record = Path(os.environ["NUMBA_CACHE_DIR"]) / "durations.json"
+    base = run_one(m.name, m.path, ast.unparse(ast.parse(source)), m.tests, BASELINE_LIMIT_S,
+                   _FastFirst({}, record))
+    base_s = time.monotonic() - t0
+    durations = json.loads(record.read_text()) if record.exists() else {}
+    if base != "survived":
+        print(f"{m.name}: the tests fail on the unmutated module ({base})", file=sys.stderr)
+        with log.open("a") as f:
+            f.write(json.dumps({"id": "<baseline>", "verdict": base, "sha": digest}) + "\n")
+        return 1
+    with log.open("a") as f:  # the unmutated run passed (a later failure is logged too)
+        f.write(json.dumps({"id": "<baseline>", "verdict": base, "sha": digest,
+                            "s": round(base_s, 2), "at": round(time.time())}) + "\n")
+    timeout_s = max(MIN_TIMEOUT_S, TIMEOUT_FACTOR * base_s)
+    print(f"{m.name}: {len(wanted)} mutants, baseline {base_s:.1f} s", file=sys.stderr,
+          flush=True)
+    for site in wanted:
+        t1 = time.monotonic()
+        verdict = run_one(m.name, m.path, mutants.mutant(source, site.index), m.tests,
+                          timeout_s, _FastFirst(durations, None))
+        entry = {"id": site.id, "verdict": verdict, "sha": digest, "line": site.line,
+                 "s": round(time.monotonic() - t1, 2), "at": round(time.time())}
+        with log.open("a") as f:
+            f.write(json.dumps(entry, ensure_ascii=False) + "\n")
+    return 0
