@@ -11,7 +11,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 import rotor_oracle as oracle
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from profiles.motor import Motor, bundled_motor_paths, load_motor
@@ -144,6 +144,9 @@ def test_the_all_length_verdict_is_brute_force_over_every_length(
     rotor = rotor_of(motor)
     top = table.clock.hz / table.rates[0]
     cruise = math.ceil(top * 10 * min(rotor.natural_period_s(top), 1.0)) + 1
+    # a barely stable top speed (a period near 1 s) needs tens of thousands of lengths:
+    # past the brute force's step budget, not a question about the verdict
+    assume(cruise <= 4000)
     every = worst_load_angle(table, motor, pulses=range(
         1, table.accel_total + table.decel_total + cruise + 1))
     if every.slipped:  # past a pole slip the angle is no longer a margin: same verdict
@@ -474,6 +477,9 @@ def test_the_sampled_verdict_is_brute_force_over_every_length(
     rotor = rotor_of(motor)
     top = MHZ1.hz / rates[0]
     cruise = math.ceil(top * 10 * min(rotor.natural_period_s(top), 1.0)) + 1
+    # a barely stable top speed (a period near 1 s) needs tens of thousands of lengths:
+    # past the brute force's step budget, not a question about the verdict
+    assume(cruise <= 4000)
     every = worst_load_angle(table, motor, pulses=range(
         1, table.accel_total + table.decel_total + cruise + 1))
     assert verdict.slipped == every.slipped

@@ -86,6 +86,92 @@ def natural_period_s(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray
 
 
 @_jit
+def _rk4(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, v: float, lag: float,
+         s: float, h: float) -> tuple[float, float]:
+    """One RK4 step of (lag, s) under the command speed v."""
+    k1l = s
+    k1s = -_accel(curve_v, curve_t, rotor, v, lag, s)
+    k2l = s + 0.5 * h * k1s
+    k2s = -_accel(curve_v, curve_t, rotor, v, lag + 0.5 * h * k1l, s + 0.5 * h * k1s)
+    k3l = s + 0.5 * h * k2s
+    k3s = -_accel(curve_v, curve_t, rotor, v, lag + 0.5 * h * k2l, s + 0.5 * h * k2s)
+    k4l = s + h * k3s
+    k4s = -_accel(curve_v, curve_t, rotor, v, lag + h * k3l, s + h * k3s)
+    return (lag + h / 6 * (k1l + 2 * k2l + 2 * k3l + k4l),
+            s + h / 6 * (k1s + 2 * k2s + 2 * k3s + k4s))
+
+
+@_jit
+def _put(rec_t: np.ndarray, rec_lag: np.ndarray, recorded: int, t: float, lag: float) -> bool:
+    """Record (t, lag) at `recorded`; False when the buffers are full."""
+    if recorded == len(rec_t):
+        return False
+    rec_t[recorded] = t
+    rec_lag[recorded] = lag
+    return True
+
+
+@_jit
+def _span(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, d: float, v: float,
+          lag: float, s: float, t: float, step: float, slip: float, tol: float,
+          settle_periods: int, limit: int, steps: int, resting: bool, record: bool,
+          rec_t: np.ndarray, rec_lag: np.ndarray, recorded: int
+          ) -> tuple[int, int, float, float, float, float, int, int]:
+    """One span of command speed v for d seconds from (lag, s) at t (see `follow_spans`).
+
+    Returns (status, slipped, slip time, lag, s, its largest |lag|, steps, recorded)."""
+    peak = abs(lag)
+    if not d > 0:  # (a NaN duration too: nothing to integrate)
+        return OK, 0, 0.0, lag, s, peak, steps, recorded
+    n = max(1, math.ceil(d / step))
+    h = d / n
+    period = natural_period_s(curve_v, curve_t, rotor, v)
+    window = max(8, math.ceil(period / h)) if math.isfinite(period) else n + 1
+    lo = lag
+    hi = lag
+    count = 0
+    windows = 0
+    last_window = math.inf
+    for j in range(1, n + 1):
+        lag, s = _rk4(curve_v, curve_t, rotor, v, lag, s, h)
+        tj = t + j * h
+        if record:
+            if not _put(rec_t, rec_lag, recorded, tj, lag):
+                return OUT_OF_ROOM, 0, 0.0, lag, s, peak, steps, recorded
+            recorded += 1
+        steps += 1
+        peak = max(peak, abs(lag))
+        if abs(lag) > slip:
+            return OK, 1, tj, lag, s, peak, steps, recorded
+        lo = min(lo, lag)
+        hi = max(hi, lag)
+        count += 1
+        # Held by static friction (the rotor at rest under a moving command) the lag
+        # grows steadily however small its range over a window: not settled.
+        if count >= window and (s != v or v == 0.0):
+            windows += 1
+            # Settled: the rest of a constant span repeats this state. An undamped rotor
+            # never settles; after `settle_periods` windows its (periodic) oscillation
+            # has shown its extremes, so it is skipped as well.
+            if hi - lo < tol or windows >= settle_periods:
+                if j < n and record:
+                    if not _put(rec_t, rec_lag, recorded, t + d, lag):
+                        return OUT_OF_ROOM, 0, 0.0, lag, s, peak, steps, recorded
+                    recorded += 1
+                break
+            window_max = max(abs(lo), abs(hi))
+            if resting and window_max < last_window:
+                break
+            last_window = window_max
+            lo = lag
+            hi = lag
+            count = 0
+        if steps >= limit:
+            return OUT_OF_STEPS, 0, 0.0, lag, s, peak, steps, recorded
+    return OK, 0, 0.0, lag, s, peak, steps, recorded
+
+
+@_jit
 def follow_spans(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
                  dur: np.ndarray, vel: np.ndarray, lag: float, s: float, previous: float,
                  t0: float, step: float, slip: float, tol: float, settle_periods: int,
@@ -113,77 +199,18 @@ def follow_spans(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
         v = vel[i]
         s += v - previous  # the command's speed steps; the lag is continuous
         previous = v
-        d = dur[i]
-        peak = abs(lag)
-        if d > 0:
-            n = max(1, math.ceil(d / step))
-            h = d / n
-            period = natural_period_s(curve_v, curve_t, rotor, v)
-            window = max(8, math.ceil(period / h)) if math.isfinite(period) else n + 1
-            lo = lag
-            hi = lag
-            count = 0
-            windows = 0
-            last_window = math.inf
-            resting = peak_only and v == 0.0 and i == len(dur) - 1
-            for j in range(1, n + 1):
-                k1l = s
-                k1s = -_accel(curve_v, curve_t, rotor, v, lag, s)
-                k2l = s + 0.5 * h * k1s
-                k2s = -_accel(curve_v, curve_t, rotor, v, lag + 0.5 * h * k1l,
-                              s + 0.5 * h * k1s)
-                k3l = s + 0.5 * h * k2s
-                k3s = -_accel(curve_v, curve_t, rotor, v, lag + 0.5 * h * k2l,
-                              s + 0.5 * h * k2s)
-                k4l = s + h * k3s
-                k4s = -_accel(curve_v, curve_t, rotor, v, lag + h * k3l, s + h * k3s)
-                lag += h / 6 * (k1l + 2 * k2l + 2 * k3l + k4l)
-                s += h / 6 * (k1s + 2 * k2s + 2 * k3s + k4s)
-                tj = t + j * h
-                if record:
-                    if recorded == len(rec_t):
-                        return i, OUT_OF_ROOM, 0, 0.0, steps, -1, recorded
-                    rec_t[recorded] = tj
-                    rec_lag[recorded] = lag
-                    recorded += 1
-                steps += 1
-                peak = max(peak, abs(lag))
-                if abs(lag) > slip:
-                    out_max[i] = peak
-                    out_lag[i] = lag
-                    out_s[i] = s
-                    return i + 1, OK, 1, tj, steps, -1, recorded
-                lo = min(lo, lag)
-                hi = max(hi, lag)
-                count += 1
-                # Held by static friction (the rotor at rest under a moving command) the
-                # lag grows steadily however small its range over a window: not settled.
-                if count >= window and (s != v or v == 0.0):
-                    windows += 1
-                    # Settled: the rest of a constant span repeats this state. An undamped
-                    # rotor never settles; after `settle_periods` windows its (periodic)
-                    # oscillation has shown its extremes, so it is skipped as well.
-                    if hi - lo < tol or windows >= settle_periods:
-                        if j < n and record:
-                            if recorded == len(rec_t):
-                                return i, OUT_OF_ROOM, 0, 0.0, steps, -1, recorded
-                            rec_t[recorded] = t + d
-                            rec_lag[recorded] = lag
-                            recorded += 1
-                        break
-                    window_max = max(abs(lo), abs(hi))
-                    if resting and window_max < last_window:
-                        break
-                    last_window = window_max
-                    lo = lag
-                    hi = lag
-                    count = 0
-                if steps >= limit:
-                    return i, OUT_OF_STEPS, 0, 0.0, steps, -1, recorded
-        t += d
+        resting = peak_only and v == 0.0 and i == len(dur) - 1
+        status, slipped, slip_t, lag, s, peak, steps, recorded = _span(
+            curve_v, curve_t, rotor, dur[i], v, lag, s, t, step, slip, tol, settle_periods,
+            limit, steps, resting, record, rec_t, rec_lag, recorded)
+        if status != OK:
+            return i, status, 0, 0.0, steps, -1, recorded
         out_max[i] = peak
         out_lag[i] = lag
         out_s[i] = s
+        if slipped:
+            return i + 1, OK, 1, slip_t, steps, -1, recorded
+        t += dur[i]
         kb = ref_kb[i]
         if kb >= 0 and abs(lag - ref_lag[kb]) <= tol_lag and abs(s - ref_s[kb]) <= tol_s:
             return i + 1, OK, 0, 0.0, steps, kb, recorded

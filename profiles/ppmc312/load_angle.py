@@ -170,8 +170,10 @@ def samples(table: FreeCurveTable, motors: Sequence[Motor]
         if math.isfinite(period):
             spacing[i] = max(1, min(int(spacing[i]), int(period * speed / PHASE_SAMPLES)))
         # past this much dwell the rotor has settled in that stage (or cruise): a longer
-        # one repeats the settled state (two partial stages share the growth: twice it)
-        dense[i] = min(int(hi[i]), int(lo[i]) + 2 * max(
+        # one repeats the settled state (a cruise grows a pulse a length; two partial
+        # stages share the growth: twice it)
+        share = 1 if trapezoid[i] else 2
+        dense[i] = min(int(hi[i]), int(lo[i]) + share * max(
             math.ceil(speed * SETTLE_CRUISE_PERIODS * settle), 1))
     hi = np.where(trapezoid, dense, hi)  # a longer cruise repeats the settled one
     count = (dense - lo) // spacing + 1
