@@ -63,6 +63,7 @@ def test_unusable_options_exit_2_naming_the_option(argv: list[str], says: str,
     assert err.count("\n") == 1 and says in err, err
 
 
+@pytest.mark.slow  # ~2.5 s (a Panel server); CI runs it
 def test_a_port_in_use_exits_2_naming_it(capsys: pytest.CaptureFixture[str]) -> None:
     import socket
 

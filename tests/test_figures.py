@@ -53,6 +53,7 @@ def run_cli(argv: list[str], tmp_path: Path, exit_codes: tuple[int, ...] = (0,))
     assert code in exit_codes, argv
 
 
+@pytest.mark.slow  # ~3 s; CI runs it
 def test_motor_show_plot(tmp_path: Path, saved: list[Any],
                          capsys: pytest.CaptureFixture[str]) -> None:
     for motor in ("nema17-1600", str(EXAMPLES / "motor-nema17-tolerances.json")):

@@ -327,7 +327,8 @@ class NoisyLine(PassThrough):
         return self._noise(self.port.read(size))
 
 
-@pytest.mark.parametrize("seed", [1, pytest.param(2, marks=pytest.mark.slow),
+@pytest.mark.parametrize("seed", [pytest.param(1, marks=pytest.mark.slow),  # ~6 s each
+                                  pytest.param(2, marks=pytest.mark.slow),
                                   pytest.param(3, marks=pytest.mark.slow)])
 def test_a_noisy_line_loses_and_misreads_nothing(pty_chip: tuple[SerialChip, str],
                                                  seed: int) -> None:

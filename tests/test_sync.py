@@ -170,6 +170,7 @@ def time_plan():
     return plan_time_sync([("x", NEMA17, 12_000), ("y", PK566, -5_000), ("z", NEMA23, 900)])
 
 
+@pytest.mark.slow  # a three-axis time sync (~7 s); CI runs it
 def test_time_mode_finishes_together(time_plan) -> None:
     exes = [a.execution for a in time_plan.axes]
     spread = independent_spread(exes)
@@ -182,6 +183,7 @@ def test_time_mode_finishes_together(time_plan) -> None:
         assert item["duration_s"] == pytest.approx(pulse_instants(a.execution)[-1], abs=1e-12)
 
 
+@pytest.mark.slow  # shares that plan
 def test_time_mode_slowest_keeps_its_fastest_table_others_slowed_safely(time_plan) -> None:
     from profiles.motor.angles import AIM_DEG
     from profiles.ppmc312.load_angle import worst_load_angle
@@ -256,6 +258,7 @@ def line_plan():
     return plan_line_sync([("x", NEMA17, 12_000), ("y", NEMA17, -7_001)])
 
 
+@pytest.mark.slow  # a line sync (~2 s); CI runs it
 def test_line_deviation_recomputed_equals_the_report(line_plan) -> None:
     a, b = (x.execution for x in line_plan.axes)
     ours = independent_deviation(a, b)
@@ -264,6 +267,7 @@ def test_line_deviation_recomputed_equals_the_report(line_plan) -> None:
     assert report["finish_spread_s"] == pytest.approx(independent_spread([a, b]), abs=1e-12)
 
 
+@pytest.mark.slow  # shares that plan
 def test_line_mode_stays_near_the_line_finishes_together_and_is_safe(line_plan) -> None:
     dev = line_deviation([a.execution for a in line_plan.axes])[0]
     assert dev < 3.0   # a few pulses at most, where naive rounding drifts by several
