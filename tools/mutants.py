@@ -20,6 +20,7 @@ so a list of equivalent mutants keyed by id stays right when lines move.
 from __future__ import annotations
 
 import ast
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -150,7 +151,7 @@ class _Mutator(ast.NodeVisitor):
         for i, op in enumerate(node.ops):
             swap = _CMP_SWAP.get(type(op))
             if swap is not None:
-                self._site(node, lambda i=i, swap=swap: _set_item(node.ops, i, swap()))
+                self._site(node, functools.partial(_set_item, node.ops, i, swap()))
 
     def visit_BinOp(self, node: ast.BinOp) -> None:
         self.generic_visit(node)
@@ -173,7 +174,7 @@ class _Mutator(ast.NodeVisitor):
             self._site(node, lambda: _set(node, "value", not v))
         elif isinstance(v, int):
             for delta in (1, -1):
-                self._site(node, lambda delta=delta: _set(node, "value", v + delta))
+                self._site(node, functools.partial(_set, node, "value", v + delta))
 
     def visit_Call(self, node: ast.Call) -> None:
         self.generic_visit(node)

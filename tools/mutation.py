@@ -18,6 +18,12 @@ function, so it makes no mutant of the numba kernels (profiles/motor/rotor_kerne
 (every arithmetic operator into every other) and starts a fresh interpreter for each:
 12 mutants in 180 s (15 s each) against 20 in 94 s here (forked, imports paid once).
 
+A whole-package run takes about a day on the shared 2-core machine (some 12 000
+mutants, a few seconds each and a survivor the module's whole test run), so the
+load-angle model is run whole and the other modules by a random sample (`--sample N`:
+a fixed random order per module, so a sample is reproducible and a larger one extends
+it); a sampled module's score is over the mutants it ran.
+
 Each mutant's verdict is appended, as one JSON line, to bench/results/mutation/
 <module>.jsonl (with the hash of the module's source: a verdict of an older source is
 not reused). `--report` turns the logs into bench/results/mutation.json (the shared
@@ -26,6 +32,7 @@ equivalent mutants with their reasons), without running anything.
 
 Usage:
     python tools/mutation.py [MODULE …] [--jobs N] [--resume] [--again survived,timeout]
+                             [--sample N]
     python tools/mutation.py --list MODULE        # every mutant id
     python tools/mutation.py --show MODULE ID     # the mutant's diff
     python tools/mutation.py --report
@@ -66,7 +73,7 @@ def show(name: str, wanted: str) -> int:
     return 2
 
 
-def run_many(chosen: list[Module], jobs: int, resume: bool, again: str) -> None:
+def run_many(chosen: list[Module], jobs: int, resume: bool, again: str, sample: int) -> None:
     """Each module in a worker process of its own (its env set before numba loads), at
     most `jobs` at once."""
     LOGS.mkdir(parents=True, exist_ok=True)
@@ -78,6 +85,7 @@ def run_many(chosen: list[Module], jobs: int, resume: bool, again: str) -> None:
             argv = [sys.executable, __file__, "--worker", m.name]
             argv += ["--resume"] if resume else []
             argv += ["--again", again] if again else []
+            argv += ["--sample", str(sample)] if sample else []
             running.append((m, subprocess.Popen(argv, env={**os.environ, **m.env}, cwd=ROOT)))
         for m, p in list(running):
             if p.poll() is not None:
@@ -95,6 +103,9 @@ def main() -> int:
     ap.add_argument("--again", metavar="VERDICTS", default="",
                     help="run only the mutants whose last verdict is one of these "
                          "(comma-separated: survived,timeout), e.g. after new tests")
+    ap.add_argument("--sample", type=int, default=0, metavar="N",
+                    help="judge a random sample of N mutants per module (fixed per module: "
+                         "a larger N extends it; those already judged are kept)")
     ap.add_argument("--list", action="store_true", help="print the mutant ids")
     ap.add_argument("--show", metavar="ID", help="print one mutant's diff (id or index)")
     ap.add_argument("--report", action="store_true", help="write the results from the logs")
@@ -104,7 +115,7 @@ def main() -> int:
     mapped = {m.name: m for m in modules(config)}
     if args.worker:
         again = {v for v in args.again.split(",") if v}
-        return mutation_run.worker(mapped[args.worker], args.resume, again)
+        return mutation_run.worker(mapped[args.worker], args.resume, again, args.sample)
     unknown = set(args.modules) - set(mapped)
     if unknown:
         ap.error(f"not in tools/mutation.toml: {sorted(unknown)}")
@@ -117,9 +128,10 @@ def main() -> int:
     if args.show:
         return show(chosen[0].name, args.show)
     if not args.report:
-        run_many(chosen, args.jobs, args.resume, args.again)
-    command = ("python tools/mutation.py --jobs 2 --resume, then --again survived,timeout "
-               "after new tests; --report rewrites this from the verdict logs")
+        run_many(chosen, args.jobs, args.resume, args.again, args.sample)
+    command = ("python tools/mutation.py --jobs 2 --resume (every mutant of the load-angle "
+               "model), --sample N (a random sample of every other module's), then --again "
+               "survived,timeout after new tests; --report rewrites this from the verdict logs")
     mutation_report.write(config, command)
     return 0
 

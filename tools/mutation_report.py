@@ -75,7 +75,7 @@ def _row(name: str, r: dict[str, Any]) -> list[str]:
 
 def _totals(results: dict[str, dict[str, Any]]) -> dict[str, Any]:
     keys = ("mutants", "run", "killed", "timeout", "equivalent", "survived", "seconds")
-    total = {k: sum(int(r.get(k, 0)) for r in results.values()) for k in keys}
+    total: dict[str, Any] = {k: sum(int(r.get(k, 0)) for r in results.values()) for k in keys}
     scored = total["run"] - total["equivalent"]
     total["score"] = round((total["killed"] + total["timeout"]) / scored, 4) if scored else None
     return total
@@ -117,7 +117,7 @@ def _note(total: dict[str, Any], not_run: list[str], partial: list[str],
     if not_run:
         parts.append(f"not run: {len(not_run)} module(s)")
     if partial:
-        parts.append(f"partly run: {', '.join(partial)}")
+        parts.append(f"sampled (each score over the mutants run): {len(partial)} module(s)")
     parts.append(f"excluded: {', '.join(excluded_)}")
     return "; ".join(parts) + "."
 

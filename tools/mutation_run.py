@@ -14,6 +14,7 @@ import importlib.machinery
 import importlib.util
 import json
 import os
+import random
 import signal
 import sys
 import tempfile
@@ -147,12 +148,22 @@ def _todo(m: Module, digest: str, resume: bool, again: set[str]) -> set[str] | N
     return set(last) if resume else None
 
 
-def worker(m: Module, resume: bool, again: set[str]) -> int:
+def sample_order(m: Module, sites: list[mutants.Site]) -> list[mutants.Site]:
+    """The module's mutants in a fixed random order (seeded by its name): a sample of N
+    is the first N, and a larger one extends it."""
+    order = list(sites)
+    random.Random(m.name).shuffle(order)
+    return order
+
+
+def worker(m: Module, resume: bool, again: set[str], sample: int = 0) -> int:
     _prepare()
     source = m.path.read_text()
     digest = source_hash(source)
     sites = mutants.sites(source)
-    chosen = _todo(m, digest, resume, again)
+    if sample:  # a random sample: its first `sample` mutants, those already judged kept
+        sites = sample_order(m, sites)[:sample]
+    chosen = _todo(m, digest, resume or bool(sample), again)
     wanted = [s for s in sites if chosen is None
               or (s.id in chosen if again else s.id not in chosen)]
     log = log_path(m.name)
