@@ -36,10 +36,10 @@ NOTE = "2-core VM shared with other sessions: load averages before and after the
 class Results:
     """One bench run's results: values and sections, written by `write`."""
 
-    def __init__(self, name: str, note: str = NOTE) -> None:
+    def __init__(self, name: str, note: str = NOTE, folder: str = "bench") -> None:
         self.name = name
         self.note = note
-        self.command = " ".join(["python", f"bench/{Path(sys.argv[0]).name}", *sys.argv[1:]])
+        self.command = " ".join(["python", f"{folder}/{Path(sys.argv[0]).name}", *sys.argv[1:]])
         self.load_before = os.getloadavg()[0]
         self.values: dict[str, Any] = {}
         self.sections: dict[str, dict[str, Any]] = {}
