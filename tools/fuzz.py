@@ -44,6 +44,7 @@ from collections import Counter, defaultdict
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
@@ -555,6 +556,9 @@ def main() -> int:
                     help="leave out the planner-bound templates (sync, plan, compare, sweep)")
     ap.add_argument("--timeout", type=float, default=CASE_TIMEOUT_S,
                     help=f"seconds a case may run (default {CASE_TIMEOUT_S:g})")
+    ap.add_argument("--results", action="store_true",
+                    help="write bench/results/fuzz.json (the README's table) instead of "
+                         "printing the table")
     args = ap.parse_args()
     started = time.monotonic()
     counts: dict[str, Counter[str]] = defaultdict(Counter)
@@ -572,17 +576,40 @@ def main() -> int:
                 shown += 1
                 print(f"PROBLEM {o.command}: {o.problems} argv={o.argv[:6]}", file=sys.stderr)
     total = Counter[str]()
-    print("| command | cases | exit 0 | exit 1 | exit 2 | contract broken |")
-    print("|---|---|---|---|---|---|")
+    rows = []
     for name in sorted(counts):
         c = counts[name]
         total.update(c)
-        print(f"| {name} | {c['cases']} | {c['exit 0']} | {c['exit 1']} | {c['exit 2']} | "
-              f"{c['problems']} |")
-    print(f"| **all** | {total['cases']} | {total['exit 0']} | {total['exit 1']} | "
-          f"{total['exit 2']} | {total['problems']} |")
-    print(f"({time.monotonic() - started:.0f} s, seed {args.seed})")
+        rows.append([name, c["cases"], c["exit 0"], c["exit 1"], c["exit 2"], c["problems"]])
+    rows.append(["**all**", total["cases"], total["exit 0"], total["exit 1"], total["exit 2"],
+                 total["problems"]])
+    seconds = time.monotonic() - started
+    if args.results:
+        report(counts, rows, seconds, args)
+    else:
+        print("| command | cases | exit 0 | exit 1 | exit 2 | contract broken |")
+        print("|---|---|---|---|---|---|")
+        print("\n".join("| " + " | ".join(str(c) for c in row) + " |" for row in rows))
+        print(f"({seconds:.0f} s, seed {args.seed})")
     return 1 if total["problems"] else 0
+
+
+def report(counts: dict[str, Counter[str]], rows: list[list[Any]], seconds: float,
+           args: argparse.Namespace) -> None:
+    """The campaign as bench/results/fuzz.json (the shared results format), the README's
+    table generated from it by bench/readme.py."""
+    sys.path.insert(0, str(ROOT / "bench"))
+    from benchlib import Results
+
+    res = Results("fuzz", folder="tools")
+    res.values = {"seed": args.seed, "cases": sum(c["cases"] for c in counts.values()),
+                  "seconds": round(seconds), "light": args.light,
+                  "per_command": {k: dict(v) for k, v in sorted(counts.items())}}
+    res.section("campaign", ["command", "cases", "exit 0", "exit 1", "exit 2",
+                             "contract broken"], rows,
+                f"{res.values['cases']} cases in {seconds:.0f} s, seed {args.seed}"
+                f"{' (light templates only)' if args.light else ''}.")
+    res.write()
 
 
 if __name__ == "__main__":
