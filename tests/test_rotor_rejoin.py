@@ -1,0 +1,123 @@
+"""Executions judged through the reference's states: the verdict integrates each move
+only from where its command parts from the longest one (the reference) until its state
+rejoins the reference's on their common decel tail, and takes the reference's worst for
+the rest. Every length of a few tables, judged together, against each move integrated
+whole by the plain-Python oracle: a shared prefix taken one span too short or too long,
+a tail matched against the wrong segment, or the reference's worst taken from the wrong
+span after the rejoin changes some length's worst angle. Small enough to run with the
+kernels as plain Python (the kernel's mutation run)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import rotor_oracle as oracle
+
+from profiles.motor import Motor
+from profiles.motor import rotor_kernel as rk
+from profiles.motor.rotor import rotor_of
+from profiles.ppmc312.clock import Clock
+from profiles.ppmc312.execution import simulate_move
+from profiles.ppmc312.load_angle import angles, spans_of
+from profiles.ppmc312.table import FreeCurveTable
+
+MHZ1 = Clock.internal("1MHz")
+AGREE_DEG = 0.1
+
+
+def motor(**kw: object) -> Motor:
+    """A NEMA17 at 1/8 step, lightly damped so that the ringing of one stage reaches
+    the next (the reference's worst lies in different spans than a short move's)."""
+    args: dict[str, object] = dict(
+        steps_per_rev=1600, curve_speed_pps=np.array([0.0, 2000.0, 8000.0, 48000.0]),
+        curve_torque_nm=np.array([0.4, 0.4, 0.32, 0.04]), inertia_kgm2=6.8e-6,
+        safety_factor=0.6, start_pps=800.0, damping_ratio=0.15)
+    args.update(kw)
+    return Motor(**args)  # type: ignore[arg-type]
+
+
+def oracle_whole(table: FreeCurveTable, m: Motor, n: int, direction: int
+                 ) -> tuple[float, int]:
+    """The move integrated whole from rest until settled: (worst angle, RK4 steps)."""
+    rotor = rotor_of(m, direction=direction)
+    step = rotor.step_s()
+    whole = oracle.follow(rotor, spans_of(simulate_move(table, n), rotor, step),
+                          step_s=step, trace=oracle.Trace(record=False))
+    return math.degrees(rotor.c_e * max(whole.span_max)), whole.steps
+
+
+def counted_steps(monkeypatch: pytest.MonkeyPatch) -> list[np.ndarray]:
+    """The per-cell RK4 step counts of each judge (its `executions` calls, one per range
+    of cells on threads, fill one array; read when the judge is done)."""
+    seen: list[np.ndarray] = []
+    original = rk.executions
+
+    def counting(*args: object) -> None:
+        original(*args)
+        used = args[-1]
+        if not any(u is used for u in seen):
+            seen.append(used)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(rk, "executions", counting)
+    return seen
+
+
+@pytest.mark.parametrize("table, m", [
+    # LE=0: every trapezoid shares the whole decel side with the reference
+    (FreeCurveTable(MHZ1, (150, 220, 330, 500, 750), (4, 4, 3, 3, 2)), motor()),
+    # LE=1 under a load: decel tails differ from the accel side, both directions
+    (FreeCurveTable(MHZ1, (150, 220, 330, 500, 750), (4, 4, 3, 3, 2), (2, 3, 5, 4, 3)),
+     motor(load_torque_nm=0.04, friction_torque_nm=0.01)),
+    # a fast start and stop under a load: the ringing after the last pulse is the worst
+    # of some moves in one direction
+    (FreeCurveTable(MHZ1, (120, 160, 210), (3, 3, 2), (2, 2, 3)),
+     motor(load_torque_nm=0.08, damping_ratio=0.1)),
+], ids=["LE0", "LE1-loaded", "fast-stop"])
+def test_every_length_judged_together_is_the_oracles_whole_move(
+        table: FreeCurveTable, m: Motor, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Each length's worst angle in each direction is the oracle's whole move's, and the
+    shared prefixes and tails do save work: the batch takes under half the RK4 steps of
+    its moves integrated whole (a rejoin that never happens would still give the right
+    angles, slowly)."""
+    top = table.accel_total + table.decel_total
+    lengths = list(range(1, top + 12))  # every triangle, then trapezoids with a cruise
+    steps = counted_steps(monkeypatch)
+    found = angles(table, [m], pulses=lengths)
+    assert not found.slipped.any()
+    whole_steps = 0
+    for row, direction in enumerate(found.direction.tolist()):
+        for e, n in enumerate(lengths):
+            worst, used = oracle_whole(table, m, n, direction)
+            whole_steps += used
+            assert found.deg[row, e] == pytest.approx(worst, abs=AGREE_DEG), (direction, n)
+    assert len(steps) == 1 and steps[0].sum() < whole_steps / 2
+
+
+
+def test_long_moves_rejoin_the_reference_after_their_cruise(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Trapezoids whose cruise settles: each longer one parts from the shortest (the
+    reference) at its cruise and, settled in the same state, rejoins it at the first
+    boundary of their common tail (the end of the fastest decel stage), so the rest of
+    its decel and its rest are the reference's: two tables that differ only in the
+    slower decel stages cost the longer moves the same RK4 steps (the reference's own
+    differ), and every worst angle is still the oracle's whole move's."""
+    accel = (4, 4, 3, 3, 2)
+    m = motor(damping_ratio=0.5, load_torque_nm=0.04)
+    used = {}
+    for decel in ((2, 3, 5, 4, 3), (2, 5, 2, 6, 4)):  # the same fastest decel stage
+        table = FreeCurveTable(MHZ1, (150, 220, 330, 500, 750), accel, decel)
+        top = table.accel_total + table.decel_total
+        lengths = [top + 400, top + 700, top + 1500]
+        steps = counted_steps(monkeypatch)
+        found = angles(table, [m], pulses=lengths)
+        for row, direction in enumerate(found.direction.tolist()):
+            for e, n in enumerate(lengths):
+                worst, _ = oracle_whole(table, m, n, direction)
+                assert found.deg[row, e] == pytest.approx(worst, abs=AGREE_DEG), (direction, n)
+        used[decel] = steps[0]
+    first, second = used.values()
+    assert np.array_equal(first[:, 1:], second[:, 1:])   # the longer moves
+    assert not np.array_equal(first[:, 0], second[:, 0])  # the reference
