@@ -576,3 +576,14 @@ def test_a_verdict_refuses_no_lengths_a_bad_step_and_an_endless_run() -> None:
     assert worst_load_angle(table, motor, pulses=[5], max_step_s=1.0).executions == 1
     with pytest.raises(StepRampError, match="more than 8000000 RK4 steps"):
         worst_load_angle(table, motor, pulses=[10], max_step_s=1e-9)
+
+
+def test_a_verdict_names_its_direction_and_counts_its_executions() -> None:
+    """Without a load a move is judged forward only (direction 1); with one, both ways:
+    the executions counted are the lengths judged times the directions, and the worst
+    is named by its direction (±1)."""
+    table = FreeCurveTable(MHZ1, (200, 400), (4, 4))
+    free = worst_load_angle(table, plain_motor(), pulses=[3, 8, 20])
+    assert (free.worst_direction, free.executions) == (1, 3)
+    loaded = worst_load_angle(table, plain_motor(load_torque_nm=0.1), pulses=[3, 8, 20])
+    assert loaded.executions == 6 and loaded.worst_direction in (1, -1)
