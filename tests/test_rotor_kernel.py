@@ -587,3 +587,71 @@ def test_a_verdict_names_its_direction_and_counts_its_executions() -> None:
     assert (free.worst_direction, free.executions) == (1, 3)
     loaded = worst_load_angle(table, plain_motor(load_torque_nm=0.1), pulses=[3, 8, 20])
     assert loaded.executions == 6 and loaded.worst_direction in (1, -1)
+
+
+def test_refine_judges_every_length_around_the_worst_sample_and_before_the_first_unstable(
+        ) -> None:
+    """`refine`: a family within REFINE_DEG of the worst gets every length within one
+    spacing of its worst sample (its ends excluded: they are samples), a family far
+    below gets none, and a family whose samples pass 90° gets every length before its
+    first unstable sample."""
+    from profiles.ppmc312.load_angle import refine
+
+    lengths = np.array([10, 20, 30, 40, 100, 110, 120, 200, 210, 220, 230])
+    family = np.array([0, 0, 0, 0, 1, 1, 1, 2, 2, 2, 2])
+    spacing = np.array([10, 10, 10])
+    # family 0 is the worst (80° at 30), family 2 within 3° of it (78° at 220)
+    worst = np.array([40.0, 60.0, 80.0, 70.0, 20.0, 30.0, 25.0, 50.0, 60.0, 78.0, 70.0])
+    assert refine(lengths, family, spacing, worst).tolist() == [
+        *range(21, 30), *range(31, 40), *range(211, 220), *range(221, 230)]
+    # family 2 passes 90° at 220 and is worst at its end (99° at 230): family 0 is now
+    # far below; family 2 gets the lengths before 220 and those around 230
+    worst = np.array([40.0, 60.0, 80.0, 70.0, 20.0, 30.0, 25.0, 50.0, 60.0, 95.0, 99.0])
+    assert refine(lengths, family, spacing, worst).tolist() == [*range(211, 220),
+                                                                *range(221, 230)]
+    assert not refine(lengths, family, np.array([1, 1, 1]), worst).tolist()  # dense already
+
+
+def test_every_family_is_sampled_by_its_own_slowest_changing_stage() -> None:
+    """Each family's spacing comes from the slowest stage whose pulses change within it
+    (found here from its shortest and longest moves), and its samples run from its
+    shortest move to where that dwell has settled without a gap wider than the
+    spacing."""
+    from profiles.ppmc312.execution import move_families, moves
+    from profiles.ppmc312.load_angle import samples
+
+    motor = plain_motor(damping_ratio=0.3)
+    rotor = rotor_of(motor)
+    table = FreeCurveTable(MHZ1, (100, 200, 400, 800), (40, 30, 20, 10), (10, 20, 30, 40))
+    lengths, family, spacing = samples(table, [motor])
+    checked = 0
+    for f, fam in enumerate(move_families(table)):
+        if fam.shape == "trapezoid" or fam.hi - fam.lo < 2:
+            continue
+        ends = moves(table, np.array([fam.lo, fam.hi]))
+        a, b = ends.runs(0), ends.runs(1)
+        changing = [r for (_, r, c), (_, _, d) in zip(a, b, strict=True) if c != d]
+        speed = MHZ1.hz / max(changing)
+        expected = max(1, min(fam.hi - fam.lo, int(rotor.natural_period_s(speed) * speed / 8)))
+        assert spacing[f] == expected, (f, fam.shape)
+        mine = lengths[family == f]
+        assert mine[0] == fam.lo and np.all(np.diff(mine) <= expected), (f, mine)
+        checked += 1
+    assert checked >= 3
+
+
+def test_a_batch_on_threads_judges_every_cell_as_one_at_a_time() -> None:
+    """Enough (rotor, execution) cells to be split over threads: every cell gets the
+    angle its move gets judged alone (on the calling thread), the first and the last
+    included."""
+    from profiles.ppmc312.load_angle import PARALLEL_MIN_CELLS, angles
+
+    motor = plain_motor(load_torque_nm=0.05, damping_ratio=0.3)
+    table = FreeCurveTable(MHZ1, (120, 200, 400), (3, 3, 2))
+    lengths = list(range(1, PARALLEL_MIN_CELLS + 3))
+    batch = angles(table, [motor], pulses=lengths)
+    assert batch.deg.size >= PARALLEL_MIN_CELLS
+    for e, n in enumerate(lengths):
+        alone = angles(table, [motor], pulses=[n])
+        np.testing.assert_allclose(batch.deg[:, e], alone.deg[:, 0], atol=AGREE_DEG)
+    assert batch.deg.min() > 0
