@@ -3,7 +3,10 @@
 In CI (CI=true) hypothesis is derandomised, so a run is repeatable and a
 failure can be reproduced from the same commit; locally it explores freely.
 No deadline anywhere: a 2-core machine running two workers is no place to time
-single examples (speed goals live in bench/).
+single examples (speed goals live in bench/). The quick local suite (`pytest -m
+"not slow"`, outside CI) runs each property on 30 examples instead of hypothesis's
+100, unless the test sets its own count: a first look, not the verdict (CI and the
+mutation runs, which set CI, keep the full count).
 
 The motor catalogue is the bundled motors only: the user's own motor folders
 (STEPRAMP_MOTORS, the XDG config folder) would make a test depend on the machine.
@@ -20,7 +23,13 @@ from hypothesis import settings
 
 settings.register_profile("ci", derandomize=True, deadline=None, print_blob=True)
 settings.register_profile("dev", deadline=None)
+settings.register_profile("quick", deadline=None, max_examples=30)
 settings.load_profile("ci" if os.environ.get("CI") else "dev")
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    if not os.environ.get("CI") and config.getoption("markexpr", "") == "not slow":
+        settings.load_profile("quick")
 
 
 @pytest.fixture(autouse=True, scope="session")

@@ -246,6 +246,7 @@ def test_errors_agree_with_plain_reference(t: FreeCurveTable) -> None:
     assert got == reference_errors(t)
 
 
+@pytest.mark.slow  # 2–4 s: the quick suite's budget; CI runs it
 @settings(max_examples=100, deadline=None)
 @given(st.integers(2, 127), st.integers(4, 2000), st.data())
 def test_sorted_strict_rates_with_enough_pulses_have_no_errors(

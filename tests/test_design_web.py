@@ -80,6 +80,7 @@ def test_a_port_in_use_exits_2_naming_it(capsys: pytest.CaptureFixture[str]) -> 
 
 # --- the page in-process ----------------------------------------------------------------------
 
+@pytest.mark.slow  # 2–4 s: the quick suite's budget; CI runs it
 def test_page_controls_drive_the_verdict_and_the_files() -> None:
     from verify.designer import design, verdict
     from verify.webdesigner import DesignPage

@@ -63,6 +63,7 @@ def test_motor_show_plot(tmp_path: Path, saved: list[Any],
         assert problems(fig) == []
 
 
+@pytest.mark.slow  # 2–3 s: the quick suite's budget; CI runs it
 def test_a_long_title_is_wrapped_and_a_long_word_shrunk() -> None:
     import matplotlib.pyplot as plt
 

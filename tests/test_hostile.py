@@ -60,6 +60,7 @@ def test_show_a_rate_of_0_is_one_line_naming_the_stage(capsys: pytest.CaptureFix
 
 
 # --- 7: every file sync writes carries its check ------------------------------------------------
+@pytest.mark.slow  # 2–4 s: the quick suite's budget; CI runs it
 def test_alink_read_verifies_what_sync_wrote(capsys: pytest.CaptureFixture[str],
                                              work: Path) -> None:
     code, _, err = run(capsys, "sync", work / "examples" / "axes-alink.json", "-o",

@@ -69,6 +69,7 @@ def init_tables(draw: st.DrawFn) -> InitTable:
     return InitTable(clock, shape, start, high, accel)
 
 
+@pytest.mark.slow  # 2–4 s: the quick suite's budget; CI runs it
 @settings(max_examples=120, deadline=None)
 @given(init_tables())
 def test_expansion_keeps_totals_ends_and_order(t: InitTable) -> None:
@@ -87,6 +88,7 @@ def test_expansion_keeps_totals_ends_and_order(t: InitTable) -> None:
     assert [x for x in check_table(f) if x.severity == "error"] == []
 
 
+@pytest.mark.slow  # 2–4 s: the quick suite's budget; CI runs it
 @settings(max_examples=80, deadline=None)
 @given(init_tables())
 def test_stage_speeds_follow_the_law_in_time(t: InitTable) -> None:

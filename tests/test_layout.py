@@ -89,6 +89,7 @@ def _private(name: str) -> bool:
     return name.startswith("_") and not name.startswith("__")
 
 
+@pytest.mark.slow  # 2–3 s: the quick suite's budget; CI runs it
 def test_no_private_name_is_imported_across_modules() -> None:
     found = {str(p.relative_to(ROOT)): names for p in sources()
              if (names := private_imports(p))}

@@ -234,6 +234,7 @@ def mutated(draw: st.DrawFn) -> list[bytes]:
     return [bytes(b) for b in blocks]
 
 
+@pytest.mark.slow  # 2–4 s: the quick suite's budget; CI runs it
 @SETTINGS
 @given(mutated())
 def test_mutated_uploads_give_a_chip_error_or_decode_error(blocks: list[bytes]) -> None:

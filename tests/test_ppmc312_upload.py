@@ -89,6 +89,7 @@ def test_free_curve_round_trip(table: FreeCurveTable, max_data: int) -> None:
     assert decode_free_curve(blocks, extck_hz=_hz(table)) == table
 
 
+@pytest.mark.slow  # 2–4 s: the quick suite's budget; CI runs it
 @SETTINGS
 @given(free_curves(), st.integers(3, 30))
 def test_free_curve_blocks_obey_the_bus_rules(table: FreeCurveTable, max_data: int) -> None:
@@ -353,6 +354,7 @@ def test_decode_upload_refuses_other_commands() -> None:
 
 
 # --- table read ---------------------------------------------------------------------
+@pytest.mark.slow  # 2–4 s: the quick suite's budget; CI runs it
 @SETTINGS
 @given(free_curves())
 def test_table_read_round_trip(table: FreeCurveTable) -> None:
@@ -603,6 +605,7 @@ def test_bulk_decode_equals_the_block_by_block_walk(blocks: list[bytes]) -> None
     assert fast == slow
 
 
+@pytest.mark.slow  # 2–4 s: the quick suite's budget; CI runs it
 @SETTINGS
 @given(free_curves(), st.integers(3, 30))
 def test_bulk_encode_equals_the_block_by_block_path(table: FreeCurveTable, max_data: int

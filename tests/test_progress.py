@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from profiles import mc200 as M
 from profiles.motor import load_motor
 from profiles.ppmc312.init_planner import init_candidates
@@ -43,6 +45,7 @@ def test_init_candidates_report_each_high_speed() -> None:
     assert 1 <= len(cands) <= total <= 2
 
 
+@pytest.mark.slow  # 2–4 s: the quick suite's budget; CI runs it
 def test_render_stream_reports_packets_encoded() -> None:
     calls, cb = _recorder()
     packets = M.servo_on(1) * 15_000  # more than one 20 000-packet chunk

@@ -71,6 +71,7 @@ def test_pulse_trains_give_the_plain_deviation(specs: list[tuple[FreeCurveTable,
 @settings(FAST, max_examples=6)
 @given(specs=st.lists(st.tuples(tables, st.integers(20_000, 60_000)), min_size=2,
                       max_size=3))
+@pytest.mark.slow  # 2–4 s: the quick suite's budget; CI runs it
 def test_stepping_over_the_cruise_changes_nothing(specs: list[tuple[FreeCurveTable, int]],
                                                   ) -> None:
     """With small chunks the joint-period step runs on these moves; the maximum is the

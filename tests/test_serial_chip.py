@@ -241,6 +241,7 @@ def test_error_count_saturates(chip: SerialChip) -> None:
                                                                            b"\xff\xff")
 
 
+@pytest.mark.slow  # 2–4 s: the quick suite's budget; CI runs it
 @given(st.lists(st.integers(1, 9), min_size=1, max_size=40))
 def test_any_split_of_the_stream_gives_the_same_replies(cuts: list[int]) -> None:
     stream = (encode_serial_init(TABLE, ADDRESS) + encode_frame("poll", ADDRESS, b"")

@@ -323,6 +323,7 @@ def test_ruckig_synchronised_durations_bracket_and_order() -> None:
     assert np.allclose(x[:, 1] / 5_000, x[:, 0] / 12_000, atol=1e-6)
 
 
+@pytest.mark.slow  # shares the three-axis time sync
 def test_move_commands_carry_the_trigger(time_plan) -> None:
     from profiles.ppmc312.sync import move_command
 
