@@ -41,19 +41,16 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))  # the oracle lives with the tests
 
 import numpy as np  # noqa: E402
-import rotor_oracle as oracle  # noqa: E402
 from benchlib import Results, timed, verdict  # noqa: E402
+from oracle_moves import kernel_step_counts, whole_move  # noqa: E402
 
 from profiles.errors import StepRampError  # noqa: E402
 from profiles.motor import Motor, bundled_motor_paths, load_motor  # noqa: E402
-from profiles.motor.rotor import rotor_of  # noqa: E402
 from profiles.motor.tolerance import samples as box_samples  # noqa: E402
-from profiles.ppmc312.execution import simulate_move  # noqa: E402
 from profiles.ppmc312.load_angle import (  # noqa: E402
     angles,
     directions,
     samples,
-    spans_of,
     worst_load_angle,
 )
 from profiles.ppmc312.planner import choose_clock, plan_free_curve  # noqa: E402
@@ -89,23 +86,9 @@ def random_le1(motor: Motor, rng: random.Random, most: int, stages: int = 127
 
 def kernel_steps(table: FreeCurveTable, motor: Motor) -> int:
     """RK4 steps the compiled model takes for every execution of `table` (a counting
-    pass, not timed: the kernel's per-cell step counts, read after each call)."""
-    from profiles.motor import rotor_kernel as rk
-
-    seen: list[np.ndarray] = []
-    original = rk.executions
-
-    def counting(*args: object) -> None:
-        original(*args)
-        used = args[-1]
-        if not any(u is used for u in seen):
-            seen.append(used)  # type: ignore[arg-type]
-
-    rk.executions = counting
-    try:
+    pass, not timed)."""
+    with kernel_step_counts() as seen:
         worst_load_angle(table, motor)
-    finally:
-        rk.executions = original
     return int(sum(int(u.sum()) for u in seen))
 
 
@@ -118,12 +101,9 @@ def oracle_moves(table: FreeCurveTable, motor: Motor, lengths: list[int]
     for n in lengths:
         deg = 0.0
         for d in directions(motor):
-            rotor = rotor_of(motor, direction=d)
-            step = rotor.step_s()
-            trace = oracle.follow(rotor, spans_of(simulate_move(table, n), rotor, step),
-                                  step_s=step, trace=oracle.Trace(record=False))
-            steps += trace.steps
-            deg = max(deg, math.degrees(rotor.c_e * max(trace.span_max)))
+            angle, used = whole_move(table, motor, n, d)
+            steps += used
+            deg = max(deg, angle)
         worst.append(deg)
     return time.process_time() - c0, steps, worst
 

@@ -13,6 +13,7 @@ import pytest
 import rotor_oracle as oracle
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
+from oracle_moves import whole_move, worst_whole_move
 
 from profiles.motor import Motor, bundled_motor_paths, load_motor
 from profiles.motor.rotor import (
@@ -26,8 +27,7 @@ from profiles.motor.rotor import (
 )
 from profiles.motor.tolerance import corners, variant
 from profiles.ppmc312.clock import Clock
-from profiles.ppmc312.execution import simulate_move
-from profiles.ppmc312.load_angle import spans_of, worst_load_angle, worst_load_angles
+from profiles.ppmc312.load_angle import worst_load_angle, worst_load_angles
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312.table import FreeCurveTable
 
@@ -102,19 +102,6 @@ def test_kernel_is_the_oracle_span_by_span(motor: Motor, periods: list[tuple[flo
     np.testing.assert_allclose(fast.lag, slow.lag, atol=math.radians(AGREE_DEG) / rotor.c_e)
 
 
-def oracle_worst_deg(table: FreeCurveTable, motor: Motor, pulses: int) -> float:
-    """One move integrated whole by the oracle, from rest to settled, both directions
-    when the motor has a load."""
-    worst = 0.0
-    for direction in (1, -1) if motor.load_torque_nm else (1,):
-        rotor = rotor_of(motor, direction=direction)
-        step = rotor.step_s()
-        trace = oracle.follow(rotor, spans_of(simulate_move(table, pulses), rotor, step),
-                              step_s=step, trace=oracle.Trace(record=False))
-        worst = max(worst, deg(rotor.c_e, max(trace.span_max)))
-    return worst
-
-
 @pytest.mark.slow
 @settings(max_examples=15, suppress_health_check=[HealthCheck.too_slow])
 @given(motors(), st.data())
@@ -128,7 +115,7 @@ def test_a_move_judged_through_shared_prefixes_is_the_oracles_whole_move(
     for n in lengths:
         fast = worst_load_angle(table, motor, pulses=[n]).worst_angle_deg
         if fast < SLIP_DEG:
-            assert fast == pytest.approx(oracle_worst_deg(table, motor, n), abs=AGREE_DEG)
+            assert fast == pytest.approx(worst_whole_move(table, motor, n), abs=AGREE_DEG)
 
 
 @pytest.mark.slow
@@ -166,7 +153,7 @@ def test_bundled_plans_agree_with_the_oracle_and_every_length(motor: Motor) -> N
     verdict = worst_load_angle(table, motor)
     for n in sorted({1, 20, verdict.worst_pulses, 2000}):
         assert worst_load_angle(table, motor, pulses=[n]).worst_angle_deg == pytest.approx(
-            oracle_worst_deg(table, motor, n), abs=AGREE_DEG)
+            worst_whole_move(table, motor, n), abs=AGREE_DEG)
     every = worst_load_angle(table, motor,
                              pulses=range(1, table.accel_total + table.decel_total + 2))
     assert verdict.worst_angle_deg >= every.worst_angle_deg - AGREE_DEG
@@ -184,7 +171,7 @@ def test_tolerance_corners_in_one_call_are_each_corners_own_verdict() -> None:
         alone = worst_load_angle(table, corner.motor, pulses=[40, 300, 3000])
         assert verdict == alone
         assert verdict.worst_angle_deg == pytest.approx(
-            oracle_worst_deg(table, corner.motor, verdict.worst_pulses), abs=AGREE_DEG)
+            worst_whole_move(table, corner.motor, verdict.worst_pulses), abs=AGREE_DEG)
 
 
 # --- the physics, stated so that a wrong sign or threshold fails ----------------------
@@ -455,14 +442,10 @@ def test_a_few_moves_of_a_tiny_table_are_the_oracles_whole_moves() -> None:
     lengths = [1, 4, 9, 15, 40]
     found = angles(table, [motor], pulses=lengths)
     assert found.deg.shape == (2, len(lengths)) and list(found.lengths) == lengths
-    for row, direction in enumerate(found.direction):
-        rotor = rotor_of(motor, direction=int(direction))
-        step = rotor.step_s()
+    for row, direction in enumerate(found.direction.tolist()):
         for e, n in enumerate(lengths):
-            whole = oracle.follow(rotor, spans_of(simulate_move(table, n), rotor, step),
-                                  step_s=step, trace=oracle.Trace(record=False))
-            assert found.deg[row, e] == pytest.approx(deg(rotor.c_e, max(whole.span_max)),
-                                                      abs=AGREE_DEG), (direction, n)
+            assert found.deg[row, e] == pytest.approx(
+                whole_move(table, motor, n, direction)[0], abs=AGREE_DEG), (direction, n)
     assert not found.slipped.any()
 
 

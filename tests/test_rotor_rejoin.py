@@ -9,18 +9,13 @@ kernels as plain Python (the kernel's mutation run)."""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
-import rotor_oracle as oracle
+from oracle_moves import kernel_step_counts, whole_move
 
 from profiles.motor import Motor
-from profiles.motor import rotor_kernel as rk
-from profiles.motor.rotor import rotor_of
 from profiles.ppmc312.clock import Clock
-from profiles.ppmc312.execution import simulate_move
-from profiles.ppmc312.load_angle import angles, spans_of
+from profiles.ppmc312.load_angle import angles
 from profiles.ppmc312.table import FreeCurveTable
 
 MHZ1 = Clock.internal("1MHz")
@@ -38,32 +33,6 @@ def motor(**kw: object) -> Motor:
     return Motor(**args)  # type: ignore[arg-type]
 
 
-def oracle_whole(table: FreeCurveTable, m: Motor, n: int, direction: int
-                 ) -> tuple[float, int]:
-    """The move integrated whole from rest until settled: (worst angle, RK4 steps)."""
-    rotor = rotor_of(m, direction=direction)
-    step = rotor.step_s()
-    whole = oracle.follow(rotor, spans_of(simulate_move(table, n), rotor, step),
-                          step_s=step, trace=oracle.Trace(record=False))
-    return math.degrees(rotor.c_e * max(whole.span_max)), whole.steps
-
-
-def counted_steps(monkeypatch: pytest.MonkeyPatch) -> list[np.ndarray]:
-    """The per-cell RK4 step counts of each judge (its `executions` calls, one per range
-    of cells on threads, fill one array; read when the judge is done)."""
-    seen: list[np.ndarray] = []
-    original = rk.executions
-
-    def counting(*args: object) -> None:
-        original(*args)
-        used = args[-1]
-        if not any(u is used for u in seen):
-            seen.append(used)  # type: ignore[arg-type]
-
-    monkeypatch.setattr(rk, "executions", counting)
-    return seen
-
-
 @pytest.mark.parametrize("table, m", [
     # LE=0: every trapezoid shares the whole decel side with the reference
     (FreeCurveTable(MHZ1, (150, 220, 330, 500, 750), (4, 4, 3, 3, 2)), motor()),
@@ -76,28 +45,27 @@ def counted_steps(monkeypatch: pytest.MonkeyPatch) -> list[np.ndarray]:
      motor(load_torque_nm=0.08, damping_ratio=0.1)),
 ], ids=["LE0", "LE1-loaded", "fast-stop"])
 def test_every_length_judged_together_is_the_oracles_whole_move(
-        table: FreeCurveTable, m: Motor, monkeypatch: pytest.MonkeyPatch) -> None:
+        table: FreeCurveTable, m: Motor) -> None:
     """Each length's worst angle in each direction is the oracle's whole move's, and the
     shared prefixes and tails do save work: the batch takes under half the RK4 steps of
     its moves integrated whole (a rejoin that never happens would still give the right
     angles, slowly)."""
     top = table.accel_total + table.decel_total
     lengths = list(range(1, top + 12))  # every triangle, then trapezoids with a cruise
-    steps = counted_steps(monkeypatch)
-    found = angles(table, [m], pulses=lengths)
+    with kernel_step_counts() as steps:
+        found = angles(table, [m], pulses=lengths)
     assert not found.slipped.any()
     whole_steps = 0
     for row, direction in enumerate(found.direction.tolist()):
         for e, n in enumerate(lengths):
-            worst, used = oracle_whole(table, m, n, direction)
+            worst, used = whole_move(table, m, n, direction)
             whole_steps += used
             assert found.deg[row, e] == pytest.approx(worst, abs=AGREE_DEG), (direction, n)
     assert len(steps) == 1 and steps[0].sum() < whole_steps / 2
 
 
 
-def test_long_moves_rejoin_the_reference_after_their_cruise(
-        monkeypatch: pytest.MonkeyPatch) -> None:
+def test_long_moves_rejoin_the_reference_after_their_cruise() -> None:
     """Trapezoids whose cruise settles: each longer one parts from the shortest (the
     reference) at its cruise and, settled in the same state, rejoins it at the first
     boundary of their common tail (the end of the fastest decel stage), so the rest of
@@ -111,11 +79,11 @@ def test_long_moves_rejoin_the_reference_after_their_cruise(
         table = FreeCurveTable(MHZ1, (150, 220, 330, 500, 750), accel, decel)
         top = table.accel_total + table.decel_total
         lengths = [top + 400, top + 700, top + 1500]
-        steps = counted_steps(monkeypatch)
-        found = angles(table, [m], pulses=lengths)
+        with kernel_step_counts() as steps:
+            found = angles(table, [m], pulses=lengths)
         for row, direction in enumerate(found.direction.tolist()):
             for e, n in enumerate(lengths):
-                worst, _ = oracle_whole(table, m, n, direction)
+                worst, _ = whole_move(table, m, n, direction)
                 assert found.deg[row, e] == pytest.approx(worst, abs=AGREE_DEG), (direction, n)
         used[decel] = steps[0]
     first, second = used.values()

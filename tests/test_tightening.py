@@ -5,34 +5,19 @@ move length, by the compiled model and by the plain-Python oracle."""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
-import rotor_oracle as oracle
+from oracle_moves import worst_whole_move
 
 from profiles.motor import Motor, bundled_motor_paths, load_motor
 from profiles.motor.angles import AIM_DEG
-from profiles.motor.rotor import rotor_of
-from profiles.ppmc312.execution import simulate_move
-from profiles.ppmc312.load_angle import angles, spans_of, worst_load_angle
+from profiles.ppmc312.load_angle import angles, worst_load_angle
 from profiles.ppmc312.planner import Shaping, plan, plan_free_curve
 from profiles.ppmc312.planner.tightening import culprits, tighten_uniform
 from verify.safety import judge_safety
 
 MOTORS = {p.stem.removeprefix("motor-"): load_motor(p) for p in bundled_motor_paths()}
 NEMA23 = MOTORS["nema23-heavy"]
-
-
-def oracle_deg(table: object, motor: Motor, pulses: int) -> float:
-    worst = 0.0
-    for direction in (1, -1) if motor.load_torque_nm else (1,):
-        rotor = rotor_of(motor, direction=direction)
-        step = rotor.step_s()
-        trace = oracle.follow(rotor, spans_of(simulate_move(table, pulses), rotor, step),  # type: ignore[arg-type]
-                              step_s=step, trace=oracle.Trace(record=False))
-        worst = max(worst, math.degrees(rotor.c_e * max(trace.span_max)))
-    return worst
 
 
 def test_short_moves_ringing_is_blamed_on_the_slow_end() -> None:
@@ -72,7 +57,7 @@ def test_tightened_tables_are_within_the_aim_by_both_models(name: str) -> None:
     assert verdict.safe and verdict.within_aim
     fast = worst_load_angle(table, motor)
     for n in sorted({fast.worst_pulses, 20, 2000}):
-        assert oracle_deg(table, motor, n) <= AIM_DEG + 0.1
+        assert worst_whole_move(table, motor, n) <= AIM_DEG + 0.1
 
 
 def test_shaping_scales_capability_and_jump_band_by_band() -> None:
