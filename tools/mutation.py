@@ -18,8 +18,9 @@ function, so it makes no mutant of the numba kernels (profiles/motor/rotor_kerne
 (every arithmetic operator into every other) and starts a fresh interpreter for each:
 12 mutants in 180 s (15 s each) against 20 in 94 s here (forked, imports paid once).
 
-A whole-package run takes about a day on the shared 2-core machine (some 12 000
-mutants, a few seconds each and a survivor the module's whole test run), so the
+A whole-package run is every mutant of every module (the report's total, a few seconds
+each and a survivor the module's whole test run: too long for the shared 2-core
+machine), so the
 load-angle model is run whole and the other modules by a random sample (`--sample N`:
 a fixed random order per module, so a sample is reproducible and a larger one extends
 it); a sampled module's score is over the mutants it ran.
