@@ -353,3 +353,44 @@ def test_dev_install_opens_notebooks() -> None:
     import importlib.util
 
     assert importlib.util.find_spec("jupyterlab") is not None  # installed by the [dev] extra
+
+
+def _shape(parser: argparse.ArgumentParser) -> list[tuple[str, tuple[str, ...], str | None]]:
+    return [(name, tuple(a.option_strings) or (a.dest,), a.help)
+            for name, p in _parsers(parser) for a in p._actions]
+
+
+@pytest.mark.parametrize("command", cli.COMMANDS)
+def test_one_commands_parser_is_its_branch_of_the_whole(command: str) -> None:
+    # main() builds only the branch its command line names (a cold start pays for one
+    # command's imports); that branch must be the whole parser's, option for option
+    whole = [row for row in _shape(cli.build_parser())
+             if row[0].startswith(f"stepramp {command}")]
+    alone = _shape(cli.build_parser(command))
+    assert [row for row in alone if row[0] != "stepramp"] == whole
+    assert len(whole) > 1
+
+
+def test_an_unknown_or_missing_command_builds_every_branch() -> None:
+    for named in (None, "no-such-command", "--version"):
+        [sub] = [a for a in cli.build_parser(named)._actions
+                 if isinstance(a, argparse._SubParsersAction)]
+        assert tuple(sub.choices) == cli.COMMANDS
+    assert cli._command_named(["--debug", "check"]) is None
+    assert cli._command_named(["check", "--motor", "x"]) == "check"
+
+
+@pytest.mark.parametrize(("given", "expected"), [(None, "1"), ("4", "4")])
+def test_the_command_starts_openblas_with_one_thread_unless_told(given: str | None,
+                                                                 expected: str) -> None:
+    import os
+    import subprocess
+
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    if given is not None:
+        env["OPENBLAS_NUM_THREADS"] = given
+    probe = ("import sys, os; import verify.cli; "
+             "print(os.environ['OPENBLAS_NUM_THREADS'], 'numpy' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", probe], env=env, capture_output=True,
+                         text=True, check=True).stdout.split()
+    assert out == [expected, "True"]  # set by the time verify.cli has loaded numpy

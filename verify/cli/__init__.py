@@ -24,6 +24,11 @@ import traceback
 from collections.abc import Sequence
 from typing import NoReturn
 
+# Before numpy loads: OpenBLAS starts a thread per core at import, 0.1 s of CPU on every
+# cold start, for matrix products the commands never make (their numpy work is
+# elementwise; the load-angle judge runs its own threads). A user's setting wins.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 from profiles.errors import StepRampError, bounded
 from profiles.reading import display_path
 from verify.devices import command_groups
@@ -54,14 +59,17 @@ class OneLineParser(argparse.ArgumentParser):
         self.exit(EXIT_UNUSABLE)
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The whole command line, or only `command`'s branch when it is a known command:
+    registering a group imports its library modules (the codecs behind its options'
+    choices), which `stepramp check` would otherwise pay on every cold start."""
     p = OneLineParser(prog="stepramp", description=__doc__.splitlines()[0])
     p.add_argument("--version", action=VersionAction)
     p.add_argument("--debug", action="store_true",
                    help="on an internal error, show the Python traceback (also accepted "
                         "anywhere on the command line)")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for name in COMMANDS:
+    for name in COMMANDS if command not in COMMANDS else (command,):
         importlib.import_module(f"{__name__}.{name}").add_subparser(sub)
     return p
 
@@ -69,6 +77,11 @@ def build_parser() -> argparse.ArgumentParser:
 # Positional and option names that hold the command's input, in the order an error
 # line names them.
 _INPUTS = ("files", "table", "upload", "file", "motor", "words")
+
+
+def _command_named(args: Sequence[str]) -> str | None:
+    """The command a command line names: its first word when that is not an option."""
+    return args[0] if args and not args[0].startswith("-") else None
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -79,7 +92,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args_list = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in args_list or bool(os.environ.get("STEPRAMP_DEBUG"))
     args_list = [a for a in args_list if a != "--debug"]
-    parser = build_parser()
+    parser = build_parser(_command_named(args_list))
     try:
         args = parser.parse_args(args_list)
     except SystemExit as e:  # --help/--version (0) or a usage error (printed, 2)
