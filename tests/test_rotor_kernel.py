@@ -638,3 +638,33 @@ def test_a_batch_on_threads_judges_every_cell_as_one_at_a_time() -> None:
         alone = angles(table, [motor], pulses=[n])
         np.testing.assert_allclose(batch.deg[:, e], alone.deg[:, 0], atol=AGREE_DEG)
     assert batch.deg.min() > 0
+
+
+def _judge_in_child(lengths: list[int], out: object) -> None:
+    from profiles.ppmc312.load_angle import angles
+
+    motor = plain_motor(load_torque_nm=0.05, damping_ratio=0.3)
+    table = FreeCurveTable(MHZ1, (120, 200, 400), (3, 3, 2))
+    out.put(angles(table, [motor], pulses=lengths).deg.tolist())  # type: ignore[attr-defined]
+
+
+def test_a_forked_child_judges_on_threads_of_its_own() -> None:
+    """The threads are kept between verdicts; a child forked after the parent judged (a
+    sweep's worker) does not have them and must start its own, not wait forever."""
+    import multiprocessing
+
+    from profiles.ppmc312.load_angle import PARALLEL_MIN_CELLS, angles
+
+    lengths = list(range(1, PARALLEL_MIN_CELLS + 3))
+    motor = plain_motor(load_torque_nm=0.05, damping_ratio=0.3)
+    table = FreeCurveTable(MHZ1, (120, 200, 400), (3, 3, 2))
+    here = angles(table, [motor], pulses=lengths).deg.tolist()  # the parent's threads start
+    fork = multiprocessing.get_context("fork")
+    out = fork.Queue()
+    child = fork.Process(target=_judge_in_child, args=(lengths, out))
+    child.start()
+    child.join(timeout=60)
+    if child.is_alive():
+        child.kill()
+    assert child.exitcode == 0, "the child hung or failed"
+    assert out.get(timeout=5) == here

@@ -31,6 +31,7 @@ lands exactly at `duration_s`. The first-pulse latency is reported apart.
 
 from __future__ import annotations
 
+import functools
 import io
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -334,6 +335,21 @@ def _slow_end_cumsum(side: list[Stage]) -> list[int]:
 
 
 def _sides(table: FreeCurveTable | InitTable, high_rate: int) -> tuple[FreeCurveTable, _Sides]:
+    if type(high_rate) is int:  # (tables are frozen, so hashable; other types are refused)
+        return _known_sides(table, high_rate)
+    return _new_sides(table, high_rate)
+
+
+@functools.lru_cache(maxsize=16)
+def _known_sides(table: FreeCurveTable | InitTable, high_rate: int
+                 ) -> tuple[FreeCurveTable, _Sides]:
+    """`_new_sides`, remembered: a verdict or a plan asks for the same table's moves
+    several times (families, samples, refinements), each a few hundred µs to prepare."""
+    return _new_sides(table, high_rate)
+
+
+def _new_sides(table: FreeCurveTable | InitTable, high_rate: Any
+               ) -> tuple[FreeCurveTable, _Sides]:
     from profiles.ppmc312.init_model import as_free_curve
 
     table = as_free_curve(table)

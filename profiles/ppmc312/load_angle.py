@@ -272,9 +272,22 @@ def _in_parallel(work: Callable[[int, int], None], cells: int) -> None:
     # of the short and the long ones
     bounds = np.linspace(0, cells, threads * 4 + 1).astype(int)
     chunks = list(zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True))
-    with ThreadPoolExecutor(threads) as pool:
-        for future in [pool.submit(work, a, b) for a, b in chunks]:
-            future.result()
+    pool = _pool(threads)
+    for future in [pool.submit(work, a, b) for a, b in chunks]:
+        future.result()
+
+
+_POOLS: dict[tuple[int, int], ThreadPoolExecutor] = {}
+
+
+def _pool(threads: int) -> ThreadPoolExecutor:
+    """The process's pool of `threads` threads, kept between verdicts (starting one costs
+    more than a small verdict's kernel); a forked child (a sweep's worker) starts its own,
+    since its parent's threads did not come with it."""
+    key = (os.getpid(), threads)
+    if key not in _POOLS:
+        _POOLS[key] = ThreadPoolExecutor(threads, thread_name_prefix="load-angle")
+    return _POOLS[key]
 
 
 def spans_of(execution: Execution, rotor: Rotor, step: float) -> list[tuple[float, float]]:
