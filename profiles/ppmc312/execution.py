@@ -297,6 +297,20 @@ class _Sides:
         return _assemble(p, shape, sp.ladders[2:], x, self.cruise_rate,
                          clamp=shape == SHAPES.index("triangle"))
 
+    @functools.cached_property
+    def families(self) -> FamilyBounds:
+        """The move families (`families`), found once per move model: a verdict's
+        criterion and its load angle both walk them. Read-only: they are shared."""
+        starts = self.breakpoints()
+        batch = self.moves(np.asarray(starts, dtype=np.int64))
+        index = np.flatnonzero(~batch.repeats())  # where the segment rates or shape change
+        lo = np.asarray(starts, dtype=np.int64)[index]
+        hi = np.append(lo[1:] - 1, MOVE_PULSES_MAX)
+        bounds = FamilyBounds(lo, hi, batch.shape[index], index, batch, self.cruise_rate)
+        for a in (*bounds[:4], *vars(batch).values()):
+            a.flags.writeable = False
+        return bounds
+
     def breakpoints(self) -> list[int]:
         """Every move length at which the sequence of segment rates may change (the first
         length of each `MoveFamily`), ascending, starting at 1."""
@@ -346,6 +360,11 @@ def _known_sides(table: FreeCurveTable | InitTable, high_rate: int
     """`_new_sides`, remembered: a verdict or a plan asks for the same table's moves
     several times (families, samples, refinements), each a few hundred µs to prepare."""
     return _new_sides(table, high_rate)
+
+
+def forget_tables() -> None:
+    """Forget the remembered move models (a benchmark times a table's first verdict)."""
+    _known_sides.cache_clear()
 
 
 def _new_sides(table: FreeCurveTable | InitTable, high_rate: Any
@@ -457,7 +476,7 @@ def move_families(table: FreeCurveTable | InitTable, *, high_rate: int = 0) -> l
     1..0xFFFFFFFF (trapezoid, each triangle switch, straight triangles), found from the
     stage boundaries, never by iterating lengths. Ascending and contiguous."""
     free, sides = _sides(table, high_rate)
-    bounds = family_bounds(sides)
+    bounds = sides.families
     return [MoveFamily(free, high_rate, lo, hi, SHAPES[shape], sides, bounds.batch, e)
             for lo, hi, shape, e in zip(bounds.lo.tolist(), bounds.hi.tolist(),
                                         bounds.shape.tolist(), bounds.first.tolist(),
@@ -480,23 +499,7 @@ class FamilyBounds(NamedTuple):
 def families(table: FreeCurveTable | InitTable, *, high_rate: int = 0) -> FamilyBounds:
     """`move_families` as arrays, without an object per family (what a verdict over every
     move length walks)."""
-    return family_bounds(_sides(table, high_rate)[1])
-
-
-def family_bounds(sides: _Sides) -> FamilyBounds:
-    starts = sides.breakpoints()
-    batch = sides.moves(np.asarray(starts, dtype=np.int64))
-    keep: list[int] = []
-    last = None
-    for e in range(len(starts)):
-        key = (batch.key(e), int(batch.shape[e]))
-        if key != last:  # a boundary where the segment rates or the shape change
-            keep.append(e)
-        last = key
-    index = np.asarray(keep, dtype=np.int64)
-    lo = np.asarray(starts, dtype=np.int64)[index]
-    hi = np.append(lo[1:] - 1, MOVE_PULSES_MAX)
-    return FamilyBounds(lo, hi, batch.shape[index], index, batch, sides.cruise_rate)
+    return _sides(table, high_rate)[1].families
 
 
 class _Split(NamedTuple):
@@ -556,12 +559,14 @@ class _Ladder:
         part = np.where(whole < k, count - before, 0)
         n = whole + (part > 0)
         total = int(n.sum())
-        move = np.repeat(np.arange(len(n)), n)
-        pos = np.arange(total) - np.repeat(np.cumsum(n) - n, n)
-        stage = n[move] - 1 - pos if down else pos   # slow-first index of each segment
-        counts = np.where(stage == whole[move], part[move], self.counts[np.minimum(stage, k - 1)]
-                          if k else 0)
-        return n, self.rates[stage] if k else np.zeros(0, np.int64), counts
+        starts = np.cumsum(n) - n
+        # slow-first index of each segment (< k: a move's partial stage is below `whole`)
+        stage = (np.repeat(starts + n - 1, n) - np.arange(total) if down
+                 else np.arange(total) - np.repeat(starts, n))
+        counts = self.counts[stage]
+        partial = part > 0  # its segment: the last of the move up, the first down
+        counts[starts[partial] + (0 if down else whole[partial])] = part[partial]
+        return n, self.rates[stage], counts
 
 
 PHASE_CODES = {"accel": 0, "cruise": 1, "decel": 2}
@@ -602,10 +607,21 @@ class MoveBatch:
                          self.rate[rows], self.count[rows],
                          np.concatenate(([0], np.cumsum(sizes))))
 
-    def key(self, e: int) -> tuple[bytes, bytes]:
-        """Move e's sequence of (phase, rate), comparable between moves."""
-        a, b = int(self.offsets[e]), int(self.offsets[e + 1])
-        return self.phase[a:b].tobytes(), self.rate[a:b].tobytes()
+    def repeats(self) -> np.ndarray:
+        """For each move, whether it has the shape and the sequence of (phase, rate) of
+        the move before it (only the segments' counts differ)."""
+        size = np.diff(self.offsets)
+        same = np.zeros(len(size), bool)
+        same[1:] = (size[1:] == size[:-1]) & (self.shape[1:] == self.shape[:-1])
+        alike = np.flatnonzero(same & (size > 0))
+        if len(alike):
+            n = size[alike]
+            rows = _ranges(self.offsets[alike], n)
+            before = rows - np.repeat(n, n)  # the same segment of the move before
+            differ = (self.rate[rows] != self.rate[before]) | \
+                (self.phase[rows] != self.phase[before])
+            same[alike] = ~np.logical_or.reduceat(differ, np.cumsum(n) - n)
+        return same
 
 
 def _assemble(pulses: np.ndarray, shape: np.ndarray, ladders: tuple[_Ladder, ...],
@@ -629,30 +645,30 @@ def _assemble(pulses: np.ndarray, shape: np.ndarray, ladders: tuple[_Ladder, ...
     start = offsets[:-1] + np.concatenate((np.zeros((1, moves), np.int64),
                                            np.cumsum(sizes, axis=0)[:-1]))  # (5, moves)
     for i, (n, r, c) in enumerate(parts):
-        dest = np.repeat(start[i], n) + np.arange(len(r)) - np.repeat(np.cumsum(n) - n, n)
+        dest = np.repeat(start[i] - np.cumsum(n) + n, n) + np.arange(len(r))
         phase[dest] = 0 if i < 2 else (1 if i == 2 else 2)
         rate[dest] = r
         count[dest] = c
-    move = np.repeat(np.arange(moves), per_move)
     accel = sizes[0] + sizes[1]
     clamped = clamp & (accel > 0)
     if clamped.any():
         # With LE=1 the split can end the accel below the stage the decel share starts
         # on; decelerating never speeds up, so those decel pulses run at the peak rate.
         firsts = offsets[:-1][clamped]
-        peak = np.zeros(moves, np.int64)
-        peak[clamped] = np.minimum.reduceat(rate[_ranges(firsts, accel[clamped])],
-                                            np.cumsum(accel[clamped]) - accel[clamped])
-        down = (phase == 2) & clamped[move]
-        rate[down] = np.maximum(rate[down], peak[move[down]])
+        peak = np.minimum.reduceat(rate[_ranges(firsts, accel[clamped])],
+                                   np.cumsum(accel[clamped]) - accel[clamped])
+        decel = (sizes[3] + sizes[4])[clamped]
+        down = _ranges(offsets[1:][clamped] - decel, decel)
+        rate[down] = np.maximum(rate[down], np.repeat(peak, decel))
     # a part at the same phase and rate as the one before (in the same move) joins it
     new = np.ones(total, bool)
-    new[1:] = (move[1:] != move[:-1]) | (phase[1:] != phase[:-1]) | (rate[1:] != rate[:-1])
+    new[1:] = (phase[1:] != phase[:-1]) | (rate[1:] != rate[:-1])
+    new[offsets[:-1][per_move > 0]] = True
     if not new.all():
         heads = np.flatnonzero(new)
         count = np.add.reduceat(count, heads)
-        phase, rate, move = phase[heads], rate[heads], move[heads]
-        offsets = np.concatenate(([0], np.cumsum(np.bincount(move, minlength=moves))))
+        phase, rate = phase[heads], rate[heads]
+        offsets = np.concatenate(([0], np.cumsum(new)))[offsets]
     return MoveBatch(pulses, shape, phase, rate, count, offsets)
 
 
