@@ -202,7 +202,8 @@ def follow(rotor: Rotor, spans: Sequence[tuple[float, float]], *, step_s: float,
             *rotor.curve(), rotor.row(), dur, vel, state[0], state[1],
             previous_pps, t0_s, step_s, math.radians(SLIP_DEG) / rotor.c_e,
             math.radians(SETTLE_TOL_DEG) / rotor.c_e, MAX_SETTLE_PERIODS, max_steps, no_ref,
-            out_lag, out_s, 0.0, 0.0, out_max, out_lag, out_s, record, rec_t, rec_lag)
+            out_lag, out_s, 0.0, 0.0, out_max, out_lag, out_s, record, rec_t, rec_lag, False,
+            out_max, 0.0, 0.0)
         if status != rk.OUT_OF_ROOM:
             break
         room *= 2

@@ -35,6 +35,11 @@ import numpy as np
 C_E, K, FRICTION, LOAD, DAMPING = range(5)
 ROTOR_FIELDS = ("c_e", "k", "friction_pps2", "load_pps2", "damping_per_s")
 
+# An execution on the reference's tail stops where what it has seen is no less than the
+# reference's rest plus this many times the amplitude of their difference (`follow_spans`):
+# margin for the difference to grow as the stiffness falls with speed and sin δ bends.
+BOUND = 3.0
+
 # Status of an integration (returned as an int: numba raises nothing we want to catch).
 OK, OUT_OF_STEPS, OUT_OF_ROOM = 0, 1, 2
 
@@ -178,7 +183,8 @@ def follow_spans(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
                  limit: int, ref_kb: np.ndarray, ref_lag: np.ndarray, ref_s: np.ndarray,
                  tol_lag: float, tol_s: float, out_max: np.ndarray, out_lag: np.ndarray,
                  out_s: np.ndarray, record: bool, rec_t: np.ndarray, rec_lag: np.ndarray,
-                 peak_only: bool = False) -> tuple[int, int, int, float, int, int, int]:
+                 peak_only: bool, ref_suffix: np.ndarray, worst0: float, bound: float
+                 ) -> tuple[int, int, int, float, int, int, int]:
     """Integrate over the spans (see `profiles.motor.rotor.follow`).
 
     Per span i: `out_max[i]` the largest |lag|, (`out_lag[i]`, `out_s[i]`) the state at
@@ -189,12 +195,18 @@ def follow_spans(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
     `peak_only`: only the worst |lag| is wanted, not the final state: the last span, at
     rest, stops once a natural period's largest |lag| falls below the previous period's
     (with no command left the ringing only decays: its worst has been seen).
+    `bound` > 0 (with `peak_only`): the integration also stops at a reference boundary
+    where the worst |lag| so far (at least `worst0`) is no less than the reference's
+    worst from there on (`ref_suffix[kb + 1]`) plus `bound` times the amplitude of the
+    difference of their states: both follow the same commands from there, the
+    difference only rings down, so the rest cannot raise the worst.
 
     Returns (spans done, status, slipped, slip time, steps, rejoined boundary or −1,
     recorded points)."""
     t = t0
     steps = 0
     recorded = 0
+    worst = worst0
     for i in range(len(dur)):
         v = vel[i]
         s += v - previous  # the command's speed steps; the lag is continuous
@@ -211,10 +223,25 @@ def follow_spans(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
         if slipped:
             return i + 1, OK, 1, slip_t, steps, -1, recorded
         t += dur[i]
+        worst = max(worst, peak)
         kb = ref_kb[i]
-        if kb >= 0 and abs(lag - ref_lag[kb]) <= tol_lag and abs(s - ref_s[kb]) <= tol_s:
+        if kb < 0:
+            continue
+        if abs(lag - ref_lag[kb]) <= tol_lag and abs(s - ref_s[kb]) <= tol_s:
+            return i + 1, OK, 0, 0.0, steps, kb, recorded
+        if bound > 0 and worst >= ref_suffix[kb + 1] + bound * _amplitude(
+                curve_v, curve_t, rotor, v, lag - ref_lag[kb], s - ref_s[kb]):
             return i + 1, OK, 0, 0.0, steps, kb, recorded
     return len(dur), OK, 0, 0.0, steps, -1, recorded
+
+
+@_jit
+def _amplitude(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, v: float,
+               lag: float, s: float) -> float:
+    """The amplitude [pulses] of a free oscillation from (lag, s) at the natural frequency
+    of the command speed v (infinite when the rotor has no stiffness there)."""
+    period = natural_period_s(curve_v, curve_t, rotor, v)
+    return math.hypot(lag, s * period / (2 * math.pi)) if math.isfinite(period) else math.inf
 
 
 @_jit
@@ -244,7 +271,7 @@ def _reference(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, dur:
     done, status, slipped, _, used, _, _ = follow_spans(
         curve_v, curve_t, rotor, dur, vel, 0.0, 0.0, 0.0, 0.0, step, slip, tol, settle_periods,
         limit, no_kb, ref_lag, ref_s, 0.0, 0.0, ref_max, ref_lag, ref_s, False, no_record,
-        no_record, True)
+        no_record, True, suffix, 0.0, 0.0)
     suffix[:] = 0.0
     for k in range(done - 1, -1, -1):
         suffix[k] = max(suffix[k + 1], ref_max[k])
@@ -296,7 +323,7 @@ def _execution(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, rate
     done, status, slip_flag, _, used, rejoined, _ = follow_spans(
         curve_v, curve_t, rotor, dur, vel, lag0, s0, prev, 0.0, step, slip, tol, settle_periods,
         limit, kb, ref_lag, ref_s, rejoin_lag, tol_s, out_max, out_lag, out_s, False, no_record,
-        no_record, True)
+        no_record, True, suffix, worst, BOUND)
     for k in range(done):
         worst = max(worst, out_max[k])
     if rejoined >= 0:
