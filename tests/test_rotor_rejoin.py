@@ -89,3 +89,62 @@ def test_long_moves_rejoin_the_reference_after_their_cruise() -> None:
     first, second = used.values()
     assert np.array_equal(first[:, 1:], second[:, 1:])   # the longer moves
     assert not np.array_equal(first[:, 0], second[:, 0])  # the reference
+
+
+
+def _follow(m: Motor, spans: np.ndarray, lag0: float, kb: np.ndarray,
+            ref: tuple[np.ndarray, np.ndarray, np.ndarray], bound: float
+            ) -> tuple[int, int, np.ndarray]:
+    """follow_spans over `spans` (the last one at rest) from a lag of `lag0` against the
+    reference's boundary states and worst from each span on (`ref`): (steps, the
+    boundary it stopped at or −1, per span done its worst, end lag and end rate)."""
+    from profiles.motor import rotor_kernel as rk
+    from profiles.motor.rotor import MAX_SETTLE_PERIODS, SETTLE_TOL_DEG, SLIP_DEG, rotor_of
+
+    rotor = rotor_of(m)
+    out = np.zeros((3, len(spans)))
+    nothing = np.empty(0)
+    done, status, _, _, steps, stop, _ = rk.follow_spans(
+        *rotor.curve(), rotor.row(), spans[:, 0].copy(), spans[:, 1].copy(), lag0, 0.0, 0.0,
+        0.0, rotor.step_s(), np.radians(SLIP_DEG) / rotor.c_e,
+        np.radians(SETTLE_TOL_DEG) / rotor.c_e, MAX_SETTLE_PERIODS, 10**7, kb, ref[0],
+        ref[1], 0.0, 0.0, out[0], out[1], out[2], False, nothing, nothing, True, ref[2], 0.0,
+        bound)
+    assert status == rk.OK
+    return steps, stop, out[:, :done]
+
+
+def test_a_tail_stops_where_what_it_has_seen_bounds_the_rest() -> None:
+    """Two runs of one staircase (up in steps, a jump that rings most, down in steps,
+    then rest), the reference from rest and the other from a lag of 0.6 pulses (its
+    worst at first): with a bound, the other stops at
+    the first boundary where its worst so far is at least the reference's worst from
+    there on plus 3× the amplitude of their difference (at the natural frequency of the
+    command speed); its worst is then exactly its whole run's, in fewer steps. Without
+    a bound it runs to the end."""
+    from profiles.motor import rotor_kernel as rk
+    from profiles.motor.rotor import rotor_of
+
+    m = motor(damping_ratio=0.3)
+    spans = np.array([(0.004, 1000.0), (0.002, 1500.0), (0.002, 2000.0), (0.003, 6000.0),
+                      *[(0.002, v) for v in (5000.0, 4000.0, 3000.0, 2000.0, 1000.0)],
+                      (0.5, 0.0)])
+    n = len(spans)
+    no_kb = np.full(n, -1, np.int64)
+    _, _, (ref_max, ref_lag, ref_s) = _follow(m, spans, 0.0, no_kb, (
+        np.zeros(1), np.zeros(1), np.zeros(1)), 0.0)
+    suffix = np.append(np.maximum.accumulate(ref_max[::-1])[::-1], 0.0)
+    ref = (ref_lag, ref_s, suffix)
+    kb = np.append(np.arange(n - 1), -1)  # the rest after the last pulse is no boundary
+    whole_steps, whole_stop, whole = _follow(m, spans, 0.6, kb, ref, 0.0)
+    assert whole_stop == -1 and whole.shape[1] == n
+    steps, stop, seen = _follow(m, spans, 0.6, kb, ref, rk.BOUND)
+    assert stop == 3 and seen.shape[1] == stop + 1 and steps < whole_steps / 2  # the jump
+    np.testing.assert_array_equal(seen, whole[:, :stop + 1])
+    assert max(seen[0].max(), suffix[stop + 1]) == whole[0].max()  # exact
+    rotor = rotor_of(m)
+    worst = np.maximum.accumulate(whole[0])
+    for i in range(stop + 1):  # it stops at the first boundary the rule allows
+        amp = rk._amplitude(*rotor.curve(), rotor.row(), spans[i, 1],
+                            whole[1, i] - ref_lag[i], whole[2, i] - ref_s[i])
+        assert (worst[i] >= suffix[i + 1] + rk.BOUND * amp) == (i == stop), i
