@@ -65,13 +65,14 @@ def test_every_length_judged_together_is_the_oracles_whole_move(
 
 
 
-def test_long_moves_rejoin_the_reference_after_their_cruise() -> None:
-    """Trapezoids whose cruise settles: each longer one parts from the shortest (the
-    reference) at its cruise and, settled in the same state, rejoins it at the first
-    boundary of their common tail (the end of the fastest decel stage), so the rest of
-    its decel and its rest are the reference's: two tables that differ only in the
-    slower decel stages cost the longer moves the same RK4 steps (the reference's own
-    differ), and every worst angle is still the oracle's whole move's."""
+def test_long_moves_share_the_longest_cruise_and_rejoin_after_it() -> None:
+    """Trapezoids whose cruise settles: the longest is the reference, its cruise cut
+    where the shorter ones' end, so each shorter one starts its decel from the
+    reference's state at the end of its own cruise (no step of its cruise integrated)
+    and, settled in the same state, rejoins the reference at the first boundary of their
+    common tail (the end of the fastest decel stage). Two tables that differ only in
+    the slower decel stages cost the shorter moves the same few RK4 steps (the
+    reference's own differ), and every worst angle is still the oracle's whole move's."""
     accel = (4, 4, 3, 3, 2)
     m = motor(damping_ratio=0.5, load_torque_nm=0.04)
     used = {}
@@ -87,9 +88,10 @@ def test_long_moves_rejoin_the_reference_after_their_cruise() -> None:
                 assert found.deg[row, e] == pytest.approx(worst, abs=AGREE_DEG), (direction, n)
         used[decel] = steps[0]
     first, second = used.values()
-    assert np.array_equal(first[:, 1:], second[:, 1:])   # the longer moves
-    assert not np.array_equal(first[:, 0], second[:, 0])  # the reference
-
+    assert np.array_equal(first[:, :2], second[:, :2])    # the shorter moves
+    assert not np.array_equal(first[:, 2], second[:, 2])  # the reference
+    # 400 pulses of cruise at 1 MHz / 150 are 60 ms, hundreds of steps: none taken
+    assert (first[:, :2] > 0).all() and (first[:, :2] < first[:, 2:] / 20).all()
 
 
 def _follow(m: Motor, spans: np.ndarray, lag0: float, kb: np.ndarray,
@@ -148,3 +150,34 @@ def test_a_tail_stops_where_what_it_has_seen_bounds_the_rest() -> None:
         amp = rk._amplitude(*rotor.curve(), rotor.row(), spans[i, 1],
                             whole[1, i] - ref_lag[i], whole[2, i] - ref_s[i])
         assert (worst[i] >= suffix[i + 1] + rk.BOUND * amp) == (i == stop), i
+
+
+def test_trapezoids_cut_alike_are_prefixes_of_the_longest() -> None:
+    """`shared_cruises`: every move keeps its pulses and rates in order; triangles are
+    untouched; each trapezoid's segments are the longest trapezoid's up to the end of
+    its own cruise, then the same decel."""
+    from profiles.ppmc312.execution import moves
+    from profiles.ppmc312.load_angle import shared_cruises
+
+    table = FreeCurveTable(MHZ1, (150, 220, 330), (4, 3, 2), (2, 3, 5))
+    top = table.accel_total + table.decel_total
+    lengths = np.array([5, 12, top, top + 1, top + 7, top + 30, top + 31, top + 100])
+    runs = moves(table, lengths)
+    cut = shared_cruises(runs)
+    longest = cut.runs(len(lengths) - 1)
+    for e, n in enumerate(lengths.tolist()):
+        before, after = runs.runs(e), cut.runs(e)
+        assert sum(c for _, _, c in after) == n
+        merged: list[tuple[str, int, int]] = []
+        for phase, rate, c in after:  # joining the cut pieces gives the move back
+            if merged and merged[-1][:2] == (phase, rate):
+                merged[-1] = (phase, rate, merged[-1][2] + c)
+            else:
+                merged.append((phase, rate, c))
+        assert merged == before
+        if runs.shape[e] != 0 or n == top:  # a triangle, or a trapezoid with no cruise
+            assert after == before
+            continue
+        decel = [s for s in after if s[0] == "decel"]
+        head = after[:len(after) - len(decel)]
+        assert longest[:len(head)] == head and longest[-len(decel):] == decel

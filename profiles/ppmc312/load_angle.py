@@ -10,11 +10,12 @@ families that come out worst are judged again at every length around their worst
 sample (`refine`); a trapezoid's cruise long enough to settle stands for every
 longer one. Both directions are judged when the motor has a load torque.
 
-Executions share their accel prefix with the longest-listed one (the reference)
-and their decel tail with it too: each is integrated from the reference's state
-where the commands part, until its state rejoins the reference's on the common
-tail (within `REJOIN_TOL_DEG`), where the reference's worst angle of the rest is
-taken. Several motors (a tolerance box's corners) are rows of one kernel call.
+Executions share their accel prefix with the longest-listed one (the reference:
+the longest trapezoid, its cruise cut where the others' end, `shared_cruises`) and
+their decel tail with it too: each is integrated from the reference's state where
+the commands part, until its state rejoins the reference's on the common tail
+(within `REJOIN_TOL_DEG`), where the reference's worst angle of the rest is taken, or
+until what it has seen bounds the rest (`rotor_kernel.BOUND`). Several motors (a tolerance box's corners) are rows of one kernel call.
 `verify.safety` turns the result into the verdict; planners use it to tighten.
 """
 
@@ -44,7 +45,7 @@ from ..motor.rotor import (
     settle_s,
     too_stiff,
 )
-from .execution import SHAPES, Execution, MoveBatch, families, moves
+from .execution import PHASES, SHAPES, Execution, MoveBatch, families, moves
 from .init_model import as_free_curve
 from .table import FreeCurveTable, InitTable
 
@@ -224,6 +225,7 @@ def judge(runs: MoveBatch, hz: float, rot: Rotors, *, max_step_s: float | None =
     RK4 steps for one rotor is refused."""
     from ..motor import rotor_kernel as rk
 
+    runs = shared_cruises(runs)
     steps = rot.step_s(max_step_s)
     settles = np.asarray([settle_s(rot.rotor(i), h) for i, h in enumerate(steps)])
     n_rot, n_exec = len(rot), len(runs)
@@ -256,6 +258,29 @@ def judge(runs: MoveBatch, hz: float, rot: Rotors, *, max_step_s: float | None =
         r = int(bad[0])
         raise too_stiff(MAX_VERDICT_STEPS, rot.rotor(r), float(steps[r]))
     return lag, slipped
+
+
+def shared_cruises(runs: MoveBatch) -> MoveBatch:
+    """The same moves, each trapezoid's cruise cut where the shorter ones' end: a
+    table's trapezoids differ only in their cruise, so cut alike they are prefixes of
+    the longest (then the reference), and each is judged from the reference's state at
+    its cruise's end rather than integrating its own cruise."""
+    sizes = np.diff(runs.offsets)
+    cruise = np.flatnonzero((runs.phase == PHASES.index("cruise")) &
+                            (np.repeat(runs.shape, sizes) == SHAPES.index("trapezoid")))
+    if len(cruise) < 2:
+        return runs
+    ends = np.unique(runs.count[cruise])                # where some trapezoid's cruise ends
+    pieces = np.searchsorted(ends, runs.count[cruise]) + 1
+    per_segment = np.ones(len(runs.rate), np.int64)
+    per_segment[cruise] = pieces
+    count = np.repeat(runs.count, per_segment)
+    first = np.cumsum(per_segment) - per_segment          # each old segment's first new one
+    within = np.arange(int(pieces.sum())) - np.repeat(np.cumsum(pieces) - pieces, pieces)
+    count[np.repeat(first[cruise], pieces) + within] = np.diff(ends, prepend=0)[within]
+    return MoveBatch(runs.pulses, runs.shape, np.repeat(runs.phase, per_segment),
+                     np.repeat(runs.rate, per_segment), count,
+                     np.append(first, len(count))[runs.offsets])
 
 
 PARALLEL_MIN_CELLS = 32   # fewer (rotor, execution) pairs run on the calling thread
