@@ -88,6 +88,18 @@ class Rotor:
         stiffness = self.k * self.c_e * self.t_peak(speed_pps)
         return 2 * math.pi / math.sqrt(stiffness) if stiffness > 0 else math.inf
 
+    def natural_periods_s(self, speeds_pps: np.ndarray) -> np.ndarray:
+        """`natural_period_s` at many speeds at once, with the same arithmetic."""
+        v = np.abs(np.asarray(speeds_pps, dtype=float))
+        cv, ct = self.curve()
+        i = np.clip(np.searchsorted(cv, v, side="right") - 1, 0, len(cv) - 2)
+        w = (v - cv[i]) / (cv[i + 1] - cv[i])
+        t = np.where(v >= cv[-1], np.where(v == cv[-1], ct[-1], 0.0),
+                     ct[i] + w * (ct[i + 1] - ct[i]))
+        stiffness = self.k * self.c_e * t
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(stiffness > 0, 2 * math.pi / np.sqrt(stiffness), math.inf)
+
     def step_s(self) -> float:
         """The RK4 step: 1/50 of the natural period at rest (the command is constant within
         a step, so no other time scale enters the model)."""

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import functools
 import io
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal, NamedTuple
 
@@ -599,13 +599,22 @@ class MoveBatch:
                                                      self.count[a:b].tolist(), strict=True)]
 
     def subset(self, moves: np.ndarray) -> MoveBatch:
-        """The given moves (indices, ascending) of this batch, as a batch."""
+        """The given moves (indices, in any order) of this batch, as a batch."""
         sizes = np.diff(self.offsets)[moves]
         rows = np.repeat(self.offsets[:-1][moves] - np.cumsum(sizes) + sizes, sizes) + \
             np.arange(int(sizes.sum()))
         return MoveBatch(self.pulses[moves], self.shape[moves], self.phase[rows],
                          self.rate[rows], self.count[rows],
                          np.concatenate(([0], np.cumsum(sizes))))
+
+    @staticmethod
+    def concat(batches: Sequence[MoveBatch]) -> MoveBatch:
+        """The moves of `batches`, in order, as one batch."""
+        shift = np.cumsum([0, *(int(b.offsets[-1]) for b in batches[:-1])])
+        return MoveBatch(*(np.concatenate([getattr(b, f) for b in batches])
+                           for f in ("pulses", "shape", "phase", "rate", "count")),
+                         np.concatenate([[0], *(b.offsets[1:] + k
+                                                for b, k in zip(batches, shift, strict=True))]))
 
     def repeats(self) -> np.ndarray:
         """For each move, whether it has the shape and the sequence of (phase, rate) of

@@ -15,13 +15,13 @@ the longest trapezoid, its cruise cut where the others' end, `shared_cruises`) a
 their decel tail with it too: each is integrated from the reference's state where
 the commands part, until its state rejoins the reference's on the common tail
 (within `REJOIN_TOL_DEG`), where the reference's worst angle of the rest is taken, or
-until what it has seen bounds the rest (`rotor_kernel.BOUND`). Several motors (a tolerance box's corners) are rows of one kernel call.
+until what it has seen bounds the rest (`rotor_kernel.BOUND`). Several motors (a
+tolerance box's corners) are rows of one kernel call.
 `verify.safety` turns the result into the verdict; planners use it to tighten.
 """
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -123,8 +123,8 @@ def angles(table: FreeCurveTable | InitTable, motors: Sequence[Motor], *,
             raise FieldRangeError("move lengths to judge", 0, 1, 0xFFFFFFFF)
         lag, slipped = judge(moves(free, lengths), hz, rot, max_step_s=max_step_s)
     else:
-        lengths, family, spacing = samples(free, motors)
-        lag, slipped = judge(moves(free, lengths), hz, rot, max_step_s=max_step_s)
+        lengths, family, spacing, runs = _sampled(free, motors)
+        lag, slipped = judge(runs, hz, rot, max_step_s=max_step_s)
         extra = refine(lengths, family, spacing, np.degrees(lag.max(axis=0) * rot.c_e))
         if len(extra):
             more_lag, more_slipped = judge(moves(free, extra), hz, rot, max_step_s=max_step_s)
@@ -138,6 +138,12 @@ def angles(table: FreeCurveTable | InitTable, motors: Sequence[Motor], *,
 
 def samples(table: FreeCurveTable, motors: Sequence[Motor]
             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The move lengths that stand for every length of every family (`_sampled`)."""
+    return _sampled(table, motors)[:3]
+
+
+def _sampled(table: FreeCurveTable, motors: Sequence[Motor]
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, MoveBatch]:
     """The move lengths that stand for every length of every family: (lengths ascending,
     the family of each (its index), each family's spacing in pulses).
 
@@ -149,7 +155,10 @@ def samples(table: FreeCurveTable, motors: Sequence[Motor]
     Once that stage (or the cruise) has lasted SETTLE_CRUISE_PERIODS natural periods
     for every motor the rotor has settled in it and a longer dwell repeats that state:
     the rest of the family is judged by its longest move alone (a trapezoid's by that
-    settled cruise)."""
+    settled cruise).
+
+    Also the moves of those lengths: most are a family's shortest or longest, which
+    finding the spacing has built already."""
     rotor_list = [rotor_of(m) for m in motors]
     fams = families(table)
     lo, hi = fams.lo, fams.hi
@@ -164,18 +173,20 @@ def samples(table: FreeCurveTable, motors: Sequence[Motor]
     slowest = np.where(trapezoid, fams.cruise_rate, slowest)
     spacing = np.maximum(hi - lo, 1)
     dense = hi.copy()  # the lengths sampled finely; the family's longest is judged too
-    for i in np.flatnonzero(slowest).tolist():
-        speed = hz / float(slowest[i])
-        period = min(r.natural_period_s(speed) for r in rotor_list)
-        settle = max(min(r.natural_period_s(speed), 1.0) for r in rotor_list)
-        if math.isfinite(period):
-            spacing[i] = max(1, min(int(spacing[i]), int(period * speed / PHASE_SAMPLES)))
-        # past this much dwell the rotor has settled in that stage (or cruise): a longer
-        # one repeats the settled state (a cruise grows a pulse a length; two partial
-        # stages share the growth: twice it)
-        share = 1 if trapezoid[i] else 2
-        dense[i] = min(int(hi[i]), int(lo[i]) + share * max(
-            math.ceil(speed * SETTLE_CRUISE_PERIODS * settle), 1))
+    at = np.flatnonzero(slowest)
+    speed = hz / slowest[at].astype(float)
+    periods = np.array([r.natural_periods_s(speed) for r in rotor_list])
+    period = periods.min(axis=0)
+    settle = np.minimum(periods, 1.0).max(axis=0)
+    finite = np.isfinite(period)
+    spacing[at[finite]] = np.maximum(1, np.minimum(
+        spacing[at[finite]], (period[finite] * speed[finite] / PHASE_SAMPLES).astype(np.int64)))
+    # past this much dwell the rotor has settled in that stage (or cruise): a longer one
+    # repeats the settled state (a cruise grows a pulse a length; two partial stages
+    # share the growth: twice it)
+    share = np.where(trapezoid[at], 1, 2)
+    dense[at] = np.minimum(hi[at], lo[at] + share * np.maximum(
+        np.ceil(speed * SETTLE_CRUISE_PERIODS * settle).astype(np.int64), 1))
     hi = np.where(trapezoid, dense, hi)  # a longer cruise repeats the settled one
     count = (dense - lo) // spacing + 1
     family = np.repeat(np.arange(len(lo)), count)
@@ -184,7 +195,13 @@ def samples(table: FreeCurveTable, motors: Sequence[Motor]
                               dense, hi))
     family = np.concatenate((family, np.arange(len(lo)), np.arange(len(lo))))
     lengths, first = np.unique(lengths, return_index=True)
-    return lengths, family[first], spacing
+    built = np.concatenate((lo, fams.hi))
+    have, where = np.unique(built, return_index=True)
+    at = np.minimum(np.searchsorted(have, lengths), len(have) - 1)
+    known = have[at] == lengths
+    index = np.where(known, where[at], len(built) + np.cumsum(~known) - 1)
+    runs = MoveBatch.concat([short, long, moves(table, lengths[~known])]).subset(index)
+    return lengths, family[first], spacing, runs
 
 
 def refine(lengths: np.ndarray, family: np.ndarray, spacing: np.ndarray,
@@ -197,10 +214,11 @@ def refine(lengths: np.ndarray, family: np.ndarray, spacing: np.ndarray,
     best = float(worst_deg.max())
     extra: list[np.ndarray] = []
     starts = np.flatnonzero(np.diff(family, prepend=-1))
-    for a, b in zip(starts.tolist(), [*starts[1:].tolist(), len(family)], strict=True):
+    ends = np.append(starts[1:], len(family))
+    top = np.maximum.reduceat(worst_deg, starts)  # each family's worst sample
+    wanted = (spacing[family[starts]] > 1) & ((top >= best - REFINE_DEG) | (top >= PEAK_DEG))
+    for a, b in zip(starts[wanted].tolist(), ends[wanted].tolist(), strict=True):
         sp = int(spacing[family[a]])
-        if sp <= 1:
-            continue
         w, at = worst_deg[a:b], lengths[a:b]
         k = int(np.argmax(w))
         if w[k] >= best - REFINE_DEG:
@@ -265,9 +283,9 @@ def shared_cruises(runs: MoveBatch) -> MoveBatch:
     table's trapezoids differ only in their cruise, so cut alike they are prefixes of
     the longest (then the reference), and each is judged from the reference's state at
     its cruise's end rather than integrating its own cruise."""
-    sizes = np.diff(runs.offsets)
-    cruise = np.flatnonzero((runs.phase == PHASES.index("cruise")) &
-                            (np.repeat(runs.shape, sizes) == SHAPES.index("trapezoid")))
+    cruise = np.flatnonzero(runs.phase == PHASES.index("cruise"))
+    of_move = np.searchsorted(runs.offsets, cruise, side="right") - 1
+    cruise = cruise[runs.shape[of_move] == SHAPES.index("trapezoid")]
     if len(cruise) < 2:
         return runs
     ends = np.unique(runs.count[cruise])                # where some trapezoid's cruise ends
