@@ -611,10 +611,13 @@ class MoveBatch:
     def concat(batches: Sequence[MoveBatch]) -> MoveBatch:
         """The moves of `batches`, in order, as one batch."""
         shift = np.cumsum([0, *(int(b.offsets[-1]) for b in batches[:-1])])
-        return MoveBatch(*(np.concatenate([getattr(b, f) for b in batches])
-                           for f in ("pulses", "shape", "phase", "rate", "count")),
-                         np.concatenate([[0], *(b.offsets[1:] + k
-                                                for b, k in zip(batches, shift, strict=True))]))
+
+        def joined(name: str) -> np.ndarray:
+            return np.concatenate([getattr(b, name) for b in batches])
+
+        return MoveBatch(joined("pulses"), joined("shape"), joined("phase"), joined("rate"),
+                         joined("count"), np.concatenate([[0], *(
+                             b.offsets[1:] + k for b, k in zip(batches, shift, strict=True))]))
 
     def repeats(self) -> np.ndarray:
         """For each move, whether it has the shape and the sequence of (phase, rate) of
