@@ -22,7 +22,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from benchlib import Results, verdict  # noqa: E402
+from benchlib import Results, forget, verdict  # noqa: E402
 
 from profiles.ppmc312.planner import plan_free_curve  # noqa: E402
 from verify.designer import DesignFigure, Settings, bundled_motors, design, loaded_motor  # noqa: E402
@@ -47,6 +47,7 @@ def main() -> None:
             t0 = time.perf_counter()
             plan_free_curve(loaded_motor(motor, settings), pulses=settings.pulses)
             plan_ms.append((time.perf_counter() - t0) * 1e3)
+            forget()  # as if this table had not been judged before
             t0 = time.perf_counter()
             result = design(motor, settings)
             total_ms.append((time.perf_counter() - t0) * 1e3)

@@ -33,7 +33,7 @@ sys.path.insert(0, str(ROOT))
 
 import numpy as np  # noqa: E402
 from benchfigures import comparison_data  # noqa: E402
-from benchlib import Results, gmean, verdict  # noqa: E402
+from benchlib import Results, forget, gmean, verdict  # noqa: E402
 
 from profiles.motor import Motor, bundled_motor_paths, load_motor  # noqa: E402
 from profiles.ppmc312.execution import simulate_move  # noqa: E402
@@ -81,6 +81,7 @@ def best_of(n: int, fn: object) -> tuple[float, object]:
     assert callable(fn)
     best, out = math.inf, None
     for _ in range(n):
+        forget()
         t0 = time.perf_counter()
         out = fn()
         best = min(best, time.perf_counter() - t0)

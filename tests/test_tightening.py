@@ -81,3 +81,27 @@ def test_shaping_scales_capability_and_jump_band_by_band() -> None:
             assert n1[0] == n0[0] and d1[0] == d0[0]
     assert float(gentle.jump_at(5000.0)) == pytest.approx(0.5 * NEMA23.jump_pps)
     assert float(gentle.jump_at(300.0)) == pytest.approx(NEMA23.jump_pps)
+
+
+def test_a_table_judged_again_is_remembered_for_equal_motors_only() -> None:
+    """Tightening remembers its verdicts by table and motor values (a duty cycle tightens
+    candidates whose tables coincide): an equal table on an equal motor loaded again is
+    the same verdict, shared read-only; another damping is judged anew; forgetting
+    clears them."""
+    from dataclasses import replace
+
+    from profiles.ppmc312.planner import tightening
+
+    path = bundled_motor_paths()[0]
+    motor = load_motor(path)
+    table = plan_free_curve(motor, pulses=2000).table
+    tightening.forget_verdicts()
+    first = tightening.judged(table, [motor])
+    again = tightening.judged(type(table)(table.clock, table.rates, table.accel_pulses,
+                                          table.decel_pulses), [load_motor(path)])
+    assert again is first and not first.deg.flags.writeable
+    np.testing.assert_array_equal(first.deg, angles(table, [motor]).deg)
+    other = tightening.judged(table, [replace(motor, damping_ratio=motor.damping_ratio * 2)])
+    assert other is not first and other.deg.max() < first.deg.max()
+    tightening.forget_verdicts()
+    assert tightening.judged(table, [motor]) is not first
