@@ -181,3 +181,35 @@ def test_trapezoids_cut_alike_are_prefixes_of_the_longest() -> None:
         decel = [s for s in after if s[0] == "decel"]
         head = after[:len(after) - len(decel)]
         assert longest[:len(head)] == head and longest[-len(decel):] == decel
+
+
+def test_thousands_of_trapezoids_are_not_cut_alike() -> None:
+    """k trapezoids cut where every shorter one ends make ~k²/2 pieces: past
+    SHARED_CRUISE_PIECES (a motor with no torque at the cruise samples 200 000 cruise
+    lengths) the batch is judged as it is, never allocated quadratically."""
+    from profiles.ppmc312.execution import moves
+    from profiles.ppmc312.load_angle import SHARED_CRUISE_PIECES, shared_cruises
+
+    table = FreeCurveTable(MHZ1, (150, 220, 330), (4, 3, 2))
+    top = table.accel_total + table.decel_total
+    many = int(np.sqrt(2 * SHARED_CRUISE_PIECES)) + 2
+    runs = moves(table, np.arange(top + 1, top + 1 + many))
+    assert shared_cruises(runs) is runs
+    few = moves(table, np.arange(top + 1, top + 1 + 20))
+    assert len(shared_cruises(few).rate) == len(few.rate) + 19 * 20 // 2
+
+
+@pytest.mark.slow
+def test_a_cruise_where_the_motor_has_no_torque_is_refused_saying_why() -> None:
+    """A table cruising at 20 kpps on a motor whose curve ends at 4 kpps: the settled
+    cruise is sampled up to a second (200 000 lengths of cruise), more than the verdict's
+    step budget: refused with the budget's reason (a StepRampError: exit 2 with that
+    line), not an internal error."""
+    from profiles.errors import StepRampError
+    from profiles.ppmc312.load_angle import worst_load_angle
+
+    weak = Motor(steps_per_rev=200, curve_speed_pps=np.array([0.0, 4000.0]),
+                 curve_torque_nm=np.array([0.1, 0.1]), inertia_kgm2=2e-6, safety_factor=0.6,
+                 start_pps=100.0, damping_ratio=1.0)
+    with pytest.raises(StepRampError, match="RK4 steps"):
+        worst_load_angle(FreeCurveTable(MHZ1, (50, 5000), (2, 2)), weak)

@@ -278,6 +278,9 @@ def judge(runs: MoveBatch, hz: float, rot: Rotors, *, max_step_s: float | None =
     return lag, slipped
 
 
+SHARED_CRUISE_PIECES = 1_000_000   # cruise pieces at most (a verdict makes a few thousand)
+
+
 def shared_cruises(runs: MoveBatch) -> MoveBatch:
     """The same moves, each trapezoid's cruise cut where the shorter ones' end: a
     table's trapezoids differ only in their cruise, so cut alike they are prefixes of
@@ -290,6 +293,8 @@ def shared_cruises(runs: MoveBatch) -> MoveBatch:
         return runs
     ends = np.unique(runs.count[cruise])                # where some trapezoid's cruise ends
     pieces = np.searchsorted(ends, runs.count[cruise]) + 1
+    if int(pieces.sum()) > SHARED_CRUISE_PIECES:
+        return runs  # cut alike, k trapezoids make ~k²/2 pieces: each integrates its own
     per_segment = np.ones(len(runs.rate), np.int64)
     per_segment[cruise] = pieces
     count = np.repeat(runs.count, per_segment)
