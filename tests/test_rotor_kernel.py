@@ -336,6 +336,14 @@ def test_the_peak_torque_is_the_curve_exactly_at_its_points_and_zero_beyond() ->
         assert rk._t_peak(cv, ct, v) == pytest.approx(expected, rel=1e-12)
     for v in (12000.5, 5e4):
         assert rotor.t_peak(v) == 0.0 and rk._t_peak(cv, ct, v) == 0.0
+    # the natural periods at many speeds at once (the verdict's sampling) are the
+    # one-speed ones bit for bit: at the points (the last one: its torque, not 0), in the
+    # first and the last interval, past the end (no stiffness: infinite), either sign
+    many = np.array([0.0, 1.0, 500.0, 999.999, 1000.0, 4500.0, 11999.0, 12000.0, 12000.5,
+                     5e4, -500.0, -12000.0])
+    periods = rotor.natural_periods_s(many)
+    np.testing.assert_array_equal(periods, [rotor.natural_period_s(v) for v in many])
+    assert np.isfinite(periods[7]) and np.isinf(periods[8:10]).all()
 
 
 def test_a_span_of_no_duration_takes_no_step() -> None:

@@ -82,6 +82,7 @@ def test_long_moves_share_the_longest_cruise_and_rejoin_after_it() -> None:
         lengths = [top + 400, top + 700, top + 1500]
         with kernel_step_counts() as steps:
             found = angles(table, [m], pulses=lengths)
+        assert not found.slipped.any()  # a rejoin is no slip
         for row, direction in enumerate(found.direction.tolist()):
             for e, n in enumerate(lengths):
                 worst, _ = whole_move(table, m, n, direction)
@@ -96,24 +97,24 @@ def test_long_moves_share_the_longest_cruise_and_rejoin_after_it() -> None:
 
 def _follow(m: Motor, spans: np.ndarray, lag0: float, kb: np.ndarray,
             ref: tuple[np.ndarray, np.ndarray, np.ndarray], bound: float
-            ) -> tuple[int, int, np.ndarray]:
+            ) -> tuple[int, int, bool, np.ndarray]:
     """follow_spans over `spans` (the last one at rest) from a lag of `lag0` against the
     reference's boundary states and worst from each span on (`ref`): (steps, the
-    boundary it stopped at or −1, per span done its worst, end lag and end rate)."""
+    boundary it stopped at or −1, slipped, per span done its worst, end lag and rate)."""
     from profiles.motor import rotor_kernel as rk
     from profiles.motor.rotor import MAX_SETTLE_PERIODS, SETTLE_TOL_DEG, SLIP_DEG, rotor_of
 
     rotor = rotor_of(m)
     out = np.zeros((3, len(spans)))
     nothing = np.empty(0)
-    done, status, _, _, steps, stop, _ = rk.follow_spans(
+    done, status, slipped, _, steps, stop, _ = rk.follow_spans(
         *rotor.curve(), rotor.row(), spans[:, 0].copy(), spans[:, 1].copy(), lag0, 0.0, 0.0,
         0.0, rotor.step_s(), np.radians(SLIP_DEG) / rotor.c_e,
         np.radians(SETTLE_TOL_DEG) / rotor.c_e, MAX_SETTLE_PERIODS, 10**7, kb, ref[0],
         ref[1], 0.0, 0.0, out[0], out[1], out[2], False, nothing, nothing, True, ref[2], 0.0,
         bound)
     assert status == rk.OK
-    return steps, stop, out[:, :done]
+    return steps, stop, bool(slipped), out[:, :done]
 
 
 def test_a_tail_stops_where_what_it_has_seen_bounds_the_rest() -> None:
@@ -133,14 +134,15 @@ def test_a_tail_stops_where_what_it_has_seen_bounds_the_rest() -> None:
                       (0.5, 0.0)])
     n = len(spans)
     no_kb = np.full(n, -1, np.int64)
-    _, _, (ref_max, ref_lag, ref_s) = _follow(m, spans, 0.0, no_kb, (
+    _, _, _, (ref_max, ref_lag, ref_s) = _follow(m, spans, 0.0, no_kb, (
         np.zeros(1), np.zeros(1), np.zeros(1)), 0.0)
     suffix = np.append(np.maximum.accumulate(ref_max[::-1])[::-1], 0.0)
     ref = (ref_lag, ref_s, suffix)
     kb = np.append(np.arange(n - 1), -1)  # the rest after the last pulse is no boundary
-    whole_steps, whole_stop, whole = _follow(m, spans, 0.6, kb, ref, 0.0)
+    whole_steps, whole_stop, _, whole = _follow(m, spans, 0.6, kb, ref, 0.0)
     assert whole_stop == -1 and whole.shape[1] == n
-    steps, stop, seen = _follow(m, spans, 0.6, kb, ref, rk.BOUND)
+    steps, stop, slipped, seen = _follow(m, spans, 0.6, kb, ref, rk.BOUND)
+    assert not slipped  # a stop is no slip
     assert stop == 3 and seen.shape[1] == stop + 1 and steps < whole_steps / 2  # the jump
     np.testing.assert_array_equal(seen, whole[:, :stop + 1])
     assert max(seen[0].max(), suffix[stop + 1]) == whole[0].max()  # exact
@@ -213,3 +215,16 @@ def test_a_cruise_where_the_motor_has_no_torque_is_refused_saying_why() -> None:
                  start_pps=100.0, damping_ratio=1.0)
     with pytest.raises(StepRampError, match="RK4 steps"):
         worst_load_angle(FreeCurveTable(MHZ1, (50, 5000), (2, 2)), weak)
+
+
+def test_moves_of_one_triangle_family_judged_together_are_the_oracles() -> None:
+    """Triangles only (no trapezoid: the reference is a triangle too, and the others have
+    as many segments as it, differing only in their partial stages' pulses): each is
+    integrated from where it parts from the reference, never taken for it."""
+    table = FreeCurveTable(MHZ1, (150, 220, 330, 500, 750), (4, 4, 3, 3, 2))
+    m = motor()
+    lengths = list(range(20, 31))  # below the 32 pulses of both sides: triangles
+    found = angles(table, [m], pulses=lengths)
+    worst = [whole_move(table, m, n)[0] for n in lengths]
+    np.testing.assert_allclose(found.deg[0], worst, atol=AGREE_DEG)
+    assert len(set(np.round(worst, 1))) > 3  # the family's moves do differ
