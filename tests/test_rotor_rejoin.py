@@ -228,3 +228,22 @@ def test_moves_of_one_triangle_family_judged_together_are_the_oracles() -> None:
     worst = [whole_move(table, m, n)[0] for n in lengths]
     np.testing.assert_allclose(found.deg[0], worst, atol=AGREE_DEG)
     assert len(set(np.round(worst, 1))) > 3  # the family's moves do differ
+
+
+def test_a_rejoin_needs_the_references_lag_and_rate_and_counts_its_span() -> None:
+    """At the first boundary, an execution whose state is the reference's rejoins there
+    (that span done and its worst kept); one at the reference's lag but moving the other
+    way does not (the rates differ by twice the rate), nor does a bound stop it."""
+    m = motor(damping_ratio=0.3)
+    spans = np.array([(0.004, 1000.0), (0.002, 1500.0), (0.002, 2000.0), (0.5, 0.0)])
+    n = len(spans)
+    no_kb = np.full(n, -1, np.int64)
+    nothing = (np.zeros(1), np.zeros(1), np.zeros(1))
+    _, _, _, (own_max, own_lag, own_s) = _follow(m, spans, 0.3, no_kb, nothing, 0.0)
+    assert abs(own_s[0]) > 1.0  # still ringing at the first boundary: the rate tells apart
+    kb = np.append(np.arange(n - 1), -1)
+    suffix = np.append(np.maximum.accumulate(own_max[::-1])[::-1], 0.0)
+    _, stop, _, seen = _follow(m, spans, 0.3, kb, (own_lag, own_s, suffix), 0.0)
+    assert stop == 0 and seen.shape[1] == 1 and seen[0, 0] == own_max[0]
+    _, stop, _, seen = _follow(m, spans, 0.3, kb, (own_lag, -own_s, suffix), 0.0)
+    assert stop == -1 and seen.shape[1] == n
