@@ -602,6 +602,14 @@ def test_refine_judges_every_length_around_the_worst_sample_and_before_the_first
     assert refine(lengths, family, spacing, worst).tolist() == [*range(211, 220),
                                                                 *range(221, 230)]
     assert not refine(lengths, family, np.array([1, 1, 1]), worst).tolist()  # dense already
+    # spacing 2: the one length between samples on each side of the worst; a family at
+    # exactly 90° (far below a 99° one) still names its shortest unstable move, and only
+    # the lengths before its first unstable sample, not up to a later one
+    lengths = np.array([10, 12, 14, 16, 100, 104, 108, 112])
+    family = np.array([0, 0, 0, 0, 1, 1, 1, 1])
+    worst = np.array([50.0, 99.0, 60.0, 95.0, 40.0, 90.0, 85.0, 88.0])
+    assert refine(lengths, family, np.array([2, 4]), worst).tolist() == [
+        11, 13, 101, 102, 103]
 
 
 def test_every_family_is_sampled_by_its_own_slowest_changing_stage() -> None:

@@ -55,6 +55,7 @@ def test_every_length_judged_together_is_the_oracles_whole_move(
     with kernel_step_counts() as steps:
         found = angles(table, [m], pulses=lengths)
     assert not found.slipped.any()
+    assert found.direction.tolist() == ([1, -1] if m.load_torque_nm else [1])
     whole_steps = 0
     for row, direction in enumerate(found.direction.tolist()):
         for e, n in enumerate(lengths):
