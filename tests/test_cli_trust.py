@@ -394,3 +394,28 @@ def test_the_command_starts_openblas_with_one_thread_unless_told(given: str | No
     out = subprocess.run([sys.executable, "-c", probe], env=env, capture_output=True,
                          text=True, check=True).stdout.split()
     assert out == [expected, "True"]  # set by the time verify.cli has loaded numpy
+
+
+@pytest.mark.parametrize("debug", [False, True])
+def test_an_internal_error_is_one_line_unless_debug_shows_the_traceback(
+        capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch,
+        debug: bool) -> None:
+    """A bug (an unexpected exception) is exit 2 and one line naming it, never exit 1;
+    `--debug`, anywhere on the command line, adds the Python traceback."""
+    from verify.cli import check
+
+    def broken(args: object) -> int:
+        raise RuntimeError("a bug")
+
+    real = check.add_subparser
+
+    def add(sub: object) -> None:
+        real(sub)
+        sub.choices["check"].set_defaults(func=broken)  # type: ignore[attr-defined]
+
+    monkeypatch.setattr(check, "add_subparser", add)
+    argv = ["check", str(ROOT / "examples" / "free-curve-nema17.json")]
+    code = cli.main([*argv, "--debug"] if debug else argv)
+    err = capsys.readouterr().err
+    assert code == 2 and "internal error (RuntimeError: a bug)" in err
+    assert ("Traceback (most recent call last)" in err) == debug

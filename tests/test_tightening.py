@@ -105,3 +105,34 @@ def test_a_table_judged_again_is_remembered_for_equal_motors_only() -> None:
     assert other is not first and other.deg.max() < first.deg.max()
     tightening.forget_verdicts()
     assert tightening.judged(table, [motor]) is not first
+
+
+def test_a_tightened_plan_says_where_and_binds_on_the_load_angle() -> None:
+    """A plan the bands made gentler says which speed bands (and by how much), binds on
+    the load angle, and carries its shaping; one the plain criterion already keeps
+    within the aim says only its worst angle."""
+    local = plan_free_curve(NEMA23, pulses=10_000, load_angle_deg=AIM_DEG)
+    assert "tightened where it rings: " in local.info and "pps ×" in local.info
+    assert local.binds == "load angle (tightened)"
+    assert local.extras["worst_load_angle_deg"] <= AIM_DEG
+    plain = plan_free_curve(NEMA23, pulses=10_000)
+    easy = plan_free_curve(NEMA23, pulses=10_000, load_angle_deg=89.0)
+    assert easy.extras["shaping"].plain and "tightened" not in easy.info
+    assert easy.binds == plain.binds and "worst load angle" in easy.info
+
+
+def test_no_plain_table_is_a_plan_error_not_a_gentler_search() -> None:
+    """When the plain criterion has no table for the move, nothing gentler has one: the
+    error is the planner's, said at once (never a search that ends without a plan)."""
+    from profiles.errors import PlanError
+    from profiles.ppmc312.planner.tightening import tighten
+
+    calls: list[Shaping | None] = []
+
+    def make(m: Motor, sh: Shaping | None = None) -> object:
+        calls.append(sh)
+        raise PlanError("no table for this move")
+
+    with pytest.raises(PlanError, match="no table for this move"):
+        tighten(NEMA23, make, AIM_DEG)  # type: ignore[arg-type]
+    assert calls == [None]
