@@ -295,15 +295,21 @@ def shared_cruises(runs: MoveBatch) -> MoveBatch:
     pieces = np.searchsorted(ends, runs.count[cruise]) + 1
     if int(pieces.sum()) > SHARED_CRUISE_PIECES:
         return runs  # cut alike, k trapezoids make ~k²/2 pieces: each integrates its own
-    per_segment = np.ones(len(runs.rate), np.int64)
-    per_segment[cruise] = pieces
-    count = np.repeat(runs.count, per_segment)
-    first = np.cumsum(per_segment) - per_segment          # each old segment's first new one
+    at = int(cruise[0])  # the segments before the first cut stay as they are (a batch by
+    # length ascending has its trapezoids last)
+    per_segment = np.ones(len(runs.rate) - at, np.int64)
+    per_segment[cruise - at] = pieces
+    first = at + np.cumsum(per_segment) - per_segment    # each later segment's first new one
+    count = np.repeat(runs.count[at:], per_segment)
     within = np.arange(int(pieces.sum())) - np.repeat(np.cumsum(pieces) - pieces, pieces)
-    count[np.repeat(first[cruise], pieces) + within] = np.diff(ends, prepend=0)[within]
-    return MoveBatch(runs.pulses, runs.shape, np.repeat(runs.phase, per_segment),
-                     np.repeat(runs.rate, per_segment), count,
-                     np.append(first, len(count))[runs.offsets])
+    count[np.repeat(first[cruise - at] - at, pieces) + within] = np.diff(ends, prepend=0)[within]
+
+    def cut(a: np.ndarray) -> np.ndarray:
+        return np.concatenate((a[:at], np.repeat(a[at:], per_segment)))
+
+    moved = np.concatenate((np.arange(at), first, [at + len(count)]))
+    return MoveBatch(runs.pulses, runs.shape, cut(runs.phase), cut(runs.rate),
+                     np.concatenate((runs.count[:at], count)), moved[runs.offsets])
 
 
 PARALLEL_MIN_CELLS = 32   # fewer (rotor, execution) pairs run on the calling thread
