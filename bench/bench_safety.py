@@ -254,7 +254,7 @@ def cold_call(res: Results) -> None:
                      "rotor's kernels and writes them; the second loads them.")
 
 
-HEAVY = ("numba", "toppra", "casadi", "matplotlib", "ruckig", "scipy", "jsonschema")
+HEAVY = ("numpy", "numba", "toppra", "casadi", "matplotlib", "ruckig", "scipy", "jsonschema")
 PROBE = ("import sys; from verify.cli import main; rc = main(['check', sys.argv[1]]); "
          f"print(sorted(m for m in {HEAVY!r} if m in sys.modules), file=sys.stderr); "
          "sys.exit(rc)")

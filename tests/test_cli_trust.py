@@ -389,11 +389,11 @@ def test_the_command_starts_openblas_with_one_thread_unless_told(given: str | No
     env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
     if given is not None:
         env["OPENBLAS_NUM_THREADS"] = given
-    probe = ("import sys, os; import verify.cli; "
-             "print(os.environ['OPENBLAS_NUM_THREADS'], 'numpy' in sys.modules)")
+    probe = ("import sys, os; import verify.cli; loaded = 'numpy' in sys.modules; "
+             "print(os.environ['OPENBLAS_NUM_THREADS'], loaded)")
     out = subprocess.run([sys.executable, "-c", probe], env=env, capture_output=True,
                          text=True, check=True).stdout.split()
-    assert out == [expected, "True"]  # set by the time verify.cli has loaded numpy
+    assert out == [expected, "False"]  # set before any command loads numpy
 
 
 @pytest.mark.parametrize("debug", [False, True])

@@ -36,18 +36,10 @@ from __future__ import annotations
 
 import math
 from functools import partial
-
-import numpy as np
+from itertools import pairwise
 
 from profiles.errors import FormatError
 from profiles.ppmc312.clock import MAX_OUTPUT_PPS
-from profiles.ppmc312.init_model import (
-    INIT_PULSES_FIELD_MAX,
-    INIT_PULSES_FIELD_MIN,
-    INIT_PULSES_MIN,
-    init_rate_problems,
-    init_stage_problem,
-)
 from profiles.ppmc312.limits import (
     MIN_STAGE_TICKS,
     SIDE_TOTAL_MAX,
@@ -101,13 +93,12 @@ def _check_free_curve(t: FreeCurveTable) -> list[Finding]:
     out = _stage_counts(t, sides)
     if not t.rates:
         return out
-    # One pass in C per rule answers "all fine" for the common case (fields bound every
-    # value below 2**24, every product below 2**40: int64 is exact).
-    rate_array = np.array(t.rates, dtype=np.int64)
-    out += _rate_rules(t, rate_array)
+    # One min/max/comparison pass per rule answers "all fine" for the common case; plain
+    # Python (at most 127 stages): `stepramp check` never imports numpy for a table.
+    out += _rate_rules(t)
     for side, field, pulses in sides:
         if pulses:
-            out += _side_rules(t, side, field, pulses, rate_array)
+            out += _side_rules(t, side, field, pulses)
     return out + _stop_speed(t)
 
 
@@ -134,12 +125,12 @@ def _stage_counts(t: FreeCurveTable, sides: list[tuple[str, str, tuple[int, ...]
     return out
 
 
-def _rate_rules(t: FreeCurveTable, rate_array: np.ndarray) -> list[Finding]:
+def _rate_rules(t: FreeCurveTable) -> list[Finding]:
     """Rates ≤ 1 (0x18), speeds above 2 Mpps, rates that do not grow fastest to slowest."""
     out: list[Finding] = []
     rates, hz = t.rates, t.clock.hz
-    increasing = bool((rate_array[1:] > rate_array[:-1]).all())
-    rmin = rates[0] if increasing else int(rate_array.min())
+    increasing = all(b > a for a, b in pairwise(rates))
+    rmin = rates[0] if increasing else min(rates)
     if rmin <= 1 or hz / rmin > MAX_OUTPUT_PPS:
         fastest_ok, clk = min_rate_for(hz), t.clock.name
         for i, r in enumerate(rates):
@@ -163,35 +154,34 @@ def _rate_rules(t: FreeCurveTable, rate_array: np.ndarray) -> list[Finding]:
     return out
 
 
-def _side_rules(t: FreeCurveTable, side: str, field: str, pulses: tuple[int, ...],
-                rate_array: np.ndarray) -> list[Finding]:
+def _side_rules(t: FreeCurveTable, side: str, field: str, pulses: tuple[int, ...]
+                ) -> list[Finding]:
     """One side's pulse counts: ≤ 1 (0x19), above the field, its total (0x1A), too few
     clock ticks a stage, and stages far shorter than their neighbours."""
     out: list[Finding] = []
     rates = t.rates
-    pulse_array = np.array(pulses, dtype=np.int64)
-    if pulse_array.min() < STAGE_PULSES_MIN:
+    if min(pulses) < STAGE_PULSES_MIN:
         for i, p in enumerate(pulses):
             if p < STAGE_PULSES_MIN:
                 need = _pulses_needed(rates, i)
                 out.append(Finding("error", "pulses-min",
                                    f"{field}[{i}] = {p} is ≤ 1: raise it to ≥ {need}",
                                    0x19, i))
-    if pulse_array.max() > STAGE_PULSES_MAX:
+    if max(pulses) > STAGE_PULSES_MAX:
         for i, p in enumerate(pulses):
             if p > STAGE_PULSES_MAX:
                 out.append(Finding("error", "pulses-field",
                                    f"{field}[{i}] = {p} exceeds 0xFFFFF ({STAGE_PULSES_MAX})"
                                    f": lower it to ≤ {STAGE_PULSES_MAX}", None, i))
-    total = int(pulse_array.sum())
+    total = sum(pulses)
     if total > SIDE_TOTAL_MAX:
         out.append(Finding("error", f"{side}-total-max",
                            f"{side} total {total} pulses exceeds 0xFFFFF "
                            f"({SIDE_TOTAL_MAX}): remove {total - SIDE_TOTAL_MAX} pulses "
                            f"from {field}", 0x1A))
     # pulses × rate per stage (a side uses the fastest len(pulses) rates)
-    ticks = pulse_array * rate_array[:len(pulses)]
-    if ticks.min() < MIN_STAGE_TICKS:
+    ticks = [p * r for p, r in zip(pulses, rates, strict=False)]
+    if min(ticks) < MIN_STAGE_TICKS:
         clk = t.clock.name
         for i, (p, r) in enumerate(zip(pulses, rates, strict=False)):
             if p * r < MIN_STAGE_TICKS and p > 1 and r > 1:
@@ -222,7 +212,7 @@ def _pulses_needed(rates: tuple[int, ...], i: int) -> int:
     return max(STAGE_PULSES_MIN, math.ceil(MIN_STAGE_TICKS / r)) if r > 0 else STAGE_PULSES_MIN
 
 
-def _short_stages(side: str, field: str, ticks: np.ndarray, rates: tuple[int, ...]
+def _short_stages(side: str, field: str, ticks: list[int], rates: tuple[int, ...]
                   ) -> list[Finding]:
     n = len(ticks)
     if n < 2:
@@ -232,21 +222,21 @@ def _short_stages(side: str, field: str, ticks: np.ndarray, rates: tuple[int, ..
     # decel) extra pulses that keep every triangle's switch safe. It is never reported,
     # and (being cruise-like) is no neighbour: stage 1's only neighbour is stage 2, the
     # last stage's only neighbour the one before it.
-    # Candidates in integers, one pass in C: 20·t_i ≤ t_(i−1) + t_(i+1) (10·t_i ≤ the one
-    # neighbour of stage 1 and of the last stage) holds whenever the exact test below
-    # does (ticks < 2**41: the float rounding is far below one tick); few stages pass.
+    # Candidates in integers: 20·t_i ≤ t_(i−1) + t_(i+1) (10·t_i ≤ the one neighbour of
+    # stage 1 and of the last stage) holds whenever the exact test below does (ticks <
+    # 2**41: the float rounding is far below one tick); few stages pass.
     last = n - 1
-    candidates = [1] if n > 2 and 10 * ticks[1] <= ticks[2] else []
-    candidates += (np.flatnonzero(20 * ticks[2:-1] <= ticks[1:-2] + ticks[3:]) + 2).tolist()
-    if 10 * ticks[last] <= ticks[last - 1]:
+    tick = ticks
+    candidates = [1] if n > 2 and 10 * tick[1] <= tick[2] else []
+    candidates += [i for i in range(2, last) if 20 * tick[i] <= tick[i - 1] + tick[i + 1]]
+    if 10 * tick[last] <= tick[last - 1]:
         candidates.append(last)
     if not candidates:
         return []
-    tick = ticks.tolist()
     out = []
     for i in candidates:
-        # The neighbours' mean as floats, as the rule was first written (in numpy); the
-        # sums are below 2**53, so exact.
+        # The neighbours' mean as floats, as the rule was first written; the sums are
+        # below 2**53, so exact.
         mean = float(tick[i - 1]) if i == last else (
             float(tick[2]) if i == 1 else (tick[i - 1] + tick[i + 1]) / 2.0)
         if tick[i] < SHORT_STAGE_FRACTION * mean:
@@ -268,6 +258,15 @@ def _short_message(side: str, field: str, i: int, ticks: int, mean: float, rate:
 # --- init ------------------------------------------------------------------------
 
 def _check_init(t: InitTable) -> list[Finding]:
+    # here: the init model's stage grid needs numpy, which checking a free curve never does
+    from profiles.ppmc312.init_model import (
+        INIT_PULSES_FIELD_MAX,
+        INIT_PULSES_FIELD_MIN,
+        INIT_PULSES_MIN,
+        init_rate_problems,
+        init_stage_problem,
+    )
+
     out: list[Finding] = []
     hz, clk = t.clock.hz, t.clock.name
     out += [Finding("error", rule, message, code) for code, rule, message in

@@ -16,13 +16,14 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
-
-import numpy as np
+from typing import TYPE_CHECKING, Any, Literal
 
 from ..errors import FieldRangeError, FormatError, echo, is_number
 from ..reading import read_json
 from .clock import Clock
+
+if TYPE_CHECKING:
+    import numpy as np
 
 FORMAT = "stepramp.table/1"
 DEVICE = "ppmc312"
@@ -99,6 +100,8 @@ class FreeCurveTable:
 
     def speeds_pps(self) -> np.ndarray:
         """Stage speeds, fastest first (same order as `rates`)."""
+        import numpy as np  # here: reading and checking a table never needs numpy
+
         return self.clock.hz / np.asarray(self.rates, dtype=float)
 
     def to_json(self) -> dict[str, Any]:
