@@ -701,3 +701,18 @@ def test_the_sampled_moves_are_the_moves_of_the_sampled_lengths(
     for name in ("pulses", "shape", "phase", "rate", "count", "offsets"):
         np.testing.assert_array_equal(getattr(runs, name), getattr(expected, name), name)
     assert len(lengths) > 10
+
+
+def test_after_the_last_pulse_a_loaded_rotor_creeping_to_its_held_lag_is_followed() -> None:
+    """A heavy, critically damped rotor under a load: after a 1-pulse move its lag peaks
+    (7.05°), dips, then creeps up to where the load holds it (7.18°). The verdict follows
+    the rest until its ringing fades above that held lag, so it names the oracle's worst,
+    not the first peak. (Found by the shared-prefix property.)"""
+    motor = plain_motor(steps_per_rev=1600, curve_speed_pps=np.array([0.0, 4000.0]),
+                        curve_torque_nm=np.array([1.0, 1.0]), inertia_kgm2=7.8167e-4,
+                        start_pps=100.0, friction_torque_nm=0.0625, damping_ratio=1.0,
+                        load_torque_nm=0.125)
+    table = FreeCurveTable(MHZ1, (4975, 5000), (2, 2))
+    fast = worst_load_angle(table, motor, pulses=[1]).worst_angle_deg
+    assert fast == pytest.approx(worst_whole_move(table, motor, 1), abs=AGREE_DEG)
+    assert fast > 7.1

@@ -117,6 +117,17 @@ def _put(rec_t: np.ndarray, rec_lag: np.ndarray, recorded: int, t: float, lag: f
 
 
 @_jit
+def _held_lag(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray) -> float:
+    """The largest |lag| [pulses] the rotor can come to rest at: where the restoring
+    torque at rest balances the load and friction together. Below it, a ringing that
+    fades may still be creeping up towards where the load holds it."""
+    stiff = rotor[K] * _t_peak(curve_v, curve_t, 0.0)
+    if not stiff > 0:
+        return math.inf
+    return math.asin(min(1.0, (abs(rotor[LOAD]) + rotor[FRICTION]) / stiff)) / rotor[C_E]
+
+
+@_jit
 def _span(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, d: float, v: float,
           lag: float, s: float, t: float, step: float, slip: float, tol: float,
           settle_periods: int, limit: int, steps: int, resting: bool, record: bool,
@@ -126,6 +137,7 @@ def _span(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, d: float,
 
     Returns (status, slipped, slip time, lag, s, its largest |lag|, steps, recorded)."""
     peak = abs(lag)
+    held = _held_lag(curve_v, curve_t, rotor) if resting else 0.0
     if not d > 0:  # (a NaN duration too: nothing to integrate)
         return OK, 0, 0.0, lag, s, peak, steps, recorded
     n = max(1, math.ceil(d / step))
@@ -165,7 +177,7 @@ def _span(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, d: float,
                     recorded += 1
                 break
             window_max = max(abs(lo), abs(hi))
-            if resting and window_max < last_window:
+            if resting and window_max < last_window and window_max >= held:
                 break
             last_window = window_max
             lo = lag
@@ -194,7 +206,9 @@ def follow_spans(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
     they are full: the caller integrates again with longer ones).
     `peak_only`: only the worst |lag| is wanted, not the final state: the last span, at
     rest, stops once a natural period's largest |lag| falls below the previous period's
-    (with no command left the ringing only decays: its worst has been seen).
+    while still no less than the lag the load and friction can hold (`_held_lag`): with
+    no command left the ringing only decays towards that lag, so its worst has been
+    seen; below it, the rotor may still creep up to where the load holds it.
     `bound` > 0 (with `peak_only`): the integration also stops at a reference boundary
     where the worst |lag| so far (at least `worst0`) is no less than the reference's
     worst from there on (`ref_suffix[kb + 1]`) plus `bound` times the amplitude of the
