@@ -86,8 +86,8 @@ def test_shaping_scales_capability_and_jump_band_by_band() -> None:
 def test_a_table_judged_again_is_remembered_for_equal_motors_only() -> None:
     """Tightening remembers its verdicts by table and motor values (a duty cycle tightens
     candidates whose tables coincide): an equal table on an equal motor loaded again is
-    the same verdict, shared read-only; another damping is judged anew; forgetting
-    clears them."""
+    the same verdict, shared read-only, and so is one that only says where its values
+    came from; another damping is judged anew; forgetting clears them."""
     from dataclasses import replace
 
     from profiles.ppmc312.planner import tightening
@@ -101,6 +101,8 @@ def test_a_table_judged_again_is_remembered_for_equal_motors_only() -> None:
                                           table.decel_pulses), [load_motor(path)])
     assert again is first and not first.deg.flags.writeable
     np.testing.assert_array_equal(first.deg, angles(table, [motor]).deg)
+    documented = replace(motor, sources={"inertia_kgm2": [{"value": 1.0, "from": "datasheet"}]})
+    assert tightening.judged(table, [documented]) is first  # provenance is no physics
     other = tightening.judged(table, [replace(motor, damping_ratio=motor.damping_ratio * 2)])
     assert other is not first and other.deg.max() < first.deg.max()
     tightening.forget_verdicts()

@@ -657,7 +657,7 @@ def _assemble(pulses: np.ndarray, shape: np.ndarray, ladders: tuple[_Ladder, ...
     start = offsets[:-1] + np.concatenate((np.zeros((1, moves), np.int64),
                                            np.cumsum(sizes, axis=0)[:-1]))  # (5, moves)
     for i, (n, r, c) in enumerate(parts):
-        dest = np.repeat(start[i] - np.cumsum(n) + n, n) + np.arange(len(r))
+        dest = _ranges(start[i], n)
         phase[dest] = 0 if i < 2 else (1 if i == 2 else 2)
         rate[dest] = r
         count[dest] = c

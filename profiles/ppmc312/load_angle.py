@@ -197,9 +197,9 @@ def _sampled(table: FreeCurveTable, motors: Sequence[Motor]
     lengths, first = np.unique(lengths, return_index=True)
     built = np.concatenate((lo, fams.hi))
     have, where = np.unique(built, return_index=True)
-    at = np.minimum(np.searchsorted(have, lengths), len(have) - 1)
-    known = have[at] == lengths
-    index = np.where(known, where[at], len(built) + np.cumsum(~known) - 1)
+    pos = np.minimum(np.searchsorted(have, lengths), len(have) - 1)
+    known = have[pos] == lengths
+    index = np.where(known, where[pos], len(built) + np.cumsum(~known) - 1)
     runs = MoveBatch.concat([short, long, moves(table, lengths[~known])]).subset(index)
     return lengths, family[first], spacing, runs
 

@@ -24,7 +24,7 @@ import threading
 import time
 from collections import OrderedDict
 from collections.abc import Callable, Hashable, Sequence
-from dataclasses import replace
+from dataclasses import fields, replace
 
 import numpy as np
 
@@ -115,10 +115,6 @@ def judged(table: FreeCurveTable, judges: Sequence[Motor]) -> Angles:
     tightens several candidate lengths, and past the length where the plan stops
     changing their plain tables, and the gentler ones tried after them, are the same."""
     key = (table, tuple(_motor_key(m) for m in judges))
-    try:
-        hash(key)
-    except TypeError:  # a field that is no value (none today): judge without remembering
-        return angles(table, judges)
     with _judged_lock:
         if key in _judged:
             _judged.move_to_end(key)
@@ -140,9 +136,11 @@ def forget_verdicts() -> None:
 
 
 def _motor_key(motor: Motor) -> Hashable:
-    """The motor's fields, its arrays as bytes (a Motor holds arrays: no hash of its own)."""
-    return tuple((k, (v.dtype.str, v.tobytes()) if isinstance(v, np.ndarray) else v)
-                 for k, v in vars(motor).items())
+    """The fields that make the motor what it is (those it compares; not its provenance,
+    a dict), its arrays as bytes: a Motor holds arrays, so it has no hash of its own."""
+    values = (getattr(motor, f.name) for f in fields(motor) if f.compare)
+    return tuple((v.dtype.str, v.tobytes()) if isinstance(v, np.ndarray) else v
+                 for v in values)
 
 
 def _best(plans: list[Plan], aim_deg: float) -> Plan:
