@@ -3,6 +3,7 @@ search over top speeds (the method is in the package docstring)."""
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -22,31 +23,11 @@ def grid_rates(pb: Problem, target: int) -> np.ndarray:
     rates is coarse, a uniform speed subset where it is fine, the exact jump chain from
     the start rate (the optimum in the jump-limited region) and a few rates below start."""
     hz = pb.hz
-    r_slow = min(RATE_MAX, 2 * pb.r_start)
-    if r_slow - pb.r_fast + 1 <= target:
-        rates = np.arange(r_slow, pb.r_fast - 1, -1, dtype=np.int64)
-    else:
-        f_lo, f_hi = hz / r_slow, hz / pb.r_fast
-
-        def build(step: float) -> np.ndarray:
-            r_dense = max(pb.r_fast, math.floor((math.sqrt(1 + 4 * hz / step) - 1) / 2))
-            dense = np.arange(r_dense, pb.r_fast - 1, -1, dtype=np.int64)
-            f_top = hz / r_dense
-            coarse = np.round(hz / np.arange(f_lo, f_top, step)).astype(np.int64)
-            return np.unique(np.concatenate((coarse, dense)))
-
-        lo, hi = (f_hi - f_lo) / (4 * target), (f_hi - f_lo) / (target / 4)
-        for _ in range(30):
-            mid = math.sqrt(lo * hi)
-            if len(build(mid)) > target:
-                lo = mid
-            else:
-                hi = mid
-        rates = build(hi)
+    rates = _speed_grid(hz, pb.r_start, pb.r_fast, target)
     chain = [pb.r_start]
     r = pb.r_start
     while r > pb.r_fast:
-        jump = float(pb.jump_at(hz / r))
+        jump = pb.jump_at(hz / r)
         nxt = math.ceil(hz / (hz / r + jump))
         while nxt < r and hz / nxt - hz / r > jump:
             nxt += 1
@@ -60,6 +41,38 @@ def grid_rates(pb: Problem, target: int) -> np.ndarray:
                                       edges)))
     rates = rates[(rates >= pb.r_fast) & (rates <= RATE_MAX)]
     return rates[::-1].copy()  # slowest first
+
+
+@functools.lru_cache(maxsize=64)
+def _speed_grid(hz: float, r_start: int, r_fast: int, target: int) -> np.ndarray:
+    """The grid's rates before the jump chain and the band edges: every integer from twice
+    the start rate to the fast rate, or where that is more than `target`, every integer
+    where adjacent rates differ coarsely in speed and a uniform speed subset elsewhere,
+    its step bisected to about `target` nodes. Remembered: every plan of a motor and
+    clock, and both LE variants, start from the same one."""
+    r_slow = min(RATE_MAX, 2 * r_start)
+    if r_slow - r_fast + 1 <= target:
+        rates = np.arange(r_slow, r_fast - 1, -1, dtype=np.int64)
+    else:
+        f_lo, f_hi = hz / r_slow, hz / r_fast
+
+        def build(step: float) -> np.ndarray:
+            r_dense = max(r_fast, math.floor((math.sqrt(1 + 4 * hz / step) - 1) / 2))
+            dense = np.arange(r_dense, r_fast - 1, -1, dtype=np.int64)
+            f_top = hz / r_dense
+            coarse = np.round(hz / np.arange(f_lo, f_top, step)).astype(np.int64)
+            return np.unique(np.concatenate((coarse, dense)))
+
+        lo, hi = (f_hi - f_lo) / (4 * target), (f_hi - f_lo) / (target / 4)
+        for _ in range(30):
+            mid = math.sqrt(lo * hi)
+            if len(build(mid)) > target:
+                lo = mid
+            else:
+                hi = mid
+        rates = build(hi)
+    rates.flags.writeable = False  # shared by every plan that asks again
+    return rates
 
 
 @dataclass

@@ -1,0 +1,112 @@
+"""The planner's stage counts, compiled (`Problem.counts` → dp_kernel.stage_counts), equal
+to the bit the counts written out here in numpy from the motor's own capability
+(`Motor.min_a_acc_pps2` / `min_a_dec_pps2`, the criterion's): any curve, friction and
+signed load, shaping, LE variant and resonance band."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from profiles.motor import Motor
+from profiles.motor.resonance import stage_allowed
+from profiles.ppmc312.limits import MIN_STAGE_TICKS, STAGE_PULSES_MAX
+from profiles.ppmc312.planner import Shaping, choose_clock, make_problem
+from profiles.ppmc312.planner.problem import Problem
+
+SETTINGS = settings(max_examples=60, deadline=None,
+                    suppress_health_check=[HealthCheck.too_slow])
+
+
+def oracle(pb: Problem, r_slow: np.ndarray, r_fast: np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The counts as the planner defines them, from the capability over each step."""
+    m = pb.motor
+    f_slow = pb.hz / r_slow
+    f_fast = pb.hz / np.where(r_fast > 0, r_fast, 1.0)
+    delta = f_fast - f_slow
+    a_acc = np.asarray(m.min_a_acc_pps2(f_slow, f_fast), dtype=float)
+    a_dec = np.asarray(m.min_a_dec_pps2(f_slow, f_fast), dtype=float)
+    jump = np.full(f_slow.shape, pb.jump)
+    if not pb.shaping.plain:
+        sigma = pb.shaping.at(f_slow)
+        k = m.steps_per_rev / (2 * math.pi * m.inertia_kgm2)
+        c_acc = (m.friction_torque_nm + abs(m.load_torque_nm)) * k
+        c_dec = (abs(m.load_torque_nm) - m.friction_torque_nm) * k
+        a_acc = sigma * (a_acc + c_acc) - c_acc
+        a_dec = sigma * (a_dec + c_dec) - c_dec
+        jump = pb.jump * sigma
+    base = np.maximum(2.0, np.ceil(MIN_STAGE_TICKS / r_slow))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        n = np.where(a_acc > 0, np.ceil(delta * f_slow / a_acc), np.inf)
+        d = np.where(a_dec > 0, np.ceil(delta * f_slow / a_dec), np.inf)
+    n, d = np.maximum(n, base), np.maximum(d, base)
+    if not pb.separate:
+        n = d = np.maximum(n, d)
+    valid = ((r_fast > 0) & (delta > 0) & (delta <= jump) & (n <= STAGE_PULSES_MAX)
+             & (d <= STAGE_PULSES_MAX) & stage_allowed(f_slow, m) & stage_allowed(f_fast, m))
+    return n, d, valid
+
+
+@st.composite
+def motors(draw: st.DrawFn) -> Motor:
+    """A pull-out curve of 2..30 points that may rise before it falls (as vendor curves
+    do), friction, a signed load, and resonance bands narrower and wider than a jump."""
+    points = draw(st.integers(2, 30))
+    top = draw(st.floats(3_000, 80_000))
+    inner = sorted(set(draw(st.lists(st.floats(0.01, 0.99), min_size=points - 2,
+                                     max_size=points - 2))))
+    speeds = np.array([0.0, *(top * x for x in inner), top])
+    torques = np.asarray(draw(st.lists(st.floats(0.05, 2.0), min_size=len(speeds),
+                                       max_size=len(speeds))))
+    if draw(st.booleans()):
+        torques[-1] = 0.0
+    start = draw(st.floats(100, 1000))
+    bands = tuple(sorted((lo, lo + w) for lo, w in draw(st.lists(
+        st.tuples(st.floats(start * 1.2, top * 0.9), st.floats(1.0, 3 * start)),
+        max_size=2))))
+    bands = tuple(b for i, b in enumerate(bands) if i == 0 or b[0] > bands[i - 1][1])
+    t0 = float(torques[0])
+    return Motor(steps_per_rev=draw(st.sampled_from([200, 400, 1600, 3200])),
+                 curve_speed_pps=speeds, curve_torque_nm=torques,
+                 inertia_kgm2=draw(st.floats(2e-6, 1e-3)),
+                 safety_factor=draw(st.floats(0.3, 1.0)), start_pps=start,
+                 friction_torque_nm=draw(st.floats(0.0, 0.2)) * t0,
+                 load_torque_nm=draw(st.floats(-0.2, 0.2)) * t0,
+                 max_jump_pps=draw(st.none() | st.floats(50, 2000)), resonance_bands_pps=bands)
+
+
+@SETTINGS
+@given(motors(), st.booleans(), st.integers(0, 2), st.integers(0, 2**32 - 1))
+def test_compiled_counts_equal_the_capabilitys_to_the_bit(motor: Motor, separate: bool,
+                                                         shaped: int, seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    shaping = (None, Shaping.uniform(float(rng.uniform(0.4, 1.0))),
+               Shaping.bands(motor).scaled({1: float(rng.uniform(0.4, 1.0))},
+                                           float(rng.uniform(0.5, 1.0))))[shaped]
+    pb = make_problem(motor, choose_clock(motor), separate, shaping)
+    r_slow = rng.integers(pb.r_fast, 0xFFFF, 3000).astype(float)
+    # steps up, down, none, a zero fast rate, and steps ending exactly on a breakpoint
+    r_fast = r_slow - rng.integers(-3, max(4, int(r_slow.min()) // 2), 3000)
+    r_fast[:20] = 0.0
+    on_points = np.round(pb.hz / motor.curve_speed_pps[1:])
+    r_fast[20:20 + len(on_points)] = np.maximum(on_points, 1.0)
+    got, want = pb.counts(r_slow, r_fast), oracle(pb, r_slow, r_fast)
+    for g, w, name in zip(got, want, ("accel", "decel", "valid"), strict=True):
+        assert np.array_equal(g, w), name
+
+
+def test_counts_keep_the_callers_shape() -> None:
+    motor = Motor(steps_per_rev=400, curve_speed_pps=np.array([0.0, 2000.0, 8000.0]),
+                  curve_torque_nm=np.array([0.5, 0.45, 0.1]), inertia_kgm2=1e-5,
+                  safety_factor=0.5, start_pps=300.0)
+    pb = make_problem(motor, choose_clock(motor), True)
+    r_slow = np.array([[4000.0], [3000.0]])
+    r_fast = np.array([3500.0, 2500.0, 1000.0])
+    n, d, valid = pb.counts(r_slow, r_fast)
+    assert n.shape == d.shape == valid.shape == (2, 3)
+    want = oracle(pb, *np.broadcast_arrays(r_slow, r_fast))
+    assert all(np.array_equal(g, w) for g, w in zip((n, d, valid), want, strict=True))
