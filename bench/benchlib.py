@@ -108,7 +108,7 @@ def forget() -> None:
     """Forget what the library remembers between calls (each table's move model, the
     verdicts tightening has judged), so a repeated call costs what a first one does."""
     from profiles.ppmc312.execution import forget_tables
-    from profiles.ppmc312.planner.tightening import forget_verdicts
+    from profiles.ppmc312.load_angle import forget_verdicts
 
     forget_tables()
     forget_verdicts()

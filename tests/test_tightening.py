@@ -84,29 +84,33 @@ def test_shaping_scales_capability_and_jump_band_by_band() -> None:
 
 
 def test_a_table_judged_again_is_remembered_for_equal_motors_only() -> None:
-    """Tightening remembers its verdicts by table and motor values (a duty cycle tightens
-    candidates whose tables coincide): an equal table on an equal motor loaded again is
-    the same verdict, shared read-only, and so is one that only says where its values
-    came from; another damping is judged anew; forgetting clears them."""
+    """All-length verdicts are remembered by table and motor values (tightening judges a
+    table and the verdict judges it again; a duty cycle tightens candidates whose tables
+    coincide): an equal table on an equal motor loaded again is the same verdict, shared
+    read-only, and so is one that only says where its values came from; another damping
+    is judged anew; forgetting clears them; verdicts over given lengths are not kept."""
     from dataclasses import replace
 
-    from profiles.ppmc312.planner import tightening
+    from profiles.ppmc312 import load_angle
 
     path = bundled_motor_paths()[0]
     motor = load_motor(path)
     table = plan_free_curve(motor, pulses=2000).table
-    tightening.forget_verdicts()
-    first = tightening.judged(table, [motor])
-    again = tightening.judged(type(table)(table.clock, table.rates, table.accel_pulses,
-                                          table.decel_pulses), [load_motor(path)])
+    load_angle.forget_verdicts()
+    first = angles(table, [motor])
+    again = angles(type(table)(table.clock, table.rates, table.accel_pulses,
+                               table.decel_pulses), [load_motor(path)])
     assert again is first and not first.deg.flags.writeable
-    np.testing.assert_array_equal(first.deg, angles(table, [motor]).deg)
     documented = replace(motor, sources={"inertia_kgm2": [{"value": 1.0, "from": "datasheet"}]})
-    assert tightening.judged(table, [documented]) is first  # provenance is no physics
-    other = tightening.judged(table, [replace(motor, damping_ratio=motor.damping_ratio * 2)])
+    assert angles(table, [documented]) is first  # provenance is no physics
+    other = angles(table, [replace(motor, damping_ratio=motor.damping_ratio * 2)])
     assert other is not first and other.deg.max() < first.deg.max()
-    tightening.forget_verdicts()
-    assert tightening.judged(table, [motor]) is not first
+    given = angles(table, [motor], pulses=[40, 400])
+    assert given is not angles(table, [motor], pulses=[40, 400])
+    load_angle.forget_verdicts()
+    fresh = angles(table, [motor])
+    assert fresh is not first
+    np.testing.assert_array_equal(fresh.deg, first.deg)
 
 
 def test_a_tightened_plan_says_where_and_binds_on_the_load_angle() -> None:

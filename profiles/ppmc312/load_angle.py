@@ -23,9 +23,11 @@ tolerance box's corners) are rows of one kernel call.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterable, Sequence
+import threading
+from collections import OrderedDict
+from collections.abc import Callable, Hashable, Iterable, Sequence
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -107,12 +109,55 @@ class Angles:
                           bool(self.slipped[mine].any()), len(self.lengths) * len(mine))
 
 
+VERDICTS_KEPT = 32   # all-length verdicts remembered (a few KB each)
+_kept: OrderedDict[Hashable, Angles] = OrderedDict()
+_kept_lock = threading.Lock()
+
+
 def angles(table: FreeCurveTable | InitTable, motors: Sequence[Motor], *,
            pulses: Iterable[int] | None = None, max_step_s: float | None = None) -> Angles:
     """The load angle of every move judged for every motor and direction: the given
-    lengths, or every length through its family (`samples`, then `refine`)."""
+    lengths, or every length through its family (`samples`, then `refine`).
+
+    The last VERDICTS_KEPT all-length verdicts are remembered by table and motor values,
+    and shared read-only: tightening judges a table, and the verdict that every command
+    gives (verify.safety) judges the same table again; a duty cycle tightens candidate
+    lengths whose tables coincide."""
     check_step(max_step_s)
     free = as_free_curve(table)
+    if pulses is not None or max_step_s is not None:
+        return _angles(free, motors, pulses, max_step_s)
+    key = (free, tuple(_motor_key(m) for m in motors))
+    with _kept_lock:
+        if key in _kept:
+            _kept.move_to_end(key)
+            return _kept[key]
+    found = _angles(free, motors, None, None)
+    for a in vars(found).values():
+        a.flags.writeable = False
+    with _kept_lock:
+        _kept[key] = found
+        while len(_kept) > VERDICTS_KEPT:
+            _kept.popitem(last=False)
+    return found
+
+
+def forget_verdicts() -> None:
+    """Forget the remembered verdicts (a benchmark times a table's first verdict)."""
+    with _kept_lock:
+        _kept.clear()
+
+
+def _motor_key(motor: Motor) -> Hashable:
+    """The fields that make the motor what it is (those it compares; not its provenance,
+    a dict), its arrays as bytes: a Motor holds arrays, so it has no hash of its own."""
+    values = (getattr(motor, f.name) for f in fields(motor) if f.compare)
+    return tuple((v.dtype.str, v.tobytes()) if isinstance(v, np.ndarray) else v
+                 for v in values)
+
+
+def _angles(free: FreeCurveTable, motors: Sequence[Motor], pulses: Iterable[int] | None,
+            max_step_s: float | None) -> Angles:
     owner = np.asarray([m for m, motor in enumerate(motors) for _ in directions(motor)])
     rot = Rotors.stack([rotors(motor, direction=d) for motor in motors
                         for d in directions(motor)])

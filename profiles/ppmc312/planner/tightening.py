@@ -20,11 +20,9 @@ this one replaced and the baseline it is measured against (bench/bench_tighten.p
 from __future__ import annotations
 
 import math
-import threading
 import time
-from collections import OrderedDict
-from collections.abc import Callable, Hashable, Sequence
-from dataclasses import fields, replace
+from collections.abc import Callable, Sequence
+from dataclasses import replace
 
 import numpy as np
 
@@ -71,7 +69,7 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
             if not tried:
                 raise  # the plain criterion has no table: nothing gentler has one either
             return None  # too gentle for the move: the bands went too far
-        found = judged(plan.table, judges)
+        found = angles(plan.table, judges)  # remembered: the verdict asks again
         plan = _annotated(plan, float(found.deg.max()), shaping, len(judges), t0)
         tried.append(plan)
         return plan, found
@@ -103,44 +101,6 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
     except PlanError:
         pass
     return _best(tried, load_angle_deg)
-
-
-JUDGED_KEPT = 32   # tables whose verdicts are remembered (a few KB each)
-_judged: OrderedDict[Hashable, Angles] = OrderedDict()
-_judged_lock = threading.Lock()
-
-
-def judged(table: FreeCurveTable, judges: Sequence[Motor]) -> Angles:
-    """`angles(table, judges)`, remembered for the last JUDGED_KEPT tables: a duty cycle
-    tightens several candidate lengths, and past the length where the plan stops
-    changing their plain tables, and the gentler ones tried after them, are the same."""
-    key = (table, tuple(_motor_key(m) for m in judges))
-    with _judged_lock:
-        if key in _judged:
-            _judged.move_to_end(key)
-            return _judged[key]
-    found = angles(table, judges)
-    for a in vars(found).values():
-        a.flags.writeable = False  # shared by every caller that asks again
-    with _judged_lock:
-        _judged[key] = found
-        while len(_judged) > JUDGED_KEPT:
-            _judged.popitem(last=False)
-    return found
-
-
-def forget_verdicts() -> None:
-    """Forget the remembered verdicts (a benchmark times a plan's first run)."""
-    with _judged_lock:
-        _judged.clear()
-
-
-def _motor_key(motor: Motor) -> Hashable:
-    """The fields that make the motor what it is (those it compares; not its provenance,
-    a dict), its arrays as bytes: a Motor holds arrays, so it has no hash of its own."""
-    values = (getattr(motor, f.name) for f in fields(motor) if f.compare)
-    return tuple((v.dtype.str, v.tobytes()) if isinstance(v, np.ndarray) else v
-                 for v in values)
 
 
 def _best(plans: list[Plan], aim_deg: float) -> Plan:
