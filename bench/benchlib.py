@@ -106,12 +106,14 @@ def markdown_table(columns: Sequence[str], rows: Sequence[Sequence[str]]) -> str
 
 def forget() -> None:
     """Forget what the library remembers between calls (each table's move model, the
-    verdicts tightening has judged), so a repeated call costs what a first one does."""
+    verdicts judged, the plans planned), so a repeated call costs what a first one does."""
     from profiles.ppmc312.execution import forget_tables
     from profiles.ppmc312.load_angle import forget_verdicts
+    from profiles.ppmc312.planner.free_curve import forget_plans
 
     forget_tables()
     forget_verdicts()
+    forget_plans()
 
 
 def timed(fn: Callable[[], Any], repeats: int) -> tuple[float, float, Any]:

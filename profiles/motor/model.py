@@ -13,7 +13,8 @@ both ways, so the capability is the worse direction's. Everything here is SI
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from collections.abc import Hashable
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -106,6 +107,14 @@ class Motor:
         if self.a_acc_pps2(0.0) <= 0:
             raise FormatError("the motor cannot accelerate from rest: safety_factor × torque at "
                               "0 pps does not exceed the friction and load torque")
+
+    def values_key(self) -> Hashable:
+        """The fields that make the motor what it is (those it compares; not its
+        provenance, a dict), its arrays as bytes: a Motor holds arrays, so it has no hash
+        of its own. What a verdict or a plan is remembered by."""
+        values = (getattr(self, f.name) for f in fields(self) if f.compare)
+        return tuple((v.dtype.str, v.tobytes()) if isinstance(v, np.ndarray) else v
+                     for v in values)
 
     # --- capability -------------------------------------------------------
     @property

@@ -27,7 +27,7 @@ import threading
 from collections import OrderedDict
 from collections.abc import Callable, Hashable, Iterable, Sequence
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -127,7 +127,7 @@ def angles(table: FreeCurveTable | InitTable, motors: Sequence[Motor], *,
     free = as_free_curve(table)
     if pulses is not None or max_step_s is not None:
         return _angles(free, motors, pulses, max_step_s)
-    key = (free, tuple(_motor_key(m) for m in motors))
+    key = (free, tuple(m.values_key() for m in motors))
     with _kept_lock:
         if key in _kept:
             _kept.move_to_end(key)
@@ -146,14 +146,6 @@ def forget_verdicts() -> None:
     """Forget the remembered verdicts (a benchmark times a table's first verdict)."""
     with _kept_lock:
         _kept.clear()
-
-
-def _motor_key(motor: Motor) -> Hashable:
-    """The fields that make the motor what it is (those it compares; not its provenance,
-    a dict), its arrays as bytes: a Motor holds arrays, so it has no hash of its own."""
-    values = (getattr(motor, f.name) for f in fields(motor) if f.compare)
-    return tuple((v.dtype.str, v.tobytes()) if isinstance(v, np.ndarray) else v
-                 for v in values)
 
 
 def _angles(free: FreeCurveTable, motors: Sequence[Motor], pulses: Iterable[int] | None,

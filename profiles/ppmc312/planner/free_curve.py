@@ -3,7 +3,11 @@ baseline method; the table written from the staircase."""
 
 from __future__ import annotations
 
+import threading
 import time
+from collections import OrderedDict
+from collections.abc import Hashable
+from dataclasses import replace
 
 import numpy as np
 
@@ -52,15 +56,46 @@ def table_of(clock: Clock, ev: Staircase, separate: bool) -> FreeCurveTable:
     return FreeCurveTable(clock, tuple(rates), tuple(acc), tuple(dec) if separate else None)
 
 
+PLANS_KEPT = 64   # plans remembered (a table and a few lines each)
+_plans: OrderedDict[Hashable, Plan] = OrderedDict()
+_plans_lock = threading.Lock()
+
+
 def plan(motor: Motor, clock: Clock | None, max_stages: int, pulses: int | None,
          separate_decel: bool | None, *, grid: str = "adaptive", refine: bool = True,
          label: str = "planner", exhaustive_tops: bool = False,
          shaping: Shaping | None = None) -> Plan:
     """The fastest table that passes the criterion for every move length (with `shaping`:
-    within its bands' share of the motor)."""
+    within its bands' share of the motor). The last PLANS_KEPT plans are remembered by
+    their arguments (the motor by its values): a duty cycle plans its candidates by the
+    criterion, then tightens the best, whose first attempt is that same plan."""
     t0 = time.perf_counter()
     check_plan_args(max_stages, pulses)
     clock = clock or choose_clock(motor)
+    key = (motor.values_key(), clock, max_stages, pulses, separate_decel, grid, refine, label,
+           exhaustive_tops, shaping or None)
+    with _plans_lock:
+        if key in _plans:
+            _plans.move_to_end(key)
+            return replace(_plans[key], solve_s=time.perf_counter() - t0)
+    result = _plan(motor, clock, max_stages, pulses, separate_decel, grid=grid, refine=refine,
+                   label=label, exhaustive_tops=exhaustive_tops, shaping=shaping, t0=t0)
+    with _plans_lock:
+        _plans[key] = result
+        while len(_plans) > PLANS_KEPT:
+            _plans.popitem(last=False)
+    return result
+
+
+def forget_plans() -> None:
+    """Forget the remembered plans (a benchmark times a plan's first run)."""
+    with _plans_lock:
+        _plans.clear()
+
+
+def _plan(motor: Motor, clock: Clock, max_stages: int, pulses: int | None,
+          separate_decel: bool | None, *, grid: str, refine: bool, label: str,
+          exhaustive_tops: bool, shaping: Shaping | None, t0: float) -> Plan:
     budget = reference_pulses(motor) if pulses is None else int(pulses)
     # LE=1's decel counts (from a_dec ≥ a_acc) are smaller than LE=0's, but the chip runs
     # short moves as triangles that keep the accel:decel ratio, and with uneven sides the
