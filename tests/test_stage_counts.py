@@ -41,7 +41,7 @@ def oracle(pb: Problem, r_slow: np.ndarray, r_fast: np.ndarray
         a_dec = sigma * (a_dec + c_dec) - c_dec
         jump = pb.jump * sigma
     base = np.maximum(2.0, np.ceil(MIN_STAGE_TICKS / r_slow))
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         n = np.where(a_acc > 0, np.ceil(delta * f_slow / a_acc), np.inf)
         d = np.where(a_dec > 0, np.ceil(delta * f_slow / a_dec), np.inf)
     n, d = np.maximum(n, base), np.maximum(d, base)
