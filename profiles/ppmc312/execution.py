@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import functools
 import io
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any, Literal, NamedTuple
 
@@ -258,8 +258,9 @@ class _Sides:
         batch = self.moves(np.asarray([pulses], dtype=np.int64))
         return SHAPES[int(batch.shape[0])], batch.runs(0)
 
-    def moves(self, pulses: np.ndarray) -> MoveBatch:
-        """The moves of the given lengths at once (numpy over moves and segments).
+    def moves(self, pulses: np.ndarray, *, compiled: bool = False) -> MoveBatch:
+        """The moves of the given lengths at once (numpy over moves and segments;
+        `compiled`: the segments assembled by `assemble_kernel`, its compiled twin).
 
         A move is five parts in order: two accel parts (the stages one side has beyond
         the other, then the shared ones), the cruise, two decel parts (shared, then the
@@ -294,8 +295,25 @@ class _Sides:
                  np.where(trap, dec_x, np.where(tri, sp.rate_diff if sp.dec_extra else 0,
                                                 np.where(straight & ~straight_up, p, 0))))
             shape = np.where(trap, 0, np.where(tri, 1, np.where(straight_up, 3, 2)))
-        return _assemble(p, shape, sp.ladders[2:], x, self.cruise_rate,
-                         clamp=shape == SHAPES.index("triangle"))
+        clamp = shape == SHAPES.index("triangle")
+        if compiled:
+            from .assemble_kernel import assemble
+
+            batch = assemble(np.stack(x), *self.packed_parts, self.cruise_rate, clamp)
+            return MoveBatch(p, shape, *batch)
+        return _assemble(p, shape, sp.ladders[2:], x, self.cruise_rate, clamp=clamp)
+
+    @functools.cached_property
+    def packed_parts(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The five parts' ladders as the compiled assembly takes them: (starts, rates,
+        counts, cum), part i's stages at starts[i]:starts[i + 1]."""
+        ladders = self.split.ladders[2:]
+
+        def joined(name: str) -> np.ndarray:
+            return np.concatenate([getattr(lad, name) for lad in ladders]).astype(np.int64)
+
+        starts = np.cumsum([0, *(len(lad.rates) for lad in ladders)]).astype(np.int64)
+        return starts, joined("rates"), joined("counts"), joined("cum")
 
     @functools.cached_property
     def families(self) -> FamilyBounds:
@@ -409,14 +427,17 @@ def simulate_move(table: FreeCurveTable | InitTable, pulses: int, *, high_rate: 
     return _execute(table, sides, int(pulses), held_by_run)
 
 
-def moves(table: FreeCurveTable | InitTable, pulses: Any, *, high_rate: int = 0) -> MoveBatch:
+def moves(table: FreeCurveTable | InitTable, pulses: Any, *, high_rate: int = 0,
+          compiled: bool = False) -> MoveBatch:
     """The accel/decel moves of the given lengths, all at once, as flat segment arrays
-    (what a verdict over many moves needs, without an `Execution` each)."""
+    (what a verdict over many moves needs, without an `Execution` each). `compiled`:
+    assembled by the compiled twin (`assemble_kernel`; for callers that load numba
+    anyway)."""
     lengths = np.asarray(pulses, dtype=np.int64).reshape(-1)
     for n in (lengths.min(), lengths.max()) if len(lengths) else ():
         _check_pulses(int(n))
     _, sides = _sides(table, high_rate)
-    return sides.moves(lengths)
+    return sides.moves(lengths, compiled=compiled)
 
 
 def _execute(table: FreeCurveTable, sides: _Sides, pulses: int,
@@ -597,27 +618,6 @@ class MoveBatch:
         return [(PHASES[f], r, c) for f, r, c in zip(self.phase[a:b].tolist(),
                                                      self.rate[a:b].tolist(),
                                                      self.count[a:b].tolist(), strict=True)]
-
-    def subset(self, moves: np.ndarray) -> MoveBatch:
-        """The given moves (indices, in any order) of this batch, as a batch."""
-        sizes = np.diff(self.offsets)[moves]
-        rows = np.repeat(self.offsets[:-1][moves] - np.cumsum(sizes) + sizes, sizes) + \
-            np.arange(int(sizes.sum()))
-        return MoveBatch(self.pulses[moves], self.shape[moves], self.phase[rows],
-                         self.rate[rows], self.count[rows],
-                         np.concatenate(([0], np.cumsum(sizes))))
-
-    @staticmethod
-    def concat(batches: Sequence[MoveBatch]) -> MoveBatch:
-        """The moves of `batches`, in order, as one batch."""
-        shift = np.cumsum([0, *(int(b.offsets[-1]) for b in batches[:-1])])
-
-        def joined(name: str) -> np.ndarray:
-            return np.concatenate([getattr(b, name) for b in batches])
-
-        return MoveBatch(joined("pulses"), joined("shape"), joined("phase"), joined("rate"),
-                         joined("count"), np.concatenate([[0], *(
-                             b.offsets[1:] + k for b, k in zip(batches, shift, strict=True))]))
 
     def repeats(self) -> np.ndarray:
         """For each move, whether it has the shape and the sequence of (phase, rate) of

@@ -158,13 +158,15 @@ def _angles(free: FreeCurveTable, motors: Sequence[Motor], pulses: Iterable[int]
         lengths = np.asarray(sorted(set(int(n) for n in pulses)), dtype=np.int64)
         if not len(lengths):
             raise FieldRangeError("move lengths to judge", 0, 1, 0xFFFFFFFF)
-        lag, slipped = judge(moves(free, lengths), hz, rot, max_step_s=max_step_s)
+        lag, slipped = judge(moves(free, lengths, compiled=True), hz, rot,
+                             max_step_s=max_step_s)
     else:
         lengths, family, spacing, runs = _sampled(free, motors)
         lag, slipped = judge(runs, hz, rot, max_step_s=max_step_s)
         extra = refine(lengths, family, spacing, np.degrees(lag.max(axis=0) * rot.c_e))
         if len(extra):
-            more_lag, more_slipped = judge(moves(free, extra), hz, rot, max_step_s=max_step_s)
+            more_lag, more_slipped = judge(moves(free, extra, compiled=True), hz, rot,
+                                           max_step_s=max_step_s)
             lengths = np.concatenate((lengths, extra))
             order = np.argsort(lengths, kind="stable")
             lengths = lengths[order]
@@ -194,8 +196,7 @@ def _sampled(table: FreeCurveTable, motors: Sequence[Motor]
     the rest of the family is judged by its longest move alone (a trapezoid's by that
     settled cruise).
 
-    Also the moves of those lengths: most are a family's shortest or longest, which
-    finding the spacing has built already."""
+    Also the moves of those lengths."""
     rotor_list = [rotor_of(m) for m in motors]
     fams = families(table)
     lo, hi = fams.lo, fams.hi
@@ -203,7 +204,7 @@ def _sampled(table: FreeCurveTable, motors: Sequence[Motor]
     trapezoid = fams.shape == SHAPES.index("trapezoid")
     # what changes within a family: a trapezoid's cruise, else its slowest partial stage
     # (the largest step in dwell between two neighbouring lengths)
-    short, long = fams.batch.subset(fams.first), moves(table, hi)
+    short, long = (moves(table, n, compiled=True) for n in (lo, hi))
     changes = np.where(short.count != long.count, short.rate, 0)
     slowest = np.maximum.reduceat(np.append(changes, 0), short.offsets[:-1])
     slowest = np.where(np.diff(short.offsets) > 0, slowest, 0)
@@ -232,13 +233,7 @@ def _sampled(table: FreeCurveTable, motors: Sequence[Motor]
                               dense, hi))
     family = np.concatenate((family, np.arange(len(lo)), np.arange(len(lo))))
     lengths, first = np.unique(lengths, return_index=True)
-    built = np.concatenate((lo, fams.hi))
-    have, where = np.unique(built, return_index=True)
-    pos = np.minimum(np.searchsorted(have, lengths), len(have) - 1)
-    known = have[pos] == lengths
-    index = np.where(known, where[pos], len(built) + np.cumsum(~known) - 1)
-    runs = MoveBatch.concat([short, long, moves(table, lengths[~known])]).subset(index)
-    return lengths, family[first], spacing, runs
+    return lengths, family[first], spacing, moves(table, lengths, compiled=True)
 
 
 def refine(lengths: np.ndarray, family: np.ndarray, spacing: np.ndarray,
