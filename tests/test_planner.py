@@ -14,6 +14,7 @@ from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.planner import (
     choose_clock,
+    plan,
     plan_baseline,
     plan_free_curve,
     reference_pulses,
@@ -107,14 +108,37 @@ def test_separate_decel_choice() -> None:
                        np.array(forced.table.decel[::-1]))
 
 
-def test_forced_le1_that_cannot_be_switch_safe_is_refused() -> None:
-    # at 10 000 pulses the heavy table's LE=1 decel counts would need more pulses than the
-    # move has to keep every triangle's switch safe
+def test_forced_le1_falls_back_to_the_symmetric_dps_rates() -> None:
+    # at 10 000 pulses the heavy table's own LE=1 rates would need more decel pulses than
+    # the move has to keep every triangle's switch safe; LE=0's rates with the decel
+    # side's own counts are switch-safe, and faster than LE=0 itself
     motor = MOTORS["motor-nema23-heavy"]
-    with pytest.raises(PlanError, match="switch safe"):
-        plan_free_curve(motor, pulses=10_000, separate_decel=True)
-    auto = plan_free_curve(motor, pulses=10_000)
-    assert auto.table.decel_pulses is None and check_stall(auto.table, motor) == []
+    forced = plan_free_curve(motor, pulses=10_000, separate_decel=True)
+    assert forced.extras["variant"] == "LE=1 on LE=0's rates"
+    assert forced.table.decel_pulses is not None and check_stall(forced.table, motor) == []
+    le0 = plan_free_curve(motor, pulses=10_000, separate_decel=False)
+    assert le0.table.rates == forced.table.rates
+    assert le0.table.accel_pulses == forced.table.accel_pulses
+    assert forced.duration_s < le0.duration_s
+    assert plan_free_curve(motor, pulses=10_000).table == forced.table  # auto picks it
+    with pytest.raises(PlanError, match="switch safe"):  # LE=1's own DP alone
+        plan(motor, None, 127, 10_000, True, variant="LE=1")
+
+
+def test_the_decel_sides_own_counts_never_lose_to_le0() -> None:
+    """On every bundled motor and move, the LE=1 variant on LE=0's rates is switch-safe
+    and no slower than LE=0 (its symmetric end is LE=0); auto mode is no slower than
+    either."""
+    for motor in MOTORS.values():
+        for pulses in (300, 2000, 10_000):
+            le0 = plan_free_curve(motor, pulses=pulses, separate_decel=False)
+            mixed = plan(motor, None, 127, pulses, True, variant="LE=1 on LE=0's rates")
+            auto = plan_free_curve(motor, pulses=pulses)
+            assert mixed.duration_s <= le0.duration_s
+            assert auto.duration_s <= mixed.duration_s
+            assert check_stall(mixed.table, motor) == []
+    with pytest.raises(ValueError, match="variant"):
+        plan(motor, None, 127, 2000, False, variant="LE=1")
 
 
 def test_switch_safe_matches_the_move_model() -> None:

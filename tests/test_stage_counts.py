@@ -9,9 +9,10 @@ import math
 from dataclasses import replace
 
 import numpy as np
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, given, reject, settings
 from hypothesis import strategies as st
 
+from profiles.errors import FormatError
 from profiles.motor import Motor
 from profiles.motor.resonance import stage_allowed
 from profiles.ppmc312.limits import MIN_STAGE_TICKS, STAGE_PULSES_MAX
@@ -71,13 +72,17 @@ def motors(draw: st.DrawFn) -> Motor:
         max_size=2))))
     bands = tuple(b for i, b in enumerate(bands) if i == 0 or b[0] > bands[i - 1][1])
     t0 = float(torques[0])
-    return Motor(steps_per_rev=draw(st.sampled_from([200, 400, 1600, 3200])),
-                 curve_speed_pps=speeds, curve_torque_nm=torques,
-                 inertia_kgm2=draw(st.floats(2e-6, 1e-3)),
-                 safety_factor=draw(st.floats(0.3, 1.0)), start_pps=start,
-                 friction_torque_nm=draw(st.floats(0.0, 0.2)) * t0,
-                 load_torque_nm=draw(st.floats(-0.2, 0.2)) * t0,
-                 max_jump_pps=draw(st.none() | st.floats(50, 2000)), resonance_bands_pps=bands)
+    try:
+        return Motor(steps_per_rev=draw(st.sampled_from([200, 400, 1600, 3200])),
+                     curve_speed_pps=speeds, curve_torque_nm=torques,
+                     inertia_kgm2=draw(st.floats(2e-6, 1e-3)),
+                     safety_factor=draw(st.floats(0.3, 1.0)), start_pps=start,
+                     friction_torque_nm=draw(st.floats(0.0, 0.2)) * t0,
+                     load_torque_nm=draw(st.floats(-0.2, 0.2)) * t0,
+                     max_jump_pps=draw(st.none() | st.floats(50, 2000)),
+                     resonance_bands_pps=bands)
+    except FormatError:  # friction and load above the torque at rest: no motor
+        reject()
 
 
 @SETTINGS

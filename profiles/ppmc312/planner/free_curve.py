@@ -17,7 +17,7 @@ from ...result import PlanResult
 from ..clock import MAX_OUTPUT_PPS, Clock
 from ..table import FreeCurveTable
 from .problem import Shaping, check_plan_args, choose_clock, make_problem, reference_pulses
-from .refine import Staircase, jerk_counts, refine_rates, switch_safe_decel
+from .refine import Staircase, jerk_counts, own_decel_counts, refine_rates, switch_safe_decel
 from .search import GRID_TARGET, graph, grid_rates, search
 
 BASELINE_POINTS = 600
@@ -61,24 +61,35 @@ _plans: OrderedDict[Hashable, Plan] = OrderedDict()
 _plans_lock = threading.Lock()
 
 
+# The tables `plan` compares (auto mode: all three; LE=1 forced: the first two).
+VARIANTS = ("LE=1", "LE=1 on LE=0's rates", "LE=0")
+
+
 def plan(motor: Motor, clock: Clock | None, max_stages: int, pulses: int | None,
          separate_decel: bool | None, *, grid: str = "adaptive", refine: bool = True,
          label: str = "planner", exhaustive_tops: bool = False,
-         shaping: Shaping | None = None) -> Plan:
+         shaping: Shaping | None = None, variant: str | None = None) -> Plan:
     """The fastest table that passes the criterion for every move length (with `shaping`:
-    within its bands' share of the motor). The last PLANS_KEPT plans are remembered by
-    their arguments (the motor by its values): a duty cycle plans its candidates by the
-    criterion, then tightens the best, whose first attempt is that same plan."""
+    within its bands' share of the motor); `variant` (one of VARIANTS) plans only that
+    one, and `extras["variant"]` says which won. The last PLANS_KEPT plans are
+    remembered by their arguments (the motor by its values): a duty cycle plans its
+    candidates by the criterion, then tightens the best, whose first attempt is that
+    same plan."""
     t0 = time.perf_counter()
     check_plan_args(max_stages, pulses)
     clock = clock or choose_clock(motor)
     key = (motor.values_key(), clock, max_stages, pulses, separate_decel, grid, refine, label,
-           exhaustive_tops, shaping or None)
+           exhaustive_tops, shaping or None, variant)
     with _plans_lock:
         if key in _plans:
             _plans.move_to_end(key)
             return replace(_plans[key], solve_s=time.perf_counter() - t0)
-    result = _plan(motor, clock, max_stages, pulses, separate_decel, grid=grid, refine=refine,
+    kinds = [k for k in VARIANTS if separate_decel is None or (k == "LE=0") != separate_decel]
+    if variant is not None:
+        if variant not in kinds:
+            raise ValueError(f"variant {variant!r} is not one of {kinds}")
+        kinds = [variant]
+    result = _plan(motor, clock, max_stages, pulses, kinds, grid=grid, refine=refine,
                    label=label, exhaustive_tops=exhaustive_tops, shaping=shaping, t0=t0)
     with _plans_lock:
         _plans[key] = result
@@ -93,33 +104,53 @@ def forget_plans() -> None:
         _plans.clear()
 
 
-def _plan(motor: Motor, clock: Clock, max_stages: int, pulses: int | None,
-          separate_decel: bool | None, *, grid: str, refine: bool, label: str,
-          exhaustive_tops: bool, shaping: Shaping | None, t0: float) -> Plan:
+def _plan(motor: Motor, clock: Clock, max_stages: int, pulses: int | None, kinds: list[str],
+          *, grid: str, refine: bool, label: str, exhaustive_tops: bool,
+          shaping: Shaping | None, t0: float) -> Plan:
     budget = reference_pulses(motor) if pulses is None else int(pulses)
     # LE=1's decel counts (from a_dec ≥ a_acc) are smaller than LE=0's, but the chip runs
     # short moves as triangles that keep the accel:decel ratio, and with uneven sides the
     # decel can start on a slower stage than the accel reached: a jump the table never
     # shows. `switch_safe_decel` raises the top decel count (free on the planned move:
     # the top stage runs at cruise speed) until no triangle does that. The symmetric LE=0
-    # table is always all-length safe; auto mode keeps whichever is faster, and writes
-    # LE=0 when the decel counts come out equal anyway.
-    variants: list[tuple[Staircase, bool]] = []
+    # table is always all-length safe. LE=1 is planned twice: on its own DP's rates, and
+    # on LE=0's with the decel side's own counts (the DP for uneven sides picks rates
+    # whose decel counts the switch rule then raises; LE=0's rates often fare better, and
+    # that variant is never slower than LE=0). The fastest is kept, written as LE=0 when
+    # the decel counts come out equal anyway.
+    variants: list[tuple[Staircase, bool, str]] = []
     kw = dict(grid=grid, refine=refine, exhaustive_tops=exhaustive_tops, shaping=shaping)
-    if separate_decel is not False:
-        pb = make_problem(motor, clock, True, shaping)
-        ev1 = plan_staircase(motor, clock, max_stages, budget, True, **kw)  # type: ignore[arg-type]
-        safe = switch_safe_decel(pb, ev1, budget)
+    pb = make_problem(motor, clock, True, shaping)
+
+    def switch_safe(ev: Staircase | None, kind: str) -> None:
+        safe = None if ev is None else switch_safe_decel(pb, ev, budget)
         if safe is not None:
-            variants.append((safe, not np.array_equal(safe.n, safe.d)))
-    if separate_decel is not True:
-        ev0 = plan_staircase(motor, clock, max_stages, budget, False, **kw)  # type: ignore[arg-type]
-        variants.append((ev0, False))
+            variants.append((safe, not np.array_equal(safe.n, safe.d), kind))
+
+    refused: list[PlanError] = []  # a variant with no table leaves the others
+
+    def staircase(separate: bool) -> Staircase | None:
+        try:
+            return plan_staircase(motor, clock, max_stages, budget, separate, **kw)  # type: ignore[arg-type]
+        except PlanError as e:
+            refused.append(e)
+            return None
+
+    if "LE=1" in kinds:
+        switch_safe(staircase(True), "LE=1")
+    if "LE=0" in kinds or "LE=1 on LE=0's rates" in kinds:
+        ev0 = staircase(False)
+        if ev0 is not None and "LE=1 on LE=0's rates" in kinds:
+            switch_safe(own_decel_counts(pb, ev0, budget), "LE=1 on LE=0's rates")
+        if ev0 is not None and "LE=0" in kinds:
+            variants.append((ev0, False, "LE=0"))
     if not variants:
+        if refused:
+            raise refused[-1]  # a DP had no table: its reason says why
         raise PlanError(f"no LE=1 table fits {budget} pulses and keeps every triangle's "
                         "accel→decel switch safe; give more pulses or allow LE=0 "
                         "(--no-separate-decel)")
-    ev, sep = min(variants, key=lambda v: v[0].time_s)
+    ev, sep, kind = min(variants, key=lambda v: v[0].time_s)
     table = table_of(clock, ev, sep)
     objective = (f"move of {pulses} pulses" if pulses is not None
                  else f"reference move of {budget} pulses (no move length given)")
@@ -134,7 +165,8 @@ def _plan(motor: Motor, clock: Clock, max_stages: int, pulses: int | None,
         binds = "top speed"
     else:
         binds = "stall criterion (capability and jump limit)"
-    return Plan(table, ev.time_s, binds, info, pulses, clock, time.perf_counter() - t0)
+    return Plan(table, ev.time_s, binds, info, pulses, clock, time.perf_counter() - t0,
+                extras={"variant": kind})
 
 
 def plan_free_curve(motor: Motor, *, clock: Clock | None = None, max_stages: int = 127,
@@ -151,19 +183,20 @@ def plan_free_curve(motor: Motor, *, clock: Clock | None = None, max_stages: int
     corner."""
     from .tightening import tighten
 
-    chosen: list[bool] = []  # the LE variant the plain criterion picked
+    chosen: list[str] = []  # the variant the plain criterion picked
 
     def make(m: Motor, shaping: Shaping | None = None) -> Plan:
-        if separate_decel is None and shaping is not None and chosen:
+        if shaping is not None and chosen:
             # a gentler plan of the same motor and move keeps the variant the plain one
-            # won with (planning both again halves nothing but the time)
+            # won with (planning them all again changes nothing but the time)
             try:
-                return plan(m, clock, max_stages, pulses, chosen[0], shaping=shaping)
+                return plan(m, clock, max_stages, pulses, separate_decel, shaping=shaping,
+                            variant=chosen[0])
             except PlanError:
                 pass
         result = plan(m, clock, max_stages, pulses, separate_decel, shaping=shaping)
         if shaping is None:
-            chosen[:] = [result.table.separate]
+            chosen[:] = [result.extras["variant"]]
         return result
 
     if not motor.tolerances:

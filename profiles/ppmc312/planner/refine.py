@@ -179,6 +179,20 @@ def jerk_counts(pb: Problem, ev: Staircase, budget: int) -> Staircase | None:
 
 
 
+def own_decel_counts(pb: Problem, ev: Staircase, budget: int) -> Staircase | None:
+    """An LE=0 staircase's rates and accel counts with the decel side's own least counts
+    (`pb` separate: from a_dec ≥ a_acc, so never more than the accel's), the jerk rule
+    applied again: an LE=1 table on the rates the symmetric DP found, for
+    `switch_safe_decel` to make switch-safe. Its symmetric end (decel = accel) is the
+    LE=0 table itself, so the switch-safe result is never slower than LE=0."""
+    _, d, valid = pb.counts(ev.rates[:-1], ev.rates[1:])
+    if not np.all(valid):
+        return None
+    d = np.concatenate((np.minimum(d, ev.d[:-1]), ev.d[-1:]))
+    own = evaluate(pb, ev.rates, budget, (ev.n, d))
+    return None if own is None else jerk_counts(pb, own, budget)
+
+
 def switch_safe_decel(pb: Problem, ev: Staircase, budget: int) -> Staircase | None:
     """The fastest switch-safe decel counts for `ev`'s stages (None: none fits the budget).
 
