@@ -14,7 +14,8 @@
   ≤ 1 s), the whole box verdict (`judge_safety`: corners over every move, then the
   samples), and the oracle on a few samples, scaled;
 - the cold first call: a fresh process with an empty numba cache folder compiles the
-  kernels (the DP's and the rotor's), a second one loads them from that cache;
+  kernels (the planner's DP layers and stage counts, the move assembly and the rotor),
+  a second one loads them from that cache;
 - `stepramp check` without `--motor`: cold start (goal ≤ 0.3 s) against `python -c pass`,
   and whether numba gets imported (it must not).
 Single-thread work is timed in process CPU time as well as wall time; the judge runs
@@ -250,8 +251,9 @@ def cold_call(res: Results) -> None:
     res.values["cold"] = runs
     res.section("cold", ["what (NEMA17, 10 000 pulses, criterion-only plan)", "first call",
                          "the same call again", "paid once"], rows,
-                note="A fresh numba cache folder: the first process compiles the DP's and the "
-                     "rotor's kernels and writes them; the second loads them.")
+                note="A fresh numba cache folder: the first process compiles the planner's, "
+                     "the move assembly's and the rotor's kernels and writes them; the second "
+                     "loads them.")
 
 
 HEAVY = ("numpy", "numba", "toppra", "casadi", "matplotlib", "ruckig", "scipy", "jsonschema")
