@@ -24,7 +24,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from benchlib import Results, count  # noqa: E402
+from benchlib import Results, count, forget  # noqa: E402
 
 from profiles.errors import PlanError  # noqa: E402
 from profiles.motor import Motor, bundled_motor_paths  # noqa: E402
@@ -107,6 +107,7 @@ def throughput(res: Results, lengths: list[int]) -> None:
     run_sweep(jobs[:1])  # warm
     rates = {}
     for workers in (1, 2):
+        forget()  # no plan of the warm-up or the run before is reused
         t0 = time.perf_counter()
         run_sweep(jobs, workers=workers)
         rates[workers] = len(jobs) / (time.perf_counter() - t0)

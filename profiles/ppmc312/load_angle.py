@@ -23,9 +23,7 @@ tolerance box's corners) are rows of one kernel call.
 from __future__ import annotations
 
 import os
-import threading
-from collections import OrderedDict
-from collections.abc import Callable, Hashable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
@@ -47,6 +45,7 @@ from ..motor.rotor import (
     settle_s,
     too_stiff,
 )
+from ..remembered import Remembered
 from .execution import PHASES, SHAPES, Execution, MoveBatch, families, moves
 from .init_model import as_free_curve
 from .table import FreeCurveTable, InitTable
@@ -110,8 +109,7 @@ class Angles:
 
 
 VERDICTS_KEPT = 32   # all-length verdicts remembered (a few KB each)
-_kept: OrderedDict[Hashable, Angles] = OrderedDict()
-_kept_lock = threading.Lock()
+_verdicts: Remembered[Angles] = Remembered(VERDICTS_KEPT)
 
 
 def angles(table: FreeCurveTable | InitTable, motors: Sequence[Motor], *,
@@ -127,25 +125,19 @@ def angles(table: FreeCurveTable | InitTable, motors: Sequence[Motor], *,
     free = as_free_curve(table)
     if pulses is not None or max_step_s is not None:
         return _angles(free, motors, pulses, max_step_s)
-    key = (free, tuple(m.values_key() for m in motors))
-    with _kept_lock:
-        if key in _kept:
-            _kept.move_to_end(key)
-            return _kept[key]
-    found = _angles(free, motors, None, None)
-    for a in vars(found).values():
-        a.flags.writeable = False
-    with _kept_lock:
-        _kept[key] = found
-        while len(_kept) > VERDICTS_KEPT:
-            _kept.popitem(last=False)
-    return found
+
+    def judged() -> Angles:
+        found = _angles(free, motors, None, None)
+        for a in vars(found).values():
+            a.flags.writeable = False  # shared by every caller that asks again
+        return found
+
+    return _verdicts.get((free, tuple(m.values_key() for m in motors)), judged)[0]
 
 
 def forget_verdicts() -> None:
     """Forget the remembered verdicts (a benchmark times a table's first verdict)."""
-    with _kept_lock:
-        _kept.clear()
+    _verdicts.clear()
 
 
 def _angles(free: FreeCurveTable, motors: Sequence[Motor], pulses: Iterable[int] | None,
@@ -215,7 +207,10 @@ def _sampled(table: FreeCurveTable, motors: Sequence[Motor]
     speed = hz / slowest[at].astype(float)
     periods = np.array([r.natural_periods_s(speed) for r in rotor_list])
     period = periods.min(axis=0)
-    settle = np.minimum(periods, 1.0).max(axis=0)
+    # a motor with no torque at that speed has no period there: it cannot hold the
+    # command, and a dwell of a few periods at rest is long enough to show it slipping
+    rest = np.array([[r.natural_period_s(0.0)] for r in rotor_list])
+    settle = np.where(np.isfinite(periods), np.minimum(periods, 1.0), rest).max(axis=0)
     finite = np.isfinite(period)
     spacing[at[finite]] = np.maximum(1, np.minimum(
         spacing[at[finite]], (period[finite] * speed[finite] / PHASE_SAMPLES).astype(np.int64)))

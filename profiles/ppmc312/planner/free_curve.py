@@ -3,16 +3,14 @@ baseline method; the table written from the staircase."""
 
 from __future__ import annotations
 
-import threading
 import time
-from collections import OrderedDict
-from collections.abc import Hashable
 from dataclasses import replace
 
 import numpy as np
 
 from ...errors import PlanError
 from ...motor import Motor
+from ...remembered import Remembered
 from ...result import PlanResult
 from ..clock import MAX_OUTPUT_PPS, Clock
 from ..table import FreeCurveTable
@@ -57,8 +55,7 @@ def table_of(clock: Clock, ev: Staircase, separate: bool) -> FreeCurveTable:
 
 
 PLANS_KEPT = 64   # plans remembered (a table and a few lines each)
-_plans: OrderedDict[Hashable, Plan] = OrderedDict()
-_plans_lock = threading.Lock()
+_plans: Remembered[Plan] = Remembered(PLANS_KEPT)
 
 
 # The tables `plan` compares (auto mode: all three; LE=1 forced: the first two).
@@ -78,30 +75,22 @@ def plan(motor: Motor, clock: Clock | None, max_stages: int, pulses: int | None,
     t0 = time.perf_counter()
     check_plan_args(max_stages, pulses)
     clock = clock or choose_clock(motor)
-    key = (motor.values_key(), clock, max_stages, pulses, separate_decel, grid, refine, label,
-           exhaustive_tops, shaping or None, variant)
-    with _plans_lock:
-        if key in _plans:
-            _plans.move_to_end(key)
-            return replace(_plans[key], solve_s=time.perf_counter() - t0)
     kinds = [k for k in VARIANTS if separate_decel is None or (k == "LE=0") != separate_decel]
     if variant is not None:
         if variant not in kinds:
             raise ValueError(f"variant {variant!r} is not one of {kinds}")
         kinds = [variant]
-    result = _plan(motor, clock, max_stages, pulses, kinds, grid=grid, refine=refine,
-                   label=label, exhaustive_tops=exhaustive_tops, shaping=shaping, t0=t0)
-    with _plans_lock:
-        _plans[key] = result
-        while len(_plans) > PLANS_KEPT:
-            _plans.popitem(last=False)
-    return result
+    key = (motor.values_key(), clock, max_stages, pulses, tuple(kinds), grid, refine, label,
+           exhaustive_tops, shaping or None)
+    result, known = _plans.get(key, lambda: _plan(
+        motor, clock, max_stages, pulses, kinds, grid=grid, refine=refine, label=label,
+        exhaustive_tops=exhaustive_tops, shaping=shaping, t0=t0))
+    return replace(result, solve_s=time.perf_counter() - t0) if known else result
 
 
 def forget_plans() -> None:
     """Forget the remembered plans (a benchmark times a plan's first run)."""
-    with _plans_lock:
-        _plans.clear()
+    _plans.clear()
 
 
 def _plan(motor: Motor, clock: Clock, max_stages: int, pulses: int | None, kinds: list[str],
