@@ -66,7 +66,8 @@ def main() -> None:
     res.values["motors"] = out
     res.values["changes"] = args.changes
     res.section("designer", ["motor", "stages", "planner alone", "recompute",
-                             "(of which the verdict and trace)", "figure redraw",
+                             "(of which the final verdict and trace: tightening judged the "
+                             "table already)", "figure redraw",
                              "recompute / planner", "goal"], rows,
                 note=f"Medians of {args.changes} slider changes (move length and safety "
                      "factor varied, so each is a new plan), wall time, warm.")
