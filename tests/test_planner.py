@@ -294,3 +294,26 @@ def test_quantise_rejects_bad_input() -> None:
         quantise_reference(t[::-1], t * 100, t, clock=Clock.internal("1MHz"))
     with pytest.raises(StepRampError, match="slower clock"):
         quantise_reference(t * 100, t * 100, t, clock=Clock.internal("8MHz"))
+
+
+def test_plans_are_remembered_by_their_arguments_and_shared_read_only() -> None:
+    """The same arguments (the motor by its values: loaded again, or with only its
+    provenance added) give the remembered table; other arguments plan anew; forgetting
+    plans anew; a remembered plan cannot be changed by one of its callers."""
+    from dataclasses import replace
+
+    from profiles.ppmc312.planner.free_curve import forget_plans
+
+    path = bundled_motor_paths()[0]
+    forget_plans()
+    first = plan(load_motor(path), None, 127, 2000, None)
+    again = plan(replace(load_motor(path), sources={"inertia_kgm2": [{"value": 1, "from": "x"}]}),
+                 None, 127, 2000, None)
+    assert again.table is first.table and again.extras is first.extras
+    assert plan(load_motor(path), None, 127, 2001, None).table is not first.table
+    assert plan(load_motor(path), None, 126, 2000, None).table is not first.table
+    with pytest.raises(TypeError):
+        first.extras["variant"] = "LE=0"  # type: ignore[index]
+    forget_plans()
+    fresh = plan(load_motor(path), None, 127, 2000, None)
+    assert fresh.table is not first.table and fresh.table == first.table

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import replace
+from types import MappingProxyType
 
 import numpy as np
 
@@ -155,7 +156,7 @@ def _plan(motor: Motor, clock: Clock, max_stages: int, pulses: int | None, kinds
     else:
         binds = "stall criterion (capability and jump limit)"
     return Plan(table, ev.time_s, binds, info, pulses, clock, time.perf_counter() - t0,
-                extras={"variant": kind})
+                extras=MappingProxyType({"variant": kind}))  # read-only: plans are shared
 
 
 def plan_free_curve(motor: Motor, *, clock: Clock | None = None, max_stages: int = 127,
