@@ -15,6 +15,7 @@ from oracle_moves import kernel_step_counts, whole_move
 
 from profiles.motor import Motor
 from profiles.ppmc312.clock import Clock
+from profiles.ppmc312.execution import moves
 from profiles.ppmc312.load_angle import angles, worst_load_angle
 from profiles.ppmc312.table import FreeCurveTable
 
@@ -159,7 +160,6 @@ def test_trapezoids_cut_alike_are_prefixes_of_the_longest() -> None:
     """`shared_cruises`: every move keeps its pulses and rates in order; triangles are
     untouched; each trapezoid's segments are the longest trapezoid's up to the end of
     its own cruise, then the same decel."""
-    from profiles.ppmc312.execution import moves
     from profiles.ppmc312.load_angle import shared_cruises
 
     table = FreeCurveTable(MHZ1, (150, 220, 330), (4, 3, 2), (2, 3, 5))
@@ -190,7 +190,6 @@ def test_thousands_of_trapezoids_are_not_cut_alike() -> None:
     """k trapezoids cut where every shorter one ends make ~k²/2 pieces: past
     SHARED_CRUISE_PIECES (a motor with no torque at the cruise samples 200 000 cruise
     lengths) the batch is judged as it is, never allocated quadratically."""
-    from profiles.ppmc312.execution import moves
     from profiles.ppmc312.load_angle import SHARED_CRUISE_PIECES, shared_cruises
 
     table = FreeCurveTable(MHZ1, (150, 220, 330), (4, 3, 2))
@@ -251,3 +250,25 @@ def test_a_rejoin_needs_the_references_lag_and_rate_and_counts_its_span() -> Non
     assert stop == 0 and seen.shape[1] == 1 and seen[0, 0] == own_max[0]
     _, stop, _, seen = _follow(m, spans, 0.3, kb, (own_lag, -own_s, suffix), 0.0)
     assert stop == -1 and seen.shape[1] == n
+
+
+def test_an_execution_that_slips_while_the_reference_does_not_is_named() -> None:
+    """Uneven LE=1 sides whose short triangles step down hard after their peak: those
+    slip a pole, the longest execution (the reference) does not. Each execution's slip
+    is its own (the oracle's, move by move), never the reference's."""
+    weak = Motor(steps_per_rev=200, curve_speed_pps=np.array([0.0, 3000.0, 6000.0]),
+                 curve_torque_nm=np.array([0.3, 0.25, 0.05]), inertia_kgm2=2e-5,
+                 safety_factor=0.6, start_pps=200.0, damping_ratio=0.2)
+    table = FreeCurveTable(MHZ1, (544, 2541, 3339, 3729, 4804), (23, 12, 19, 5, 22),
+                           (15, 33, 42, 15, 51))
+    lengths = list(range(150, 240))
+    found = angles(table, [weak], pulses=lengths)
+    slipped = found.slipped[0]
+    runs = moves(table, lengths)
+    reference = int(np.argmax(np.diff(runs.offsets)))  # the most segments
+    assert not slipped[reference] and 0 < slipped.sum() < len(lengths)
+    for e in np.flatnonzero(slipped)[:3].tolist() + np.flatnonzero(~slipped)[-3:].tolist():
+        oracle = whole_move(table, weak, lengths[e])[0]
+        assert (oracle >= 180.0) == bool(slipped[e])
+        if not slipped[e]:
+            assert abs(oracle - found.deg[0, e]) <= AGREE_DEG
