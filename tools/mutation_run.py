@@ -15,6 +15,7 @@ import importlib.util
 import json
 import os
 import random
+import shutil
 import signal
 import sys
 import tempfile
@@ -87,10 +88,17 @@ class _FastFirst:
             self.record.write_text(json.dumps(self.seen))
 
 
-def _run_child(name: str, path: Path, source: str, tests: list[str], plugin: _FastFirst
-               ) -> int:
+def _run_child(name: str, path: Path, source: str, tests: list[str], plugin: _FastFirst,
+               own_cache: str | None) -> int:
     import pytest
 
+    if own_cache is not None:
+        # numba keys its on-disk cache by the module's file, which a mutant shares with
+        # the source: every mutant of a compiled module would load the first one's code
+        from numba.core import config
+
+        os.environ["NUMBA_CACHE_DIR"] = own_cache
+        config.reload_config()
     sys.meta_path.insert(0, _MutantFinder(name, path, source))
     devnull = os.open(os.devnull, os.O_WRONLY)
     os.dup2(devnull, 1)
@@ -104,24 +112,32 @@ def _run_child(name: str, path: Path, source: str, tests: list[str], plugin: _Fa
 
 def run_one(name: str, path: Path, source: str, tests: list[str], timeout_s: float,
             plugin: _FastFirst | None = None) -> str:
-    """'killed', 'survived' or 'timeout' for one source of the module."""
+    """'killed', 'survived' or 'timeout' for one source of the module. A module with
+    cached compiled functions gets a numba cache of its own for each source."""
+    own_cache = (tempfile.mkdtemp(prefix="stepramp-mutant-numba-")
+                 if "cache=True" in source else None)
     pid = os.fork()
     if pid == 0:  # child
         code = 3
         try:
-            code = _run_child(name, path, source, tests, plugin or _FastFirst({}, None))
+            code = _run_child(name, path, source, tests, plugin or _FastFirst({}, None),
+                              own_cache)
         finally:
             os._exit(code)
     deadline = time.monotonic() + timeout_s
-    while True:
-        done, status = os.waitpid(pid, os.WNOHANG)
-        if done:
-            return "survived" if os.waitstatus_to_exitcode(status) == 0 else "killed"
-        if time.monotonic() > deadline:
-            os.kill(pid, signal.SIGKILL)
-            os.waitpid(pid, 0)
-            return "timeout"
-        time.sleep(0.02)
+    try:
+        while True:
+            done, status = os.waitpid(pid, os.WNOHANG)
+            if done:
+                return "survived" if os.waitstatus_to_exitcode(status) == 0 else "killed"
+            if time.monotonic() > deadline:
+                os.kill(pid, signal.SIGKILL)
+                os.waitpid(pid, 0)
+                return "timeout"
+            time.sleep(0.02)
+    finally:
+        if own_cache is not None:
+            shutil.rmtree(own_cache, ignore_errors=True)
 
 
 def _prepare() -> None:
