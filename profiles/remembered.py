@@ -32,8 +32,7 @@ class Remembered(Generic[V]):
                 return self._kept[key], True
         value = compute()
         with self._lock:
-            self._kept[key] = value
-            self._kept.move_to_end(key)
+            self._kept[key] = value  # a new key goes last; another thread's stays where it is
             while len(self._kept) > self.size:
                 self._kept.popitem(last=False)
         return value, False
