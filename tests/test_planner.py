@@ -209,6 +209,21 @@ def test_dp_matches_brute_force(stages: int, pulses: int, separate: bool) -> Non
     assert check_stall(got.table, motor) == []
 
 
+@pytest.mark.parametrize("pulses", [400, 100000])
+@pytest.mark.parametrize("separate", [False, True])
+def test_dp_matches_brute_force_when_one_jump_reaches_the_top(pulses: int,
+                                                              separate: bool) -> None:
+    """Every rate within one jump of the start: the DP's second layer already reaches
+    every node, and more stages still help (the capability falls with speed)."""
+    motor = tiny_motor(max_jump_pps=2000.0)
+    clock = Clock.internal("15.625kHz")
+    want = brute_force(motor, clock, 3, pulses, separate)
+    got = plan_free_curve(motor, clock=clock, max_stages=3, pulses=pulses,
+                          separate_decel=separate)
+    assert got.duration_s == pytest.approx(want, rel=1e-12)
+    assert len(got.table.rates) == 3  # two stages would be slower
+
+
 # --- clock, errors, jerk ---------------------------------------------------------
 def test_choose_clock() -> None:
     assert all(choose_clock(m).name == "8MHz" for m in MOTORS.values())

@@ -117,3 +117,23 @@ def test_counts_keep_the_callers_shape() -> None:
     assert n.shape == d.shape == valid.shape == (2, 3)
     want = oracle(pb, *np.broadcast_arrays(r_slow, r_fast))
     assert all(np.array_equal(g, w) for g, w in zip((n, d, valid), want, strict=True))
+
+
+def test_a_stage_exactly_on_a_band_edge_is_in_the_band() -> None:
+    """Bands are closed: a stage whose speed is a band's edge is in it, at either end
+    of a step."""
+    motor0 = Motor(steps_per_rev=400, curve_speed_pps=np.array([0.0, 5000.0, 9000.0]),
+                   curve_torque_nm=np.array([0.5, 0.4, 0.1]), inertia_kgm2=1e-5,
+                   safety_factor=0.5, start_pps=300.0, max_jump_pps=500.0)
+    hz = choose_clock(motor0).hz
+    band = (hz / 4000, hz / 3990)  # narrower than a jump: no stage may lie in it
+    motor = replace(motor0, resonance_bands_pps=(band,))
+    pb = make_problem(motor, choose_clock(motor), True)
+    # steps: into the band, from its low edge out of it, within it, from its high edge,
+    # wholly above it, onto its low edge, onto its high edge
+    r_slow = np.array([4001.0, 4000.0, 3995.0, 3990.0, 3989.0, 4010.0, 4003.0])
+    r_fast = np.array([3996.0, 3985.0, 3992.0, 3985.0, 3985.0, 4000.0, 3990.0])
+    got, want = pb.counts(r_slow, r_fast), oracle(pb, r_slow, r_fast)
+    for g, w in zip(got, want, strict=True):
+        assert np.array_equal(g, w)
+    assert got[2].tolist() == [False, False, False, False, True, False, False]

@@ -52,11 +52,8 @@ def layers(pred: np.ndarray, cost: np.ndarray, packed_w: np.ndarray, start: np.n
                     packed[j] = prev_packed[src] + packed_w[j, pick]
                     changed = True
             parents[m, j] = src if better else -1
-        if m == 2:
-            for j in range(hi, g):
-                value[j] = math.inf
-                packed[j] = 0
-        elif hi == g and not changed:
+        # (past `hi` no path of m stages reaches, and no start node lies: value stays inf)
+        if m > 2 and hi == g and not changed:
             break  # nothing changes any more: more stages do not help
         count = m + 1
     return count
