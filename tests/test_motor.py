@@ -60,8 +60,32 @@ def test_json_round_trip() -> None:
     ({"start_pps": "fast"}, FormatError, "start_pps"),
     ({"friction_torque_nm": 5.0}, FormatError, "cannot accelerate"),
     ({"format": "x"}, FormatError, "format"),
+    ({"pullout_torque": [[0, 1], ["fast", 0.5]]}, FormatError, "pairs"),
+    ({"tolerances": {"inertia_kgm2": 1e-5}}, FormatError, r"\[low, high\]"),
+    ({"tolerances": {"inertia_kgm2": [1e-5]}}, FormatError, r"\[low, high\]"),
+    ({"tolerances": {"inertia_kgm2": [1e-5, "x"]}}, FormatError, r"\[low, high\]"),
+    ({"resonance_bands_pps": [[1000, 1100, 1200]]}, FormatError, "pairs"),
+    ({"resonance_bands_pps": [[1000, "x"]]}, FormatError, "pairs"),
+    ({"friction_torque_nm": 0.01, "tolerances": {"friction_torque_nm": [-0.01, 0.02]}},
+     FieldRangeError, r"low: -0\.01 is outside the allowed range 0\.\.0\.02"),
 ])
 def test_bad_motor_files(patch: dict, error: type, match: str) -> None:
     obj = MOTORS[0].to_json() | patch
     with pytest.raises(error, match=match):
         Motor.from_json(obj)
+
+
+def test_a_load_takes_from_both_sides_and_one_step_a_turn_is_a_motor() -> None:
+    """The load opposes one direction and helps the other; the chip runs one table both
+    ways, so both capabilities lose |T_L| (a_dec keeps the friction's help)."""
+    m = MOTORS[0]
+    loaded = Motor.from_json(m.to_json() | {"load_torque_nm": -0.05,
+                                            "friction_torque_nm": 0.01})
+    k = loaded.steps_per_rev / (2 * math.pi * loaded.inertia_kgm2)
+    t = float(np.interp(500.0, loaded.curve_speed_pps, loaded.curve_torque_nm))
+    sf = loaded.safety_factor
+    assert loaded.a_acc_pps2(500.0) == pytest.approx((sf * t - 0.01 - 0.05) * k)
+    assert loaded.a_dec_pps2(500.0) == pytest.approx((sf * t + 0.01 - 0.05) * k)
+    assert Motor.from_json(m.to_json() | {"steps_per_rev": 1}).steps_per_rev == 1
+    with pytest.raises(FieldRangeError, match="steps_per_rev"):
+        Motor.from_json(m.to_json() | {"steps_per_rev": 0})

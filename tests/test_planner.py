@@ -332,3 +332,26 @@ def test_plans_are_remembered_by_their_arguments_and_shared_read_only() -> None:
     forget_plans()
     fresh = plan(load_motor(path), None, 127, 2000, None)
     assert fresh.table is not first.table and fresh.table == first.table
+
+
+def test_what_binds_a_plan_and_what_refinement_buys() -> None:
+    """A motor with torque to spare at its last curve point cruises there: its long move
+    is bound by the top speed. Refinement over exact integer rates shortens a bundled
+    motor's move (the grid alone is coarser)."""
+    strong = tiny_motor(curve_torque_nm=np.array([0.5, 0.45, 0.4, 0.35]), inertia_kgm2=2e-5)
+    long = plan_free_curve(strong, pulses=100_000)
+    assert long.binds == "top speed"
+    assert long.table.clock.hz / long.table.rates[0] == pytest.approx(strong.top_pps)
+    motor = MOTORS["motor-nema17-1600"]
+    refined = plan(motor, None, 127, 10_000, None)
+    coarse = plan(motor, None, 127, 10_000, None, refine=False)
+    assert refined.duration_s < coarse.duration_s
+    assert refined.binds == "stall criterion (capability and jump limit)"
+
+
+def test_tightening_keeps_the_variant_the_criterion_chose() -> None:
+    motor = MOTORS["motor-nema23-heavy"]
+    plain = plan_free_curve(motor, pulses=10_000)
+    tight = plan_free_curve(motor, pulses=10_000, load_angle_deg=75.0)
+    assert not tight.extras["shaping"].plain
+    assert tight.extras["variant"] == plain.extras["variant"] == "LE=1 on LE=0's rates"
