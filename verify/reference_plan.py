@@ -19,7 +19,6 @@ plan for the same move: what following that reference costs.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
@@ -99,7 +98,7 @@ def reference_motor(motor: Motor, v_pps: np.ndarray, x_pulses: np.ndarray) -> Mo
     # and the follower's, below the motor's at every point, stays below it between them
     speeds = np.union1d(np.linspace(0.0, top, CURVE_POINTS),
                         motor.curve_speed_pps[motor.curve_speed_pps < top])
-    k = motor.steps_per_rev / (2 * math.pi * motor.inertia_kgm2)
+    k = motor.pps2_per_nm
     load = abs(motor.load_torque_nm)
     accel = _mean_accel(v[: peak + 1], x[: peak + 1], speeds)
     decel = _mean_accel(v[peak:][::-1], (x[-1] - x[peak:])[::-1], speeds)

@@ -133,8 +133,8 @@ class Motor:
         return self.start_pps if self.max_jump_pps is None else self.max_jump_pps
 
     @property
-    def _k(self) -> float:
-        # torque [N·m] → acceleration [pps/s]
+    def pps2_per_nm(self) -> float:
+        """Torque to acceleration: pps/s per N·m (steps_per_rev / (2π · J))."""
         return self.steps_per_rev / (2 * math.pi * self.inertia_kgm2)
 
     def torque_nm(self, speed_pps: Any) -> Any:
@@ -158,11 +158,11 @@ class Motor:
 
     def a_acc_pps2(self, speed_pps: Any) -> Any:
         return (self.safety_factor * self.torque_nm(speed_pps) - self.friction_torque_nm
-                - abs(self.load_torque_nm)) * self._k
+                - abs(self.load_torque_nm)) * self.pps2_per_nm
 
     def a_dec_pps2(self, speed_pps: Any) -> Any:
         return (self.safety_factor * self.torque_nm(speed_pps) + self.friction_torque_nm
-                - abs(self.load_torque_nm)) * self._k
+                - abs(self.load_torque_nm)) * self.pps2_per_nm
 
     def min_a_acc_pps2(self, lo_pps: Any, hi_pps: Any) -> Any:
         """Exact minimum of a_acc over [lo, hi] (vectorised): the curve is piecewise

@@ -141,7 +141,7 @@ class Problem:
                      float(self.hz), m.curve_speed_pps, m.curve_torque_nm,
                      float(m.safety_factor), float(m.friction_torque_nm),
                      float(abs(m.load_torque_nm)),
-                     float(m.steps_per_rev / (2 * math.pi * m.inertia_kgm2)), edges, scale,
+                     float(m.pps2_per_nm), edges, scale,
                      self.shaping.plain, float(self.jump), self.separate, bands,
                      float(MIN_STAGE_TICKS), float(STAGE_PULSES_MAX), n, d, valid)
         return n.reshape(shape), d.reshape(shape), valid.reshape(shape)
