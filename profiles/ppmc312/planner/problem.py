@@ -4,6 +4,7 @@ and how much of the motor a table may use in each speed band (`Shaping`)."""
 from __future__ import annotations
 
 import bisect
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -133,18 +134,22 @@ class Problem:
         shape = rs.shape
         n, d = np.empty(rs.size), np.empty(rs.size)
         valid = np.empty(rs.size, dtype=bool)
-        m = self.motor
-        edges = np.asarray(self.shaping.edges_pps, dtype=float)
-        scale = np.asarray(self.shaping.scale, dtype=float)
-        bands = np.asarray(narrow_bands(m), dtype=float).reshape(-1, 2)
-        stage_counts(np.ascontiguousarray(rs).ravel(), np.ascontiguousarray(rf).ravel(),
-                     float(self.hz), m.curve_speed_pps, m.curve_torque_nm,
-                     float(m.safety_factor), float(m.friction_torque_nm),
-                     float(abs(m.load_torque_nm)),
-                     float(m.pps2_per_nm), edges, scale,
-                     self.shaping.plain, float(self.jump), self.separate, bands,
-                     float(MIN_STAGE_TICKS), float(STAGE_PULSES_MAX), n, d, valid)
+        stage_counts(np.ascontiguousarray(rs).ravel(),  # type: ignore[call-arg]
+                     np.ascontiguousarray(rf).ravel(), *self._count_constants, n, d, valid)
         return n.reshape(shape), d.reshape(shape), valid.reshape(shape)
+
+    @functools.cached_property
+    def _count_constants(self) -> tuple[Any, ...]:
+        """What `counts` hands the kernel besides the steps: the motor, the shaping and the
+        chip's limits, prepared once per problem (the planner counts hundreds of times)."""
+        m = self.motor
+        return (float(self.hz), m.curve_speed_pps, m.curve_torque_nm, float(m.safety_factor),
+                float(m.friction_torque_nm), float(abs(m.load_torque_nm)),
+                float(m.pps2_per_nm), np.asarray(self.shaping.edges_pps, dtype=float),
+                np.asarray(self.shaping.scale, dtype=float), self.shaping.plain,
+                float(self.jump), self.separate,
+                np.asarray(narrow_bands(m), dtype=float).reshape(-1, 2),
+                float(MIN_STAGE_TICKS), float(STAGE_PULSES_MAX))
 
     def top_ok(self, rates: Any) -> np.ndarray:
         """The top stage (the cruise) lies outside every resonance band."""
