@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 from profiles.errors import FormatError
 from profiles.motor import Motor
-from profiles.motor.resonance import stage_allowed
+from profiles.motor.resonance import in_bands, narrow_bands
 from profiles.ppmc312.limits import MIN_STAGE_TICKS, STAGE_PULSES_MAX
 from profiles.ppmc312.planner import Shaping, choose_clock, make_problem
 from profiles.ppmc312.planner.problem import Problem
@@ -34,7 +34,8 @@ def oracle(pb: Problem, r_slow: np.ndarray, r_fast: np.ndarray
     a_dec = np.asarray(m.min_a_dec_pps2(f_slow, f_fast), dtype=float)
     jump = np.full(f_slow.shape, pb.jump)
     if not pb.shaping.plain:
-        sigma = pb.shaping.at(f_slow)
+        sigma = np.asarray(pb.shaping.scale)[np.searchsorted(pb.shaping.edges_pps, f_slow,
+                                                             side="right")]
         k = m.steps_per_rev / (2 * math.pi * m.inertia_kgm2)
         c_acc = (m.friction_torque_nm + abs(m.load_torque_nm)) * k
         c_dec = (abs(m.load_torque_nm) - m.friction_torque_nm) * k
@@ -49,7 +50,8 @@ def oracle(pb: Problem, r_slow: np.ndarray, r_fast: np.ndarray
     if not pb.separate:
         n = d = np.maximum(n, d)
     valid = ((r_fast > 0) & (delta > 0) & (delta <= jump) & (n <= STAGE_PULSES_MAX)
-             & (d <= STAGE_PULSES_MAX) & stage_allowed(f_slow, m) & stage_allowed(f_fast, m))
+             & (d <= STAGE_PULSES_MAX) & ~in_bands(f_slow, narrow_bands(m))
+             & ~in_bands(f_fast, narrow_bands(m)))
     return n, d, valid
 
 

@@ -39,11 +39,6 @@ def narrow_bands(motor: Motor) -> tuple[tuple[float, float], ...]:
     return tuple((lo, hi) for lo, hi in motor.resonance_bands_pps if hi - lo < motor.jump_pps)
 
 
-def stage_allowed(speed_pps: Any, motor: Motor) -> np.ndarray:
-    """A stage may run at these speeds: not inside a band the staircase can jump."""
-    return ~in_bands(speed_pps, narrow_bands(motor))
-
-
 def top_allowed(speed_pps: Any, motor: Motor) -> np.ndarray:
     """The top stage (the cruise) may run at these speeds: outside every band."""
     return ~in_bands(speed_pps, motor.resonance_bands_pps)

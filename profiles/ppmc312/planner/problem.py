@@ -77,12 +77,8 @@ class Shaping:
             f *= ratio
         return cls(tuple(edges), (1.0,) * (len(edges) + 1), 1.0)
 
-    def at(self, speed_pps: Any) -> np.ndarray:
-        """The scale of each speed's band."""
-        return np.asarray(self.scale)[np.searchsorted(self.edges_pps, speed_pps, side="right")]
-
     def band(self, speed_pps: float) -> int:
-        """The band of one speed (`at`'s rule, without numpy's per-call cost)."""
+        """The band of a speed: edges_pps[b−1] ≤ speed < edges_pps[b]."""
         return bisect.bisect_right(self.edges_pps, speed_pps)
 
     def scaled(self, bands: dict[int, float], start: float = 1.0) -> Shaping:
