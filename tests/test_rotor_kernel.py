@@ -687,22 +687,6 @@ def test_a_forked_child_judges_on_threads_of_its_own() -> None:
     assert out.get(timeout=5) == here
 
 
-@pytest.mark.parametrize("decel", [None, (10, 20, 30, 40), (3, 1, 1, 2)])
-def test_the_sampled_moves_are_the_moves_of_the_sampled_lengths(
-        decel: tuple[int, ...] | None) -> None:
-    """The verdict's moves reuse the families' shortest and longest moves and build only
-    the other lengths: the batch is `moves` of the sampled lengths, segment for segment."""
-    from profiles.ppmc312.execution import moves
-    from profiles.ppmc312.load_angle import _sampled
-
-    table = FreeCurveTable(MHZ1, (100, 200, 400, 800), (40, 30, 20, 10), decel)
-    lengths, _, _, runs = _sampled(table, [plain_motor(damping_ratio=0.3)])
-    expected = moves(table, lengths)
-    for name in ("pulses", "shape", "phase", "rate", "count", "offsets"):
-        np.testing.assert_array_equal(getattr(runs, name), getattr(expected, name), name)
-    assert len(lengths) > 10
-
-
 def test_after_the_last_pulse_a_loaded_rotor_creeping_to_its_held_lag_is_followed() -> None:
     """A heavy, critically damped rotor under a load: after a 1-pulse move its lag peaks
     (7.05°), dips, then creeps up to where the load holds it (7.18°). The verdict follows

@@ -153,8 +153,9 @@ def _angles(free: FreeCurveTable, motors: Sequence[Motor], pulses: Iterable[int]
         lag, slipped = judge(moves(free, lengths, compiled=True), hz, rot,
                              max_step_s=max_step_s)
     else:
-        lengths, family, spacing, runs = _sampled(free, motors)
-        lag, slipped = judge(runs, hz, rot, max_step_s=max_step_s)
+        lengths, family, spacing = samples(free, motors)
+        lag, slipped = judge(moves(free, lengths, compiled=True), hz, rot,
+                             max_step_s=max_step_s)
         extra = refine(lengths, family, spacing, np.degrees(lag.max(axis=0) * rot.c_e))
         if len(extra):
             more_lag, more_slipped = judge(moves(free, extra, compiled=True), hz, rot,
@@ -169,12 +170,6 @@ def _angles(free: FreeCurveTable, motors: Sequence[Motor], pulses: Iterable[int]
 
 def samples(table: FreeCurveTable, motors: Sequence[Motor]
             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The move lengths that stand for every length of every family (`_sampled`)."""
-    return _sampled(table, motors)[:3]
-
-
-def _sampled(table: FreeCurveTable, motors: Sequence[Motor]
-             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, MoveBatch]:
     """The move lengths that stand for every length of every family: (lengths ascending,
     the family of each (its index), each family's spacing in pulses).
 
@@ -186,9 +181,7 @@ def _sampled(table: FreeCurveTable, motors: Sequence[Motor]
     Once that stage (or the cruise) has lasted SETTLE_CRUISE_PERIODS natural periods
     for every motor the rotor has settled in it and a longer dwell repeats that state:
     the rest of the family is judged by its longest move alone (a trapezoid's by that
-    settled cruise).
-
-    Also the moves of those lengths."""
+    settled cruise)."""
     rotor_list = [rotor_of(m) for m in motors]
     fams = families(table)
     lo, hi = fams.lo, fams.hi
@@ -228,7 +221,7 @@ def _sampled(table: FreeCurveTable, motors: Sequence[Motor]
                               dense, hi))
     family = np.concatenate((family, np.arange(len(lo)), np.arange(len(lo))))
     lengths, first = np.unique(lengths, return_index=True)
-    return lengths, family[first], spacing, moves(table, lengths, compiled=True)
+    return lengths, family[first], spacing
 
 
 def refine(lengths: np.ndarray, family: np.ndarray, spacing: np.ndarray,
