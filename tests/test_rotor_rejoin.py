@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from oracle_moves import kernel_step_counts, whole_move
 
 from profiles.motor import Motor
@@ -68,13 +70,12 @@ def test_every_length_judged_together_is_the_oracles_whole_move(
 
 
 def test_long_moves_share_the_longest_cruise_and_rejoin_after_it() -> None:
-    """Trapezoids whose cruise settles: the longest is the reference, its cruise cut
-    where the shorter ones' end, so each shorter one starts its decel from the
-    reference's state at the end of its own cruise (no step of its cruise integrated)
-    and, settled in the same state, rejoins the reference at the first boundary of their
-    common tail (the end of the fastest decel stage). Two tables that differ only in
-    the slower decel stages cost the shorter moves the same few RK4 steps (the
-    reference's own differ), and every worst angle is still the oracle's whole move's."""
+    """Trapezoids whose cruise settles: the longest is the reference, its dwell at the top
+    rate (top stage, cruise, top decel stage: one rate) cut where the shorter ones' end,
+    so each shorter one starts its decel from the reference's state at the end of its
+    own dwell, settled as the reference's is where their commands meet again: it joins
+    the reference there without a step, whatever the slower decel stages (two tables
+    that differ only there), and every worst angle is still the oracle's whole move's."""
     accel = (4, 4, 3, 3, 2)
     m = motor(damping_ratio=0.5, load_torque_nm=0.04)
     used = {}
@@ -91,10 +92,25 @@ def test_long_moves_share_the_longest_cruise_and_rejoin_after_it() -> None:
                 assert found.deg[row, e] == pytest.approx(worst, abs=AGREE_DEG), (direction, n)
         used[decel] = steps[0]
     first, second = used.values()
-    assert np.array_equal(first[:, :2], second[:, :2])    # the shorter moves
-    assert not np.array_equal(first[:, 2], second[:, 2])  # the reference
-    # 400 pulses of cruise at 1 MHz / 150 are 60 ms, hundreds of steps: none taken
-    assert (first[:, :2] > 0).all() and (first[:, :2] < first[:, 2:] / 20).all()
+    assert (first[:, :2] == 0).all() and (second[:, :2] == 0).all()  # the shorter moves
+    assert (first[:, 2] > 0).all() and not np.array_equal(first[:, 2], second[:, 2])
+
+
+def test_a_short_cruise_integrates_its_decel_until_it_rejoins() -> None:
+    """Trapezoids with cruises too short to settle start their decel from the reference's
+    state at the end of their own cruise (none of it integrated) and integrate only
+    their decel, each the oracle's whole move's worst angle."""
+    table = FreeCurveTable(MHZ1, (150, 220, 330, 500, 750), (4, 4, 3, 3, 2), (2, 3, 5, 4, 3))
+    m = motor()
+    top = table.accel_total + table.decel_total
+    lengths = [top + 3, top + 9, top + 20, top + 2000]
+    with kernel_step_counts() as steps:
+        found = angles(table, [m], pulses=lengths)
+    for e, n in enumerate(lengths):
+        worst, whole = whole_move(table, m, n, 1)
+        assert found.deg[0, e] == pytest.approx(worst, abs=AGREE_DEG), n
+        if e < 3:  # its cruise's steps saved: at most its decel's and rest's
+            assert 0 < steps[0][0, e] < whole
 
 
 def _follow(m: Motor, spans: np.ndarray, lag0: float, kb: np.ndarray,
@@ -156,49 +172,106 @@ def test_a_tail_stops_where_what_it_has_seen_bounds_the_rest() -> None:
         assert (worst[i] >= suffix[i + 1] + rk.BOUND * amp) == (i == stop), i
 
 
-def test_trapezoids_cut_alike_are_prefixes_of_the_longest() -> None:
-    """`shared_cruises`: every move keeps its pulses and rates in order; triangles are
-    untouched; each trapezoid's segments are the longest trapezoid's up to the end of
-    its own cruise, then the same decel."""
-    from profiles.ppmc312.load_angle import shared_cruises
+def _joined(runs: list[tuple[str, int, int]]) -> list[tuple[int, int]]:
+    """A move's segments as (rate, pulses), neighbours of one rate joined."""
+    out: list[tuple[int, int]] = []
+    for _, rate, c in runs:
+        if out and out[-1][0] == rate:
+            out[-1] = (rate, out[-1][1] + c)
+        else:
+            out.append((rate, c))
+    return out
 
-    table = FreeCurveTable(MHZ1, (150, 220, 330), (4, 3, 2), (2, 3, 5))
+
+@pytest.mark.parametrize("decel", [(2, 3, 5), None], ids=["LE1", "LE0"])
+def test_families_cut_alike_are_prefixes_of_their_source(decel: tuple[int, ...] | None
+                                                         ) -> None:
+    """`dwells` then `shared_dwells` over every length up to a few trapezoids: every move
+    keeps its pulses and its rates in order (joining its pieces gives its joined
+    segments back); a move that parts from its source (the longest member of its
+    family, or the reference for −1) at the source's rate, for another count (a family
+    member: the triangles peaking at one stage, the trapezoids), has its pieces up to
+    the end of that dwell equal to its source's first ones, so it starts from its
+    source's state there. The reference is the longest trapezoid."""
+    from profiles.ppmc312.load_angle import dwells, shared_dwells
+
+    table = FreeCurveTable(MHZ1, (150, 220, 330), (4, 3, 2), decel)
     top = table.accel_total + table.decel_total
-    lengths = np.array([5, 12, top, top + 1, top + 7, top + 30, top + 31, top + 100])
-    runs = moves(table, lengths)
-    cut = shared_cruises(runs)
-    longest = cut.runs(len(lengths) - 1)
+    lengths = np.array([*range(1, top + 1), top + 1, top + 7, top + 30, top + 31, top + 100])
+    runs = dwells(moves(table, lengths))
+    ref = int(np.lexsort((runs.pulses, np.diff(runs.offsets)))[-1])
+    assert lengths[ref] == top + 100
+    cut, source = shared_dwells(runs, ref)
+    assert (source != np.arange(len(lengths))).all() and source[ref] == -1
+    heads = set(source.tolist())  # a family's longest is the source of the others
+    members = 0
     for e, n in enumerate(lengths.tolist()):
-        before, after = runs.runs(e), cut.runs(e)
-        assert sum(c for _, _, c in after) == n
-        merged: list[tuple[str, int, int]] = []
-        for phase, rate, c in after:  # joining the cut pieces gives the move back
-            if merged and merged[-1][:2] == (phase, rate):
-                merged[-1] = (phase, rate, merged[-1][2] + c)
-            else:
-                merged.append((phase, rate, c))
-        assert merged == before
-        if runs.shape[e] != 0 or n == top:  # a triangle, or a trapezoid with no cruise
-            assert after == before
+        mine = [(r, c) for _, r, c in cut.runs(e)]
+        assert sum(c for _, c in mine) == n
+        assert _joined(cut.runs(e)) == _joined(runs.runs(e))
+        other = ref if source[e] < 0 else int(source[e])
+        if e == other or e in heads:
             continue
-        decel = [s for s in after if s[0] == "decel"]
-        head = after[:len(after) - len(decel)]
-        assert longest[:len(head)] == head and longest[-len(decel):] == decel
+        j_mine, j_theirs = _joined(runs.runs(e)), _joined(runs.runs(other))
+        j = 0
+        while j < min(len(j_mine), len(j_theirs)) and j_mine[j] == j_theirs[j]:
+            j += 1
+        if j == len(j_mine) or j == len(j_theirs) or j_mine[j][0] != j_theirs[j][0]:
+            continue  # it parts at another rate (or not at all): nothing cut for it
+        upto = sum(c for _, c in j_mine[:j + 1])  # the end of its dwell
+        k = int(np.searchsorted(np.cumsum([c for _, c in mine]), upto)) + 1
+        theirs = [(r, c) for _, r, c in cut.runs(other)]
+        assert mine[:k] == theirs[:k], n
+        members += 1
+    assert members >= len(lengths) // 3
 
 
 def test_thousands_of_trapezoids_are_not_cut_alike() -> None:
     """k trapezoids cut where every shorter one ends make ~k²/2 pieces: past
-    SHARED_CRUISE_PIECES (a motor with no torque at the cruise samples 200 000 cruise
+    SHARED_PIECES (a motor with no torque at the cruise samples 200 000 cruise
     lengths) the batch is judged as it is, never allocated quadratically."""
-    from profiles.ppmc312.load_angle import SHARED_CRUISE_PIECES, shared_cruises
+    from profiles.ppmc312.load_angle import SHARED_PIECES, dwells, shared_dwells
 
     table = FreeCurveTable(MHZ1, (150, 220, 330), (4, 3, 2))
     top = table.accel_total + table.decel_total
-    many = int(np.sqrt(2 * SHARED_CRUISE_PIECES)) + 2
-    runs = moves(table, np.arange(top + 1, top + 1 + many))
-    assert shared_cruises(runs) is runs
-    few = moves(table, np.arange(top + 1, top + 1 + 20))
-    assert len(shared_cruises(few).rate) == len(few.rate) + 19 * 20 // 2
+    many = int(np.sqrt(2 * SHARED_PIECES)) + 2
+    runs = dwells(moves(table, np.arange(top + 1, top + 1 + many)))
+    cut, source = shared_dwells(runs, many - 1)
+    assert np.array_equal(cut.count, runs.count) and (source == -1).all()
+    few = dwells(moves(table, np.arange(top + 1, top + 1 + 20)))
+    cut, source = shared_dwells(few, 19)
+    # the longest's dwell in 20 pieces, the others' in 1..19: 20·21/2 pieces for 20
+    assert len(cut.rate) == len(few.rate) + 20 * 21 // 2 - 20 and (source == -1).all()
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.data())
+def test_a_family_starting_from_its_source_is_judged_as_alone(data: st.DataObject) -> None:
+    """Every sampled length of random tables: judged with each family member starting
+    from its source's state, the worst angles and slips are bit for bit those of each
+    integrating its own dwell from the reference's state (the same spans, the same
+    steps), in fewer RK4 steps when some move has a source."""
+    from profiles.motor.rotor import Rotors, rotors
+    from profiles.ppmc312.load_angle import directions, judge, samples
+
+    n = data.draw(st.integers(2, 6))
+    rates = sorted(data.draw(st.lists(st.integers(120, 900), min_size=n, max_size=n,
+                                      unique=True)))
+    accel = tuple(data.draw(st.lists(st.integers(1, 40), min_size=n, max_size=n)))
+    decel = data.draw(st.none() | st.lists(st.integers(1, 40), min_size=n, max_size=n))
+    m = motor(load_torque_nm=data.draw(st.sampled_from([0.0, 0.05])),
+              damping_ratio=data.draw(st.sampled_from([0.05, 0.2, 0.6])))
+    table = FreeCurveTable(MHZ1, tuple(rates), accel, None if decel is None else tuple(decel))
+    lengths, _, _ = samples(table, [m])
+    rot = Rotors.stack([rotors(m, direction=d) for d in directions(m)])
+    runs = moves(table, lengths)
+    with kernel_step_counts() as shared:
+        together = judge(runs, MHZ1.hz, rot)
+    with kernel_step_counts() as alone:
+        apart = judge(runs, MHZ1.hz, rot, families=False)
+    np.testing.assert_array_equal(together[0], apart[0])
+    np.testing.assert_array_equal(together[1], apart[1])
+    assert shared[0].sum() <= alone[0].sum()
 
 
 def test_a_cruise_where_the_motor_has_no_torque_slips() -> None:

@@ -239,14 +239,23 @@ def follow_spans(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
         t += dur[i]
         worst = max(worst, peak)
         kb = ref_kb[i]
-        if kb < 0:
-            continue
-        if abs(lag - ref_lag[kb]) <= tol_lag and abs(s - ref_s[kb]) <= tol_s:
-            return i + 1, OK, 0, 0.0, steps, kb, recorded
-        if bound > 0 and worst >= ref_suffix[kb + 1] + bound * _amplitude(
-                curve_v, curve_t, rotor, v, lag - ref_lag[kb], s - ref_s[kb]):
+        if kb >= 0 and _joins(curve_v, curve_t, rotor, v, lag, s, worst, ref_lag[kb], ref_s[kb],
+                              tol_lag, tol_s, ref_suffix[kb + 1], bound):
             return i + 1, OK, 0, 0.0, steps, kb, recorded
     return len(dur), OK, 0, 0.0, steps, -1, recorded
+
+
+@_jit
+def _joins(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, v: float, lag: float,
+           s: float, worst: float, ref_lag: float, ref_s: float, tol_lag: float, tol_s: float,
+           ref_rest: float, bound: float) -> bool:
+    """At a boundary of the reference's tail (its state there (`ref_lag`, `ref_s`), its
+    worst from there on `ref_rest`): the state has rejoined the reference's, or (`bound`
+    > 0) the worst so far bounds the rest (`follow_spans`)."""
+    if abs(lag - ref_lag) <= tol_lag and abs(s - ref_s) <= tol_s:
+        return True
+    return bound > 0 and worst >= ref_rest + bound * _amplitude(
+        curve_v, curve_t, rotor, v, lag - ref_lag, s - ref_s)
 
 
 @_jit
@@ -293,56 +302,92 @@ def _reference(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, dur:
 
 
 @_jit
+def _boundary(rates: np.ndarray, at: int, remaining: int, tail: int, r0: int, m: int,
+              ref_slipped: bool) -> int:
+    """The reference's boundary (the end of its segment r0 + k) matching the end of
+    segment `at`, which `remaining` segments follow, or −1: the commands after it are the
+    same (the common tail of `tail` segments) and so is the one before it (a state is
+    compared relative to its command)."""
+    k = m - 1 - remaining
+    if ref_slipped or remaining < 0 or remaining > tail or k < 0:
+        return -1
+    if remaining < tail or rates[at] == rates[r0 + k]:
+        return k
+    return -1
+
+
+@_jit
 def _execution(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, rates: np.ndarray,
-               counts: np.ndarray, a0: int, a1: int, r0: int, r1: int, hz: float, step: float,
-               settle: float, slip: float, tol: float, settle_periods: int, rejoin_lag: float,
-               tol_s: float, limit: int, ref_slipped: bool, ref_max: np.ndarray,
-               ref_lag: np.ndarray, ref_s: np.ndarray, suffix: np.ndarray
-               ) -> tuple[int, float, bool, int]:
-    """One execution (segments a0..a1) against the reference (segments r0..r1): from
-    where their commands part until its state rejoins the reference's on their common
-    tail. Returns (status, worst |lag|, slipped, steps)."""
+               counts: np.ndarray, a0: int, a1: int, s0: int, s1: int, src_lag: np.ndarray,
+               src_s: np.ndarray, src_worst: np.ndarray, src_valid: int, r0: int, r1: int,
+               hz: float, step: float, settle: float, slip: float, tol: float,
+               settle_periods: int, rejoin_lag: float, tol_s: float, limit: int,
+               ref_slipped: bool, ref_lag: np.ndarray, ref_s: np.ndarray, suffix: np.ndarray,
+               rec_lag: np.ndarray, rec_s: np.ndarray, rec_worst: np.ndarray
+               ) -> tuple[int, float, bool, int, int]:
+    """One execution (segments a0..a1) from where its command parts from its source's
+    (segments s0..s1, whose state and worst |lag| so far at the end of each of its first
+    `src_valid` segments are `src_*`) until its state rejoins the reference's (segments
+    r0..r1) on their common tail. With `rec_lag` non-empty, the state and worst so far at
+    the end of each of its own segments go there.
+
+    Returns (status, worst |lag|, slipped, steps, segments whose `rec_*` are known)."""
     length = a1 - a0
     m = r1 - r0
+    lim = min(length, s1 - s0, src_valid)
     head = 0
+    while head < lim and rates[a0 + head] == rates[s0 + head] and \
+            counts[a0 + head] == counts[s0 + head]:
+        head += 1
     tail = 0
-    if not ref_slipped:  # a slipped reference has no states to share: integrate it all
-        lim = min(length, m)
-        while head < lim and rates[a0 + head] == rates[r0 + head] and \
-                counts[a0 + head] == counts[r0 + head]:
-            head += 1
-        lim = min(length, m) - head
+    if not ref_slipped:  # a slipped reference has no states to share
+        lim = min(length, m) - (head if s0 == r0 else 0)
         while tail < lim and rates[a1 - 1 - tail] == rates[r1 - 1 - tail] and \
                 counts[a1 - 1 - tail] == counts[r1 - 1 - tail]:
             tail += 1
-        if head == length and length == m:
-            return OK, suffix[0], False, 0
+        if s0 == r0 and head == length and length == m:
+            return OK, suffix[0], False, 0, 0
+    record = len(rec_lag) > 0
+    for k in range(head if record else 0):
+        rec_lag[k] = src_lag[k]
+        rec_s[k] = src_s[k]
+        rec_worst[k] = src_worst[k]
     dur, vel = _spans(rates, counts, a0 + head, a1, hz, settle)
     spans = len(dur)
     kb = np.full(spans, -1, dtype=np.int64)
     for i in range(spans):
-        remaining = length - 1 - (head + i)
-        if 0 <= remaining < tail:
-            kb[i] = m - 1 - remaining  # the reference's matching boundary
-    lag0 = ref_lag[head - 1] if head else 0.0
-    s0 = ref_s[head - 1] if head else 0.0
+        kb[i] = _boundary(rates, a0 + head + i, length - 1 - (head + i), tail, r0, m,
+                          ref_slipped)
+    lag0 = src_lag[head - 1] if head else 0.0
+    s0_ = src_s[head - 1] if head else 0.0
     prev = hz / rates[a0 + head - 1] if head else 0.0
-    worst = 0.0
-    for k in range(head):
-        worst = max(worst, ref_max[k])
+    worst = src_worst[head - 1] if head else 0.0
+    # where it starts may already be such a boundary (a trapezoid's decel, started from
+    # the reference's state at the end of its own cruise)
+    k = _boundary(rates, a0 + head - 1, length - head, tail, r0, m, ref_slipped) if head else -1
+    if k >= 0 and _joins(curve_v, curve_t, rotor, prev, lag0, s0_, worst, ref_lag[k], ref_s[k],
+                         rejoin_lag, tol_s, suffix[k + 1], BOUND):
+        return OK, max(worst, suffix[k + 1]), False, 0, head
     out_max = np.zeros(spans)
     out_lag = np.zeros(spans)
     out_s = np.zeros(spans)
     no_record = np.empty(0)
     done, status, slip_flag, _, used, rejoined, _ = follow_spans(
-        curve_v, curve_t, rotor, dur, vel, lag0, s0, prev, 0.0, step, slip, tol, settle_periods,
-        limit, kb, ref_lag, ref_s, rejoin_lag, tol_s, out_max, out_lag, out_s, False, no_record,
-        no_record, True, suffix, worst, BOUND)
+        curve_v, curve_t, rotor, dur, vel, lag0, s0_, prev, 0.0, step, slip, tol,
+        settle_periods, limit, kb, ref_lag, ref_s, rejoin_lag, tol_s, out_max, out_lag, out_s,
+        False, no_record, no_record, True, suffix, worst, BOUND)
+    known = head
     for k in range(done):
         worst = max(worst, out_max[k])
+        if record and head + k < length and (status == OK and not (
+                slip_flag == 1 and k == done - 1)):
+            rec_lag[head + k] = out_lag[k]
+            rec_s[head + k] = out_s[k]
+            rec_worst[head + k] = worst
+            known = head + k + 1
     if rejoined >= 0:
         worst = max(worst, suffix[rejoined + 1])
-    return status, worst, slip_flag == 1, used
+    return status, worst, slip_flag == 1, used, known
 
 
 @_jit
@@ -374,20 +419,31 @@ def references(curve_v: np.ndarray, curve_t: np.ndarray, rotors: np.ndarray, ste
 @_jit
 def executions(curve_v: np.ndarray, curve_t: np.ndarray, rotors: np.ndarray, steps: np.ndarray,
                settles: np.ndarray, rates: np.ndarray, counts: np.ndarray, offsets: np.ndarray,
-               ref: int, hz: float, settle_periods: int, max_trace_steps: int,
-               ref_max: np.ndarray, ref_lag: np.ndarray, ref_s: np.ndarray, suffix: np.ndarray,
-               limits: np.ndarray, ref_status: np.ndarray, ref_slipped: np.ndarray,
-               first: int, last: int, worst: np.ndarray, slipped: np.ndarray,
-               status: np.ndarray, used: np.ndarray) -> None:
-    """The (rotor, execution) pairs first..last−1 of the rotors × executions grid (row
-    major) against each rotor's reference (`references`): worst |lag| [pulses], slipped,
-    status and RK4 steps into those cells. Releases the GIL: disjoint ranges run on
+               ref: int, source: np.ndarray, slot: np.ndarray, hz: float, settle_periods: int,
+               max_trace_steps: int, ref_worst: np.ndarray, ref_lag: np.ndarray,
+               ref_s: np.ndarray, suffix: np.ndarray, limits: np.ndarray,
+               ref_status: np.ndarray, ref_slipped: np.ndarray, fam_lag: np.ndarray,
+               fam_s: np.ndarray, fam_worst: np.ndarray, fam_known: np.ndarray,
+               order: np.ndarray, first: int, last: int, worst: np.ndarray,
+               slipped: np.ndarray, status: np.ndarray, used: np.ndarray) -> None:
+    """The (rotor, execution) pairs first..last−1 of the rotors × `order` grid (row major:
+    execution `order[i]`) against each rotor's reference (`references`; `ref_worst`: its
+    worst |lag| up to each span's end): worst |lag| [pulses], slipped, status and RK4
+    steps into those cells.
+
+    An execution starts from its source's state where their commands part: the
+    reference's, or (`source[e]` ≥ 0) that of a family's longest member, whose states
+    at the end of each of its segments are kept from `slot[source]` on in the `fam_*`
+    rows (`fam_known[r, source]` of them known). A source is judged in an earlier call
+    than the executions that start from it. Releases the GIL: disjoint ranges run on
     threads at once."""
-    n_exec = len(offsets) - 1
+    n_order = len(order)
     r0, r1 = offsets[ref], offsets[ref + 1]
+    m = r1 - r0
+    empty = np.empty(0)
     for job in range(first, last):
-        r = job // n_exec
-        e = job % n_exec
+        r = job // n_order
+        e = order[job % n_order]
         if ref_status[r] != OK:
             status[r, e] = ref_status[r]
             continue
@@ -395,11 +451,26 @@ def executions(curve_v: np.ndarray, curve_t: np.ndarray, rotors: np.ndarray, ste
             worst[r, e] = suffix[r, 0]
             slipped[r, e] = ref_slipped[r]
             continue
-        st, w, sl, u = _execution(curve_v, curve_t[r], rotors[r], rates, counts, offsets[e],
-                                  offsets[e + 1], r0, r1, hz, steps[r], settles[r],
-                                  limits[r, 0], limits[r, 1], settle_periods, limits[r, 2],
-                                  limits[r, 3], max_trace_steps, ref_slipped[r], ref_max[r],
-                                  ref_lag[r], ref_s[r], suffix[r])
+        p = source[e]
+        if p >= 0:
+            k0, k1 = slot[p], slot[p] + offsets[p + 1] - offsets[p]
+            src = (offsets[p], offsets[p + 1], fam_lag[r, k0:k1], fam_s[r, k0:k1],
+                   fam_worst[r, k0:k1], fam_known[r, p])
+        else:
+            src = (r0, r1, ref_lag[r], ref_s[r], ref_worst[r], 0 if ref_slipped[r] else m)
+        if slot[e] >= 0:
+            k0, k1 = slot[e], slot[e] + offsets[e + 1] - offsets[e]
+            rec = (fam_lag[r, k0:k1], fam_s[r, k0:k1], fam_worst[r, k0:k1])
+        else:
+            rec = (empty, empty, empty)
+        st, w, sl, u, known = _execution(
+            curve_v, curve_t[r], rotors[r], rates, counts, offsets[e], offsets[e + 1], src[0],
+            src[1], src[2], src[3], src[4], src[5], r0, r1, hz, steps[r], settles[r],
+            limits[r, 0], limits[r, 1], settle_periods, limits[r, 2], limits[r, 3],
+            max_trace_steps, ref_slipped[r], ref_lag[r], ref_s[r], suffix[r], rec[0], rec[1],
+            rec[2])
+        if slot[e] >= 0:
+            fam_known[r, e] = known
         status[r, e] = st
         worst[r, e] = w
         slipped[r, e] = sl

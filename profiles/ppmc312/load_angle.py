@@ -10,12 +10,14 @@ families that come out worst are judged again at every length around their worst
 sample (`refine`); a trapezoid's cruise long enough to settle stands for every
 longer one. Both directions are judged when the motor has a load torque.
 
-Executions share their accel prefix with the longest-listed one (the reference:
-the longest trapezoid, its cruise cut where the others' end, `shared_cruises`) and
-their decel tail with it too: each is integrated from the reference's state where
-the commands part, until its state rejoins the reference's on the common tail
-(within `REJOIN_TOL_DEG`), where the reference's worst angle of the rest is taken, or
-until what it has seen bounds the rest (`rotor_kernel.BOUND`). Several motors (a
+Executions share their accel prefix with a reference (the longest trapezoid) and
+their decel tail with it too: each is integrated from a source's state where the
+commands part, until its state rejoins the reference's on the common tail (within
+`REJOIN_TOL_DEG`), where the reference's worst angle of the rest is taken, or until
+what it has seen bounds the rest (`rotor_kernel.BOUND`). A constant command is one
+dwell, and the dwells of a family (the trapezoids' at the top speed, the triangles'
+at their peak) are cut alike, so each member starts from its family's longest
+member's state at the end of its own dwell (`share_kernel`). Several motors (a
 tolerance box's corners) are rows of one kernel call.
 `verify.safety` turns the result into the verdict; planners use it to tighten.
 """
@@ -46,7 +48,7 @@ from ..motor.rotor import (
     too_stiff,
 )
 from ..remembered import Remembered
-from .execution import PHASES, SHAPES, Execution, MoveBatch, families, moves
+from .execution import SHAPES, Execution, MoveBatch, families, moves
 from .init_model import as_free_curve
 from .table import FreeCurveTable, InitTable
 
@@ -256,18 +258,25 @@ def directions(motor: Motor) -> tuple[int, ...]:
     return (1, -1) if motor.load_torque_nm else (1,)
 
 
-def judge(runs: MoveBatch, hz: float, rot: Rotors, *, max_step_s: float | None = None
-          ) -> tuple[np.ndarray, np.ndarray]:
+def judge(runs: MoveBatch, hz: float, rot: Rotors, *, max_step_s: float | None = None,
+          families: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """Every execution of `runs` for every rotor: (worst |lag| [pulses], slipped), each of
     shape (rotors, executions). A verdict that would take more than MAX_VERDICT_STEPS
-    RK4 steps for one rotor is refused."""
+    RK4 steps for one rotor is refused. `families`: the members of a family start from
+    its longest member's state at the end of their own dwell (`shared_dwells`; False:
+    from the reference's, integrating their dwell themselves: the same numbers, slower)."""
     from ..motor import rotor_kernel as rk
 
-    runs = shared_cruises(runs)
+    runs = dwells(runs)
+    # the reference: the most segments (every stage), the longest of those (the longest
+    # trapezoid, whose dwell at the top speed the others' are cut from)
+    ref = int(np.lexsort((runs.pulses, np.diff(runs.offsets)))[-1])
+    runs, source = shared_dwells(runs, ref)
+    if not families:
+        source[:] = -1
     steps = rot.step_s(max_step_s)
     settles = np.asarray([settle_s(rot.rotor(i), h) for i, h in enumerate(steps)])
     n_rot, n_exec = len(rot), len(runs)
-    ref = int(np.argmax(np.diff(runs.offsets)))  # the reference: the most segments
     m = int(runs.offsets[ref + 1] - runs.offsets[ref])
     ref_max, ref_lag, ref_s = (np.zeros((n_rot, m + 1)) for _ in range(3))
     suffix = np.zeros((n_rot, m + 2))
@@ -279,17 +288,28 @@ def judge(runs: MoveBatch, hz: float, rot: Rotors, *, max_step_s: float | None =
     rk.references(*common, int(runs.offsets[ref]), int(runs.offsets[ref + 1]), hz, SLIP_DEG,
                   SETTLE_TOL_DEG, MAX_SETTLE_PERIODS, REJOIN_TOL_DEG, MAX_RK4_STEPS, ref_max,
                   ref_lag, ref_s, suffix, limits, ref_status, ref_slipped, ref_used)
+    ref_worst = np.maximum.accumulate(ref_max, axis=1)
+    # the sources' states at the end of each of their segments, for their members
+    sources = np.unique(source[source >= 0])
+    slot = np.full(n_exec, -1, np.int64)
+    size = np.diff(runs.offsets)[sources]
+    slot[sources] = np.cumsum(size) - size
+    fam_lag, fam_s, fam_worst = (np.empty((n_rot, int(size.sum()))) for _ in range(3))
+    fam_known = np.zeros((n_rot, n_exec), np.int64)
     lag = np.zeros((n_rot, n_exec))
     slipped = np.zeros((n_rot, n_exec), np.bool_)
     status = np.zeros((n_rot, n_exec), np.int64)
     used = np.zeros((n_rot, n_exec), np.int64)
+    # sources (and the executions with none) first, then their members
+    members = source >= 0
+    for order in (np.flatnonzero(~members), np.flatnonzero(members)):
+        def cells(first: int, last: int, order: np.ndarray = order) -> None:
+            rk.executions(*common, runs.offsets, ref, source, slot, hz, MAX_SETTLE_PERIODS,
+                          MAX_RK4_STEPS, ref_worst, ref_lag, ref_s, suffix, limits,
+                          ref_status, ref_slipped, fam_lag, fam_s, fam_worst, fam_known,
+                          order, first, last, lag, slipped, status, used)
 
-    def cells(first: int, last: int) -> None:
-        rk.executions(*common, runs.offsets, ref, hz, MAX_SETTLE_PERIODS, MAX_RK4_STEPS,
-                      ref_max, ref_lag, ref_s, suffix, limits, ref_status, ref_slipped, first,
-                      last, lag, slipped, status, used)
-
-    _in_parallel(cells, n_rot * n_exec)
+        _in_parallel(cells, n_rot * len(order))
     used[:, ref] += ref_used
     bad = np.flatnonzero((status != rk.OK).any(axis=1) | (used.sum(axis=1) > MAX_VERDICT_STEPS))
     if len(bad):
@@ -298,38 +318,30 @@ def judge(runs: MoveBatch, hz: float, rot: Rotors, *, max_step_s: float | None =
     return lag, slipped
 
 
-SHARED_CRUISE_PIECES = 1_000_000   # cruise pieces at most (a verdict makes a few thousand)
+SHARED_PIECES = 1_000_000   # cut pieces at most (a verdict makes a few thousand)
 
 
-def shared_cruises(runs: MoveBatch) -> MoveBatch:
-    """The same moves, each trapezoid's cruise cut where the shorter ones' end: a
-    table's trapezoids differ only in their cruise, so cut alike they are prefixes of
-    the longest (then the reference), and each is judged from the reference's state at
-    its cruise's end rather than integrating its own cruise."""
-    cruise = np.flatnonzero(runs.phase == PHASES.index("cruise"))
-    of_move = np.searchsorted(runs.offsets, cruise, side="right") - 1
-    cruise = cruise[runs.shape[of_move] == SHAPES.index("trapezoid")]
-    if len(cruise) < 2:
-        return runs
-    ends = np.unique(runs.count[cruise])                # where some trapezoid's cruise ends
-    pieces = np.searchsorted(ends, runs.count[cruise]) + 1
-    if int(pieces.sum()) > SHARED_CRUISE_PIECES:
-        return runs  # cut alike, k trapezoids make ~k²/2 pieces: each integrates its own
-    at = int(cruise[0])  # the segments before the first cut stay as they are (a batch by
-    # length ascending has its trapezoids last)
-    per_segment = np.ones(len(runs.rate) - at, np.int64)
-    per_segment[cruise - at] = pieces
-    first = at + np.cumsum(per_segment) - per_segment    # each later segment's first new one
-    count = np.repeat(runs.count[at:], per_segment)
-    within = np.arange(int(pieces.sum())) - np.repeat(np.cumsum(pieces) - pieces, pieces)
-    count[np.repeat(first[cruise - at] - at, pieces) + within] = np.diff(ends, prepend=0)[within]
+def dwells(runs: MoveBatch) -> MoveBatch:
+    """The same moves, neighbouring segments of one rate joined (`share_kernel.dwells`)."""
+    from . import share_kernel as sk
 
-    def cut(a: np.ndarray) -> np.ndarray:
-        return np.concatenate((a[:at], np.repeat(a[at:], per_segment)))
+    return _batch(runs, sk.dwells(runs.phase, runs.rate, runs.count, runs.offsets))
 
-    moved = np.concatenate((np.arange(at), first, [at + len(count)]))
-    return MoveBatch(runs.pulses, runs.shape, cut(runs.phase), cut(runs.rate),
-                     np.concatenate((runs.count[:at], count)), moved[runs.offsets])
+
+def shared_dwells(runs: MoveBatch, ref: int) -> tuple[MoveBatch, np.ndarray]:
+    """The same moves, each family's dwell cut alike, and each move's source: the move
+    whose state at the end of its own dwell it starts from, −1 for the reference `ref`
+    (`share_kernel.shared_dwells`)."""
+    from . import share_kernel as sk
+
+    *cut, source = sk.shared_dwells(runs.phase, runs.rate, runs.count, runs.offsets, ref,
+                                    SHARED_PIECES)
+    return _batch(runs, tuple(cut)), source
+
+
+def _batch(runs: MoveBatch, arrays: tuple[np.ndarray, ...]) -> MoveBatch:
+    """`runs` with new (phase, rate, count, offsets), the same moves."""
+    return MoveBatch(runs.pulses, runs.shape, *arrays)
 
 
 PARALLEL_MIN_CELLS = 32   # fewer (rotor, execution) pairs run on the calling thread
@@ -365,7 +377,15 @@ def _pool(threads: int) -> ThreadPoolExecutor:
 
 
 def spans_of(execution: Execution, rotor: Rotor, step: float) -> list[tuple[float, float]]:
-    """The command as (duration_s, speed_pps) spans, then rest while the rotor settles."""
+    """The command as (duration_s, speed_pps) spans, then rest while the rotor settles.
+    Neighbouring segments of one rate are one span, as the verdict judges them (`dwells`):
+    a trace and the verdict integrate a move alike."""
     hz = execution.clock.hz
-    spans = [(s.ticks / hz, hz / s.rate) for s in execution.segments]
-    return [*spans, (settle_s(rotor, step), 0.0)]  # after the last pulse the command rests
+    spans: list[tuple[int, int]] = []  # (ticks, rate)
+    for s in execution.segments:
+        if spans and spans[-1][1] == s.rate:
+            spans[-1] = (spans[-1][0] + s.ticks, s.rate)
+        else:
+            spans.append((s.ticks, s.rate))
+    return [*((ticks / hz, hz / rate) for ticks, rate in spans),
+            (settle_s(rotor, step), 0.0)]  # after the last pulse the command rests
