@@ -43,3 +43,22 @@ def test_compiled_assembly_of_no_moves_and_of_one() -> None:
     for lengths in ([], [1], [MOVE_PULSES_MAX]):
         assert_same(moves(table, np.asarray(lengths, dtype=np.int64)),
                     moves(table, np.asarray(lengths, dtype=np.int64), compiled=True))
+
+
+@settings(max_examples=60, deadline=None)
+@given(table=tables())
+def test_families_found_by_either_assembly_are_the_same(table: FreeCurveTable) -> None:
+    """The load-angle verdict finds a table's families with the compiled assembly, the
+    criterion with numpy's; whichever comes first is remembered for both."""
+    from profiles.ppmc312.execution import families, forget_tables
+
+    forget_tables()
+    compiled = families(table, compiled=True)
+    assert families(table) is compiled  # remembered
+    forget_tables()
+    plain = families(table)
+    assert families(table, compiled=True) is plain
+    for a, b in zip(compiled[:4], plain[:4], strict=True):
+        assert a.dtype == b.dtype and np.array_equal(a, b)
+    assert_same(compiled.batch, plain.batch)
+    assert compiled.cruise_rate == plain.cruise_rate

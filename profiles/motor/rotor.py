@@ -81,8 +81,8 @@ class Rotor:
         if v >= cv[-1]:
             return self.curve_t[-1] if v == cv[-1] else 0.0
         i = bisect.bisect_right(cv, v) - 1
-        w = (v - cv[i]) / (cv[i + 1] - cv[i])
-        return self.curve_t[i] + w * (self.curve_t[i + 1] - self.curve_t[i])
+        slope = (self.curve_t[i + 1] - self.curve_t[i]) / (cv[i + 1] - cv[i])
+        return self.curve_t[i] + (v - cv[i]) * slope
 
     def natural_period_s(self, speed_pps: float) -> float:
         stiffness = self.k * self.c_e * self.t_peak(speed_pps)
@@ -93,9 +93,9 @@ class Rotor:
         v = np.abs(np.asarray(speeds_pps, dtype=float))
         cv, ct = self.curve()
         i = np.clip(np.searchsorted(cv, v, side="right") - 1, 0, len(cv) - 2)
-        w = (v - cv[i]) / (cv[i + 1] - cv[i])
+        slope = (ct[i + 1] - ct[i]) / (cv[i + 1] - cv[i])
         t = np.where(v >= cv[-1], np.where(v == cv[-1], ct[-1], 0.0),
-                     ct[i] + w * (ct[i + 1] - ct[i]))
+                     ct[i] + (v - cv[i]) * slope)
         stiffness = self.k * self.c_e * t
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.where(stiffness > 0, 2 * math.pi / np.sqrt(stiffness), math.inf)

@@ -49,12 +49,14 @@ _jit = nb.njit(cache=True, nogil=True, error_model="numpy")
 
 
 @_jit
-def _t_peak(curve_v: np.ndarray, curve_t: np.ndarray, speed: float) -> float:
-    """The peak restoring torque at |speed| (linear between curve points, 0 beyond)."""
+def _piece(curve_v: np.ndarray, curve_t: np.ndarray, speed: float
+           ) -> tuple[float, float, float, float]:
+    """The curve's linear piece holding |speed| below its last point: (its speeds from,
+    to; the torque at from; its slope), or an empty piece (from = to = 0) from there on."""
     v = abs(speed)
     last = len(curve_v) - 1
     if v >= curve_v[last]:
-        return curve_t[last] if v == curve_v[last] else 0.0
+        return 0.0, 0.0, 0.0, 0.0
     lo, hi = 0, last
     while hi - lo > 1:  # curve_v[lo] <= v < curve_v[hi]
         mid = (lo + hi) >> 1
@@ -62,17 +64,40 @@ def _t_peak(curve_v: np.ndarray, curve_t: np.ndarray, speed: float) -> float:
             lo = mid
         else:
             hi = mid
-    w = (v - curve_v[lo]) / (curve_v[lo + 1] - curve_v[lo])
-    return curve_t[lo] + w * (curve_t[lo + 1] - curve_t[lo])
+    slope = (curve_t[lo + 1] - curve_t[lo]) / (curve_v[lo + 1] - curve_v[lo])
+    return curve_v[lo], curve_v[lo + 1], curve_t[lo], slope
 
 
 @_jit
-def _accel(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, v: float, lag: float,
-           s: float) -> float:
-    """The rotor's acceleration relative to the command's (d²lag/dt² = −this)."""
+def _t_peak(curve_v: np.ndarray, curve_t: np.ndarray, speed: float) -> float:
+    """The peak restoring torque at |speed| (linear between curve points, 0 beyond)."""
+    v = abs(speed)
+    last = len(curve_v) - 1
+    if v >= curve_v[last]:
+        return curve_t[last] if v == curve_v[last] else 0.0
+    at, _, torque, slope = _piece(curve_v, curve_t, v)
+    return torque + (v - at) * slope
+
+
+@_jit
+def _torque(curve_v: np.ndarray, curve_t: np.ndarray, piece: tuple[float, float, float, float],
+            speed: float) -> float:
+    """`_t_peak`, from `piece` when |speed| lies in it (a span's rotor speed stays near
+    its command's: the same arithmetic, without the search)."""
+    v = abs(speed)
+    if piece[0] <= v < piece[1]:
+        return piece[2] + (v - piece[0]) * piece[3]
+    return _t_peak(curve_v, curve_t, v)
+
+
+@_jit
+def _accel(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
+           piece: tuple[float, float, float, float], v: float, lag: float, s: float) -> float:
+    """The rotor's acceleration relative to the command's (d²lag/dt² = −this); `piece`:
+    the curve's piece at the command speed v (`_piece`)."""
     u = v - s  # the rotor's speed
     fr = rotor[FRICTION]
-    a = (rotor[K] * _t_peak(curve_v, curve_t, u) * math.sin(rotor[C_E] * lag)
+    a = (rotor[K] * _torque(curve_v, curve_t, piece, u) * math.sin(rotor[C_E] * lag)
          + rotor[DAMPING] * s - rotor[LOAD])
     if u > 0:
         return a - fr
@@ -91,17 +116,18 @@ def natural_period_s(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray
 
 
 @_jit
-def _rk4(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, v: float, lag: float,
-         s: float, h: float) -> tuple[float, float]:
-    """One RK4 step of (lag, s) under the command speed v."""
+def _rk4(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
+         piece: tuple[float, float, float, float], v: float, lag: float, s: float, h: float
+         ) -> tuple[float, float]:
+    """One RK4 step of (lag, s) under the command speed v (`piece`: its curve piece)."""
     k1l = s
-    k1s = -_accel(curve_v, curve_t, rotor, v, lag, s)
+    k1s = -_accel(curve_v, curve_t, rotor, piece, v, lag, s)
     k2l = s + 0.5 * h * k1s
-    k2s = -_accel(curve_v, curve_t, rotor, v, lag + 0.5 * h * k1l, s + 0.5 * h * k1s)
+    k2s = -_accel(curve_v, curve_t, rotor, piece, v, lag + 0.5 * h * k1l, s + 0.5 * h * k1s)
     k3l = s + 0.5 * h * k2s
-    k3s = -_accel(curve_v, curve_t, rotor, v, lag + 0.5 * h * k2l, s + 0.5 * h * k2s)
+    k3s = -_accel(curve_v, curve_t, rotor, piece, v, lag + 0.5 * h * k2l, s + 0.5 * h * k2s)
     k4l = s + h * k3s
-    k4s = -_accel(curve_v, curve_t, rotor, v, lag + h * k3l, s + h * k3s)
+    k4s = -_accel(curve_v, curve_t, rotor, piece, v, lag + h * k3l, s + h * k3s)
     return (lag + h / 6 * (k1l + 2 * k2l + 2 * k3l + k4l),
             s + h / 6 * (k1s + 2 * k2s + 2 * k3s + k4s))
 
@@ -144,13 +170,14 @@ def _span(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, d: float,
     h = d / n
     period = natural_period_s(curve_v, curve_t, rotor, v)
     window = max(8, math.ceil(period / h)) if math.isfinite(period) else n + 1
+    piece = _piece(curve_v, curve_t, v)
     lo = lag
     hi = lag
     count = 0
     windows = 0
     last_window = math.inf
     for j in range(1, n + 1):
-        lag, s = _rk4(curve_v, curve_t, rotor, v, lag, s, h)
+        lag, s = _rk4(curve_v, curve_t, rotor, piece, v, lag, s, h)
         tj = t + j * h
         if record:
             if not _put(rec_t, rec_lag, recorded, tj, lag):

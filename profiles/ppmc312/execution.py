@@ -319,8 +319,18 @@ class _Sides:
     def families(self) -> FamilyBounds:
         """The move families (`families`), found once per move model: a verdict's
         criterion and its load angle both walk them. Read-only: they are shared."""
+        return self._families(compiled=False)
+
+    def compiled_families(self) -> FamilyBounds:
+        """`families`, assembled by the compiled twin when not found yet (the same
+        arrays, pinned by tests/test_move_assembly.py)."""
+        if "families" not in self.__dict__:
+            self.__dict__["families"] = self._families(compiled=True)
+        return self.families
+
+    def _families(self, *, compiled: bool) -> FamilyBounds:
         starts = self.breakpoints()
-        batch = self.moves(np.asarray(starts, dtype=np.int64))
+        batch = self.moves(np.asarray(starts, dtype=np.int64), compiled=compiled)
         index = np.flatnonzero(~batch.repeats())  # where the segment rates or shape change
         lo = np.asarray(starts, dtype=np.int64)[index]
         hi = np.append(lo[1:] - 1, MOVE_PULSES_MAX)
@@ -517,10 +527,13 @@ class FamilyBounds(NamedTuple):
     cruise_rate: int
 
 
-def families(table: FreeCurveTable | InitTable, *, high_rate: int = 0) -> FamilyBounds:
+def families(table: FreeCurveTable | InitTable, *, high_rate: int = 0,
+             compiled: bool = False) -> FamilyBounds:
     """`move_families` as arrays, without an object per family (what a verdict over every
-    move length walks)."""
-    return _sides(table, high_rate)[1].families
+    move length walks). `compiled`: found, when not yet, with the compiled assembly (as
+    `moves`)."""
+    sides = _sides(table, high_rate)[1]
+    return sides.compiled_families() if compiled else sides.families
 
 
 class _Split(NamedTuple):

@@ -185,7 +185,7 @@ def samples(table: FreeCurveTable, motors: Sequence[Motor]
     the rest of the family is judged by its longest move alone (a trapezoid's by that
     settled cruise)."""
     rotor_list = [rotor_of(m) for m in motors]
-    fams = families(table)
+    fams = families(table, compiled=True)
     lo, hi = fams.lo, fams.hi
     hz = table.clock.hz
     trapezoid = fams.shape == SHAPES.index("trapezoid")
@@ -300,16 +300,20 @@ def judge(runs: MoveBatch, hz: float, rot: Rotors, *, max_step_s: float | None =
     slipped = np.zeros((n_rot, n_exec), np.bool_)
     status = np.zeros((n_rot, n_exec), np.int64)
     used = np.zeros((n_rot, n_exec), np.int64)
-    # sources (and the executions with none) first, then their members
+    # each family together, its source first: a range of cells never splits one
     members = source >= 0
-    for order in (np.flatnonzero(~members), np.flatnonzero(members)):
-        def cells(first: int, last: int, order: np.ndarray = order) -> None:
-            rk.executions(*common, runs.offsets, ref, source, slot, hz, MAX_SETTLE_PERIODS,
-                          MAX_RK4_STEPS, ref_worst, ref_lag, ref_s, suffix, limits,
-                          ref_status, ref_slipped, fam_lag, fam_s, fam_worst, fam_known,
-                          order, first, last, lag, slipped, status, used)
+    family = np.where(members, source, np.arange(n_exec))
+    order = np.lexsort((members, family))
+    starts = np.flatnonzero(np.diff(family[order], prepend=-1))
+    cuts = np.append((np.arange(n_rot)[:, None] * n_exec + starts).ravel(), n_rot * n_exec)
 
-        _in_parallel(cells, n_rot * len(order))
+    def cells(first: int, last: int) -> None:
+        rk.executions(*common, runs.offsets, ref, source, slot, hz, MAX_SETTLE_PERIODS,
+                      MAX_RK4_STEPS, ref_worst, ref_lag, ref_s, suffix, limits, ref_status,
+                      ref_slipped, fam_lag, fam_s, fam_worst, fam_known, order, first, last,
+                      lag, slipped, status, used)
+
+    _in_parallel(cells, cuts)
     used[:, ref] += ref_used
     bad = np.flatnonzero((status != rk.OK).any(axis=1) | (used.sum(axis=1) > MAX_VERDICT_STEPS))
     if len(bad):
@@ -347,19 +351,21 @@ def _batch(runs: MoveBatch, arrays: tuple[np.ndarray, ...]) -> MoveBatch:
 PARALLEL_MIN_CELLS = 32   # fewer (rotor, execution) pairs run on the calling thread
 
 
-def _in_parallel(work: Callable[[int, int], None], cells: int) -> None:
-    """`work(first, last)` over 0..cells in one range per core, on threads (the kernel
-    releases the GIL)."""
+def _in_parallel(work: Callable[[int, int], None], cuts: np.ndarray) -> None:
+    """`work(first, last)` over 0..cuts[-1] in ranges that start at some of `cuts`
+    (ascending, from 0: where a range may start), a few per core, on threads (the
+    kernel releases the GIL)."""
+    cells = int(cuts[-1])
     threads = min(os.cpu_count() or 1, 8)
     if threads == 1 or cells < PARALLEL_MIN_CELLS:
         work(0, cells)
         return
-    # interleaved chunks: neighbouring executions cost alike, so each thread gets a share
-    # of the short and the long ones
-    bounds = np.linspace(0, cells, threads * 4 + 1).astype(int)
-    chunks = list(zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True))
+    # a few ranges per thread: neighbouring executions cost alike, so each thread gets a
+    # share of the short and the long ones
+    bounds = np.unique(cuts[np.searchsorted(cuts, np.linspace(0, cells, threads * 4 + 1))])
     pool = _pool(threads)
-    for future in [pool.submit(work, a, b) for a, b in chunks]:
+    for future in [pool.submit(work, a, b) for a, b in
+                   zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True)]:
         future.result()
 
 
