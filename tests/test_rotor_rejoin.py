@@ -17,7 +17,7 @@ from oracle_moves import kernel_step_counts, whole_move
 
 from profiles.motor import Motor
 from profiles.ppmc312.clock import Clock
-from profiles.ppmc312.execution import moves
+from profiles.ppmc312.execution import MoveBatch, moves
 from profiles.ppmc312.load_angle import angles, worst_load_angle
 from profiles.ppmc312.table import FreeCurveTable
 
@@ -254,7 +254,7 @@ def test_a_family_starting_from_its_source_is_judged_as_alone(data: st.DataObjec
     from profiles.motor.rotor import Rotors, rotors
     from profiles.ppmc312.load_angle import directions, judge, samples
 
-    n = data.draw(st.integers(2, 6))
+    n = data.draw(st.integers(2, 12))
     rates = sorted(data.draw(st.lists(st.integers(120, 900), min_size=n, max_size=n,
                                       unique=True)))
     accel = tuple(data.draw(st.lists(st.integers(1, 40), min_size=n, max_size=n)))
@@ -272,6 +272,26 @@ def test_a_family_starting_from_its_source_is_judged_as_alone(data: st.DataObjec
     np.testing.assert_array_equal(together[0], apart[0])
     np.testing.assert_array_equal(together[1], apart[1])
     assert shared[0].sum() <= alone[0].sum()
+    # cutting never takes a shared prefix away: each move shares at least the pulses with
+    # its source that it shared with the reference before the cut
+    from profiles.ppmc312.load_angle import dwells, shared_dwells
+
+    joined = dwells(runs)
+    ref = int(np.lexsort((joined.pulses, np.diff(joined.offsets)))[-1])
+    cut, source = shared_dwells(joined, ref)
+    for e in range(len(lengths)):
+        before = _prefix_pulses(joined, e, ref)
+        assert _prefix_pulses(cut, e, ref if source[e] < 0 else int(source[e])) >= before, e
+
+
+def _prefix_pulses(runs: MoveBatch, e: int, other: int) -> int:
+    """The pulses of the segments move e runs exactly as move `other` does, from the start."""
+    shared = 0
+    for mine, theirs in zip(runs.runs(e), runs.runs(other), strict=False):
+        if mine[1:] != theirs[1:]:
+            break
+        shared += mine[2]
+    return shared
 
 
 def test_a_cruise_where_the_motor_has_no_torque_slips() -> None:

@@ -12,7 +12,9 @@ another move whose command it repeats (profiles.ppmc312.load_angle.judge).
   cut where each of them ends that segment. Each is then its family's longest
   member's prefix to the end of its own dwell, and starts from that member's state
   there (its source), integrating none of its dwell. When the reference's own dwell
-  is its family's longest, it is that source (the trapezoids').
+  is its family's longest and no other move runs that segment whole, the reference is
+  that source (the trapezoids' dwell at the top speed); cutting a segment that other
+  moves run whole would make them part from the reference there.
 
 Cut alike, k moves make ~k²/2 pieces: past `cap` pieces a batch is left as it is
 (each move integrates its own dwell). These are loops over ~10⁵ segments, which
@@ -91,6 +93,7 @@ def shared_dwells(phase: np.ndarray, rate: np.ndarray, count: np.ndarray, offset
     m = offsets[ref + 1] - r0
     at = np.full(moves, -1, np.int64)  # the segment where a move parts, at the ref's rate
     key = np.zeros(moves, np.int64)    # its family (that segment's index) then its count
+    deepest = 0  # the most segments another move shares with the reference
     for e in range(moves):
         size = offsets[e + 1] - offsets[e]
         lim = min(size, m)
@@ -98,7 +101,10 @@ def shared_dwells(phase: np.ndarray, rate: np.ndarray, count: np.ndarray, offset
         while head < lim and rate[offsets[e] + head] == rate[r0 + head] and \
                 count[offsets[e] + head] == count[r0 + head]:
             head += 1
-        if e != ref and head < lim and rate[offsets[e] + head] == rate[r0 + head]:
+        if e == ref:
+            continue
+        deepest = max(deepest, head)
+        if head < lim and rate[offsets[e] + head] == rate[r0 + head]:
             at[e] = offsets[e] + head
             key[e] = (head << 32) | count[at[e]]  # counts are at most 0xFFFFFFFF
     parts = np.flatnonzero(at >= 0)
@@ -115,8 +121,12 @@ def shared_dwells(phase: np.ndarray, rate: np.ndarray, count: np.ndarray, offset
         b = a + 1
         while b < len(parts) and key[parts[b]] >> 32 == key[parts[a]] >> 32:
             b += 1
+        # the reference is the family's source when its dwell is the longest and no
+        # other move runs that segment whole (cut, it would part from the reference
+        # there): the trapezoids' dwell at the top speed
         mine = r0 + (key[parts[a]] >> 32)  # the reference's segment there
-        longest = -1 if count[mine] >= count[at[parts[b - 1]]] else parts[b - 1]
+        own = count[mine] >= count[at[parts[b - 1]]] and key[parts[a]] >> 32 >= deepest
+        longest = -1 if own else parts[b - 1]
         first = distinct
         previous = 0
         for j in range(a, b + (1 if longest < 0 else 0)):
