@@ -25,6 +25,7 @@ tolerance box's corners) are rows of one kernel call.
 from __future__ import annotations
 
 import os
+import threading
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -267,11 +268,11 @@ def judge(runs: MoveBatch, hz: float, rot: Rotors, *, max_step_s: float | None =
     from the reference's, integrating their dwell themselves: the same numbers, slower)."""
     from ..motor import rotor_kernel as rk
 
-    runs = dwells(runs)
+    runs = dwells(runs, _SCRATCH)
     # the reference: the most segments (every stage), the longest of those (the longest
     # trapezoid, whose dwell at the top speed the others' are cut from)
     ref = int(np.lexsort((runs.pulses, np.diff(runs.offsets)))[-1])
-    runs, source = shared_dwells(runs, ref)
+    runs, source = shared_dwells(runs, ref, _SCRATCH)
     if not families:
         source[:] = -1
     steps = rot.step_s(max_step_s)
@@ -294,7 +295,9 @@ def judge(runs: MoveBatch, hz: float, rot: Rotors, *, max_step_s: float | None =
     slot = np.full(n_exec, -1, np.int64)
     size = np.diff(runs.offsets)[sources]
     slot[sources] = np.cumsum(size) - size
-    fam_lag, fam_s, fam_worst = (np.empty((n_rot, int(size.sum()))) for _ in range(3))
+    kept = n_rot * int(size.sum())
+    fam_lag, fam_s, fam_worst = _SCRATCH.take("sources", 3 * kept, np.dtype(float))[
+        :3 * kept].reshape(3, n_rot, -1)
     fam_known = np.zeros((n_rot, n_exec), np.int64)
     lag = np.zeros((n_rot, n_exec))
     slipped = np.zeros((n_rot, n_exec), np.bool_)
@@ -325,27 +328,64 @@ def judge(runs: MoveBatch, hz: float, rot: Rotors, *, max_step_s: float | None =
 SHARED_PIECES = 1_000_000   # cut pieces at most (a verdict makes a few thousand)
 
 
-def dwells(runs: MoveBatch) -> MoveBatch:
-    """The same moves, neighbouring segments of one rate joined (`share_kernel.dwells`)."""
+def dwells(runs: MoveBatch, scratch: Scratch | None = None) -> MoveBatch:
+    """The same moves, neighbouring segments of one rate joined (`share_kernel.dwells`);
+    in `scratch`'s buffers when given (valid until it is asked for them again)."""
     from . import share_kernel as sk
 
-    return _batch(runs, sk.dwells(runs.phase, runs.rate, runs.count, runs.offsets))
+    phase, rate, count = _buffers(scratch, "dwells", len(runs.rate), runs)
+    k, offsets = sk.dwells(runs.phase, runs.rate, runs.count, runs.offsets, phase, rate, count)
+    return MoveBatch(runs.pulses, runs.shape, phase[:k], rate[:k], count[:k], offsets)
 
 
-def shared_dwells(runs: MoveBatch, ref: int) -> tuple[MoveBatch, np.ndarray]:
+def shared_dwells(runs: MoveBatch, ref: int, scratch: Scratch | None = None
+                  ) -> tuple[MoveBatch, np.ndarray]:
     """The same moves, each family's dwell cut alike, and each move's source: the move
     whose state at the end of its own dwell it starts from, −1 for the reference `ref`
-    (`share_kernel.shared_dwells`)."""
+    (`share_kernel.shared_dwells`); in `scratch`'s buffers when given."""
     from . import share_kernel as sk
 
-    *cut, source = sk.shared_dwells(runs.phase, runs.rate, runs.count, runs.offsets, ref,
-                                    SHARED_PIECES)
-    return _batch(runs, tuple(cut)), source
+    size = len(runs.rate) + len(runs)  # enough for a piece per move: most batches
+    while True:
+        phase, rate, count = _buffers(scratch, "shared", size, runs)
+        k, offsets, source = sk.shared_dwells(runs.phase, runs.rate, runs.count, runs.offsets,
+                                              ref, SHARED_PIECES, phase, rate, count)
+        if k == 0:
+            return runs, source  # past SHARED_PIECES: as it is
+        if k > 0:
+            return MoveBatch(runs.pulses, runs.shape, phase[:k], rate[:k], count[:k],
+                             offsets), source
+        size = -k
 
 
-def _batch(runs: MoveBatch, arrays: tuple[np.ndarray, ...]) -> MoveBatch:
-    """`runs` with new (phase, rate, count, offsets), the same moves."""
-    return MoveBatch(runs.pulses, runs.shape, *arrays)
+class Scratch(threading.local):
+    """Buffers the verdict reuses from one batch to the next on a thread. A fresh
+    megabyte array faults its pages in one by one when first written (a few µs each on
+    a virtual machine): a verdict's joined and cut batches did so for a tenth of it."""
+
+    def __init__(self) -> None:
+        self.arrays: dict[tuple[str, str], np.ndarray] = {}
+
+    def take(self, name: str, size: int, dtype: np.dtype) -> np.ndarray:
+        """A buffer of at least `size` (its contents undefined)."""
+        key = (name, np.dtype(dtype).str)
+        a = self.arrays.get(key)
+        if a is None or len(a) < size:
+            a = self.arrays[key] = np.empty(size + size // 4, dtype)
+        return a
+
+
+_SCRATCH = Scratch()
+
+
+def _buffers(scratch: Scratch | None, name: str, size: int, like: MoveBatch
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Output buffers of `size` segments for phase, rate and count."""
+    arrays = (like.phase, like.rate, like.count)
+    if scratch is None:
+        return tuple(np.empty(size, a.dtype) for a in arrays)  # type: ignore[return-value]
+    return tuple(scratch.take(f"{name}.{i}", size, a.dtype)  # type: ignore[return-value]
+                 for i, a in enumerate(arrays))
 
 
 PARALLEL_MIN_CELLS = 32   # fewer (rotor, execution) pairs run on the calling thread

@@ -32,11 +32,11 @@ Batch = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]  # phase, rate, co
 
 
 @_jit
-def dwells(phase: np.ndarray, rate: np.ndarray, count: np.ndarray, offsets: np.ndarray
-           ) -> Batch:
-    """The moves with neighbouring segments of one rate joined (the first one's phase)."""
-    out_phase, out_rate, out_count = np.empty_like(phase), np.empty_like(rate), \
-        np.empty_like(count)
+def dwells(phase: np.ndarray, rate: np.ndarray, count: np.ndarray, offsets: np.ndarray,
+           out_phase: np.ndarray, out_rate: np.ndarray, out_count: np.ndarray
+           ) -> tuple[int, np.ndarray]:
+    """The moves with neighbouring segments of one rate joined (the first one's phase),
+    into out_*[:k] (as long as the input at least): (k, the new offsets)."""
     out_offsets = np.empty_like(offsets)
     k = 0
     for e in range(len(offsets) - 1):
@@ -48,20 +48,23 @@ def dwells(phase: np.ndarray, rate: np.ndarray, count: np.ndarray, offsets: np.n
                 out_phase[k], out_rate[k], out_count[k] = phase[i], rate[i], count[i]
                 k += 1
     out_offsets[len(offsets) - 1] = k
-    return out_phase[:k], out_rate[:k], out_count[:k], out_offsets
+    return k, out_offsets
 
 
 @_jit
 def _cut(phase: np.ndarray, rate: np.ndarray, count: np.ndarray, offsets: np.ndarray,
-         at: np.ndarray, pieces: np.ndarray, start: np.ndarray, table: np.ndarray) -> Batch:
+         at: np.ndarray, pieces: np.ndarray, start: np.ndarray, table: np.ndarray,
+         out_phase: np.ndarray, out_rate: np.ndarray, out_count: np.ndarray
+         ) -> tuple[int, np.ndarray]:
     """The moves with segment at[c] (ascending) cut into `pieces[c]` segments of its phase
-    and rate, of counts table[start[c]:start[c] + pieces[c]]."""
+    and rate, of counts table[start[c]:start[c] + pieces[c]], into out_*[:k]: (k, the new
+    offsets), or (−k, offsets) when out_* hold fewer than the k segments."""
     total = len(rate)
     for c in range(len(at)):
         total += pieces[c] - 1
-    out_phase, out_rate, out_count = np.empty(total, phase.dtype), np.empty(total, rate.dtype), \
-        np.empty(total, count.dtype)
     out_offsets = np.empty_like(offsets)
+    if total > len(out_rate):
+        return -total, out_offsets
     k = 0
     c = 0
     e = 0
@@ -78,15 +81,16 @@ def _cut(phase: np.ndarray, rate: np.ndarray, count: np.ndarray, offsets: np.nda
             out_phase[k], out_rate[k], out_count[k] = phase[i], rate[i], count[i]
             k += 1
     out_offsets[e:] = k
-    return out_phase, out_rate, out_count, out_offsets
+    return k, out_offsets
 
 
 @_jit
 def shared_dwells(phase: np.ndarray, rate: np.ndarray, count: np.ndarray, offsets: np.ndarray,
-                  ref: int, cap: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
-                                               np.ndarray]:
-    """The moves with each family's dwell cut alike, and each move's source (−1: the
-    reference `ref`)."""
+                  ref: int, cap: int, out_phase: np.ndarray, out_rate: np.ndarray,
+                  out_count: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
+    """The moves with each family's dwell cut alike, into out_*[:k]: (k, the new offsets,
+    each move's source, −1 for the reference `ref`); k = 0 when nothing is cut (past
+    `cap` pieces), −k when out_* hold fewer than the k segments."""
     moves = len(offsets) - 1
     source = np.full(moves, -1, np.int64)
     r0 = offsets[ref]
@@ -142,8 +146,8 @@ def shared_dwells(phase: np.ndarray, rate: np.ndarray, count: np.ndarray, offset
         a = b
     order = np.argsort(cut_at[:cuts])
     if pieces[:cuts].sum() > cap:
-        return phase, rate, count, offsets, np.full(moves, -1, np.int64)
-    out_phase, out_rate, out_count, out_offsets = _cut(
-        phase, rate, count, offsets, cut_at[:cuts][order], pieces[:cuts][order],
-        start[:cuts][order], table)
-    return out_phase, out_rate, out_count, out_offsets, source
+        return 0, offsets, np.full(moves, -1, np.int64)
+    k, out_offsets = _cut(phase, rate, count, offsets, cut_at[:cuts][order],
+                          pieces[:cuts][order], start[:cuts][order], table, out_phase,
+                          out_rate, out_count)
+    return k, out_offsets, source
