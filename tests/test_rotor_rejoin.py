@@ -244,24 +244,31 @@ def test_thousands_of_trapezoids_are_not_cut_alike() -> None:
     assert len(cut.rate) == len(few.rate) + 20 * 21 // 2 - 20 and (source == -1).all()
 
 
+def _random_table(data: st.DataObject, most_stages: int, most_pulses: int
+                  ) -> FreeCurveTable:
+    """A random table at 1 MHz: LE=0 or LE=1, uneven counts."""
+    n = data.draw(st.integers(2, most_stages))
+    rates = sorted(data.draw(st.lists(st.integers(120, 900), min_size=n, max_size=n,
+                                      unique=True)))
+    accel = tuple(data.draw(st.lists(st.integers(1, most_pulses), min_size=n, max_size=n)))
+    decel = data.draw(st.none() | st.lists(st.integers(1, most_pulses), min_size=n,
+                                           max_size=n))
+    return FreeCurveTable(MHZ1, tuple(rates), accel, None if decel is None else tuple(decel))
+
+
 @settings(max_examples=25, deadline=None)
 @given(st.data())
 def test_a_family_starting_from_its_source_is_judged_as_alone(data: st.DataObject) -> None:
     """Every sampled length of random tables: judged with each family member starting
     from its source's state, the worst angles and slips are bit for bit those of each
     integrating its own dwell from the reference's state (the same spans, the same
-    steps), in fewer RK4 steps when some move has a source."""
+    steps), in no more RK4 steps."""
     from profiles.motor.rotor import Rotors, rotors
     from profiles.ppmc312.load_angle import directions, judge, samples
 
-    n = data.draw(st.integers(2, 12))
-    rates = sorted(data.draw(st.lists(st.integers(120, 900), min_size=n, max_size=n,
-                                      unique=True)))
-    accel = tuple(data.draw(st.lists(st.integers(1, 40), min_size=n, max_size=n)))
-    decel = data.draw(st.none() | st.lists(st.integers(1, 40), min_size=n, max_size=n))
+    table = _random_table(data, 6, 30)
     m = motor(load_torque_nm=data.draw(st.sampled_from([0.0, 0.05])),
               damping_ratio=data.draw(st.sampled_from([0.05, 0.2, 0.6])))
-    table = FreeCurveTable(MHZ1, tuple(rates), accel, None if decel is None else tuple(decel))
     lengths, _, _ = samples(table, [m])
     rot = Rotors.stack([rotors(m, direction=d) for d in directions(m)])
     runs = moves(table, lengths)
@@ -272,11 +279,23 @@ def test_a_family_starting_from_its_source_is_judged_as_alone(data: st.DataObjec
     np.testing.assert_array_equal(together[0], apart[0])
     np.testing.assert_array_equal(together[1], apart[1])
     assert shared[0].sum() <= alone[0].sum()
-    # cutting never takes a shared prefix away: each move shares at least the pulses with
-    # its source that it shared with the reference before the cut
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.data())
+def test_cutting_never_takes_a_shared_prefix_away(data: st.DataObject) -> None:
+    """Every move of random tables up to a few trapezoids, joined and cut: each shares at
+    least the pulses with its source that it shared with the reference before the cut
+    (cutting the reference's stage for a triangle family once made the trapezoids,
+    which run that stage whole, part from it there: 10× the steps)."""
     from profiles.ppmc312.load_angle import dwells, shared_dwells
 
-    joined = dwells(runs)
+    table = _random_table(data, 12, 40)
+    top = table.accel_total + table.decel_total
+    lengths = np.unique(np.concatenate((
+        data.draw(st.lists(st.integers(1, top + 50), min_size=1, max_size=80)),
+        [top + 60])))
+    joined = dwells(moves(table, lengths))
     ref = int(np.lexsort((joined.pulses, np.diff(joined.offsets)))[-1])
     cut, source = shared_dwells(joined, ref)
     for e in range(len(lengths)):
