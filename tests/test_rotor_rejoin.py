@@ -226,6 +226,39 @@ def test_families_cut_alike_are_prefixes_of_their_source(decel: tuple[int, ...] 
     assert members >= len(lengths) // 3
 
 
+def test_only_moves_that_part_at_the_references_rate_are_cut() -> None:
+    """A hand-made batch: the reference R (accel 300·2, 200·3; a dwell at 100 of 50;
+    decel 200·3, 300·2), a shorter trapezoid T (dwell 20), a move P that is R's first
+    two segments exactly, then moves F and G that start at 100 (50 and 30 pulses) where
+    R starts at 300. R is T's source, its dwell cut where T's ends. P ends on R's
+    segments: it parts nowhere, is in no family, and does not keep R from being T's
+    source (a comparison running past its last segment would read F's, R's dwell
+    exactly). F and G part from R at another rate: no family, not cut, though their
+    first segments alone would make one."""
+    from profiles.ppmc312.execution import PHASES
+    from profiles.ppmc312.load_angle import shared_dwells
+
+    a, c, d = (PHASES.index(p) for p in ("accel", "cruise", "decel"))
+    moves_ = [[(a, 300, 2), (a, 200, 3), (c, 100, 50), (d, 200, 3), (d, 300, 2)],  # R
+              [(a, 300, 2), (a, 200, 3), (c, 100, 20), (d, 200, 3), (d, 300, 2)],  # T
+              [(a, 300, 2), (a, 200, 3)],                                          # P
+              [(c, 100, 50), (d, 300, 1)],                                         # F
+              [(c, 100, 30), (d, 300, 1)],                                         # G
+              [(d, 300, 1)]]
+    segs = [s for m in moves_ for s in m]
+    runs = MoveBatch(np.array([sum(x[2] for x in m) for m in moves_]),
+                     np.zeros(len(moves_), np.int64), np.array([x[0] for x in segs], np.int8),
+                     np.array([x[1] for x in segs], np.int64),
+                     np.array([x[2] for x in segs], np.int64),
+                     np.concatenate(([0], np.cumsum([len(m) for m in moves_]))).astype(np.int64))
+    cut, source = shared_dwells(runs, 0)
+    assert (source == -1).all()
+    assert [(r, n) for _, r, n in cut.runs(0)] == [
+        (300, 2), (200, 3), (100, 20), (100, 30), (200, 3), (300, 2)]
+    for e in range(1, len(moves_)):
+        assert cut.runs(e) == runs.runs(e), e
+
+
 def test_thousands_of_trapezoids_are_not_cut_alike() -> None:
     """k trapezoids cut where every shorter one ends make ~k²/2 pieces: past
     SHARED_PIECES (a motor with no torque at the cruise samples 200 000 cruise

@@ -21,8 +21,13 @@ tighten). In pulses (one pulse = one commanded step of the driver):
 - x_cmd is the staircase integrated linearly within each segment (exact at every
   pulse instant); the per-pulse ripple of a real step train is not modelled.
 
-Numerics: fixed-step RK4 with steps landing exactly on segment boundaries (the
-command speed is constant within a step), step 1/50 of the natural period at rest
+T_pk between curve points is linear: the torque at the piece's first point plus the
+speed past it times the piece's slope (one arithmetic in the model, its kernel and the
+oracle; a span finds its piece once, at the command speed).
+
+Numerics: fixed-step RK4 with steps landing exactly on span boundaries (a span is a
+constant command: neighbouring segments of one rate are one span; the command speed
+is constant within a step), step 1/50 of the natural period at rest
 (the stiffest: torque only falls with speed). Within a constant segment
 the system is autonomous: once the oscillation has settled (range over a natural
 period below `SETTLE_TOL_DEG`) the rest of the segment is skipped with that state.
