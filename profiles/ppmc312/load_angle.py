@@ -345,17 +345,19 @@ def shared_dwells(runs: MoveBatch, ref: int, scratch: Scratch | None = None
     (`share_kernel.shared_dwells`); in `scratch`'s buffers when given."""
     from . import share_kernel as sk
 
-    size = len(runs.rate) + len(runs)  # enough for a piece per move: most batches
-    while True:
-        phase, rate, count = _buffers(scratch, "shared", size, runs)
-        k, offsets, source = sk.shared_dwells(runs.phase, runs.rate, runs.count, runs.offsets,
-                                              ref, SHARED_PIECES, phase, rate, count)
-        if k == 0:
-            return runs, source  # past SHARED_PIECES: as it is
-        if k > 0:
-            return MoveBatch(runs.pulses, runs.shape, phase[:k], rate[:k], count[:k],
-                             offsets), source
-        size = -k
+    at, key, deepest = sk.parting(runs.rate, runs.count, runs.offsets, ref)
+    parts = np.flatnonzero(at >= 0)
+    parts = parts[np.argsort(key[parts], kind="stable")]  # by family, then by count
+    cut_at, pieces, start, table, source = sk.families(runs.count, runs.offsets, ref, at, key,
+                                                       parts, deepest)
+    if int(pieces.sum()) > SHARED_PIECES:
+        return runs, np.full(len(runs), -1, np.int64)  # cut alike, k moves make ~k²/2
+    order = np.argsort(cut_at)
+    size = len(runs.rate) + int(pieces.sum()) - len(pieces)
+    phase, rate, count = _buffers(scratch, "shared", size, runs)
+    k, offsets = sk.cut(runs.phase, runs.rate, runs.count, runs.offsets, cut_at[order],
+                        pieces[order], start[order], table, phase, rate, count)
+    return MoveBatch(runs.pulses, runs.shape, phase[:k], rate[:k], count[:k], offsets), source
 
 
 class Scratch(threading.local):

@@ -6,8 +6,8 @@ another move whose command it repeats (profiles.ppmc312.load_angle.judge).
   A triangle's peak runs the accel side's partial stage and then the decel side's
   first at one rate; a trapezoid runs its top stage, its cruise and its decel's top
   stage at one rate. Each is one dwell, whose length alone changes within a family.
-- `shared_dwells`: the moves that part from the reference (the move with the most
-  segments) at one segment, at its rate but for another count (a family: the
+- `parting`, `families`, `cut`: the moves that part from the reference (the move with
+  the most segments) at one segment, at its rate but for another count (a family: the
   triangles peaking at one stage, the trapezoids, their dwell growing with the move),
   cut where each of them ends that segment. Each is then its family's longest
   member's prefix to the end of its own dwell, and starts from that member's state
@@ -15,10 +15,13 @@ another move whose command it repeats (profiles.ppmc312.load_angle.judge).
   is its family's longest and no other move runs that segment whole, the reference is
   that source (the trapezoids' dwell at the top speed); cutting a segment that other
   moves run whole would make them part from the reference there.
+  `load_angle.shared_dwells` runs the three, sorting in numpy between them (numba's
+  sorts took ten seconds to compile) and giving up past `SHARED_PIECES` pieces (cut
+  alike, k moves make ~k²/2: each then integrates its own dwell).
 
-Cut alike, k moves make ~k²/2 pieces: past `cap` pieces a batch is left as it is
-(each move integrates its own dwell). These are loops over ~10⁵ segments, which
-numpy's repeat-and-cumsum passes took a quarter of a verdict to do.
+These are loops over ~10⁵ segments, which numpy's repeat-and-cumsum passes took a
+quarter of a verdict to do. Outputs go to buffers the caller gives (reused between
+verdicts: fresh ones fault their pages in).
 """
 
 from __future__ import annotations
@@ -28,7 +31,6 @@ import numpy as np
 
 _jit = nb.njit(cache=True, nogil=True)
 
-Batch = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]  # phase, rate, count, offsets
 
 
 @_jit
@@ -52,19 +54,14 @@ def dwells(phase: np.ndarray, rate: np.ndarray, count: np.ndarray, offsets: np.n
 
 
 @_jit
-def _cut(phase: np.ndarray, rate: np.ndarray, count: np.ndarray, offsets: np.ndarray,
-         at: np.ndarray, pieces: np.ndarray, start: np.ndarray, table: np.ndarray,
-         out_phase: np.ndarray, out_rate: np.ndarray, out_count: np.ndarray
-         ) -> tuple[int, np.ndarray]:
+def cut(phase: np.ndarray, rate: np.ndarray, count: np.ndarray, offsets: np.ndarray,
+        at: np.ndarray, pieces: np.ndarray, start: np.ndarray, table: np.ndarray,
+        out_phase: np.ndarray, out_rate: np.ndarray, out_count: np.ndarray
+        ) -> tuple[int, np.ndarray]:
     """The moves with segment at[c] (ascending) cut into `pieces[c]` segments of its phase
-    and rate, of counts table[start[c]:start[c] + pieces[c]], into out_*[:k]: (k, the new
-    offsets), or (−k, offsets) when out_* hold fewer than the k segments."""
-    total = len(rate)
-    for c in range(len(at)):
-        total += pieces[c] - 1
+    and rate, of counts table[start[c]:start[c] + pieces[c]], into out_*[:k] (room for
+    len(rate) + Σ(pieces − 1) segments at least): (k, the new offsets)."""
     out_offsets = np.empty_like(offsets)
-    if total > len(out_rate):
-        return -total, out_offsets
     k = 0
     c = 0
     e = 0
@@ -85,19 +82,17 @@ def _cut(phase: np.ndarray, rate: np.ndarray, count: np.ndarray, offsets: np.nda
 
 
 @_jit
-def shared_dwells(phase: np.ndarray, rate: np.ndarray, count: np.ndarray, offsets: np.ndarray,
-                  ref: int, cap: int, out_phase: np.ndarray, out_rate: np.ndarray,
-                  out_count: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
-    """The moves with each family's dwell cut alike, into out_*[:k]: (k, the new offsets,
-    each move's source, −1 for the reference `ref`); k = 0 when nothing is cut (past
-    `cap` pieces), −k when out_* hold fewer than the k segments."""
+def parting(rate: np.ndarray, count: np.ndarray, offsets: np.ndarray, ref: int
+            ) -> tuple[np.ndarray, np.ndarray, int]:
+    """Where each move parts from the reference `ref` at its rate for another count:
+    (that segment's index or −1, its family key: that segment's place in the move, then
+    its count, the most segments another move shares with the reference)."""
     moves = len(offsets) - 1
-    source = np.full(moves, -1, np.int64)
     r0 = offsets[ref]
     m = offsets[ref + 1] - r0
-    at = np.full(moves, -1, np.int64)  # the segment where a move parts, at the ref's rate
-    key = np.zeros(moves, np.int64)    # its family (that segment's index) then its count
-    deepest = 0  # the most segments another move shares with the reference
+    at = np.full(moves, -1, np.int64)
+    key = np.zeros(moves, np.int64)
+    deepest = 0
     for e in range(moves):
         size = offsets[e + 1] - offsets[e]
         lim = min(size, m)
@@ -111,9 +106,23 @@ def shared_dwells(phase: np.ndarray, rate: np.ndarray, count: np.ndarray, offset
         if head < lim and rate[offsets[e] + head] == rate[r0 + head]:
             at[e] = offsets[e] + head
             key[e] = (head << 32) | count[at[e]]  # counts are at most 0xFFFFFFFF
-    parts = np.flatnonzero(at >= 0)
-    parts = parts[np.argsort(key[parts], kind="mergesort")]
-    # the cuts: at each member's segment and at the reference's where it is the source
+    return at, key, deepest
+
+
+@_jit
+def families(count: np.ndarray, offsets: np.ndarray, ref: int, at: np.ndarray,
+             key: np.ndarray, parts: np.ndarray, deepest: int
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The cuts of the moves `parts` (sorted by family key, `parting`): (the segments to
+    cut, into how many pieces, from which entry of the table of pieces, that table, each
+    move's source (−1: the reference)).
+
+    A family's dwell is cut where each member's ends; its longest member is the others'
+    source. The reference is the source instead when its dwell is the longest and no
+    other move runs that segment whole (cut, it would part from the reference there):
+    the trapezoids' dwell at the top speed."""
+    source = np.full(len(offsets) - 1, -1, np.int64)
+    r0 = offsets[ref]
     cut_at = np.empty(2 * len(parts), np.int64)
     pieces = np.empty(2 * len(parts), np.int64)
     start = np.empty(2 * len(parts), np.int64)
@@ -125,9 +134,6 @@ def shared_dwells(phase: np.ndarray, rate: np.ndarray, count: np.ndarray, offset
         b = a + 1
         while b < len(parts) and key[parts[b]] >> 32 == key[parts[a]] >> 32:
             b += 1
-        # the reference is the family's source when its dwell is the longest and no
-        # other move runs that segment whole (cut, it would part from the reference
-        # there): the trapezoids' dwell at the top speed
         mine = r0 + (key[parts[a]] >> 32)  # the reference's segment there
         own = count[mine] >= count[at[parts[b - 1]]] and key[parts[a]] >> 32 >= deepest
         longest = -1 if own else parts[b - 1]
@@ -144,10 +150,4 @@ def shared_dwells(phase: np.ndarray, rate: np.ndarray, count: np.ndarray, offset
             if j < b and parts[j] != longest:
                 source[parts[j]] = longest
         a = b
-    order = np.argsort(cut_at[:cuts])
-    if pieces[:cuts].sum() > cap:
-        return 0, offsets, np.full(moves, -1, np.int64)
-    k, out_offsets = _cut(phase, rate, count, offsets, cut_at[:cuts][order],
-                          pieces[:cuts][order], start[:cuts][order], table, out_phase,
-                          out_rate, out_count)
-    return k, out_offsets, source
+    return cut_at[:cuts], pieces[:cuts], start[:cuts], table[:distinct], source
