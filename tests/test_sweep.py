@@ -222,7 +222,9 @@ def test_ctrl_c_stops_local_workers_and_writes_nothing(tmp_path: Path) -> None:
     out = tmp_path / "r.csv"
     sweep = subprocess.Popen(
         [sys.executable, "-m", "verify.cli", "sweep", "--motors", str(NEMA17), "--pulses",
-         ",".join(str(n) for n in range(1000, 41000, 1000)), "--workers", "2",
+         # 400 lengths: the workers are still busy when the Ctrl-C comes (40 once were;
+         # a faster verdict finished them within the second the test waits)
+         ",".join(str(n) for n in range(1000, 401000, 1000)), "--workers", "2",
          "-o", str(out)], stderr=subprocess.PIPE, text=True, start_new_session=True)
     parent = psutil.Process(sweep.pid)
     deadline = time.monotonic() + 60

@@ -100,7 +100,7 @@ def test_ctrl_c_cancels_the_cluster_jobs_and_writes_nothing(cluster: Cluster,
     out = tmp_path / "rows.csv"
     sweep = subprocess.Popen(
         [sys.executable, "-m", "verify.cli", "sweep", "--motors", str(NEMA17), "--pulses",
-         ",".join(str(n) for n in range(1000, 81000, 1000)), "--scheduler", cluster.address,
+         ",".join(str(n) for n in range(1000, 801000, 1000)), "--scheduler", cluster.address,
          "-o", str(out)], stderr=subprocess.PIPE, text=True, start_new_session=True)
     with distributed.Client(cluster.address, timeout=30, set_as_default=False) as client:
         deadline = time.monotonic() + 60
@@ -112,7 +112,7 @@ def test_ctrl_c_cancels_the_cluster_jobs_and_writes_nothing(cluster: Cluster,
         assert sweep.returncode == 128 + signal.SIGINT
         assert err.strip() == "stepramp sweep: interrupted"
         assert not out.exists()
-        # the sweep's jobs are cancelled: no worker is given them any more (80 jobs
+        # the sweep's jobs are cancelled: no worker is given them any more (800 jobs
         # would keep the 2 workers busy for more than 20 s)
         deadline = time.monotonic() + 5
         while any(client.processing().values()):
