@@ -15,6 +15,7 @@ The motor catalogue is the bundled motors only: the user's own motor folders
 from __future__ import annotations
 
 import os
+import signal
 import tempfile
 from collections.abc import Iterator
 
@@ -50,3 +51,16 @@ def _bundled_motors_only() -> Iterator[None]:
 
 # The session fails when it leaves a new or changed file in the checkout (tests/repo_clean.py).
 pytest_plugins = ["repo_clean"]
+
+
+@pytest.fixture
+def terminal_sigint() -> Iterator[None]:
+    """SIGINT at Python's default while the test starts its children, as a terminal's
+    foreground job has it. pytest-xdist's workers ignore SIGINT, and a child inherits an
+    ignored signal: Python then installs no KeyboardInterrupt handler, and a Ctrl-C the
+    test sends the child does nothing (the child ran to the end and exited 0)."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)

@@ -216,14 +216,14 @@ def test_sweep_numbers_are_checked_first(tmp_path: Path, capsys: pytest.CaptureF
 
 
 @pytest.mark.slow  # a stepramp process and its forkserver start (~5 s on 2 cores)
+@pytest.mark.usefixtures("terminal_sigint")
 def test_ctrl_c_stops_local_workers_and_writes_nothing(tmp_path: Path) -> None:
     import psutil
 
     out = tmp_path / "r.csv"
     sweep = subprocess.Popen(
         [sys.executable, "-m", "verify.cli", "sweep", "--motors", str(NEMA17), "--pulses",
-         # 400 lengths: the workers are still busy when the Ctrl-C comes (40 once were;
-         # a faster verdict finished them within the second the test waits)
+         # 400 lengths: the workers are certainly still busy when the Ctrl-C comes
          ",".join(str(n) for n in range(1000, 401000, 1000)), "--workers", "2",
          "-o", str(out)], stderr=subprocess.PIPE, text=True, start_new_session=True)
     parent = psutil.Process(sweep.pid)

@@ -93,6 +93,7 @@ def test_a_worker_killed_mid_sweep_is_survived_with_the_same_rows(cluster: Clust
     assert stable(rows) == stable(local)
 
 
+@pytest.mark.usefixtures("terminal_sigint")
 def test_ctrl_c_cancels_the_cluster_jobs_and_writes_nothing(cluster: Cluster,
                                                             tmp_path: Path) -> None:
     import distributed
