@@ -15,12 +15,13 @@ Kernels
   state, optionally recording every step (figures) and stopping where the state
   rejoins a reference's (the executions' shared tails).
 - `references` and `executions`: every execution of a table (given as flat (rate,
-  pulses) segment lists) for every rotor row: the longest-listed execution is
-  integrated once, the others from where their commands part from it until they
-  rejoin it. `executions` takes a range of (rotor, execution) pairs and releases
-  the GIL, so ranges run on threads (profiles.ppmc312.load_angle.judge): plain
-  threads rather than numba's parallel layer, which is neither fork- nor
-  thread-safe with GNU OpenMP and triples the compile time.
+  pulses) segment lists) for every rotor row: the reference is integrated once, the
+  others from where their commands part from their source's (the reference's, or
+  their family's longest member's) until they rejoin the reference. `executions`
+  takes a range of (rotor, execution) pairs and releases the GIL, so ranges run on
+  threads (profiles.ppmc312.load_angle.judge): plain threads rather than numba's
+  parallel layer, which is neither fork- nor thread-safe with GNU OpenMP and triples
+  the compile time.
 """
 
 from __future__ import annotations
@@ -111,7 +112,13 @@ def _accel(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
 @_jit
 def natural_period_s(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
                      speed: float) -> float:
-    stiffness = rotor[K] * rotor[C_E] * _t_peak(curve_v, curve_t, speed)
+    return _period(rotor, _t_peak(curve_v, curve_t, speed))
+
+
+@_jit
+def _period(rotor: np.ndarray, torque: float) -> float:
+    """The natural period where the peak restoring torque is `torque`."""
+    stiffness = rotor[K] * rotor[C_E] * torque
     return 2 * math.pi / math.sqrt(stiffness) if stiffness > 0 else math.inf
 
 
@@ -168,9 +175,9 @@ def _span(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, d: float,
         return OK, 0, 0.0, lag, s, peak, steps, recorded
     n = max(1, math.ceil(d / step))
     h = d / n
-    period = natural_period_s(curve_v, curve_t, rotor, v)
-    window = max(8, math.ceil(period / h)) if math.isfinite(period) else n + 1
     piece = _piece(curve_v, curve_t, v)
+    period = _period(rotor, _torque(curve_v, curve_t, piece, v))
+    window = max(8, math.ceil(period / h)) if math.isfinite(period) else n + 1
     lo = lag
     hi = lag
     count = 0
@@ -461,9 +468,9 @@ def executions(curve_v: np.ndarray, curve_t: np.ndarray, rotors: np.ndarray, ste
     An execution starts from its source's state where their commands part: the
     reference's, or (`source[e]` ≥ 0) that of a family's longest member, whose states
     at the end of each of its segments are kept from `slot[source]` on in the `fam_*`
-    rows (`fam_known[r, source]` of them known). A source is judged in an earlier call
-    than the executions that start from it. Releases the GIL: disjoint ranges run on
-    threads at once."""
+    rows (`fam_known[r, source]` of them known). A source comes before its members in
+    `order`, and a range of cells never splits a family. Releases the GIL: disjoint
+    ranges run on threads at once."""
     n_order = len(order)
     r0, r1 = offsets[ref], offsets[ref + 1]
     m = r1 - r0
