@@ -25,14 +25,24 @@ def layers(pred: np.ndarray, cost: np.ndarray, packed_w: np.ndarray, start: np.n
         packed[j] = 0
     prev = np.empty(g)
     prev_packed = np.empty(g, dtype=np.int64)
+    # A node's value can improve in layer m only if a predecessor's improved in layer m − 1
+    # (else its best is the same sum as before, which its value already holds): `moved`
+    # counts the nodes that improved in the last layer, node by node, and a node none of
+    # whose predecessors (j − 1 … j − width: search.graph) moved is skipped. Most of a
+    # layer is, and the result is the same to the bit.
+    moved = np.zeros(g + 1, dtype=np.int64)
     count = 2
+    hi_prev = 0
     for m in range(2, max_stages + 1):
         hi = min(int(np.searchsorted(f, start_f + (m - 1) * jump * (1 + 1e-9), side="right")),
                  g)
         prev[:] = value
         prev_packed[:] = packed
         changed = False
+        every = m <= 3  # layer 2 sets every value; layer 3 compares with all of them
         for j in range(hi):
+            if not every and j < hi_prev and moved[j] == moved[max(j - width, 0)]:
+                continue  # no predecessor moved: parents[m, j] stays −1
             best = math.inf
             pick = 0
             for w in range(width):
@@ -55,6 +65,13 @@ def layers(pred: np.ndarray, cost: np.ndarray, packed_w: np.ndarray, start: np.n
         # (past `hi` no path of m stages reaches, and no start node lies: value stays inf)
         if m > 2 and hi == g and not changed:
             break  # nothing changes any more: more stages do not help
+        total = 0
+        for j in range(g):  # moved[j]: how many nodes before j improved in this layer
+            moved[j] = total
+            if value[j] != prev[j] or m == 2:
+                total += 1
+        moved[g] = total
+        hi_prev = hi
         count = m + 1
     return count
 
@@ -96,43 +113,195 @@ def _least_torque(lo: float, hi: float, v: np.ndarray, t: np.ndarray) -> float:
     return least
 
 
+@nb.njit(cache=True, nogil=True, inline="always")
+def _count(r_slow: float, r_fast: float, hz: float, v: np.ndarray, t: np.ndarray, sf: float,
+           friction: float, load: float, k: float, edges: np.ndarray, scale: np.ndarray,
+           plain: bool, jump: float, separate: bool, bands: np.ndarray, base_ticks: float,
+           most: float) -> tuple[float, float, bool]:
+    """One step's (accel count, decel count, valid): `Problem.counts` (the method and its
+    comments are there)."""
+    c_acc = (friction + load) * k
+    c_dec = (load - friction) * k
+    f_slow = hz / r_slow
+    f_fast = hz / (r_fast if r_fast > 0 else 1.0)
+    delta = f_fast - f_slow
+    # a_acc and a_dec grow with the torque, and rounding keeps that order: the least
+    # capability is the capability of the least torque, to the bit
+    torque = _least_torque(f_slow, f_fast, v, t)
+    a_acc = (sf * torque - friction - load) * k
+    a_dec = (sf * torque + friction - load) * k
+    jump_e = jump
+    if not plain:
+        band = np.searchsorted(edges, f_slow, side="right")
+        sigma = scale[band]
+        a_acc = sigma * (a_acc + c_acc) - c_acc
+        a_dec = sigma * (a_dec + c_dec) - c_dec
+        jump_e = jump * sigma
+    base = max(2.0, np.ceil(base_ticks / r_slow))
+    n_e = np.ceil(delta * f_slow / a_acc) if a_acc > 0 else math.inf
+    d_e = np.ceil(delta * f_slow / a_dec) if a_dec > 0 else math.inf
+    n_e = max(n_e, base)
+    d_e = max(d_e, base)
+    if not separate:
+        n_e = d_e = max(n_e, d_e)
+    ok = r_fast > 0 and delta > 0 and delta <= jump_e and n_e <= most and d_e <= most
+    for b in range(bands.shape[0]):  # no stage in a band a jump can step over
+        if bands[b, 0] <= f_slow <= bands[b, 1] or bands[b, 0] <= f_fast <= bands[b, 1]:
+            ok = False
+    return n_e, d_e, ok
+
+
 @nb.njit(cache=True, nogil=True)
 def stage_counts(rs: np.ndarray, rf: np.ndarray, hz: float, v: np.ndarray, t: np.ndarray,
                  sf: float, friction: float, load: float, k: float, edges: np.ndarray,
                  scale: np.ndarray, plain: bool, jump: float, separate: bool,
                  bands: np.ndarray, base_ticks: float, most: float, n: np.ndarray,
                  d: np.ndarray, valid: np.ndarray) -> None:
-    """`Problem.counts` element by element (the method and its comments are there): the
-    planner's graph and refinement call it on tens of thousands of steps, and numpy's
-    temporaries (a torque interpolation per end and breakpoint) were half a plan."""
-    c_acc = (friction + load) * k
-    c_dec = (load - friction) * k
+    """`Problem.counts` element by element: the planner's graph calls it on tens of
+    thousands of steps, and numpy's temporaries (a torque interpolation per end and
+    breakpoint) were half a plan."""
     for e in range(len(rs)):
-        r_slow, r_fast = rs[e], rf[e]
-        f_slow = hz / r_slow
-        f_fast = hz / (r_fast if r_fast > 0 else 1.0)
-        delta = f_fast - f_slow
-        # a_acc and a_dec grow with the torque, and rounding keeps that order: the least
-        # capability is the capability of the least torque, to the bit
-        torque = _least_torque(f_slow, f_fast, v, t)
-        a_acc = (sf * torque - friction - load) * k
-        a_dec = (sf * torque + friction - load) * k
-        jump_e = jump
-        if not plain:
-            band = np.searchsorted(edges, f_slow, side="right")
-            sigma = scale[band]
-            a_acc = sigma * (a_acc + c_acc) - c_acc
-            a_dec = sigma * (a_dec + c_dec) - c_dec
-            jump_e = jump * sigma
-        base = max(2.0, np.ceil(base_ticks / r_slow))
-        n_e = np.ceil(delta * f_slow / a_acc) if a_acc > 0 else math.inf
-        d_e = np.ceil(delta * f_slow / a_dec) if a_dec > 0 else math.inf
-        n_e = max(n_e, base)
-        d_e = max(d_e, base)
-        if not separate:
-            n_e = d_e = max(n_e, d_e)
-        ok = r_fast > 0 and delta > 0 and delta <= jump_e and n_e <= most and d_e <= most
-        for b in range(bands.shape[0]):  # no stage in a band a jump can step over
-            if bands[b, 0] <= f_slow <= bands[b, 1] or bands[b, 0] <= f_fast <= bands[b, 1]:
-                ok = False
-        n[e], d[e], valid[e] = n_e, d_e, ok
+        n[e], d[e], valid[e] = _count(rs[e], rf[e], hz, v, t, sf, friction, load, k, edges,
+                                      scale, plain, jump, separate, bands, base_ticks, most)
+
+
+@nb.njit(cache=True, nogil=True)
+def refine_inner(r: np.ndarray, offsets: np.ndarray, parity: int, r_start: int,
+                 rate_max: int, slack: float, new: np.ndarray, hz: float, v: np.ndarray,
+                 t: np.ndarray, sf: float, friction: float, load: float, k: float,
+                 edges: np.ndarray, scale: np.ndarray, plain: bool, jump: float,
+                 separate: bool, bands: np.ndarray, base_ticks: float, most: float) -> bool:
+    """One move of `refine._refine_inner` (the method is there), compiled: each stage of
+    `parity` below the top tries the rates `r[k] + offsets` between its neighbours and
+    takes the one that costs least (its step down to the next stage and the step into
+    it, priced at λ = 1/f_top), within `slack` pulses. Writes the moved rates into
+    `new`; False when no stage moves. (In numpy, its temporaries were a fifth of a
+    plan.)"""
+    m = len(r)
+    lam = r[m - 1] / hz
+    cur = 0
+    while offsets[cur] != 0:
+        cur += 1
+    count = (m - 1 - parity + 1) // 2
+    picks = np.empty(count, dtype=np.int64)
+    moving = np.zeros(count, dtype=np.bool_)
+    dws = np.zeros(count)
+    total_dw = 0.0
+    any_move = False
+    for i in range(count):
+        ks = parity + 2 * i
+        upper = r[ks - 1] if ks > 0 else rate_max + 1
+        lower = r[ks + 1]
+        best = cost_cur = math.inf
+        pick = 0
+        w_pick = w_cur = 0.0
+        for o in range(len(offsets)):
+            cand = r[ks] + offsets[o]
+            ok = cand > lower and cand < upper and cand <= rate_max
+            if ks == 0:
+                ok = ok and cand >= r_start
+            if not ok:
+                if o != cur:
+                    continue  # out of range: infinite cost (pick stays the first least)
+                cand = r[ks]
+            f_c = hz / float(cand)
+            n_out, d_out, v_out = _count(float(cand), float(lower), hz, v, t, sf, friction,
+                                         load, k, edges, scale, plain, jump, separate, bands,
+                                         base_ticks, most)
+            cost = (n_out + d_out) * (1.0 / f_c - lam)
+            w = n_out + d_out
+            feasible = ok and v_out
+            if ks > 0:
+                n_in, d_in, v_in = _count(float(upper), float(cand), hz, v, t, sf, friction,
+                                          load, k, edges, scale, plain, jump, separate,
+                                          bands, base_ticks, most)
+                f_in = hz / float(upper)
+                cost = cost + (n_in + d_in) * (1.0 / f_in - lam)
+                w = w + (n_in + d_in)
+                feasible = feasible and v_in
+            else:
+                cost = cost + 0.0
+            if not feasible:
+                cost = math.inf
+            if cost < best:  # the first of equal costs, as numpy's argmin
+                best = cost
+                pick = o
+                w_pick = w
+            if o == cur:
+                cost_cur = cost
+                w_cur = w
+        picks[i] = r[ks] + offsets[pick]
+        gain = cost_cur - best
+        dws[i] = w_pick - w_cur
+        moving[i] = gain > 0 and math.isfinite(best)
+        if moving[i]:
+            total_dw += dws[i]
+    if total_dw > slack:
+        for i in range(count):
+            moving[i] = moving[i] and dws[i] <= 0
+    new[:] = r
+    for i in range(count):
+        if moving[i]:
+            new[parity + 2 * i] = picks[i]
+            any_move = True
+    return any_move
+
+
+@nb.njit(cache=True, nogil=True)
+def _switch_safe(n: np.ndarray, d: np.ndarray, extra: int) -> bool:
+    """`criterion.switch_safe_rows` for one row of decel counts `d` with `extra` pulses
+    on its top stage, the same integer arithmetic, stopping at the first triangle that
+    switches down."""
+    m = len(n)
+    a = 0
+    for k in range(m):
+        a += n[k]
+    dd = extra
+    for k in range(m):
+        dd += d[k]
+    if a == 0 or dd <= 0:
+        return False
+    total = a + dd
+    if -(-(a + dd) // a) - 1 > (d[0] + (extra if m == 1 else 0)):
+        return False  # a decel-only move would start above the slowest stage
+    cn = 0
+    cd = 0
+    for j in range(m - 1):
+        cn += n[j]
+        cd += d[j]
+        rest = -(-(cn + 1) * total // a)  # the first rest whose accel enters stage j + 1
+        if -(-(rest * dd) // total) < cd + 1:
+            return False
+    return True
+
+
+@nb.njit(cache=True, nogil=True)
+def switch_safe_tops(n: np.ndarray, d0: np.ndarray, room: np.ndarray, hi: np.ndarray,
+                     found: np.ndarray) -> None:
+    """For each row k of decel counts `d0` (rows × stages, slowest first) the fewest
+    pulses `hi[k]` ≤ `room[k]` to add on the top stage that make the table switch-safe
+    against accel counts `n`: doubling from 1 until safe, then bisection back
+    (`refine.switch_safe_decel` says why); `found[k]` False when doubling passed the room
+    first."""
+    for k in range(d0.shape[0]):
+        row = d0[k]
+        h = 0
+        ok = _switch_safe(n, row, 0)
+        if not ok and room[k] >= 1:
+            h = 1
+            while True:
+                if _switch_safe(n, row, h):
+                    ok = True
+                    break
+                h *= 2
+                if h > room[k]:
+                    break
+        lo = h // 2 if ok and h > 0 else 0
+        while ok and h - lo > 1:  # unsafe at lo (or h = 0), safe at h
+            mid = (lo + h) // 2
+            if _switch_safe(n, row, mid):
+                h = mid
+            else:
+                lo = mid
+        hi[k] = h
+        found[k] = ok

@@ -131,11 +131,11 @@ class Problem:
         n, d = np.empty(rs.size), np.empty(rs.size)
         valid = np.empty(rs.size, dtype=bool)
         stage_counts(np.ascontiguousarray(rs).ravel(),  # type: ignore[call-arg]
-                     np.ascontiguousarray(rf).ravel(), *self._count_constants, n, d, valid)
+                     np.ascontiguousarray(rf).ravel(), *self.count_constants, n, d, valid)
         return n.reshape(shape), d.reshape(shape), valid.reshape(shape)
 
     @functools.cached_property
-    def _count_constants(self) -> tuple[Any, ...]:
+    def count_constants(self) -> tuple[Any, ...]:
         """What `counts` hands the kernel besides the steps: the motor, the shaping and the
         chip's limits, prepared once per problem (the planner counts hundreds of times)."""
         m = self.motor

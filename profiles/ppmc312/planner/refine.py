@@ -8,7 +8,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..criterion import switch_safe_rows
 from ..limits import RATE_MAX, SIDE_TOTAL_MAX, STAGE_PULSES_MAX, STAGES_MIN
 from .problem import Problem, base_pulses
 
@@ -39,13 +38,24 @@ def evaluate(pb: Problem, rates: np.ndarray, budget: int,
         d = np.concatenate((d, top))
     else:
         n, d = (np.asarray(c, dtype=float) for c in counts)
-    f = pb.hz / rates.astype(float)
-    total = int(n.sum() + d.sum())
-    if (total > budget or n.sum() > SIDE_TOTAL_MAX or d.sum() > SIDE_TOTAL_MAX
-            or np.any(n > STAGE_PULSES_MAX) or np.any(d > STAGE_PULSES_MAX)):
+    time_s = float(move_times(pb, rates, budget, n, d[None, :])[0])
+    if not np.isfinite(time_s):
         return None
-    time_s = float(np.sum((n + d) / f) + (budget - total) / f[-1])
-    return Staircase(rates, n, d, time_s, total)
+    return Staircase(rates, n, d, time_s, int(n.sum() + d.sum()))
+
+
+def move_times(pb: Problem, rates: np.ndarray, budget: int, n: np.ndarray,
+               d: np.ndarray) -> np.ndarray:
+    """The move time of the staircase on `rates` with accel counts `n` for each row of
+    decel counts `d` (rows × stages), inf where the counts break a field's limit or do
+    not fit the budget."""
+    f = pb.hz / rates.astype(float)
+    d_sum = d.sum(axis=1)
+    total = n.sum() + d_sum
+    fits = ((total <= budget) & (n.sum() <= SIDE_TOTAL_MAX) & (d_sum <= SIDE_TOTAL_MAX)
+            & ~np.any(n > STAGE_PULSES_MAX) & ~np.any(d > STAGE_PULSES_MAX, axis=1))
+    times = np.sum((n + d) / f, axis=1) + (budget - total) / f[-1]
+    return np.where(fits, times, np.inf)
 
 
 def refine_rates(pb: Problem, ev: Staircase, budget: int, sweeps: int = 3) -> Staircase:
@@ -72,43 +82,17 @@ def refine_rates(pb: Problem, ev: Staircase, budget: int, sweeps: int = 3) -> St
 
 def _refine_inner(pb: Problem, ev: Staircase, budget: int, parity: int,
                   offsets: np.ndarray) -> Staircase | None:
-    r = ev.rates
-    m = len(r)
-    ks = np.arange(parity, m - 1, 2)  # stages that move (never the top here)
-    if len(ks) == 0:
+    """Every other stage below the top (from `parity`) moved at once, its neighbours
+    fixed: each to the rate among `r + offsets` whose step down to the next stage and
+    step into it cost least at λ = 1/f_top, if it costs less than its own; when the
+    moves together raise the pulses past the budget's slack, only those that do not
+    add pulses. Compiled (dp_kernel.refine_inner)."""
+    from .dp_kernel import refine_inner
+
+    new = np.empty_like(ev.rates)
+    if not refine_inner(ev.rates, offsets, parity, pb.r_start, RATE_MAX,
+                        float(budget - ev.total), new, *pb.count_constants):
         return None
-    lam = r[-1] / pb.hz
-    cand = r[ks][:, None] + offsets[None, :]
-    upper = np.where(ks > 0, r[np.maximum(ks - 1, 0)], RATE_MAX + 1)[:, None]
-    lower = r[ks + 1][:, None]
-    ok = (cand > lower) & (cand < upper) & (cand <= RATE_MAX)
-    ok &= np.where(ks[:, None] == 0, cand >= pb.r_start, True)
-    cand = np.where(ok, cand, r[ks][:, None])
-    f_c = pb.hz / cand.astype(float)
-    n_out, d_out, v_out = pb.counts(cand, np.broadcast_to(lower, cand.shape))
-    cost = (n_out + d_out) * (1.0 / f_c - lam)
-    w = n_out + d_out
-    has_in = ks > 0
-    r_in = np.broadcast_to(upper, cand.shape)
-    n_in, d_in, v_in = pb.counts(np.where(has_in[:, None], r_in, cand + 1), cand)
-    f_in = pb.hz / r_in.astype(float)
-    cost = cost + np.where(has_in[:, None], (n_in + d_in) * (1.0 / f_in - lam), 0.0)
-    w = w + np.where(has_in[:, None], n_in + d_in, 0.0)
-    feasible = ok & v_out & np.where(has_in[:, None], v_in, True)
-    cost = np.where(feasible, cost, np.inf)
-    cur = np.flatnonzero(offsets == 0)[0]
-    pick = np.argmin(cost, axis=1)
-    rows = np.arange(len(ks))
-    gain = cost[rows, cur] - cost[rows, pick]
-    dw = w[rows, pick] - w[rows, cur]
-    slack = budget - ev.total
-    move = (gain > 0) & np.isfinite(cost[rows, pick])
-    if np.sum(np.where(move, dw, 0)) > slack:
-        move &= dw <= 0
-    if not np.any(move):
-        return None
-    new = r.copy()
-    new[ks[move]] = cand[rows[move], pick[move]]
     return evaluate(pb, new, budget)
 
 
@@ -203,39 +187,17 @@ def switch_safe_decel(pb: Problem, ev: Staircase, budget: int) -> Staircase | No
     every c at once: doubling until safe, then bisection back. (Safe top pulses are an
     interval, not a ray: far too many shift the accel:decel ratio so that short
     triangles switch down again — doubling from 1 finds its first part.)"""
+    from .dp_kernel import switch_safe_tops
+
     floors = np.linspace(0.0, 1.0, 21)
     d0 = np.maximum(ev.d[None, :], np.ceil(floors[:, None] * ev.n[None, :])).astype(np.int64)
     room = np.minimum(SIDE_TOTAL_MAX, budget) - d0.sum(axis=1)  # top pulses that can fit
-
-    def safe(extra: np.ndarray) -> np.ndarray:
-        d = d0.copy()
-        d[:, -1] += extra
-        return switch_safe_rows(ev.n, d)
-
     hi = np.zeros(len(floors), dtype=np.int64)
-    found = safe(hi)
-    searching = ~found & (room >= 1)
-    hi[searching] = 1
-    while searching.any():  # double each unsafe row's top pulses until safe or too many
-        ok = safe(hi) & searching
-        found |= ok
-        searching &= ~ok
-        hi = np.where(searching, hi * 2, hi)
-        searching &= hi <= room
-    lo = np.where(found & (hi > 0), hi // 2, 0)  # unsafe at lo (or hi = 0), safe at hi
-    while True:
-        open_ = found & (hi - lo > 1)
-        if not open_.any():
-            break
-        mid = (lo + hi) // 2
-        ok = safe(np.where(open_, mid, hi))
-        hi = np.where(open_ & ok, mid, hi)
-        lo = np.where(open_ & ~ok, mid, lo)
-    best: Staircase | None = None
-    for k in np.flatnonzero(found).tolist():
-        d = d0[k].astype(float)
-        d[-1] += hi[k]
-        cand = evaluate(pb, ev.rates, budget, (ev.n, d))
-        if cand is not None and (best is None or cand.time_s < best.time_s):
-            best = cand
-    return best
+    found = np.zeros(len(floors), dtype=np.bool_)
+    switch_safe_tops(ev.n.astype(np.int64), d0, room, hi, found)  # compiled: row by row
+    d = d0[found].astype(float)
+    d[:, -1] += hi[found]
+    times = move_times(pb, ev.rates, budget, ev.n, d)
+    if not np.any(np.isfinite(times)):
+        return None
+    return evaluate(pb, ev.rates, budget, (ev.n, d[int(np.argmin(times))]))

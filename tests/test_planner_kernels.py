@@ -1,0 +1,249 @@
+"""The planner's compiled kernels (profiles.ppmc312.planner.dp_kernel) equal, to the bit,
+the numpy they replaced, kept here as oracles: the DP's layers (which skip the nodes none
+of whose predecessors improved), the refinement's move of every other stage, and the
+search for switch-safe top pulses. Over random motors, shapings, LE variants and
+staircases, so that a plan is the same table whichever runs it."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from test_stage_counts import motors
+
+from profiles.motor import Motor
+from profiles.ppmc312.criterion import switch_safe_rows
+from profiles.ppmc312.limits import RATE_MAX, SIDE_TOTAL_MAX
+from profiles.ppmc312.planner import Shaping, choose_clock, make_problem
+from profiles.ppmc312.planner.dp_kernel import switch_safe_tops
+from profiles.ppmc312.planner.problem import Problem
+from profiles.ppmc312.planner.refine import Staircase, _refine_inner, evaluate
+from profiles.ppmc312.planner.search import GRID_TARGET, graph, grid_rates, run_dp
+
+SETTINGS = settings(max_examples=40, deadline=None,
+                    suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+
+
+def problem(motor: Motor, separate: bool, shaped: int, rng: np.random.Generator) -> Problem:
+    shaping = (None, Shaping.uniform(float(rng.uniform(0.4, 1.0))),
+               Shaping.bands(motor).scaled({1: float(rng.uniform(0.4, 1.0)),
+                                            2: float(rng.uniform(0.4, 1.0))}))[shaped]
+    slowest = replace(motor, start_pps=motor.start_pps * (shaping or Shaping()).start_scale)
+    return make_problem(motor, choose_clock(slowest), separate, shaping)
+
+
+# --- the DP's layers -------------------------------------------------------------------------
+def layers_oracle(pred: np.ndarray, cost: np.ndarray, packed_w: np.ndarray, start: np.ndarray,
+                  f: np.ndarray, start_f: float, jump: float, max_stages: int
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every node of every layer computed (numpy per layer): (value, packed, parents)."""
+    g = len(f)
+    value = np.where(start, 0.0, np.inf)
+    packed = np.zeros(g, dtype=np.int64)
+    parents = np.full((max_stages + 1, g), -1, dtype=np.int32)
+    rows = np.arange(g)
+    for m in range(2, max_stages + 1):
+        hi = min(int(np.searchsorted(f, start_f + (m - 1) * jump * (1 + 1e-9), side="right")),
+                 g)
+        prev, prev_packed = value.copy(), packed.copy()
+        total = prev[pred[:hi]] + cost[:hi]
+        pick = np.argmin(total, axis=1)
+        best = total[rows[:hi], pick]
+        src = pred[rows[:hi], pick]
+        if m == 2:
+            better = np.isfinite(best)
+            value[:hi] = best
+            packed[:hi] = np.where(better, packed_w[rows[:hi], pick], 0)
+        else:
+            better = best < prev[:hi]
+            value[:hi] = np.where(better, best, prev[:hi])
+            packed[:hi] = np.where(better, prev_packed[src] + packed_w[rows[:hi], pick],
+                                   prev_packed[:hi])
+        parents[m, :hi] = np.where(better, src, -1)
+        if m > 2 and hi == g and not better.any():
+            return value, packed, parents[:m]
+    return value, packed, parents
+
+
+@SETTINGS
+@given(motors(), st.booleans(), st.integers(0, 2), st.integers(2, 127),
+       st.integers(0, 2**32 - 1))
+def test_layers_equal_every_node_computed(motor: Motor, separate: bool, shaped: int,
+                                          max_stages: int, seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    pb = problem(motor, separate, shaped, rng)
+    gr = graph(pb, grid_rates(pb, int(rng.integers(50, GRID_TARGET))))
+    lam = float(rng.choice([0.0, 1.0 / gr.f[-1], 1.0 / gr.f[len(gr.f) // 2]]))
+    dp = run_dp(gr, lam, max_stages, pb.start, pb.jump)
+    cost = np.where(gr.valid, gr.w * (1.0 / gr.f[gr.pred] - lam), np.inf)
+    packed_w = (gr.w.astype(np.int64) << 32) + gr.wa.astype(np.int64)
+    value, packed, parents = layers_oracle(gr.pred, cost, packed_w, gr.start, gr.f,
+                                           pb.start, pb.jump, max_stages)
+    assert np.array_equal(dp.value, value)
+    assert np.array_equal(dp.pulses, (packed >> 32).astype(float))
+    assert np.array_equal(dp.accel, (packed & 0xFFFFFFFF).astype(float))
+    assert np.array_equal(dp.parent, parents)
+
+
+def test_layers_skip_most_nodes_yet_find_the_same_paths() -> None:
+    """A bundled motor's DP: the same layers as every node computed (the skip is the
+    point: most nodes of a late layer have no predecessor that improved)."""
+    from profiles.motor import bundled_motor_paths, load_motor
+
+    motor = load_motor(next(p for p in bundled_motor_paths() if "nema23" in p.name))
+    pb = make_problem(motor, choose_clock(motor), False)
+    gr = graph(pb, grid_rates(pb, GRID_TARGET))
+    lam = 1.0 / gr.f[-1]
+    dp = run_dp(gr, lam, 127, pb.start, pb.jump)
+    cost = np.where(gr.valid, gr.w * (1.0 / gr.f[gr.pred] - lam), np.inf)
+    packed_w = (gr.w.astype(np.int64) << 32) + gr.wa.astype(np.int64)
+    value, _, parents = layers_oracle(gr.pred, cost, packed_w, gr.start, gr.f, pb.start,
+                                      pb.jump, 127)
+    assert np.array_equal(dp.value, value) and np.array_equal(dp.parent, parents)
+    assert len(dp.parent) > 100  # many layers: the skip has work to save
+
+
+# --- the refinement --------------------------------------------------------------------------
+def refine_inner_oracle(pb: Problem, ev: Staircase, budget: int, parity: int,
+                        offsets: np.ndarray) -> Staircase | None:
+    """`refine._refine_inner` as numpy over every stage and offset at once."""
+    r = ev.rates
+    m = len(r)
+    ks = np.arange(parity, m - 1, 2)
+    if len(ks) == 0:
+        return None
+    lam = r[-1] / pb.hz
+    cand = r[ks][:, None] + offsets[None, :]
+    upper = np.where(ks > 0, r[np.maximum(ks - 1, 0)], RATE_MAX + 1)[:, None]
+    lower = r[ks + 1][:, None]
+    ok = (cand > lower) & (cand < upper) & (cand <= RATE_MAX)
+    ok &= np.where(ks[:, None] == 0, cand >= pb.r_start, True)
+    cand = np.where(ok, cand, r[ks][:, None])
+    f_c = pb.hz / cand.astype(float)
+    n_out, d_out, v_out = pb.counts(cand, np.broadcast_to(lower, cand.shape))
+    with np.errstate(invalid="ignore"):
+        cost = (n_out + d_out) * (1.0 / f_c - lam)
+        w = n_out + d_out
+        has_in = ks > 0
+        r_in = np.broadcast_to(upper, cand.shape)
+        n_in, d_in, v_in = pb.counts(np.where(has_in[:, None], r_in, cand + 1), cand)
+        f_in = pb.hz / r_in.astype(float)
+        cost = cost + np.where(has_in[:, None], (n_in + d_in) * (1.0 / f_in - lam), 0.0)
+        w = w + np.where(has_in[:, None], n_in + d_in, 0.0)
+        feasible = ok & v_out & np.where(has_in[:, None], v_in, True)
+        cost = np.where(feasible, cost, np.inf)
+        cur = np.flatnonzero(offsets == 0)[0]
+        pick = np.argmin(cost, axis=1)
+        rows = np.arange(len(ks))
+        gain = cost[rows, cur] - cost[rows, pick]
+        dw = w[rows, pick] - w[rows, cur]
+    slack = budget - ev.total
+    move = (gain > 0) & np.isfinite(cost[rows, pick])
+    if np.sum(np.where(move, dw, 0)) > slack:
+        move &= dw <= 0
+    if not np.any(move):
+        return None
+    new = r.copy()
+    new[ks[move]] = cand[rows[move], pick[move]]
+    return evaluate(pb, new, budget)
+
+
+def staircase(pb: Problem, rng: np.random.Generator, budget: int) -> Staircase | None:
+    """A random valid staircase of the problem's grid: rates rising in speed, each step
+    within the jump limit, the slowest at or below the start speed."""
+    rates = grid_rates(pb, 400)
+    gr = graph(pb, rates)
+    starts = np.flatnonzero(gr.start)
+    if not len(starts):
+        return None
+    path = [int(rng.choice(starts))]
+    while path[-1] < len(rates) - 1 and rng.random() > 0.03:
+        j = path[-1]
+        nxt = np.flatnonzero(gr.valid[:, :] & (gr.pred == j))
+        succ = nxt // gr.pred.shape[1]
+        succ = succ[succ > j]
+        if not len(succ):
+            break
+        path.append(int(rng.choice(succ)))
+    return evaluate(pb, rates[path], budget)
+
+
+OFFSETS = np.unique(np.concatenate((np.arange(-24, 25), np.round(np.geomspace(25, 4000, 24)),
+                                    -np.round(np.geomspace(25, 4000, 24))))).astype(np.int64)
+
+
+@SETTINGS
+@given(motors(), st.booleans(), st.integers(0, 2), st.integers(0, 2**32 - 1))
+def test_refinement_moves_the_stages_numpy_moved(motor: Motor, separate: bool, shaped: int,
+                                                 seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    pb = problem(motor, separate, shaped, rng)
+    budget = int(rng.choice([100, 2_000, 50_000, 10_000_000]))
+    ev = staircase(pb, rng, 10 * SIDE_TOTAL_MAX)
+    if ev is None:
+        return
+    for parity in (0, 1):
+        for slack_budget in (budget, ev.total, 10 * SIDE_TOTAL_MAX):
+            got = _refine_inner(pb, ev, slack_budget, parity, OFFSETS)
+            want = refine_inner_oracle(pb, ev, slack_budget, parity, OFFSETS)
+            assert (got is None) == (want is None)
+            if got is not None and want is not None:
+                assert np.array_equal(got.rates, want.rates)
+                assert got.time_s == want.time_s
+
+
+# --- switch-safe top pulses ------------------------------------------------------------------
+def switch_safe_tops_oracle(n: np.ndarray, d0: np.ndarray, room: np.ndarray
+                            ) -> tuple[np.ndarray, np.ndarray]:
+    """Every row at once with `switch_safe_rows`: doubling until safe, then bisection."""
+    def safe(extra: np.ndarray) -> np.ndarray:
+        d = d0.copy()
+        d[:, -1] += extra
+        return switch_safe_rows(n, d)
+
+    hi = np.zeros(len(d0), dtype=np.int64)
+    found = safe(hi)
+    searching = ~found & (room >= 1)
+    hi[searching] = 1
+    while searching.any():
+        ok = safe(hi) & searching
+        found |= ok
+        searching &= ~ok
+        hi = np.where(searching, hi * 2, hi)
+        searching &= hi <= room
+    lo = np.where(found & (hi > 0), hi // 2, 0)
+    while True:
+        open_ = found & (hi - lo > 1)
+        if not open_.any():
+            break
+        mid = (lo + hi) // 2
+        ok = safe(np.where(open_, mid, hi))
+        hi = np.where(open_ & ok, mid, hi)
+        lo = np.where(open_ & ~ok, mid, lo)
+    return hi, found
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.integers(1, 3000), min_size=1, max_size=12), st.integers(0, 2**32 - 1))
+def test_switch_safe_tops_equal_every_row_at_once(n: list[int], seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    accel = np.asarray(n, dtype=np.int64)
+    floors = np.linspace(0.0, 1.0, 11)
+    d0 = np.maximum(rng.integers(1, 3000, len(n))[None, :],
+                    np.ceil(floors[:, None] * accel[None, :])).astype(np.int64)
+    room = int(rng.choice([0, 1, 50, 5_000, SIDE_TOTAL_MAX])) - d0.sum(axis=1)
+    hi = np.zeros(len(floors), dtype=np.int64)
+    found = np.zeros(len(floors), dtype=np.bool_)
+    switch_safe_tops(accel, d0, room, hi, found)
+    want_hi, want_found = switch_safe_tops_oracle(accel, d0, room)
+    assert np.array_equal(found, want_found)
+    assert np.array_equal(hi[found], want_hi[want_found])
+    for k in np.flatnonzero(found):  # the top pulses found are safe, one fewer is not
+        d = d0[k].copy()
+        d[-1] += hi[k]
+        assert switch_safe_rows(accel, d[None, :])[0]
+        if hi[k] > 0:
+            d[-1] -= 1
+            assert not switch_safe_rows(accel, d[None, :])[0]
