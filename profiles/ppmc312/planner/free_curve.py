@@ -3,7 +3,9 @@ baseline method; the table written from the staircase."""
 
 from __future__ import annotations
 
+import os
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 from types import MappingProxyType
 
@@ -117,23 +119,26 @@ def _plan(motor: Motor, clock: Clock, max_stages: int, pulses: int | None, kinds
         if safe is not None:
             variants.append((safe, not np.array_equal(safe.n, safe.d), kind))
 
-    refused: list[PlanError] = []  # a variant with no table leaves the others
-
-    def staircase(separate: bool) -> Staircase | None:
+    def staircase(separate: bool) -> Staircase | PlanError:
         try:
             return plan_staircase(motor, clock, max_stages, budget, separate, **kw)  # type: ignore[arg-type]
         except PlanError as e:
-            refused.append(e)
-            return None
+            return e  # a variant with no table leaves the others
 
+    sides = [sep for sep, wanted in ((True, "LE=1" in kinds), (False, "LE=0" in kinds or
+                                     "LE=1 on LE=0's rates" in kinds)) if wanted]
+    # the two DPs are independent, and their kernels release the GIL: side by side
+    found = dict(zip(sides, _pool().map(staircase, sides) if len(sides) > 1
+                     else map(staircase, sides), strict=True))
+    refused = [e for e in found.values() if isinstance(e, PlanError)]
+    ev1, ev0 = (None if isinstance(e, PlanError) else e for e in
+                (found.get(True), found.get(False)))
     if "LE=1" in kinds:
-        switch_safe(staircase(True), "LE=1")
-    if "LE=0" in kinds or "LE=1 on LE=0's rates" in kinds:
-        ev0 = staircase(False)
-        if ev0 is not None and "LE=1 on LE=0's rates" in kinds:
-            switch_safe(own_decel_counts(pb, ev0, budget), "LE=1 on LE=0's rates")
-        if ev0 is not None and "LE=0" in kinds:
-            variants.append((ev0, False, "LE=0"))
+        switch_safe(ev1, "LE=1")
+    if ev0 is not None and "LE=1 on LE=0's rates" in kinds:
+        switch_safe(own_decel_counts(pb, ev0, budget), "LE=1 on LE=0's rates")
+    if ev0 is not None and "LE=0" in kinds:
+        variants.append((ev0, False, "LE=0"))
     if not variants:
         if refused:
             raise refused[-1]  # a DP had no table: its reason says why
@@ -157,6 +162,17 @@ def _plan(motor: Motor, clock: Clock, max_stages: int, pulses: int | None, kinds
         binds = "stall criterion (capability and jump limit)"
     return Plan(table, ev.time_s, binds, info, pulses, clock, time.perf_counter() - t0,
                 extras=MappingProxyType({"variant": kind}))  # read-only: plans are shared
+
+
+_POOLS: dict[int, ThreadPoolExecutor] = {}
+
+
+def _pool() -> ThreadPoolExecutor:
+    """The process's two planner threads, kept between plans (a forked child, a sweep's
+    worker, starts its own: its parent's threads did not come with it)."""
+    if os.getpid() not in _POOLS:
+        _POOLS[os.getpid()] = ThreadPoolExecutor(2, thread_name_prefix="planner")
+    return _POOLS[os.getpid()]
 
 
 def plan_free_curve(motor: Motor, *, clock: Clock | None = None, max_stages: int = 127,
