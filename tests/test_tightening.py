@@ -11,6 +11,7 @@ from oracle_moves import worst_whole_move
 
 from profiles.motor import Motor, bundled_motor_paths, load_motor
 from profiles.motor.angles import AIM_DEG
+from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.load_angle import angles, worst_load_angle
 from profiles.ppmc312.planner import Shaping, plan, plan_free_curve
 from profiles.ppmc312.planner.tightening import culprits, tighten_uniform
@@ -143,3 +144,92 @@ def test_no_plain_table_is_a_plan_error_not_a_gentler_search() -> None:
     with pytest.raises(PlanError, match="no table for this move"):
         tighten(NEMA23, make, AIM_DEG)  # type: ignore[arg-type]
     assert calls == [None]
+
+
+# --- starting from a shaping (a duty cycle's later candidates) ------------------------------
+def counting_make(pulses: int, calls: list[Shaping | None]) -> object:
+    def make(m: Motor, sh: Shaping | None = None) -> object:
+        calls.append(sh)
+        return plan(m, None, 127, pulses, None, shaping=sh)
+    return make
+
+
+def test_a_start_within_the_aim_is_one_attempt_and_kept() -> None:
+    """Where tightening ended for one move of a motor is where its other moves ring: from
+    it, a move whose table it keeps within the aim takes one plan, not a search."""
+    from profiles.ppmc312.planner.tightening import tighten
+
+    first = plan_free_curve(NEMA23, pulses=31_623, load_angle_deg=AIM_DEG)
+    start = first.extras["shaping"]
+    assert not start.plain
+    calls: list[Shaping | None] = []
+    warm = tighten(NEMA23, counting_make(10_000, calls), AIM_DEG,  # type: ignore[arg-type]
+                   start=start)
+    assert calls == [start] and warm.extras["shaping"] == start
+    assert warm.extras["worst_load_angle_deg"] <= AIM_DEG
+    assert judge_safety(warm.table, NEMA23).within_aim
+    cold: list[Shaping | None] = []
+    tighten(NEMA23, counting_make(10_000, cold), AIM_DEG)  # type: ignore[arg-type]
+    assert len(cold) > 1 and cold[0] is None  # from the plain criterion: a search
+
+
+def test_a_start_past_the_aim_goes_on_tightening_from_there() -> None:
+    from profiles.ppmc312.planner.tightening import tighten
+
+    start = Shaping.bands(NEMA23).scaled({0: 0.99})  # all but plain: NEMA23 rings past 75°
+    calls: list[Shaping | None] = []
+    got = tighten(NEMA23, counting_make(10_000, calls), AIM_DEG,  # type: ignore[arg-type]
+                  start=start)
+    assert calls[0] == start and len(calls) > 1 and None not in calls
+    assert all(s is not None and s.scale[0] <= 0.99 for s in calls)  # never back past it
+    assert got.extras["worst_load_angle_deg"] <= AIM_DEG
+
+
+def test_a_start_with_no_table_or_another_motors_bands_begins_plain() -> None:
+    """A start too gentle for the move (no table fits it) begins again from the plain
+    criterion; one from another motor's bands is not this motor's ringing: ignored.
+    Both end where tightening from the plain criterion does."""
+    from profiles.ppmc312.planner.tightening import tighten
+
+    cold = plan_free_curve(NEMA23, pulses=300, load_angle_deg=AIM_DEG)
+    edges = Shaping.bands(NEMA23).edges_pps
+    too_gentle = Shaping(edges, (0.05,) * (len(edges) + 1), 0.05)
+    other = Shaping.bands(MOTORS["pk566-5phase-half"]).scaled({2: 0.5})
+    for start in (too_gentle, other):
+        calls: list[Shaping | None] = []
+        got = tighten(NEMA23, counting_make(300, calls), AIM_DEG,  # type: ignore[arg-type]
+                      start=start)
+        assert None in calls and calls[-1] != start
+        assert got.table == cold.table
+
+
+def test_a_duty_cycle_starts_later_candidates_where_the_first_ended() -> None:
+    """plan --moves with a load-angle aim: the first candidate tightened from the plain
+    criterion, the later ones from where it ended; every table within the aim, and
+    never worse on the mix than the first tightened candidate's."""
+    import profiles.ppmc312.planner.duty_cycle as dc
+
+    starts: list[Shaping | None] = []
+    real = dc.plan_free_curve
+
+    def spy(motor: Motor, **kw: object) -> object:
+        if kw.get("load_angle_deg") is not None:
+            starts.append(kw.get("start_shaping"))  # type: ignore[arg-type]
+        return real(motor, **kw)  # type: ignore[arg-type]
+
+    mix = [(300, 4.0), (2_000, 3.0), (10_000, 2.0), (100_000, 1.0)]
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(dc, "plan_free_curve", spy)
+        got, times = dc.plan_duty_cycle(NEMA23, mix, load_angle_deg=AIM_DEG)
+    assert len(starts) >= 2 and starts[0] is None
+    assert all(s is not None and not s.plain for s in starts[1:])
+    assert judge_safety(got.table, NEMA23).within_aim
+    assert got.duration_s == pytest.approx(sum(w * times[n] for n, w in mix), rel=1e-12)
+
+    def on_mix(table: object) -> float:
+        return sum(w * simulate_move(table, n).duration_s for n, w in mix)  # type: ignore[arg-type]
+
+    # the first tightened: the candidate whose plain table is best on the mix
+    first = min(got.extras["candidates"], key=lambda t: on_mix(real(NEMA23, pulses=t).table))
+    tightened = real(NEMA23, pulses=first, load_angle_deg=AIM_DEG)
+    assert got.duration_s <= on_mix(tightened.table) * (1 + 1e-12)

@@ -132,7 +132,9 @@ def plan_duty_cycle(motor: Motor, mix: list[tuple[int, float]], *, clock: Clock 
     `load_angle_deg`, every candidate is planned by the criterion first, and only those
     whose plain table could still beat the best tightened one so far are tightened,
     best first (tightening makes a table gentler, so its mix is no faster than the
-    plain table's: they are the bound).
+    plain table's: they are the bound); the first from the plain criterion, the later
+    ones from the shaping the first ended with (the bands that ring are the motor's:
+    one plan each where that shaping keeps them within the aim, instead of a search).
     `progress` hears each candidate planned. Returns the plan (`duration_s` the weighted
     time, `extras["candidates"]` the lengths planned for) and each length's time."""
     from ...progress import track
@@ -161,14 +163,17 @@ def plan_duty_cycle(motor: Motor, mix: list[tuple[int, float]], *, clock: Clock 
         plain.append((total, target))
         if load_angle_deg is None and (best is None or total < best[0]):
             best = (total, plan, times)
+    rang = None  # where the first tightened candidate's bands ended: the motor's ringing
     for bound, target in sorted(plain) if load_angle_deg is not None else ():
         if best is not None and bound >= best[0]:
             break  # neither this plain table nor any later one beats the best tightened
         try:
             plan = plan_free_curve(motor, clock=clock, max_stages=max_stages, pulses=target,
-                                   separate_decel=separate_decel, load_angle_deg=load_angle_deg)
+                                   separate_decel=separate_decel, load_angle_deg=load_angle_deg,
+                                   start_shaping=rang)
         except PlanError:
             continue
+        rang = rang or plan.extras["shaping"]
         times = move_times_s(plan.table, lengths)
         total = float(np.dot(weights, times))
         if best is None or total < best[0]:

@@ -3,6 +3,7 @@ baseline method; the table written from the staircase."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -177,7 +178,8 @@ def _pool() -> ThreadPoolExecutor:
 
 def plan_free_curve(motor: Motor, *, clock: Clock | None = None, max_stages: int = 127,
                     pulses: int | None = None, separate_decel: bool | None = None,
-                    load_angle_deg: float | None = None) -> Plan:
+                    load_angle_deg: float | None = None,
+                    start_shaping: Shaping | None = None) -> Plan:
     """The stall-safe free curve that minimises the move time of `pulses` (None: the
     reference move of `reference_pulses(motor)`); separate_decel None picks LE=1 only
     when it is faster. The table passes the criterion for every move length the chip
@@ -205,14 +207,20 @@ def plan_free_curve(motor: Motor, *, clock: Clock | None = None, max_stages: int
             chosen[:] = [result.extras["variant"]]
         return result
 
-    if not motor.tolerances:
-        return make(motor) if load_angle_deg is None else tighten(motor, make, load_angle_deg)
-    from ...motor.tolerance import corners, worst_case_motor
+    if motor.tolerances:
+        from ...motor.tolerance import corners, worst_case_motor
 
-    worst = worst_case_motor(motor)
+        planned, judges = worst_case_motor(motor), [c.motor for c in corners(motor)]
+    else:
+        planned, judges = motor, [motor]
     if load_angle_deg is None:
-        return make(worst)
-    return tighten(worst, make, load_angle_deg, judges=[c.motor for c in corners(motor)])
+        return make(planned)
+    if start_shaping is not None:
+        # the variant the plain criterion picks, for the gentler plans to keep (a duty
+        # cycle, which starts tightening from a shaping, planned it already: remembered)
+        with contextlib.suppress(PlanError):
+            make(planned)
+    return tighten(planned, make, load_angle_deg, judges=judges, start=start_shaping)
 
 
 def plan_baseline(motor: Motor, *, clock: Clock | None = None, max_stages: int = 127,

@@ -49,24 +49,34 @@ TIGHTEN_BISECT = 2
 
 
 def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
-            judges: Sequence[Motor] | None = None) -> Plan:
+            judges: Sequence[Motor] | None = None, start: Shaping | None = None) -> Plan:
     """Plan with `make`, judge the table's load angle over every execution on `judges`
     (default: `motor`; a tolerance box's corners), and while some execution exceeds
     `load_angle_deg`, plan again more gently in the speed bands that drove it (module
     docstring). Refuses when nothing gets below the 90° peak. The plan's
-    `extras["worst_load_angle_deg"]` and `extras["shaping"]` say what was reached."""
+    `extras["worst_load_angle_deg"]` and `extras["shaping"]` say what was reached.
+
+    `start`: a shaping to try first instead of the plain criterion, e.g. where another
+    move of the same motor ended (a duty cycle's candidates: the bands that ring are the
+    motor's). Within the aim, it is kept as it is (nothing past the aim is known to
+    relax towards); past it, tightening goes on from there; when it leaves no table for
+    this move, from the plain criterion."""
     _check_aim(load_angle_deg)
     t0 = time.perf_counter()
     judges = list(judges or [motor])
-    shaping = Shaping.bands(motor)
+    plain = Shaping.bands(motor)
+    warm = start is not None and not start.plain and start.edges_pps == plain.edges_pps
+    shaping = start if warm and start is not None else plain
     tried: list[Plan] = []
-    failed: Shaping | None = None   # the last shaping past the aim
+    # the last shaping past the aim; from a start, the plain criterion is taken to be
+    # (tightening began from it, and ended at `start`, for another move)
+    failed: Shaping | None = None
 
     def attempt(shaping: Shaping) -> tuple[Plan, Angles] | None:
         try:
             plan = make(motor, None if shaping.plain else shaping)
         except PlanError:
-            if not tried:
+            if not tried and shaping.plain:
                 raise  # the plain criterion has no table: nothing gentler has one either
             return None  # too gentle for the move: the bands went too far
         found = angles(plan.table, judges)  # remembered: the verdict asks again
@@ -76,6 +86,8 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
 
     for _ in range(LOCAL_ROUNDS):
         done = attempt(shaping)
+        if done is None and not tried and not shaping.plain:
+            done = attempt(shaping := plain)  # the start left no table: begin plain
         if done is None:
             break
         plan, found = done
