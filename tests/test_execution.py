@@ -21,6 +21,7 @@ from profiles.ppmc312.execution import (
     Execution,
     MoveParameterError,
     simulate_move,
+    simulate_moves,
     to_csv,
 )
 from profiles.ppmc312.table import FreeCurveTable, InitTable
@@ -599,3 +600,19 @@ def test_edges_repeat_the_last_speed_not_the_first() -> None:
     t, x, v = simulate_move(LONG_DECEL, 1000).edges()
     assert v[0] == pytest.approx(1e6 / 300) and list(v[-2:]) == [2000.0, 2000.0]
     assert x[-1] == 1000 and len(t) == len(x) == len(v)
+
+
+@settings(max_examples=100, deadline=None)
+@given(table=tables(), lengths=st.lists(st.integers(1, 3000), min_size=1, max_size=8),
+       pick=st.integers(0, 10**6), use_high=st.booleans())
+def test_several_moves_at_once_are_each_move_alone(table: FreeCurveTable, lengths: list[int],
+                                                   pick: int, use_high: bool) -> None:
+    lo, hi = min(table.rates), max(table.rates)
+    high = lo + pick % (hi - lo + 1) if use_high else 0
+    assert simulate_moves(table, lengths, high_rate=high) == [
+        simulate_move(table, n, high_rate=high) for n in lengths]
+
+
+def test_several_moves_refuse_a_bad_length() -> None:
+    with pytest.raises(MoveParameterError, match="pulses"):
+        simulate_moves(COMMON, [10, 0])

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import functools
 import io
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal, NamedTuple
 
@@ -437,6 +437,18 @@ def simulate_move(table: FreeCurveTable | InitTable, pulses: int, *, high_rate: 
     return _execute(table, sides, int(pulses), held_by_run)
 
 
+def simulate_moves(table: FreeCurveTable | InitTable, pulses: Sequence[int], *,
+                   high_rate: int = 0) -> list[Execution]:
+    """`simulate_move` for each of several lengths, their segments assembled at once (a
+    move alone costs most of that)."""
+    for n in pulses:
+        _check_pulses(n)
+    free, sides = _sides(table, high_rate)
+    batch = sides.moves(np.asarray(pulses, dtype=np.int64).reshape(-1))
+    return [_execution(free, sides, int(n), SHAPES[int(batch.shape[e])], batch.runs(e))
+            for e, n in enumerate(pulses)]
+
+
 def moves(table: FreeCurveTable | InitTable, pulses: Any, *, high_rate: int = 0,
           compiled: bool = False) -> MoveBatch:
     """The accel/decel moves of the given lengths, all at once, as flat segment arrays
@@ -452,7 +464,11 @@ def moves(table: FreeCurveTable | InitTable, pulses: Any, *, high_rate: int = 0,
 
 def _execute(table: FreeCurveTable, sides: _Sides, pulses: int,
              held_by_run: bool = False) -> Execution:
-    shape, runs = sides.runs(pulses)
+    return _execution(table, sides, pulses, *sides.runs(pulses), held_by_run)
+
+
+def _execution(table: FreeCurveTable, sides: _Sides, pulses: int, shape: Shape, runs: Plan,
+               held_by_run: bool = False) -> Execution:
     segments: list[Segment] = []
     tick = 0
     for phase, rate, count in runs:

@@ -29,8 +29,8 @@ import numpy as np
 from ...errors import FieldRangeError, PlanError
 from ...motor import Motor
 from ...motor.angles import PEAK_DEG
-from ...motor.rotor import follow, rotor_of
-from ..execution import simulate_move
+from ...motor.rotor import Rotor, follow, rotor_of
+from ..execution import simulate_moves
 from ..load_angle import Angles, angles, spans_of
 from ..table import FreeCurveTable
 from .free_curve import Plan
@@ -150,12 +150,16 @@ def culprits(table: FreeCurveTable, judges: Sequence[Motor], found: Angles, aim_
     blame = Blame()
     per_move = found.deg.max(axis=0)
     over = np.flatnonzero(per_move > aim_deg)
-    for e in over[np.argsort(per_move[over])[::-1]][:CULPRITS].tolist():
+    worst = over[np.argsort(per_move[over])[::-1]][:CULPRITS].tolist()
+    runs = simulate_moves(table, [int(found.lengths[e]) for e in worst])
+    rotor_list: dict[int, Rotor] = {}  # by row of `found` (a motor and a direction)
+    for e, run in zip(worst, runs, strict=True):
         row = int(np.argmax(found.deg[:, e]))
-        motor = judges[int(found.owner[row])]
-        rotor = rotor_of(motor, direction=int(found.direction[row]))
+        if row not in rotor_list:
+            rotor_list[row] = rotor_of(judges[int(found.owner[row])],
+                                       direction=int(found.direction[row]))
+        rotor = rotor_list[row]
         step = rotor.step_s()
-        run = simulate_move(table, int(found.lengths[e]))
         trace = follow(rotor, spans_of(run, rotor, step), step_s=step)
         t_worst = float(trace.t_s[int(np.argmax(np.abs(trace.lag)))])
         speed = float(run.speed_at(min(t_worst, run.duration_s * (1 - 1e-12))))
