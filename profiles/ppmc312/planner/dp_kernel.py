@@ -113,11 +113,10 @@ def _least_torque(lo: float, hi: float, v: np.ndarray, t: np.ndarray) -> float:
     return least
 
 
-@nb.njit(cache=True, nogil=True, inline="always")
-def _count(r_slow: float, r_fast: float, hz: float, v: np.ndarray, t: np.ndarray, sf: float,
-           friction: float, load: float, k: float, edges: np.ndarray, scale: np.ndarray,
-           plain: bool, jump: float, separate: bool, bands: np.ndarray, base_ticks: float,
-           most: float) -> tuple[float, float, bool]:
+def _count_py(r_slow: float, r_fast: float, hz: float, v: np.ndarray, t: np.ndarray,
+              sf: float, friction: float, load: float, k: float, edges: np.ndarray,
+              scale: np.ndarray, plain: bool, jump: float, separate: bool, bands: np.ndarray,
+              base_ticks: float, most: float) -> tuple[float, float, bool]:
     """One step's (accel count, decel count, valid): `Problem.counts` (the method and its
     comments are there)."""
     c_acc = (friction + load) * k
@@ -151,6 +150,13 @@ def _count(r_slow: float, r_fast: float, hz: float, v: np.ndarray, t: np.ndarray
     return n_e, d_e, ok
 
 
+# Inlined where a loop over steps does nothing else (stage_counts); called where it is
+# one part of a larger loop (refine_inner: inlining it twice there took ten seconds to
+# compile, for no measurable gain).
+_count_inline = nb.njit(cache=True, nogil=True, inline="always")(_count_py)
+_count = nb.njit(cache=True, nogil=True)(_count_py)
+
+
 @nb.njit(cache=True, nogil=True)
 def stage_counts(rs: np.ndarray, rf: np.ndarray, hz: float, v: np.ndarray, t: np.ndarray,
                  sf: float, friction: float, load: float, k: float, edges: np.ndarray,
@@ -161,8 +167,9 @@ def stage_counts(rs: np.ndarray, rf: np.ndarray, hz: float, v: np.ndarray, t: np
     thousands of steps, and numpy's temporaries (a torque interpolation per end and
     breakpoint) were half a plan."""
     for e in range(len(rs)):
-        n[e], d[e], valid[e] = _count(rs[e], rf[e], hz, v, t, sf, friction, load, k, edges,
-                                      scale, plain, jump, separate, bands, base_ticks, most)
+        n[e], d[e], valid[e] = _count_inline(rs[e], rf[e], hz, v, t, sf, friction, load, k,
+                                             edges, scale, plain, jump, separate, bands,
+                                             base_ticks, most)
 
 
 @nb.njit(cache=True, nogil=True)
