@@ -127,8 +127,10 @@ def plan_duty_cycle(motor: Motor, mix: list[tuple[int, float]], *, clock: Clock 
     mix's weighted quantiles, or every length when it has at most candidates // 2, and
     lengths spread geometrically from its shortest to its longest (`candidate_lengths`).
     Guarantee: never worse on the mix than the plan for any of those lengths (so, for a
-    mix of at most candidates // 2 lengths, than the plan for any length of it); the
-    cost is a bounded number of plans, each table timed on every length at once. With
+    mix of at most candidates // 2 lengths, than the plan for any length of it; with
+    `load_angle_deg`, than the tightened plan of the first candidate tightened, the
+    later ones being tightened from where it ended); the cost is a bounded number of
+    plans, each table timed on every length at once. With
     `load_angle_deg`, every candidate is planned by the criterion first, and only those
     whose plain table could still beat the best tightened one so far are tightened,
     best first (tightening makes a table gentler, so its mix is no faster than the
