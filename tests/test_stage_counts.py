@@ -139,3 +139,25 @@ def test_a_stage_exactly_on_a_band_edge_is_in_the_band() -> None:
     for g, w in zip(got, want, strict=True):
         assert np.array_equal(g, w)
     assert got[2].tolist() == [False, False, False, False, True, False, False]
+
+
+def test_a_count_exactly_at_its_field_limit_is_valid_and_one_past_it_is_not() -> None:
+    """The counts are valid up to the field's limit inclusive: with the limit set to a
+    step's own accel (decel) count, that step stays valid; one below it, it does not."""
+    from profiles.ppmc312.planner.dp_kernel import stage_counts
+
+    motor = Motor(steps_per_rev=400, curve_speed_pps=np.array([0.0, 2000.0, 8000.0]),
+                  curve_torque_nm=np.array([0.5, 0.45, 0.1]), inertia_kgm2=1e-5,
+                  safety_factor=0.5, start_pps=300.0, friction_torque_nm=0.05)
+    for separate in (True, False):
+        pb = make_problem(motor, choose_clock(motor), separate)
+        consts = list(pb.count_constants)
+        r_slow, r_fast = np.array([1200.0]), np.array([1170.0])  # accel 6, decel 2 pulses
+        n, d, valid = pb.counts(r_slow, r_fast)
+        assert valid[0]
+        for limit in (float(n[0]), float(d[0])):
+            for most, want in ((limit, bool(limit >= max(n[0], d[0]))), (limit - 1, False)):
+                consts[-1] = most
+                out = np.empty(1), np.empty(1), np.empty(1, dtype=bool)
+                stage_counts(r_slow, r_fast, *consts, *out)
+                assert bool(out[2][0]) is want, (separate, limit, most)

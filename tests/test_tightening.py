@@ -120,6 +120,10 @@ def test_a_tightened_plan_says_where_and_binds_on_the_load_angle() -> None:
     within the aim says only its worst angle."""
     local = plan_free_curve(NEMA23, pulses=10_000, load_angle_deg=AIM_DEG)
     assert "tightened where it rings: " in local.info and "pps ×" in local.info
+    shaping = local.extras["shaping"]
+    gentler = sum(s < 1.0 for s in shaping.scale)
+    assert 0 < gentler < len(shaping.scale)
+    assert local.info.count(" pps ×") == gentler  # only the bands made gentler are named
     assert local.binds == "load angle (tightened)"
     assert local.extras["worst_load_angle_deg"] <= AIM_DEG
     pk566 = load_motor(bundled_motor_paths()[2])  # its plain 10 000-pulse table: < 70°
@@ -233,3 +237,18 @@ def test_a_duty_cycle_starts_later_candidates_where_the_first_ended() -> None:
     first = min(got.extras["candidates"], key=lambda t: on_mix(real(NEMA23, pulses=t).table))
     tightened = real(NEMA23, pulses=first, load_angle_deg=AIM_DEG)
     assert got.duration_s <= on_mix(tightened.table) * (1 + 1e-12)
+
+
+def test_the_fastest_plan_within_the_aim_is_kept() -> None:
+    """Of the plans tried, the fastest within the aim; none within it: the one with the
+    smallest worst angle, marked as not reaching the aim."""
+    from dataclasses import replace
+
+    from profiles.ppmc312.planner.tightening import _best
+
+    base = plan_free_curve(MOTORS["pk566-5phase-half"], pulses=2_000)
+    tried = [replace(base, duration_s=d, extras={"worst_load_angle_deg": w})
+             for d, w in ((0.30, 74.0), (0.20, 80.0), (0.25, 70.0), (0.40, 60.0))]
+    assert _best(tried, AIM_DEG) is tried[2]
+    past = _best(tried, 55.0)
+    assert past.duration_s == 0.40 and "aim ≤ 55° not reached" in past.info
