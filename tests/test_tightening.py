@@ -252,3 +252,32 @@ def test_the_fastest_plan_within_the_aim_is_kept() -> None:
     assert _best(tried, AIM_DEG) is tried[2]
     past = _best(tried, 55.0)
     assert past.duration_s == 0.40 and "aim ≤ 55° not reached" in past.info
+
+
+def test_uniform_tightening_steps_down_then_bisects_back(monkeypatch: pytest.MonkeyPatch
+                                                         ) -> None:
+    """The whole table × 0.85 a round until within the aim, then two bisections back
+    towards the last scale past it; a plain table within the aim is kept at once."""
+    import types
+
+    from profiles.ppmc312.planner import tightening
+
+    base = plan_free_curve(MOTORS["pk566-5phase-half"], pulses=2_000)
+    asked: list[Shaping | None] = []
+    worst = iter([90.0, 80.0, 70.0, 74.0, 76.0])
+
+    def make(m: Motor, sh: Shaping | None = None) -> object:
+        asked.append(sh)
+        return base
+
+    monkeypatch.setattr(tightening, "angles", lambda table, judges: types.SimpleNamespace(
+        deg=np.array([next(worst)])))
+    got = tighten_uniform(NEMA23, make, AIM_DEG)  # type: ignore[arg-type]
+    scales = [1.0 if s is None else s.scale[0] for s in asked]
+    assert scales == pytest.approx([1.0, 0.85, 0.7225, (0.7225 + 0.85) / 2,
+                                    ((0.7225 + 0.85) / 2 + 0.85) / 2])
+    assert got.extras["shaping"] == Shaping.uniform(scales[3])  # the last within the aim
+    worst = iter([60.0])
+    asked.clear()
+    kept = tighten_uniform(NEMA23, make, AIM_DEG)  # type: ignore[arg-type]
+    assert asked == [None] and kept.extras["shaping"].plain
