@@ -58,6 +58,13 @@ def test_mix_arrays_cap_distinct_lengths(monkeypatch: pytest.MonkeyPatch) -> Non
         mix_arrays([(n, 1.0) for n in (10, 20, 30, 40)])
 
 
+def test_a_mix_of_exactly_the_documented_distinct_lengths_is_taken() -> None:
+    """The guide's cap: 100 000 distinct lengths, and one more is refused."""
+    assert len(mix_arrays([(n, 1.0) for n in range(8, 8 + 100_000)])[0]) == 100_000
+    with pytest.raises(PlanError, match="100001 distinct lengths, more than the 100000 a duty"):
+        mix_arrays([(n, 1.0) for n in range(8, 8 + 100_001)])
+
+
 @settings(max_examples=50)
 @given(st.lists(st.tuples(st.integers(8, 10**7), st.floats(0.0, 100.0)), min_size=1,
                 max_size=100).filter(lambda m: sum(w for _, w in m) > 0),
