@@ -27,7 +27,6 @@ from __future__ import annotations
 import os
 import threading
 from collections.abc import Callable, Iterable, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -49,6 +48,7 @@ from ..motor.rotor import (
     too_stiff,
 )
 from ..remembered import Remembered
+from ..threads import pool
 from .execution import SHAPES, Execution, MoveBatch, families, moves
 from .init_model import as_free_curve
 from .table import FreeCurveTable, InitTable
@@ -405,23 +405,10 @@ def _in_parallel(work: Callable[[int, int], None], cuts: np.ndarray) -> None:
     # a few ranges per thread: neighbouring executions cost alike, so each thread gets a
     # share of the short and the long ones
     bounds = np.unique(cuts[np.searchsorted(cuts, np.linspace(0, cells, threads * 4 + 1))])
-    pool = _pool(threads)
-    for future in [pool.submit(work, a, b) for a, b in
+    workers = pool("load-angle", threads)
+    for future in [workers.submit(work, a, b) for a, b in
                    zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True)]:
         future.result()
-
-
-_POOLS: dict[tuple[int, int], ThreadPoolExecutor] = {}
-
-
-def _pool(threads: int) -> ThreadPoolExecutor:
-    """The process's pool of `threads` threads, kept between verdicts (starting one costs
-    more than a small verdict's kernel); a forked child (a sweep's worker) starts its own,
-    since its parent's threads did not come with it."""
-    key = (os.getpid(), threads)
-    if key not in _POOLS:
-        _POOLS[key] = ThreadPoolExecutor(threads, thread_name_prefix="load-angle")
-    return _POOLS[key]
 
 
 def spans_of(execution: Execution, rotor: Rotor, step: float) -> list[tuple[float, float]]:

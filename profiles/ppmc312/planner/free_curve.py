@@ -4,9 +4,7 @@ baseline method; the table written from the staircase."""
 from __future__ import annotations
 
 import contextlib
-import os
 import time
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 from types import MappingProxyType
 
@@ -16,6 +14,7 @@ from ...errors import PlanError
 from ...motor import Motor
 from ...remembered import Remembered
 from ...result import PlanResult
+from ...threads import pool
 from ..clock import MAX_OUTPUT_PPS, Clock
 from ..table import FreeCurveTable
 from .problem import Shaping, check_plan_args, choose_clock, make_problem, reference_pulses
@@ -129,7 +128,7 @@ def _plan(motor: Motor, clock: Clock, max_stages: int, pulses: int | None, kinds
     sides = [sep for sep, wanted in ((True, "LE=1" in kinds), (False, "LE=0" in kinds or
                                      "LE=1 on LE=0's rates" in kinds)) if wanted]
     # the two DPs are independent, and their kernels release the GIL: side by side
-    found = dict(zip(sides, _pool().map(staircase, sides) if len(sides) > 1
+    found = dict(zip(sides, pool("planner", 2).map(staircase, sides) if len(sides) > 1
                      else map(staircase, sides), strict=True))
     refused = [e for e in found.values() if isinstance(e, PlanError)]
     ev1, ev0 = (None if isinstance(e, PlanError) else e for e in
@@ -163,17 +162,6 @@ def _plan(motor: Motor, clock: Clock, max_stages: int, pulses: int | None, kinds
         binds = "stall criterion (capability and jump limit)"
     return Plan(table, ev.time_s, binds, info, pulses, clock, time.perf_counter() - t0,
                 extras=MappingProxyType({"variant": kind}))  # read-only: plans are shared
-
-
-_POOLS: dict[int, ThreadPoolExecutor] = {}
-
-
-def _pool() -> ThreadPoolExecutor:
-    """The process's two planner threads, kept between plans (a forked child, a sweep's
-    worker, starts its own: its parent's threads did not come with it)."""
-    if os.getpid() not in _POOLS:
-        _POOLS[os.getpid()] = ThreadPoolExecutor(2, thread_name_prefix="planner")
-    return _POOLS[os.getpid()]
 
 
 def plan_free_curve(motor: Motor, *, clock: Clock | None = None, max_stages: int = 127,

@@ -68,9 +68,7 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
     warm = start is not None and not start.plain and start.edges_pps == plain.edges_pps
     shaping = start if warm and start is not None else plain
     tried: list[Plan] = []
-    # the last shaping past the aim; from a start, the plain criterion is taken to be
-    # (tightening began from it, and ended at `start`, for another move)
-    failed: Shaping | None = None
+    failed: Shaping | None = None   # the last shaping past the aim
 
     def attempt(shaping: Shaping) -> tuple[Plan, Angles] | None:
         try:
