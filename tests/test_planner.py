@@ -125,6 +125,25 @@ def test_forced_le1_falls_back_to_the_symmetric_dps_rates() -> None:
         plan(motor, None, 127, 10_000, True, variant="LE=1")
 
 
+def test_each_variant_is_planned_on_its_own_dp() -> None:
+    """"LE=1" is the LE=1 DP's staircase made switch-safe; "LE=0" the symmetric DP's; the
+    baseline is symmetric (LE=0) as documented."""
+    from profiles.ppmc312.planner.free_curve import plan_baseline, plan_staircase, table_of
+    from profiles.ppmc312.planner.problem import choose_clock, make_problem
+    from profiles.ppmc312.planner.refine import switch_safe_decel
+
+    motor = MOTORS["motor-nema17-1600"]
+    clock = choose_clock(motor)
+    own = switch_safe_decel(make_problem(motor, clock, True),
+                            plan_staircase(motor, clock, 127, 100_000, True), 100_000)
+    assert own is not None
+    le1 = plan(motor, None, 127, 100_000, True, variant="LE=1")
+    assert le1.table == table_of(clock, own, not np.array_equal(own.n, own.d))
+    le0 = plan(motor, None, 127, 100_000, False, variant="LE=0")
+    assert le0.table == table_of(clock, plan_staircase(motor, clock, 127, 100_000, False), False)
+    assert not plan_baseline(motor, pulses=100_000).table.separate
+
+
 def test_the_decel_sides_own_counts_never_lose_to_le0() -> None:
     """On every bundled motor and move, the LE=1 variant on LE=0's rates is switch-safe
     and no slower than LE=0 (its symmetric end is LE=0); auto mode is no slower than
