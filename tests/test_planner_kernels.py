@@ -19,7 +19,7 @@ from profiles.ppmc312.limits import RATE_MAX, SIDE_TOTAL_MAX
 from profiles.ppmc312.planner import Shaping, choose_clock, make_problem
 from profiles.ppmc312.planner.dp_kernel import switch_safe_tops
 from profiles.ppmc312.planner.problem import Problem
-from profiles.ppmc312.planner.refine import Staircase, _refine_inner, evaluate
+from profiles.ppmc312.planner.refine import OFFSETS, Staircase, _refine_inner, evaluate
 from profiles.ppmc312.planner.search import GRID_TARGET, graph, grid_rates, run_dp
 
 SETTINGS = settings(max_examples=40, deadline=None,
@@ -170,8 +170,6 @@ def staircase(pb: Problem, rng: np.random.Generator, budget: int) -> Staircase |
     return evaluate(pb, rates[path], budget)
 
 
-OFFSETS = np.unique(np.concatenate((np.arange(-24, 25), np.round(np.geomspace(25, 4000, 24)),
-                                    -np.round(np.geomspace(25, 4000, 24))))).astype(np.int64)
 
 
 @SETTINGS

@@ -226,8 +226,6 @@ def refine_inner(r: np.ndarray, offsets: np.ndarray, parity: int, r_start: int,
                 cost = cost + (n_in + d_in) * (1.0 / f_in - lam)
                 w = w + (n_in + d_in)
                 feasible = feasible and v_in
-            else:
-                cost = cost + 0.0
             if not feasible:
                 cost = math.inf
             if cost < best:  # the first of equal costs, as numpy's argmin

@@ -58,21 +58,25 @@ def move_times(pb: Problem, rates: np.ndarray, budget: int, n: np.ndarray,
     return np.where(fits, times, np.inf)
 
 
+# The rate offsets a refinement move tries per stage: every one within ±24, then
+# geometric steps out to ±4000.
+OFFSETS = np.unique(np.concatenate((np.arange(-24, 25), np.round(np.geomspace(25, 4000, 24)),
+                                    -np.round(np.geomspace(25, 4000, 24))))).astype(np.int64)
+OFFSETS.flags.writeable = False
+
+
 def refine_rates(pb: Problem, ev: Staircase, budget: int, sweeps: int = 3) -> Staircase:
     """Coordinate descent over exact integer rates: move every other stage at once (its
     neighbours fixed), then the others, then the top; keep a move only if the exact move
     time falls."""
     best = ev
-    offsets = np.unique(np.concatenate((np.arange(-24, 25),
-                                        np.round(np.geomspace(25, 4000, 24)),
-                                        -np.round(np.geomspace(25, 4000, 24))))).astype(np.int64)
     for _ in range(sweeps):
         improved = False
         for parity in (0, 1):
-            cand = _refine_inner(pb, best, budget, parity, offsets)
+            cand = _refine_inner(pb, best, budget, parity, OFFSETS)
             if cand is not None and cand.time_s < best.time_s * (1 - 1e-13):
                 best, improved = cand, True
-        cand = _refine_top(pb, best, budget, offsets)
+        cand = _refine_top(pb, best, budget, OFFSETS)
         if cand is not None and cand.time_s < best.time_s * (1 - 1e-13):
             best, improved = cand, True
         if not improved:
