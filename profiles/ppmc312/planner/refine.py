@@ -62,7 +62,6 @@ def move_times(pb: Problem, rates: np.ndarray, budget: int, n: np.ndarray,
 # geometric steps out to ±4000.
 OFFSETS = np.unique(np.concatenate((np.arange(-24, 25), np.round(np.geomspace(25, 4000, 24)),
                                     -np.round(np.geomspace(25, 4000, 24))))).astype(np.int64)
-OFFSETS.flags.writeable = False
 
 
 def refine_rates(pb: Problem, ev: Staircase, budget: int, sweeps: int = 3) -> Staircase:
