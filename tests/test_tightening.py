@@ -281,3 +281,37 @@ def test_uniform_tightening_steps_down_then_bisects_back(monkeypatch: pytest.Mon
     asked.clear()
     kept = tighten_uniform(NEMA23, make, AIM_DEG)  # type: ignore[arg-type]
     assert asked == [None] and kept.extras["shaping"].plain
+
+
+def test_a_relax_step_past_the_aim_where_its_bound_was_worst_skips_the_full_verdict(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A relax step only asks whether its plan is within the aim: judged first at the move
+    lengths where the last shaping past the aim was worst, a plan past the aim there is
+    refused without the all-length verdict, and tightening ends on the same table as
+    when every step is judged at every length."""
+    from dataclasses import replace
+
+    from profiles.ppmc312.load_angle import forget_verdicts
+    from profiles.ppmc312.planner import tightening
+    from profiles.ppmc312.planner.free_curve import forget_plans
+
+    motor = replace(NEMA23, safety_factor=round(NEMA23.safety_factor * 0.9, 3))
+    calls: list[str] = []
+
+    def counted(table: object, judges: object, **kw: object) -> object:
+        calls.append("screen" if kw else "full")
+        return angles(table, judges, **kw)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(tightening, "angles", counted)
+    forget_plans(), forget_verdicts()
+    screened = plan_free_curve(motor, pulses=15_000, load_angle_deg=AIM_DEG)
+    full_screened = calls.count("full")
+    calls.clear()
+    monkeypatch.setattr(tightening, "SCREEN", 0)  # no lengths to screen: every step judged
+    forget_plans(), forget_verdicts()
+    judged = plan_free_curve(motor, pulses=15_000, load_angle_deg=AIM_DEG)
+    assert calls.count("screen") == 0
+    assert full_screened < calls.count("full")  # a relax step was refused by its screen
+    assert screened.table == judged.table and screened.extras["shaping"] == \
+        judged.extras["shaping"]
+    assert screened.extras["worst_load_angle_deg"] == judged.extras["worst_load_angle_deg"]

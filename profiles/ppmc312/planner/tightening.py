@@ -12,6 +12,11 @@ jump limit there, and the start speed when the jump from rest is among them) are
 planned again more gently, until every execution is within the aim. A long move then
 pays only for the bands its own ramp shares with the short moves that rang.
 
+Once within the aim, two bisections back towards the last shaping past it buy speed;
+such a step only asks within-or-not, so its plan is judged first at the move lengths
+where that shaping was worst, and one past the aim there is refused without the
+all-length verdict (the same decisions, about a verdict less per tightening).
+
 When the bands do not converge, the whole table is tightened alike (`tighten_uniform`:
 the safety factor, the largest jump and the start speed scaled together), the method
 this one replaced and the baseline it is measured against (bench/bench_tighten.py).
@@ -42,6 +47,8 @@ LOCAL_ROUNDS = 8          # band repairs before falling back to uniform tighteni
 RELAX_STEPS = 2           # bisections back towards the last shaping past the aim,
 RELAX_ROOM_DEG = 2.0      # when the plan came out this far within the aim
 CULPRITS = 6              # executions past the aim traced per round (the worst first)
+SCREEN = 12               # a relax step's candidate is first judged at the move lengths
+SCREEN_MARGIN_DEG = 0.1   # where its failed bound was worst; this far past the aim, it fails
 WINDOW_PERIODS = 0.75     # how far before its worst angle an execution's steps are blamed
 TIGHTEN_STEP = 0.85
 TIGHTEN_ROUNDS = 8
@@ -69,14 +76,23 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
     shaping = start if warm and start is not None else plain
     tried: list[Plan] = []
     failed: Shaping | None = None   # the last shaping past the aim
+    failed_at = np.zeros(0, dtype=np.int64)  # the move lengths where it was worst
 
-    def attempt(shaping: Shaping) -> tuple[Plan, Angles] | None:
+    def attempt(shaping: Shaping, screen: np.ndarray | None = None
+                ) -> tuple[Plan, Angles] | None:
+        """The plan and its verdict; None when there is no table, or when it is past the
+        aim at one of the `screen` lengths (a relax step: only within-or-not matters, and
+        failing there spares the all-length verdict)."""
         try:
             plan = make(motor, None if shaping.plain else shaping)
         except PlanError:
             if not tried and shaping.plain:
                 raise  # the plain criterion has no table: nothing gentler has one either
             return None  # too gentle for the move: the bands went too far
+        if screen is not None and len(screen) and float(angles(
+                plan.table, judges, pulses=screen.tolist()).deg.max()) \
+                > load_angle_deg + SCREEN_MARGIN_DEG:
+            return None
         found = angles(plan.table, judges)  # remembered: the verdict asks again
         plan = _annotated(plan, float(found.deg.max()), shaping, len(judges), t0)
         tried.append(plan)
@@ -95,14 +111,16 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
             room = plan.extras["worst_load_angle_deg"] < load_angle_deg - RELAX_ROOM_DEG
             for _ in range(RELAX_STEPS if failed is not None and room else 0):
                 mid = shaping.between(failed)  # type: ignore[arg-type]
-                again = attempt(mid)
+                again = attempt(mid, screen=failed_at)
                 if again is not None and again[0].extras["worst_load_angle_deg"] \
                         <= load_angle_deg:
                     shaping = mid
                 else:
                     failed = mid
+                    if again is not None:
+                        failed_at = _worst_lengths(again[1], load_angle_deg)
             return _best(tried, load_angle_deg)
-        failed = shaping
+        failed, failed_at = shaping, _worst_lengths(found, load_angle_deg)
         blame = culprits(plan.table, judges, found, load_angle_deg, shaping)
         shaping = shaping.scaled({b: _factor(w, load_angle_deg) for b, w in blame.bands.items()},
                                  _factor(blame.start, load_angle_deg) if blame.start else 1.0)
@@ -126,6 +144,13 @@ def _best(plans: list[Plan], aim_deg: float) -> Plan:
                         f"length (best {worst:.1f}°): raise the motor's damping_ratio if the "
                         "drive damps more, or lower safety_factor and start_pps")
     return replace(best, info=best.info + f" (aim ≤ {aim_deg:g}° not reached)")
+
+
+def _worst_lengths(found: Angles, aim_deg: float) -> np.ndarray:
+    """The SCREEN move lengths furthest past the aim (the worst first)."""
+    per_move = found.deg.max(axis=0)
+    over = np.flatnonzero(per_move > aim_deg)
+    return found.lengths[over[np.argsort(per_move[over])[::-1]][:SCREEN]]
 
 
 class Blame:
