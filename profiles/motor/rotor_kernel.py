@@ -31,6 +31,10 @@ import math
 import numba as nb
 import numpy as np
 
+from ..compiling import watch
+
+watch()  # the first compilation on a machine is said (profiles.compiling)
+
 # One rotor row: electrical radians per pulse, N·m → pps/s, friction and signed load
 # [pps/s], damping [1/s]. Its pull-out curve is a row of torques at shared speeds.
 C_E, K, FRICTION, LOAD, DAMPING = range(5)

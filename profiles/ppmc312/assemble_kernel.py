@@ -13,6 +13,10 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from ..compiling import watch
+
+watch()  # the first compilation on a machine is said (profiles.compiling)
+
 ACCEL, CRUISE, DECEL = 0, 1, 2   # execution.PHASES
 
 

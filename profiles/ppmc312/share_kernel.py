@@ -29,6 +29,10 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from ..compiling import watch
+
+watch()  # the first compilation on a machine is said (profiles.compiling)
+
 _jit = nb.njit(cache=True, nogil=True)
 
 

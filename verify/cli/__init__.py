@@ -29,6 +29,7 @@ from typing import NoReturn
 # elementwise; the load-angle judge runs its own threads). A user's setting wins.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
+from profiles.compiling import announce
 from profiles.errors import StepRampError, bounded
 from profiles.reading import display_path
 from verify.devices import command_groups
@@ -99,6 +100,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_OK if e.code in (0, None) else EXIT_UNUSABLE
     command = args.command  # the group for alink/mc200 ("stepramp mc200: …"), as before
     args.argv = args_list  # the command line, for the provenance files carry
+    # the first run on a machine compiles the kernels: half a minute that must not look hung
+    if os.environ.get("STEPRAMP_COMPILE_NOTICE", "1") != "0":
+        announce(lambda line: _say(command, line))
     try:
         guard_paths(args)  # before anything is read or written
         return int(args.func(args))

@@ -10,6 +10,10 @@ import math
 import numba as nb
 import numpy as np
 
+from ...compiling import watch
+
+watch()  # the first compilation on a machine is said (profiles.compiling)
+
 
 @nb.njit(cache=True, nogil=True)
 def layers(pred: np.ndarray, cost: np.ndarray, packed_w: np.ndarray, start: np.ndarray,

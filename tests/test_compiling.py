@@ -1,0 +1,78 @@
+"""The first compilation of our kernels is said, once, and a cached load is not
+(profiles.compiling): half a minute of silence on a machine's first plan reads as a hang."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import numba as nb
+import pytest
+
+from profiles import compiling
+
+
+def _kernel(module: str) -> Any:
+    """A fresh (never compiled, uncached) kernel whose function lives in `module`."""
+    scope: dict[str, Any] = {"__name__": module}
+    exec("def twice(x):\n    return 2 * x\n", scope)
+    return nb.njit(scope["twice"])
+
+
+@pytest.fixture
+def said(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    lines: list[str] = []
+    monkeypatch.setattr(compiling, "_said", False)
+    compiling.watch()
+    compiling.announce(lines.append)
+    yield lines
+    compiling.announce(None)
+
+
+def test_our_first_compilation_is_said_once(said: list[str]) -> None:
+    assert _kernel("profiles.fake_kernel")(3) == 6
+    assert said == [compiling.NOTICE]
+    assert _kernel("verify.fake_kernel")(4) == 8  # later compilations: already said
+    assert said == [compiling.NOTICE]
+
+
+def test_other_modules_kernels_and_silent_front_ends_say_nothing(        said: list[str]) -> None:
+    assert _kernel("someone_else.kernel")(1) == 2
+    assert said == []
+    compiling.announce(None)  # a library caller that asked for nothing
+    assert _kernel("profiles.fake_kernel")(1) == 2
+    assert said == []
+
+
+@pytest.mark.parametrize(("setting", "says"), [(None, True), ("1", True), ("0", False)])
+def test_the_command_says_it_unless_told_not_to(setting: str | None, says: bool,
+                                                monkeypatch: pytest.MonkeyPatch) -> None:
+    """`stepramp` hands its one-line `say` over unless STEPRAMP_COMPILE_NOTICE=0."""
+    from verify.cli import main
+
+    monkeypatch.setattr(compiling, "_say", None)
+    if setting is None:
+        monkeypatch.delenv("STEPRAMP_COMPILE_NOTICE", raising=False)
+    else:
+        monkeypatch.setenv("STEPRAMP_COMPILE_NOTICE", setting)
+    assert main(["motor", "list"]) == 0
+    assert (compiling._say is not None) is says
+
+
+@pytest.mark.slow
+def test_a_machines_first_plan_says_it_compiles_and_the_next_does_not(
+        tmp_path: Path) -> None:
+    """A fresh numba cache: the first `stepramp plan` says so in one line on stderr
+    (about half a minute), the second loads the cache and says nothing."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache"),
+           "STEPRAMP_COMPILE_NOTICE": "1"}
+    cmd = [sys.executable, "-m", "verify.cli", "plan", "--motor", "nema17-1600",
+           "--pulses", "300", "-o", str(tmp_path / "t.json")]
+    first = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=600)
+    assert first.returncode == 0, first.stderr
+    assert first.stderr.splitlines() == [f"stepramp plan: {compiling.NOTICE}"]
+    again = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=600)
+    assert again.returncode == 0 and again.stderr == ""
