@@ -277,10 +277,11 @@ def test_uniform_tightening_steps_down_then_bisects_back(monkeypatch: pytest.Mon
     assert scales == pytest.approx([1.0, 0.85, 0.7225, (0.7225 + 0.85) / 2,
                                     ((0.7225 + 0.85) / 2 + 0.85) / 2])
     assert got.extras["shaping"] == Shaping.uniform(scales[3])  # the last within the aim
+    assert got.extras["plans"] == 5
     worst = iter([60.0])
     asked.clear()
     kept = tighten_uniform(NEMA23, make, AIM_DEG)  # type: ignore[arg-type]
-    assert asked == [None] and kept.extras["shaping"].plain
+    assert asked == [None] and kept.extras["shaping"].plain and kept.extras["plans"] == 1
 
 
 def test_a_relax_step_past_the_aim_where_its_bound_was_worst_skips_the_full_verdict(
@@ -315,3 +316,5 @@ def test_a_relax_step_past_the_aim_where_its_bound_was_worst_skips_the_full_verd
     assert screened.table == judged.table and screened.extras["shaping"] == \
         judged.extras["shaping"]
     assert screened.extras["worst_load_angle_deg"] == judged.extras["worst_load_angle_deg"]
+    # as many plans either way: judged at every length, one verdict each
+    assert screened.extras["plans"] == judged.extras["plans"] == calls.count("full")

@@ -61,7 +61,8 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
     (default: `motor`; a tolerance box's corners), and while some execution exceeds
     `load_angle_deg`, plan again more gently in the speed bands that drove it (module
     docstring). Refuses when nothing gets below the 90° peak. The plan's
-    `extras["worst_load_angle_deg"]` and `extras["shaping"]` say what was reached.
+    `extras["worst_load_angle_deg"]` and `extras["shaping"]` say what was reached,
+    `extras["plans"]` how many plans it took.
 
     `start`: a shaping to try first instead of the plain criterion, e.g. where another
     move of the same motor ended (a duty cycle's candidates: the bands that ring are the
@@ -77,12 +78,14 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
     tried: list[Plan] = []
     failed: Shaping | None = None   # the last shaping past the aim
     failed_at = np.zeros(0, dtype=np.int64)  # the move lengths where it was worst
+    made = [0]                                # plans made (each judged)
 
     def attempt(shaping: Shaping, screen: np.ndarray | None = None
                 ) -> tuple[Plan, Angles] | None:
         """The plan and its verdict; None when there is no table, or when it is past the
         aim at one of the `screen` lengths (a relax step: only within-or-not matters, and
         failing there spares the all-length verdict)."""
+        made[0] += 1
         try:
             plan = make(motor, None if shaping.plain else shaping)
         except PlanError:
@@ -119,16 +122,22 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
                     failed = mid
                     if again is not None:
                         failed_at = _worst_lengths(again[1], load_angle_deg)
-            return _best(tried, load_angle_deg)
+            return _counted(_best(tried, load_angle_deg), made[0])
         failed, failed_at = shaping, _worst_lengths(found, load_angle_deg)
         blame = culprits(plan.table, judges, found, load_angle_deg, shaping)
         shaping = shaping.scaled({b: _factor(w, load_angle_deg) for b, w in blame.bands.items()},
                                  _factor(blame.start, load_angle_deg) if blame.start else 1.0)
     try:
-        tried.append(tighten_uniform(motor, make, load_angle_deg, judges=judges))
+        uniform = tighten_uniform(motor, make, load_angle_deg, judges=judges)
+        tried.append(uniform)
+        made[0] += uniform.extras["plans"]
     except PlanError:
         pass
-    return _best(tried, load_angle_deg)
+    return _counted(_best(tried, load_angle_deg), made[0])
+
+
+def _counted(plan: Plan, plans: int) -> Plan:
+    return replace(plan, extras={**plan.extras, "plans": plans})
 
 
 def _best(plans: list[Plan], aim_deg: float) -> Plan:
@@ -223,7 +232,8 @@ def tighten_uniform(motor: Motor, make: Make, load_angle_deg: float, *,
                     judges: Sequence[Motor] | None = None) -> Plan:
     """The whole table tightened alike: the safety factor, the largest jump and the start
     speed scaled by 0.85 a round until the worst angle is within `load_angle_deg`, then
-    bisected back towards the last scale that failed."""
+    bisected back towards the last scale that failed (`extras["plans"]`: how many plans
+    it took)."""
     _check_aim(load_angle_deg)
     t0 = time.perf_counter()
     judges = list(judges or [motor])
@@ -253,9 +263,9 @@ def tighten_uniform(motor: Motor, make: Make, load_angle_deg: float, *,
                     scale, plan = mid, p_mid
                 else:
                     failed = mid
-            return plan
+            return _counted(plan, len(tried))
         failed, scale = scale, scale * TIGHTEN_STEP
-    return _best(tried, load_angle_deg)
+    return _counted(_best(tried, load_angle_deg), len(tried))
 
 
 def _check_aim(load_angle_deg: float) -> None:
