@@ -47,8 +47,8 @@ LOCAL_ROUNDS = 8          # band repairs before falling back to uniform tighteni
 RELAX_STEPS = 2           # bisections back towards the last shaping past the aim,
 RELAX_ROOM_DEG = 2.0      # when the plan came out this far within the aim
 CULPRITS = 6              # executions past the aim traced per round (the worst first)
-SCREEN = 12               # a relax step's candidate is first judged at the move lengths
-SCREEN_MARGIN_DEG = 0.1   # where its failed bound was worst; this far past the aim, it fails
+SCREEN = 12               # a relax step is judged first at the move lengths where the
+SCREEN_MARGIN_DEG = 0.1   # shaping past the aim was worst: this far past it there, it fails
 WINDOW_PERIODS = 0.75     # how far before its worst angle an execution's steps are blamed
 TIGHTEN_STEP = 0.85
 TIGHTEN_ROUNDS = 8
@@ -62,7 +62,7 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
     `load_angle_deg`, plan again more gently in the speed bands that drove it (module
     docstring). Refuses when nothing gets below the 90° peak. The plan's
     `extras["worst_load_angle_deg"]` and `extras["shaping"]` say what was reached,
-    `extras["plans"]` how many plans it took.
+    `extras["plans"]` how many plans it tried.
 
     `start`: a shaping to try first instead of the plain criterion, e.g. where another
     move of the same motor ended (a duty cycle's candidates: the bands that ring are the
@@ -78,7 +78,7 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
     tried: list[Plan] = []
     failed: Shaping | None = None   # the last shaping past the aim
     failed_at = np.zeros(0, dtype=np.int64)  # the move lengths where it was worst
-    made = [0]                                # plans made (each judged)
+    made = [0]                                # plans tried
 
     def attempt(shaping: Shaping, screen: np.ndarray | None = None
                 ) -> tuple[Plan, Angles] | None:
@@ -233,7 +233,7 @@ def tighten_uniform(motor: Motor, make: Make, load_angle_deg: float, *,
     """The whole table tightened alike: the safety factor, the largest jump and the start
     speed scaled by 0.85 a round until the worst angle is within `load_angle_deg`, then
     bisected back towards the last scale that failed (`extras["plans"]`: how many plans
-    it took)."""
+    it made)."""
     _check_aim(load_angle_deg)
     t0 = time.perf_counter()
     judges = list(judges or [motor])
