@@ -47,6 +47,24 @@ def test_other_modules_kernels_and_silent_front_ends_say_nothing(        said: l
     assert said == []
 
 
+def test_a_fresh_process_says_it_once() -> None:
+    """In a new interpreter (nothing said yet, nobody listening yet): one line for two
+    compilations."""
+    script = (
+        "import numba\n"
+        "from profiles import compiling\n"
+        "compiling.watch()\n"
+        "compiling.announce(print)\n"
+        "for n in (1, 2):\n"
+        "    scope = {'__name__': 'profiles.fresh'}\n"
+        "    exec('def f(x):\\n    return x + 1\\n', scope)\n"
+        "    assert numba.njit(scope['f'])(n) == n + 1\n")
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                         timeout=300, cwd=Path(__file__).resolve().parent.parent)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.splitlines() == [compiling.NOTICE]
+
+
 @pytest.mark.parametrize(("setting", "says"), [(None, True), ("1", True), ("0", False)])
 def test_the_command_says_it_unless_told_not_to(setting: str | None, says: bool,
                                                 monkeypatch: pytest.MonkeyPatch) -> None:

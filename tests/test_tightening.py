@@ -318,3 +318,82 @@ def test_a_relax_step_past_the_aim_where_its_bound_was_worst_skips_the_full_verd
     assert screened.extras["worst_load_angle_deg"] == judged.extras["worst_load_angle_deg"]
     # as many plans either way: judged at every length, one verdict each
     assert screened.extras["plans"] == judged.extras["plans"] == calls.count("full")
+
+
+class _Scripted:
+    """Stand-ins for a tightening run: `make` plans the same table, faster the less its
+    band 3 is scaled, and `angles` answers the next worst angle of `full` (every length)
+    or `screen` (a relax step's lengths)."""
+
+    def __init__(self, full: list[float], screen: list[float]) -> None:
+        self.base = plan_free_curve(MOTORS["pk566-5phase-half"], pulses=2_000)
+        self.full, self.screen = iter(full), iter(screen)
+        self.asked: list[Shaping | None] = []
+
+    def make(self, m: Motor, sh: Shaping | None = None) -> object:
+        from dataclasses import replace
+
+        self.asked.append(sh)
+        return replace(self.base, duration_s=1.0 / (sh.scale[3] if sh else 1.0))
+
+    def angles(self, table: object, judges: object, **kw: object) -> object:
+        from profiles.ppmc312.load_angle import Angles
+
+        deg = next(self.screen if kw else self.full)
+        one = np.zeros(1, np.int64)
+        return Angles(np.array([20]), np.array([[deg]]), np.zeros((1, 1), bool), one, one + 1)
+
+
+def _scripted(monkeypatch: pytest.MonkeyPatch, full: list[float], screen: list[float]
+              ) -> tuple[_Scripted, object]:
+    from profiles.ppmc312.planner import tightening
+
+    s = _Scripted(full, screen)
+    blame = tightening.Blame()
+    blame.add(3, 80.0)
+    monkeypatch.setattr(tightening, "angles", s.angles)
+    monkeypatch.setattr(tightening, "culprits", lambda *a: blame)
+    return s, tightening.tighten(NEMA23, s.make, AIM_DEG)  # type: ignore[arg-type]
+
+
+def test_within_the_aim_with_room_two_bisections_go_back_towards_the_last_past_it(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Plain past the aim (80°), band 3 × 75/80 within it with room (70°): halfway back
+    (74°: kept), then halfway again, refused at its screen (76°); the fastest within the
+    aim is the first bisection, after four plans."""
+    s, got = _scripted(monkeypatch, full=[80.0, 70.0, 74.0], screen=[74.0, 76.0])
+    first = AIM_DEG / 80.0
+    scale3 = [1.0 if sh is None else sh.scale[3] for sh in s.asked]
+    assert scale3 == pytest.approx([1.0, first, first ** 0.5, first ** 0.25])
+    assert got.extras["shaping"] == s.asked[2] and got.extras["plans"] == 4  # type: ignore[attr-defined]
+
+
+def test_just_within_the_aim_is_kept_without_bisecting(monkeypatch: pytest.MonkeyPatch
+                                                       ) -> None:
+    """Within the aim by less than RELAX_ROOM_DEG: nothing to gain back, no more plans."""
+    s, got = _scripted(monkeypatch, full=[80.0, AIM_DEG - 1.0], screen=[])
+    assert len(s.asked) == 2 and got.extras["plans"] == 2  # type: ignore[attr-defined]
+
+
+def test_uniform_tightening_takes_eight_rounds_and_refuses_a_motor_with_no_table(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Eight rounds of × 0.85 before giving up (then two bisections back, here both past
+    the aim); no table at all is the planner's refusal."""
+    import types
+
+    from profiles.errors import PlanError
+    from profiles.ppmc312.planner import tightening
+
+    base = plan_free_curve(MOTORS["pk566-5phase-half"], pulses=2_000)
+    worst = iter([89.0] * 7 + [70.0, 80.0, 80.0])
+    monkeypatch.setattr(tightening, "angles", lambda table, judges: types.SimpleNamespace(
+        deg=np.array([next(worst)])))
+    got = tighten_uniform(NEMA23, lambda m, sh=None: base, AIM_DEG)  # type: ignore[arg-type]
+    assert got.extras["shaping"].scale[0] == pytest.approx(0.85 ** 7)
+    assert got.extras["plans"] == 10
+
+    def none(m: Motor, sh: Shaping | None = None) -> object:
+        raise PlanError("no table")
+
+    with pytest.raises(PlanError, match="no table"):
+        tighten_uniform(NEMA23, none, AIM_DEG)  # type: ignore[arg-type]
