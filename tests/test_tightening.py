@@ -32,6 +32,9 @@ def test_short_moves_ringing_is_blamed_on_the_slow_end() -> None:
     blame = culprits(table, [NEMA23], found, AIM_DEG, shaping)
     assert blame.bands and max(blame.bands) <= shaping.band(0.5 * NEMA23.top_pps)
     assert max(blame.bands.values()) == pytest.approx(worst.worst_angle_deg)
+    # only the last 0.75 natural periods before the worst angle: not the move's first
+    # stages, nor its jump from rest
+    assert min(blame.bands) > 0 and blame.start == 0.0
 
 
 def test_a_long_move_pays_little_for_short_moves_ringing() -> None:
