@@ -47,6 +47,13 @@ def test_other_modules_kernels_and_silent_front_ends_say_nothing(        said: l
     assert said == []
 
 
+def test_nothing_is_said_before_a_front_end_asks() -> None:
+    """A library caller (a notebook, a script) that never calls `announce` hears nothing,
+    and the line is still to come for a front end that does (the suite runs with the
+    command's notice off, and the tests that say it put `_said` back)."""
+    assert compiling._say is None and compiling._said is False
+
+
 def test_a_fresh_process_says_it_once() -> None:
     """In a new interpreter (nothing said yet, nobody listening yet): one line for two
     compilations."""
