@@ -192,8 +192,9 @@ def parse_json(data: bytes, path: str | Path) -> Any:
     try:
         return json.loads(data.decode("utf-8"), parse_int=_number(int, name),
                           parse_float=_number(float, name), parse_constant=no_constant)
-    except UnicodeDecodeError as e:
-        raise FormatError(f"{name}: cannot read ({e.__class__.__name__}: {e})") from None
+    except UnicodeDecodeError as e:  # the words `plan --moves` uses for a CSV, and where
+        raise FormatError(f"{name}: not a UTF-8 text file (byte 0x{e.object[e.start]:02x} "
+                          f"at offset {e.start})") from None
     except json.JSONDecodeError as e:
         raise FormatError(f"{name}: not valid JSON (line {e.lineno}, column {e.colno}: "
                           f"{e.msg})") from None

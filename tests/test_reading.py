@@ -272,3 +272,11 @@ def test_depth_scan_stops_early() -> None:
     assert json_depth(b"[" * 1000, stop=65) == 65
     assert json_depth(b'["[[[", [{}]]') == 3
     assert json_depth(b'"unclosed [[[[') == 0
+
+
+def test_json_that_is_not_utf8_says_so_and_where() -> None:
+    """The words `plan --moves` uses for a CSV that is not text, with the first bad byte;
+    no Python exception name in the line."""
+    with pytest.raises(FormatError) as e:
+        parse_json(b'{"a": "\xbe"}', "motor.json")
+    assert str(e.value) == "motor.json: not a UTF-8 text file (byte 0xbe at offset 7)"
