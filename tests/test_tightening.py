@@ -128,6 +128,7 @@ def test_a_tightened_plan_says_where_and_binds_on_the_load_angle() -> None:
     assert 0 < gentler < len(shaping.scale)
     assert local.info.count(" pps ×") == gentler  # only the bands made gentler are named
     assert local.binds == "load angle (tightened)"
+    assert "tolerance corners" not in local.info  # one motor, no box
     assert local.extras["worst_load_angle_deg"] <= AIM_DEG
     pk566 = load_motor(bundled_motor_paths()[2])  # its plain 10 000-pulse table: < 70°
     plain = plan_free_curve(pk566, pulses=10_000)
