@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from oracle_moves import worst_whole_move
 
+from profiles.errors import PlanError
 from profiles.motor import Motor, bundled_motor_paths, load_motor
 from profiles.motor.angles import AIM_DEG
 from profiles.ppmc312.execution import simulate_move
@@ -35,6 +36,20 @@ def test_short_moves_ringing_is_blamed_on_the_slow_end() -> None:
     # only the last 0.75 natural periods before the worst angle: not the move's first
     # stages, nor its jump from rest
     assert min(blame.bands) > 0 and blame.start == 0.0
+
+
+def test_a_move_exactly_at_the_aim_is_no_culprit() -> None:
+    """Only executions past the aim are traced: one exactly at it blames nothing."""
+    from profiles.ppmc312.load_angle import Angles
+
+    table = plan_free_curve(NEMA23, pulses=10_000).table
+    one = np.zeros(1, np.int64)
+    at_aim = Angles(np.array([40]), np.array([[AIM_DEG]]), np.zeros((1, 1), bool), one,
+                    one + 1)
+    blame = culprits(table, [NEMA23], at_aim, AIM_DEG, Shaping.bands(NEMA23))
+    assert blame.bands == {} and blame.start == 0.0
+    past = Angles(at_aim.lengths, at_aim.deg + 1.0, at_aim.slipped, one, one + 1)
+    assert culprits(table, [NEMA23], past, AIM_DEG, Shaping.bands(NEMA23)).bands
 
 
 def test_a_long_move_pays_little_for_short_moves_ringing() -> None:
@@ -256,6 +271,8 @@ def test_the_fastest_plan_within_the_aim_is_kept() -> None:
     assert _best(tried, AIM_DEG) is tried[2]
     past = _best(tried, 55.0)
     assert past.duration_s == 0.40 and "aim ≤ 55° not reached" in past.info
+    with pytest.raises(PlanError, match="below 90°"):  # the peak itself is not below it
+        _best([replace(base, extras={"worst_load_angle_deg": 90.0})], AIM_DEG)
 
 
 def test_uniform_tightening_steps_down_then_bisects_back(monkeypatch: pytest.MonkeyPatch
