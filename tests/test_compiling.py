@@ -26,6 +26,7 @@ def _kernel(module: str) -> Any:
 def said(monkeypatch: pytest.MonkeyPatch) -> list[str]:
     lines: list[str] = []
     monkeypatch.setattr(compiling, "_said", False)
+    monkeypatch.delenv(compiling.QUIET_ENV, raising=False)
     compiling.watch()
     compiling.announce(lines.append)
     yield lines
@@ -67,7 +68,8 @@ def test_a_fresh_process_says_it_once() -> None:
         "    exec('def f(x):\\n    return x + 1\\n', scope)\n"
         "    assert numba.njit(scope['f'])(n) == n + 1\n")
     run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
-                         timeout=300, cwd=Path(__file__).resolve().parent.parent)
+                         timeout=300, cwd=Path(__file__).resolve().parent.parent,
+                         env={**os.environ, compiling.QUIET_ENV: "1"})
     assert run.returncode == 0, run.stderr
     assert run.stdout.splitlines() == [compiling.NOTICE]
 
@@ -75,7 +77,7 @@ def test_a_fresh_process_says_it_once() -> None:
 @pytest.mark.parametrize(("setting", "says"), [(None, True), ("1", True), ("0", False)])
 def test_the_command_says_it_unless_told_not_to(setting: str | None, says: bool,
                                                 monkeypatch: pytest.MonkeyPatch) -> None:
-    """`stepramp` hands its one-line `say` over unless STEPRAMP_COMPILE_NOTICE=0."""
+    """`stepramp` hands its one-line `say` over; STEPRAMP_COMPILE_NOTICE=0 silences it."""
     from verify.cli import main
 
     monkeypatch.setattr(compiling, "_say", None)
@@ -101,3 +103,15 @@ def test_a_machines_first_plan_says_it_compiles_and_the_next_does_not(
     assert first.stderr.splitlines() == [f"stepramp plan: {compiling.NOTICE}"]
     again = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=600)
     assert again.returncode == 0 and again.stderr == ""
+
+
+def test_the_notebook_designer_says_it_in_the_cell(said: list[str],
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    """A designer built in a notebook hands over a `say` that prints into the cell's
+    output, where its first compilation would otherwise be half a minute of a busy cell."""
+    from profiles.motor import bundled_motor_paths, load_motor
+    from verify.designer import designer
+
+    designer(load_motor(bundled_motor_paths()[0]), pulses=2_000)
+    assert _kernel("profiles.fake_kernel")(5) == 10
+    assert capsys.readouterr().out.splitlines() == [f"stepramp designer: {compiling.NOTICE}"]

@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from profiles.compiling import announce
 from profiles.errors import FieldRangeError, StepRampError
 from profiles.motor import Motor, bundled_motor_paths, load_motor
 from profiles.motor.angles import AIM_DEG, PEAK_DEG
@@ -430,6 +431,8 @@ class Designer:
             self.motors[name] = motor
         else:
             name = next(iter(self.motors))
+        # a machine's first design compiles the kernels: say so in the cell's output
+        announce(lambda line: print(f"stepramp designer: {line}", flush=True))
         self.out_dir = Path(out_dir)
         self.load_angle = load_angle
         self.result: Design | None = None

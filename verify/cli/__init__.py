@@ -101,8 +101,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     command = args.command  # the group for alink/mc200 ("stepramp mc200: …"), as before
     args.argv = args_list  # the command line, for the provenance files carry
     # the first run on a machine compiles the kernels: half a minute that must not look hung
-    if os.environ.get("STEPRAMP_COMPILE_NOTICE", "1") != "0":
-        announce(lambda line: _say(command, line))
+    announce(lambda line: _say(command, line))
     try:
         guard_paths(args)  # before anything is read or written
         return int(args.func(args))
