@@ -14,13 +14,13 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
 
 import numpy as np
 
 from ...errors import PlanError, require_int, require_number
 from ...motor import Motor
+from ...threads import pool
 from ..clock import Clock
 from ..execution import MOVE_PULSES_MAX, MoveBatch, moves
 from ..table import FreeCurveTable
@@ -155,8 +155,8 @@ def plan_duty_cycle(motor: Motor, mix: list[tuple[int, float]], *, clock: Clock 
             return None  # e.g. too short a move for a table: the other candidates remain
 
     # the candidates' plans are independent: two at a time (the DP and numpy release the GIL)
-    with ThreadPoolExecutor(min(2, os.cpu_count() or 1)) as pool:
-        found = list(track(pool.map(planned, targets), progress, total=len(targets)))
+    workers = pool("duty-cycle", min(2, os.cpu_count() or 1))
+    found = list(track(workers.map(planned, targets), progress, total=len(targets)))
     for target, plan in zip(targets, found, strict=True):
         if plan is None:
             continue
