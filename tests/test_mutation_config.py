@@ -5,6 +5,8 @@ silently). And the mutants' ids are code: lines moving leave them unchanged."""
 
 from __future__ import annotations
 
+import os
+import subprocess
 import sys
 from pathlib import Path
 
@@ -88,3 +90,29 @@ def test_each_operator_makes_the_mutant_its_id_says() -> None:
     catalogue = (ROOT / "profiles" / "motor" / "catalogue.py").read_text()
     for site in mutants.sites(catalogue):  # every mutant of a real module compiles
         compile(mutants.mutant(catalogue, site.index), "catalogue", "exec")
+
+
+def test_a_mutant_replaces_its_module_in_the_processes_its_tests_start(tmp_path: Path) -> None:
+    """A test that runs the CLI in a subprocess judges the mutant too (tools/mutant_finder:
+    the environment names it, tools/mutant_site/sitecustomize.py installs it there); a
+    process started without it imports the module as it is."""
+    probe = ("import subprocess, sys\n"
+             "child = 'import stepramp_probe; print(stepramp_probe.SAYS)'\n"
+             "print(subprocess.run([sys.executable, '-c', child], capture_output=True, "
+             "text=True).stdout.strip() or 'no such module')\n")
+    # a module only the mutant's source defines stands in for a project module
+    setup = ("import sys; sys.path.insert(0, {tools!r})\n"
+             "from pathlib import Path\n"
+             "import mutant_finder\n"
+             "mutant_finder.install('stepramp_probe', Path({path!r}), 'SAYS = \"mutant\"', "
+             "Path({file!r}))\n")
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "STEPRAMP_MUTANT")}
+    code = setup.format(tools=str(ROOT / "tools"), path=str(tmp_path / "stepramp_probe.py"),
+                        file=str(tmp_path / "mutant.py")) + probe
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env=env, timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "mutant"
+    plain = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                           env=env, timeout=60)
+    assert plain.stdout.strip() == "no such module"

@@ -9,9 +9,6 @@ never find, nor leave, a compiled copy beside the sources).
 from __future__ import annotations
 
 import ast
-import importlib.abc
-import importlib.machinery
-import importlib.util
 import json
 import os
 import random
@@ -24,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 import mutants
+from mutant_finder import install
 from mutation_config import ROOT, Module, log_path, read_log, source_hash
 
 BASELINE_LIMIT_S = 900.0
@@ -31,28 +29,6 @@ MIN_TIMEOUT_S = 120.0
 # a mutant may take 6× the unmutated run before it counts as a hang: the machine is shared,
 # and a survivor runs every test (a tight limit would count slow survivors as killed)
 TIMEOUT_FACTOR = 6.0
-
-
-class _MutantFinder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
-    """Serves the mutated source for one module name; everything else imports as usual."""
-
-    def __init__(self, name: str, path: Path, source: str) -> None:
-        self.name, self.path, self.source = name, path, source
-
-    def find_spec(self, fullname: str, path: object, target: object = None
-                  ) -> importlib.machinery.ModuleSpec | None:
-        if fullname != self.name:
-            return None
-        return importlib.util.spec_from_file_location(
-            fullname, self.path, loader=self,
-            submodule_search_locations=[str(self.path.parent)]
-            if self.path.name == "__init__.py" else None)
-
-    def create_module(self, spec: importlib.machinery.ModuleSpec) -> None:
-        return None
-
-    def exec_module(self, module: Any) -> None:
-        exec(compile(self.source, str(self.path), "exec"), module.__dict__)
 
 
 class _FastFirst:
@@ -89,7 +65,7 @@ class _FastFirst:
 
 
 def _run_child(name: str, path: Path, source: str, tests: list[str], plugin: _FastFirst,
-               own_cache: str | None) -> int:
+               own_cache: str | None, scratch: Path) -> int:
     import pytest
 
     if own_cache is not None:
@@ -99,7 +75,8 @@ def _run_child(name: str, path: Path, source: str, tests: list[str], plugin: _Fa
 
         os.environ["NUMBA_CACHE_DIR"] = own_cache
         config.reload_config()
-    sys.meta_path.insert(0, _MutantFinder(name, path, source))
+    # the mutant here and in every Python process a test starts (a CLI subprocess)
+    install(name, path, source, scratch / "mutant.py")
     devnull = os.open(os.devnull, os.O_WRONLY)
     os.dup2(devnull, 1)
     os.dup2(devnull, 2)
@@ -116,12 +93,14 @@ def run_one(name: str, path: Path, source: str, tests: list[str], timeout_s: flo
     cached compiled functions gets a numba cache of its own for each source."""
     own_cache = (tempfile.mkdtemp(prefix="stepramp-mutant-numba-")
                  if "cache=True" in source else None)
+    scratch = Path(tempfile.mkdtemp(prefix="stepramp-mutant-"))
     pid = os.fork()
     if pid == 0:  # child
         code = 3
         try:
+            os.setpgid(0, 0)  # with the processes its tests start: a timeout kills them all
             code = _run_child(name, path, source, tests, plugin or _FastFirst({}, None),
-                              own_cache)
+                              own_cache, scratch)
         finally:
             os._exit(code)
     deadline = time.monotonic() + timeout_s
@@ -131,11 +110,12 @@ def run_one(name: str, path: Path, source: str, tests: list[str], timeout_s: flo
             if done:
                 return "survived" if os.waitstatus_to_exitcode(status) == 0 else "killed"
             if time.monotonic() > deadline:
-                os.kill(pid, signal.SIGKILL)
+                os.killpg(pid, signal.SIGKILL)
                 os.waitpid(pid, 0)
                 return "timeout"
             time.sleep(0.02)
     finally:
+        shutil.rmtree(scratch, ignore_errors=True)
         if own_cache is not None:
             shutil.rmtree(own_cache, ignore_errors=True)
 
