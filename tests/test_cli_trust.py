@@ -158,6 +158,25 @@ def test_show_json_matches_hand_numbers(capsys: pytest.CaptureFixture[str],
             assert row["decel_cum_s"] == pytest.approx(dec_cum / 1e3)
 
 
+def test_show_json_is_byte_stable() -> None:
+    """The listing's JSON text, whole: users keep it in their repositories and diff it in
+    CI, so its layout (keys in order, one-space indent, a final newline) is pinned."""
+    from profiles.ppmc312.clock import Clock
+    from profiles.ppmc312.listing import list_stages
+    from profiles.ppmc312.table import FreeCurveTable
+
+    table = FreeCurveTable(Clock.internal("8MHz"), (4000,), (10,), None)
+    fields = ('"stage": 0', '"rate": 4000', '"speed_pps": 2000.0', '"speed_rpm": null',
+              '"accel_pulses": 10', '"accel_s": 0.005', '"accel_cum_s": 0.005',
+              '"decel_pulses": 10', '"decel_s": 0.005', '"decel_cum_s": 0.005')
+    head = ('"kind": "free_curve"', '"modelled": false', '"clock": "8MHz"',
+            '"separate_decel": false', '"accel_pulses": 10', '"decel_pulses": 10',
+            '"accel_s": 0.005', '"decel_s": 0.005')
+    expected = ("{\n" + "".join(f" {f},\n" for f in head) + ' "stages": [\n  {\n'
+                + ",\n".join(f"   {f}" for f in fields) + "\n  }\n ]\n}\n")
+    assert list_stages(table).render("json") == expected
+
+
 def test_show_csv_and_text(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
     path = _shown_file(tmp_path)
     code, out, _ = run(capsys, "show", path, "--format", "csv")

@@ -12,7 +12,7 @@ from typing import Any
 import pytest
 import serial
 
-from profiles.errors import UnsupportedError
+from profiles.errors import FieldChoiceError, UnsupportedError
 from profiles.ppmc312.ascii import encode_frame
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.execution import simulate_move
@@ -117,6 +117,22 @@ def test_a_silent_slave_times_out_after_the_retries(pty_chip: tuple[SerialChip, 
                                               r"\(3 attempts\)$"):
             other.poll()
         assert other.stats["attempts"] == 3
+
+
+@pytest.mark.parametrize("baud", [19_200, 38_400, 83_333])
+def test_every_line_speed_of_the_manual_talks(pty_chip: tuple[SerialChip, str], baud: int
+                                             ) -> None:
+    """§13: 19 200, 38 400 and 83 333 bit/s (a pty carries any of them)."""
+    with Link(pty_chip[1], ADDRESS, baud=baud, timeout_s=0.5) as opened:
+        assert opened.position() == 0
+
+
+@pytest.mark.parametrize("baud", [9_600, 57_600, 83_332, 115_200])
+def test_another_line_speed_is_refused_naming_the_three(baud: int) -> None:
+    """Refused before the port is opened, with the chip's three speeds (57 600 lies between
+    them: a range would wrongly suggest it)."""
+    with pytest.raises(FieldChoiceError, match=rf"baud.*{baud}.*19200, 38400, 83333"):
+        Link("/nonexistent/tty", ADDRESS, baud=baud)
 
 
 def test_a_missing_port_is_one_line() -> None:

@@ -240,3 +240,11 @@ def test_alink_sync_cli_writes_commands_with_sta(tmp_path: Path,
         s = alink.settings_from_commands(settings.items)
         assert (s.start_pps, s.high_pps, s.accel_para) == (
             item["start_pps"], item["high_pps"], item["up_time_para"])
+
+
+@pytest.mark.parametrize(("duration_s", "allowed_s"),
+                         [(1.0, 1e-3), (10.0, 1e-2), (0.2, 200e-6), (0.05, 200e-6)])
+def test_finish_spread_allowed_is_a_tenth_of_a_percent_or_200_us(duration_s: float,
+                                                                 allowed_s: float) -> None:
+    """docs/manual-notes.md, "Synchronised axes": max(0.1 % of the move, 200 µs)."""
+    assert spread_tolerance_s(duration_s) == pytest.approx(allowed_s)

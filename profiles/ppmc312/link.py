@@ -30,6 +30,7 @@ from typing import Any, Protocol
 from ..errors import (
     ChipRefused,
     DecodeError,
+    FieldChoiceError,
     FieldRangeError,
     GarbledReply,
     LinkError,
@@ -334,7 +335,7 @@ class Link:
 
 def _open(port: str, baud: int, timeout_s: float) -> SerialPort:
     if baud not in BAUD_RATES:
-        raise FieldRangeError("baud", baud, min(BAUD_RATES), max(BAUD_RATES))
+        raise FieldChoiceError("baud", baud, BAUD_RATES)  # not every rate between them
     import serial
 
     try:
