@@ -18,8 +18,10 @@ from profiles.motor import Motor
 from profiles.motor.datasheet import (
     Datasheet,
     Drive,
+    Mechanics,
     curve_from_csv,
     motor_from_datasheet,
+    motor_object,
     pullout_curve,
     pullout_torque_nm,
     start_pps_estimate,
@@ -234,3 +236,24 @@ def test_bad_csv_is_a_one_line_error(text: str, msg: str) -> None:
     with pytest.raises(FormatError, match=msg):
         curve_from_csv(text, speed_unit="pps", torque_unit="N·m", steps_per_rev=200,
                        microstep=1)
+
+
+def test_phases_outside_two_to_five_are_refused_naming_the_range() -> None:
+    with pytest.raises(FieldRangeError, match=r"^phases: 1 is outside the allowed range 2\.\.5"):
+        Datasheet(1.8, 0.5, 1.0, 2.0, 3e-3, 1e-5, phases=1)
+
+
+def test_mechanics_default_to_a_two_phase_hybrid() -> None:
+    """A vendor curve's motor with nothing said of its phases: a 1.8° motor is the common
+    2-phase hybrid with 50 rotor teeth (50 electrical periods per revolution)."""
+    obj = motor_object(np.array([0.0, 1000.0]), np.array([0.4, 0.2]),
+                       Mechanics(step_angle_deg=1.8, rotor_inertia_kgm2=5e-6), 1)
+    assert obj["rotor_teeth"] == 50
+
+
+def test_a_vendor_curve_keeps_micro_newton_metres() -> None:
+    """The written curve keeps torques to 1 µN·m (a small motor's curve in mN·m would lose
+    its shape at coarser rounding) and speeds to 1 mpps."""
+    obj = motor_object(np.array([0.0, 1234.56789]), np.array([0.0123456789, 0.0023456789]),
+                       Mechanics(step_angle_deg=1.8, rotor_inertia_kgm2=5e-6), 1)
+    assert obj["pullout_torque"] == [[0.0, 0.012346], [1234.568, 0.002346]]

@@ -138,3 +138,10 @@ def test_specs_after_a_gear_are_on_its_output() -> None:
     # two gears multiply: 2 × 3 = 6
     got = loads_from_specs(["gear:ratio=2", "gear:ratio=3", "inertia:j_kgm2=36e-4"])
     assert total(got, "inertia_kgm2") == pytest.approx(1e-4)
+
+
+def test_a_belt_of_zero_efficiency_is_refused() -> None:
+    """Efficiency 0 would reflect an infinite load: the range is open at 0."""
+    with pytest.raises(FieldRangeError, match=r"efficiency"):
+        belt(0.02, 1.0, efficiency=0.0)
+    assert belt(0.02, 1.0, efficiency=1e-3)

@@ -7,8 +7,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from profiles.errors import DecodeError, FieldRangeError, FormatError, UnsupportedError
+from profiles.fields import Frame
 from profiles.ppmc312.ascii import (
     KINDS,
+    SERIAL_END_STATUS_READ,
+    SERIAL_ERROR_CODE_READ,
+    SERIAL_ERROR_COUNT_READ,
+    SERIAL_POSITION_READ,
+    SERIAL_POSITION_SET,
+    SERIAL_STOP,
     AsciiFrame,
     checksum,
     decode_frame,
@@ -159,3 +166,22 @@ def test_describe_reply() -> None:
     assert describe_reply(encode_frame("busy", 7, b"")) == "slave 7: busy"
     with pytest.raises(DecodeError, match="one code byte"):
         describe_reply(encode_frame("special", 2, b""))
+
+
+@pytest.mark.parametrize(("frame", "values", "payload"), [
+    (SERIAL_STOP, {}, "80"),                                          # §16-1
+    (SERIAL_POSITION_READ, {"encoder": 0}, "42"),                     # §18-1: 0 1 P 0 0010
+    (SERIAL_POSITION_READ, {"encoder": 1}, "62"),
+    (SERIAL_POSITION_SET, {"encoder": 0, "position": 0x01020304}, "4301020304"),  # §18-2
+    (SERIAL_POSITION_SET, {"encoder": 1, "position": -2}, "63FFFFFFFE"),
+    (SERIAL_END_STATUS_READ, {}, "40"),                               # §18-6
+    (SERIAL_ERROR_CODE_READ, {}, "41"),                               # §18-10
+    (SERIAL_ERROR_COUNT_READ, {}, "4C"),                              # §18-11
+])
+def test_the_link_commands_are_the_manuals_bytes(frame: Frame, values: dict, payload: str
+                                                 ) -> None:
+    """The command codes of §16–18 as the manual's tables draw them, bit by bit (the
+    position high byte first), and back."""
+    assert frame.encode(values).hex().upper() == payload
+    decoded = frame.decode(bytes.fromhex(payload))
+    assert {k: decoded[k] for k in values} == values

@@ -273,3 +273,13 @@ def test_a_one_byte_block_is_judged_not_crashed() -> None:
             assert "\n" not in str(e)
         else:
             assert not verdict.ok
+
+
+@pytest.mark.parametrize(("blocks", "words"), [
+    (_upload((10, 20, 30, 1), (300,) * 4), "rate 1 at stage 3"),
+    (_upload((10, 20, 30), (300, 400, 1)), "accel pulses 1 at stage 2"),
+    (_upload((10, 20, 30), (300, 400, 500), (2, 3, 1)), "decel pulses 1 at stage 2"),
+])
+def test_a_refused_entry_is_named_by_its_stage(blocks: list[bytes], words: str) -> None:
+    """The message points at the entry the chip refused: its place in its section."""
+    assert accept_upload(blocks).message.endswith(words)

@@ -297,3 +297,42 @@ def test_serial_command_codes_are_the_manuals() -> None:
     assert SERIAL_POSITION_SET.encode(encoder=1, position=-1) == b"\x63\xff\xff\xff\xff"
     assert (SERIAL_END_STATUS_READ.encode(), SERIAL_ERROR_CODE_READ.encode(),
             SERIAL_ERROR_COUNT_READ.encode()) == (b"\x40", b"\x41", b"\x4c")
+
+
+# Each command's code byte as the manual's tables draw it (x: a bit the command carries,
+# DIR, P, FO, …) and its payload bytes with the code (the rows between the control code
+# and the checksum), section by section; written from the manual, not from COMMANDS.
+MANUAL_CODES = (
+    ("15-1", "0000xxxx", 8), ("15-2", "11xx0110", 3), ("15-3", "110x0111", 3),
+    ("15-4", "11001000", 5), ("15-5", "01000111", 3), ("15-6", "11001001", 2),
+    ("16-1", "10000000", 1), ("16-1", "10001011", 5), ("16-1", "10011011", 1),
+    ("16-1", "10111011", 1), ("16-2", "10000001", 1), ("16-2", "10001100", 5),
+    ("16-2", "10011100", 1), ("16-2", "10111100", 1), ("16-3", "10x00011", 7),
+    ("16-4", "10x00100", 7), ("16-5", "10x00010", 1), ("16-6", "10x00110", 3),
+    ("16-7", "10x00101", 3), ("16-8", "10001001", 3), ("16-8", "10001110", 7),
+    ("16-8", "10011110", 3), ("16-8", "10111110", 3), ("16-9", "10001000", 3),
+    ("16-9", "10001101", 7), ("16-9", "10011101", 3), ("16-9", "10111101", 3),
+    ("16-10", "10xx0111", 3), ("16-11", "10xx1010", 3), ("17-1", "11000000", 1),
+    ("17-2", "11000001", 1), ("17-3", "11000010", 1), ("17-4", "11000011", 1),
+    ("17-5", "11000100", 1), ("17-6", "01000100", 1), ("17-7", "01000101", 2),
+    ("17-8", "01000110", 1), ("17-9", "11000101", 2), ("18-1", "01x00010", 1),
+    ("18-2", "01x00011", 5), ("18-3", "01001000", 1), ("18-4", "01001010", 1),
+    ("18-5", "01001101", 1), ("18-6", "01000000", 1), ("18-7", "01xx1001", 10),
+    ("18-9", "01001110", 1), ("18-10", "01000001", 1), ("18-11", "01001100", 1),
+    ("18-12", "11111111", 1),
+)
+
+
+def test_every_code_byte_is_read_as_the_manual_draws_it() -> None:
+    """All 256 code bytes: a command's frame length is the manual's (§15–18), and a byte
+    no section draws is no command (the chip answers it with error 0x47)."""
+    def matches(pattern: str, code: int) -> bool:
+        return all(p in "x" + str(bit) for p, bit in zip(pattern, f"{code:08b}", strict=True))
+
+    for code in range(256):
+        drawn = [(section, size) for section, pattern, size in MANUAL_CODES
+                 if matches(pattern, code)]
+        assert len(drawn) <= 1, (hex(code), drawn)
+        found = command_of(code)
+        assert (found[1] if found else None) == (drawn[0][1] if drawn else None), \
+            (hex(code), drawn, found)

@@ -259,3 +259,10 @@ def test_schema_and_loader_refuse(obj: dict[str, Any]) -> None:
 def test_unhashable_kind_is_a_format_error(kind: Any) -> None:
     with pytest.raises(FormatError, match="kind: expected"):
         table_from_json(with_(FREE, kind=kind))
+
+
+@pytest.mark.parametrize(("code", "hz"), [(0, 8e6), (1, 1e6), (2, 500e3), (3, 250e3),
+                                          (4, 62.5e3), (5, 15.625e3)])
+def test_each_clk_code_is_the_manuals_clock(code: int, hz: float) -> None:
+    """SPEC §1: CLK 000 8 MHz … 101 15.625 kHz (000 is a clock, not "none")."""
+    assert Clock.from_code(code) == Clock(code, hz)

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from profiles.errors import FormatError
+from profiles.errors import FieldRangeError, FormatError
 from profiles.motor.units import (
     OZF_IN_NM,
     curve_speed_to_pps,
@@ -91,3 +91,17 @@ def test_linear_speed_needs_travel_per_rev() -> None:
 def test_torque_round_trip() -> None:
     for unit in ("N·m", "mN·m", "oz·in", "kgf·cm"):
         assert nm_to_torque(torque_to_nm(12.5, unit), unit) == pytest.approx(12.5)
+
+
+def test_a_curve_in_hz_needs_a_microstep_of_at_least_one() -> None:
+    """A driver's step frequency is pps only with the microstep it counts in: 0 is refused,
+    naming the range that is allowed."""
+    with pytest.raises(FieldRangeError, match=r"^microstep: 0 is outside the allowed range "
+                                              r"1\.\.1048576"):
+        curve_speed_to_pps(1000, "Hz", steps_per_rev=200, microstep=0)
+
+
+@pytest.mark.parametrize("mm_per_rev", [0.0, -5.0, math.nan, None])
+def test_a_linear_speed_needs_a_positive_travel_per_rev(mm_per_rev: float | None) -> None:
+    with pytest.raises(FormatError, match=r"needs the travel per motor revolution"):
+        machine_to_pps(10, "mm/s", steps_per_rev=200, mm_per_rev=mm_per_rev)
