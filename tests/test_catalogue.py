@@ -124,6 +124,9 @@ def test_motor_list_text_and_json(folders: tuple[Path, Path, Path],
     assert rows[("nema17-1600", "bundled")].split()[1:5] == ["1600", "0.45", "48000", "1800"]
     assert "unreadable: format: expected" in next(v for k, v in rows.items() if k[0] == "broken")
     assert lines[-1].startswith("≈: the pull-out torque at 0 pps")
+    for column in ("steps/rev", "holding [N·m]", "top [pps]", "[rpm]"):  # numbers: right
+        end = lines[0].index(column) + len(column)
+        assert all(line[end - 1] != " " and line[end] == " " for line in lines[1:-1]), column
     assert cli.main(["motor", "list", "--format", "json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     first = doc["motors"][0]

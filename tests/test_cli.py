@@ -12,7 +12,7 @@ import pytest
 
 from profiles.ppmc312.formats import parse_upload
 from profiles.ppmc312.table import load_table
-from profiles.ppmc312.upload import decode_upload, encode_table
+from profiles.ppmc312.upload import decode_move, decode_upload, encode_table
 from verify.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -190,7 +190,6 @@ def test_expand_init_table(capsys: pytest.CaptureFixture[str], tmp_path: Path) -
 
 def test_move_command_bytes(capsys: pytest.CaptureFixture[str]) -> None:
     from profiles.ppmc312.ascii import decode_serial_move
-    from profiles.ppmc312.upload import decode_move
 
     code, out, _ = run(capsys, "move", "--pulses", "0x12345678", "--ccw", "--format", "bus")
     assert code == 0
@@ -203,6 +202,18 @@ def test_move_command_bytes(capsys: pytest.CaptureFixture[str]) -> None:
     assert decode_serial_move(bytes.fromhex(out.splitlines()[0]))["pulses"] == 5000
     assert run(capsys, "move", "--pulses", "0")[0] == 2
     assert run(capsys, "move", "--pulses", "9", "--to", "ascii", "--override", "1")[0] == 2
+
+
+@pytest.mark.parametrize(("trg", "code"), [("1", 0), ("3", 0), ("0", 2), ("2", 2)])
+def test_move_override_takes_the_triggers_the_chip_accepts(
+        capsys: pytest.CaptureFixture[str], trg: str, code: int) -> None:
+    """SPEC §1: with OV = 1, TRG 01 and 11 register; 00 and 10 are a parameter error."""
+    got, out, err = run(capsys, "move", "--pulses", "9", "--override", trg)
+    assert got == code
+    if code == 0:
+        assert decode_move(bytes.fromhex(out.splitlines()[0]))["trigger"] == int(trg)
+    else:
+        assert "--override: invalid choice" in err
 
 
 def test_decode_table_read_response(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:

@@ -137,6 +137,20 @@ def test_plan_moves_refuses_bad_mixes(tmp_path: Path, capsys: pytest.CaptureFixt
     assert not out_path.exists()
 
 
+@pytest.mark.parametrize("pulses", [7, 4_294_967_296])
+def test_a_mix_length_outside_the_chips_range_names_it(tmp_path: Path, pulses: int,
+                                                       capsys: pytest.CaptureFixture[str]
+                                                       ) -> None:
+    """8 pulses (2 stages × 2 pulses × 2 sides) up to the 32-bit pulse count."""
+    mix = tmp_path / "mix.csv"
+    mix.write_text(f"pulses,weight\n300,1\n{pulses},1\n")
+    code, _, err = run(capsys, "plan", "--motor", PK566, "--moves", mix)
+    assert code == 2
+    assert err.endswith(f"mix.csv, line 3, pulses: {pulses}"
+                        f"{f' (0x{pulses:X})' if pulses > 9 else ''} is outside the allowed "
+                        "range 8..4294967295 (0xFFFFFFFF)\n")
+
+
 def plan_from(capsys: pytest.CaptureFixture[str], tmp_path: Path, motor: str, source: str,
               pulses: int) -> tuple[int, dict[str, Any], Path]:
     out_path = tmp_path / f"{source}-{pulses}.json"

@@ -145,6 +145,9 @@ def test_simulate_axes_prints_the_joint_timeline(written: tuple[Path, int, str],
     doc = json.loads(capsys.readouterr().out)
     assert doc["max_line_deviation_pulses"] == pytest.approx(
         report["max_line_deviation_pulses"], rel=1e-12)
+    durations = [a["duration_s"] for a in doc["axes"]]
+    assert doc["finish_spread_s"] == pytest.approx(max(durations) - min(durations), abs=1e-12)
+    assert doc["finish_spread_s"] == pytest.approx(report["finish_spread_s"], abs=1e-12)
 
 
 @pytest.mark.parametrize("argv", [
@@ -248,3 +251,19 @@ def test_finish_spread_allowed_is_a_tenth_of_a_percent_or_200_us(duration_s: flo
                                                                  allowed_s: float) -> None:
     """docs/manual-notes.md, "Synchronised axes": max(0.1 % of the move, 200 µs)."""
     assert spread_tolerance_s(duration_s) == pytest.approx(allowed_s)
+
+
+def test_simulate_axes_reports_the_spread_of_tables_that_do_not_end_together(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Two axes running one table for different lengths: the spread is their difference."""
+    table = ROOT / "examples" / "free-curve-nema17.json"
+    axes = {"format": "stepramp.axes/1", "mode": "time", "axes": [
+        {"name": "x", "table": str(table), "pulses": 1000},
+        {"name": "y", "table": str(table), "pulses": -3000}]}
+    (tmp_path / "axes.json").write_text(json.dumps(axes))
+    assert main(["simulate", "--axes", str(tmp_path / "axes.json"), "--format", "json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    loaded = load_table(table)
+    spread = simulate_move(loaded, 3000).duration_s - simulate_move(loaded, 1000).duration_s
+    assert spread > 0
+    assert doc["finish_spread_s"] == pytest.approx(spread, rel=1e-12)
