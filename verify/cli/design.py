@@ -30,7 +30,7 @@ def _do_design(args: argparse.Namespace) -> int:
 
     from profiles.errors import FieldRangeError
     from verify.designer import control_specs
-    from verify.webdesigner import require_panel, serve
+    from verify.webdesigner import serve
 
     if args.port > 65535:
         raise FieldRangeError("--port", args.port, 0, 65535)
@@ -38,7 +38,6 @@ def _do_design(args: argparse.Namespace) -> int:
     name = Path(args.motor).stem.removeprefix("motor-")  # the files' names
     with fields_as_options({"pulses": "--pulses"}):
         control_specs(motor, args.pulses)  # every input refused before the server starts
-    require_panel()
 
     def say(text: str) -> None:
         print(text, flush=True)  # a script reading the address must not wait for a buffer
