@@ -319,3 +319,17 @@ def test_no_heavy_imports_at_module_level() -> None:
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, cwd=str(__import__("pathlib").Path(__file__).parents[1]))
     assert out.stdout.strip() == "[]"
+
+
+def test_ruckig_speed_caps_span_the_start_to_the_limit() -> None:
+    """Candidates lie above the start speed up to the limit, the curve's points among
+    them; a limit at the start speed (a move that cannot speed up) is its only cap."""
+    from verify.references.ruckig_ref import v_max_candidates
+
+    motor = BUNDLED["motor-nema17-1600"]
+    caps = v_max_candidates(motor, 1000.0, 20_000.0)
+    assert caps[-1] == 20_000.0 and all(1000.0 < c <= 20_000.0 for c in caps)
+    inside = motor.curve_speed_pps[(motor.curve_speed_pps > 1000) & (motor.curve_speed_pps < 2e4)]
+    assert set(inside.tolist()) <= set(caps)
+    assert v_max_candidates(motor, 1000.0, 1000.0) == [1000.0]
+    assert v_max_candidates(motor, 1000.0, 1000.0 * (1 + 1e-10)) == [1000.0 * (1 + 1e-10)]
