@@ -402,3 +402,31 @@ def test_response_round_trip(pairs: tuple[int, int, int], value: int, flags: lis
     assert back.valid == (len(set(pairs)) == 1)
     assert replace(back, valid=False, mismatch=None) == r
     assert back.words() == r.words()
+
+
+# The command codes as the manual's §11 headings print them (SPEC §2 lists the same),
+# written from the manual, not from Cmd.
+MANUAL_CODES = {
+    "LOGIC": 0x1C, "MODE": 0x1D, "L_SPEED": 0x12, "H_SPEED": 0x13, "UP_TIME": 0x14,
+    "MAX_SPEED": 0x15, "SETTING": 0x17, "OL_SPEED": 0x18, "OH_SPEED": 0x19, "O_UPTIME": 0x1A,
+    "MODE_SIG": 0x1E, "MOVE_R": 0x21, "MOVE_A": 0x22, "STOP": 0x2F, "HOME": 0x31,
+    "P_SEARCH": 0x3C, "M_SEARCH": 0x3D, "P_ORG": 0x3E, "M_ORG": 0x3F, "READ_STAT": 0x45,
+    "READ": 0x46, "OUT_M": 0x4C, "OUT_B": 0x4D, "OUT_S": 0x4E, "OUT_G": 0x4F,
+    "CHANGE_SPD": 0x51, "LIMIT": 0x52, "DELAY": 0x58, "OFFSET": 0x5A, "RESET_POS": 0x5B,
+    "CLEAR_EL": 0x5C,
+    # §11-9, the read-backs (0x86 and 0x8B are not commands)
+    "L_SPEED_R": 0x82, "H_SPEED_R": 0x83, "UP_TIME_R": 0x84, "MAX_SPEED_R": 0x85,
+    "SETTING_R": 0x87, "OL_SPEED_R": 0x88, "OH_SPEED_R": 0x89, "O_UPTIME_R": 0x8A,
+    "LOGIC_R": 0x8C, "MODE_R": 0x8D, "MODE_SIG_R": 0x8E,
+}
+
+
+def test_every_command_code_is_the_manuals() -> None:
+    assert {c.name: int(c) for c in A.Cmd} == MANUAL_CODES
+
+
+@pytest.mark.parametrize("axis", [-1, 2])
+def test_an_axis_outside_the_units_two_is_refused_naming_them(axis: int) -> None:
+    with pytest.raises(FieldRangeError,
+                       match=rf"^axis: {axis} is outside the allowed range 0\.\.1"):
+        A.command_address(1, axis)

@@ -86,3 +86,15 @@ def test_what_counts_as_a_table_file() -> None:
     assert looks_like_table_json(b'{"format": "wrong"}')  # reported as a bad table
     assert not looks_like_table_json(json.dumps({"blocks": ["02 00"]}).encode())
     assert not looks_like_table_json(b"02 00 01")
+
+
+def test_a_safe_table_says_its_worst_load_angle_as_a_note() -> None:
+    """With a motor, a table within the aim has no load-angle finding, and its worst angle
+    is told once, as a note (`stepramp check` prints it as "note: …"); without a motor,
+    nothing is said of it."""
+    result = check_file(str(GOOD), load_motor(MOTOR))
+    assert result.ok and not any(f.rule.startswith("load-angle") for f in result.findings)
+    said = [n for n in result.notes if n.startswith("worst load angle")]
+    assert len(said) == 1 and "to the 90° peak" in said[0]
+    without = check_file(str(GOOD))
+    assert not any(n.startswith("worst load angle") for n in without.notes)

@@ -41,7 +41,14 @@ def test_numbers_are_the_chip_time_against_the_best_reference() -> None:
     assert move["criterion_findings"] == [] and move["moves"] == [cmp.pulses]
     assert move["worst_load_angle_deg"] < 75 and every["moves"] == "every"
     assert every["worst_load_angle_deg"] >= move["worst_load_angle_deg"]
-    assert cmp.to_text().rstrip().endswith("verdict: SAFE")
+    text = cmp.to_text().splitlines()
+    assert text[-1] == "verdict: SAFE"
+    # the text says what the JSON says: the margin, and both judges' verdicts
+    assert f"smallest stall margin: {cmp.stall_margin:.3f} (capability / need; ≥ 1 is " \
+           "stall-safe)" in text
+    assert "criterion: passes" in text
+    assert f"this move: {cmp.move_verdict.describe()}" in text
+    assert f"every move the table can run: {cmp.every_verdict.describe()}" in text
 
 
 def test_staircase_edges_cover_the_move() -> None:

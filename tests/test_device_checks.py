@@ -218,6 +218,20 @@ def test_check_settings_files(tmp_path: Path) -> None:
     assert ("error", "alink-range") in _rules(_write(tmp_path, "range.hex", rng))
 
 
+@pytest.mark.parametrize(("func", "rules"), [(0, [("error", "alink-range")]),
+                                             (1, [("warning", "alink-func")]),
+                                             (3, [("error", "alink-range")])])
+def test_up_time_func_is_the_rate_or_the_para(tmp_path: Path, func: int,
+                                              rules: list[tuple[str, str]]) -> None:
+    """UP_TIME's nn: 1 (the legacy rate: a warning, stepramp cannot convert it) or 2 (0.01
+    ms per 1000 pps); anything else is an error."""
+    w = A.CommandWriter()
+    commands = [w.put(A.Cmd.MAX_SPEED, 1, 5000), w.put(A.Cmd.MODE, 0, 5),
+                w.put(A.Cmd.H_SPEED, 1, 4000), w.put(A.Cmd.L_SPEED, 1, 500),
+                w.put(A.Cmd.UP_TIME, func, 2000)]
+    assert _rules(_write(tmp_path, f"f{func}.hex", commands)) == rules
+
+
 def test_check_pair_codes(tmp_path: Path) -> None:
     first, second = SETTINGS_COMMANDS[:2]
     repeat = A.Command(second.name, second.cmd, second.func, second.para,

@@ -94,6 +94,8 @@ def test_errors_reads_the_count_and_the_code(link: Link,
                                           r"\(B5 43\)") as refused:
         link.move(100)  # no table yet
     assert refused.value.code == 0x43
+    # the whole message, as the CLI prints it after "stepramp link: "
+    assert str(refused.value) == "slave 5: move: the chip refused it: state error (B5 43)"
     pty_chip[0].checksum_errors = 2  # as if two damaged frames had reached it
     report = link.errors()
     assert (report.error_count, report.error_code, report.error_text) == (2, 0x43,

@@ -374,3 +374,21 @@ def test_tightening_keeps_the_variant_the_criterion_chose() -> None:
     tight = plan_free_curve(motor, pulses=10_000, load_angle_deg=75.0)
     assert not tight.extras["shaping"].plain
     assert tight.extras["variant"] == plain.extras["variant"] == "LE=1 on LE=0's rates"
+
+
+def test_a_plan_is_immutable_and_hashable_without_its_extras() -> None:
+    """Plans are remembered and handed to every caller that asks again (planner.free_curve
+    `_plans`): none may change one. Their extras (a read-only mapping) stay out of the
+    hash, so two plans of one table hash alike whatever they carry."""
+    import dataclasses
+    from types import MappingProxyType
+
+    from profiles.result import PlanResult
+
+    table = FreeCurveTable(Clock.internal("8MHz"), (4000, 2000), (10, 20), None)
+    plan = PlanResult(table, 0.01, "top speed", "a plan",
+                      extras=MappingProxyType({"variant": "LE=0"}))
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        plan.duration_s = 0.0  # type: ignore[misc]
+    other = dataclasses.replace(plan, extras=MappingProxyType({"plans": 3}))
+    assert hash(plan) == hash(other)

@@ -117,6 +117,9 @@ BAD = [
     ({"axes": [{"name": "x", "motor": "m.json", "pulses": 10},
                {"name": "X", "motor": "m.json", "pulses": 10}]}, "used twice"),
     ({"axes": [{"name": "x", "motor": "m.json", "pulses": 10, "speed": 3}]}, "unknown key"),
+    ({"axes": [{"name": "x", "motor": "", "pulses": 10}]}, "expected a file path"),
+    ({"axes": [{"name": "x", "motor": 7, "pulses": 10}]}, "expected a file path"),
+    ({"axes": [{"name": "x", "table": "", "pulses": 10}]}, "expected a file path"),
     ({"device": "alink", "axes": [{"name": n, "motor": "m.json", "pulses": 10}
                                   for n in "abc"]}, "axes"),
     ({"device": "alink", "axes": [{"name": "a", "motor": "m.json", "pulses": 2**27}]},
