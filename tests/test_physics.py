@@ -206,3 +206,27 @@ def test_a_verdict_that_would_take_too_long_is_refused_in_one_line(
     path.write_text(dump_table(table))
     motor = next(p for p in bundled_motor_paths() if "nema17" in p.name)
     assert main(["check", str(path), "--motor", str(motor)]) == 2
+
+
+@pytest.mark.parametrize(("worst_deg", "stable"), [(89.99, True), (90.0, False), (-90.0, False),
+                                                   (-45.0, True)])
+def test_a_trace_at_the_90_degree_peak_is_not_stable(worst_deg: float, stable: bool) -> None:
+    """At 90° the torque is at its peak: any more load and the rotor falls back."""
+    from verify.load_angle import LoadAngleTrace
+
+    none = np.zeros(0)
+    trace = LoadAngleTrace(worst_deg, 0.0, False, None, none, none, 90.0)
+    assert trace.stable is stable
+    assert trace.to_json()["stable"] is stable
+
+
+def test_a_trace_runs_forward_unless_told_otherwise() -> None:
+    """With a load torque the two directions differ; the default is the forward move."""
+    from dataclasses import replace
+
+    motor = replace(load_motor(bundled_motor_paths()[0]), load_torque_nm=0.05)
+    table = FreeCurveTable(Clock.internal("8MHz"), (4000, 8000), (20, 20), None)
+    run = simulate_move(table, 200)
+    forward = trace_load_angle(run, motor, direction=1).worst_angle_deg
+    assert trace_load_angle(run, motor).worst_angle_deg == forward
+    assert trace_load_angle(run, motor, direction=-1).worst_angle_deg != forward

@@ -4,6 +4,7 @@ ones with minimal stages; `check` reports resonance-dwell."""
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -110,6 +111,15 @@ def test_check_reports_resonance_dwell(tmp_path: Path, nominal: tuple[Motor, Fre
     found = resonance_findings(table, Motor.from_json(obj))
     assert {f.severity for f in found} == {"warning"}
     assert len(found) == 2 and all(f.rule == "resonance-dwell" for f in found)
+    # the top band holds the cruise, the narrow one a dwell of the ramp: each its own advice
+    cruise, dwell = sorted(found, key=lambda f: f.stage or 0)
+    assert re.fullmatch(r"moves of \d+\.\.4294967295 pulses cruise at [\d.]+ pps, inside the "
+                        r"resonance band \[[\d.]+, [\d.]+\] pps: choose a top speed outside it",
+                        cruise.message), cruise.message
+    assert re.fullmatch(r"moves of \d+\.\.4294967295 pulses dwell at [\d.]+ pps, inside the "
+                        r"resonance band \[[\d.]+, [\d.]+\] pps, which is narrower than the "
+                        r"jump limit [\d.]+ pps: step over it from below [\d.]+ to above [\d.]+",
+                        dwell.message), dwell.message
     base = ["check", "--motor", str(motor_path), "--no-physics", str(table_path)]
     assert cli.main(base) == 0
     out = capsys.readouterr().out

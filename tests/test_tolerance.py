@@ -215,3 +215,17 @@ def test_box_rotors_are_the_variant_motors_rotors(holding: float | None, directi
     rows = rotors(m, params, direction=direction)
     for i, s in enumerate(samples(m, 7, seed=2)):
         assert rows.rotor(i) == rotor_of(s.motor, direction=direction)
+
+
+@pytest.mark.parametrize(("samples", "told"), [(50, [(4, 5), (5, 5)]), (0, [(4, 4)])])
+def test_judge_box_tells_its_progress_corners_then_samples(samples: int,
+                                                           told: list[tuple[int, int]]) -> None:
+    """A unit per corner and one for the Monte Carlo samples (when there are any): the
+    corners' verdict first, then the samples'."""
+    m = motor_with(tolerances={"inertia_kgm2": [6.8e-6 * 0.7, 6.8e-6 * 1.3],
+                               "torque_scale": [0.8, 1.0]})
+    table = plan_free_curve(worst_case_motor(m), pulses=5000).table
+    heard: list[tuple[int, int]] = []
+    judge_box(table, m, pulses=[200, 5000], samples=samples, seed=4,
+              progress=lambda done, total: heard.append((done, total)))
+    assert heard == told

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 
 from profiles.errors import FormatError, StepRampError
 
-from .check_options import CheckOptions
+from .check_options import DEFAULT_SAMPLES, CheckOptions
 from .devices.common import dedupe
 from .report import FileResult
 
@@ -25,7 +25,7 @@ __all__ = ["CheckOptions", "check_file", "dedupe", "judge_file"]
 
 def check_file(path: str, motor: Motor | None = None, extck_hz: float | None = None, *,
                pulses: Iterable[int] | None = None, physics: bool = True,
-               samples: int = 1000, seed: int = 0, strict: bool = False,
+               samples: int = DEFAULT_SAMPLES, seed: int = 0, strict: bool = False,
                clock: str | None = None, progress: Progress | None = None) -> FileResult:
     """The verdict on the file at `path` (see `CheckOptions` for the options)."""
     return judge_file(path, CheckOptions(motor, extck_hz, clock, pulses, physics, samples,

@@ -10,6 +10,10 @@ if TYPE_CHECKING:
     from profiles.motor import Motor
     from profiles.progress import Progress
 
+# Monte Carlo samples of a motor's tolerance box, unless told otherwise: every front end's
+# default (check, compare, sweep, the library), here where the CLI reads it without numpy
+DEFAULT_SAMPLES = 1000
+
 
 @dataclass(frozen=True)
 class CheckOptions:
@@ -23,7 +27,7 @@ class CheckOptions:
     clock: str | None = None
     pulses: Iterable[int] | None = None
     physics: bool = True
-    samples: int = 1000
+    samples: int = DEFAULT_SAMPLES
     seed: int = 0
     strict: bool = False
     progress: Progress | None = None

@@ -29,9 +29,8 @@ from profiles.motor.angles import AIM_DEG, PEAK_DEG
 from profiles.ppmc312.table import FreeCurveTable, InitTable
 from profiles.progress import Progress
 
+from .check_options import DEFAULT_SAMPLES
 from .findings import Finding
-
-DEFAULT_SAMPLES = 1000   # Monte Carlo samples of a tolerance box
 
 
 @dataclass(frozen=True)

@@ -25,6 +25,8 @@ from profiles.ppmc312.load_angle import judge, worst_load_angles
 from profiles.ppmc312.table import FreeCurveTable
 from profiles.progress import Progress, report
 
+from .check_options import DEFAULT_SAMPLES
+
 CONFIDENCE = 0.95
 
 
@@ -74,7 +76,7 @@ class BoxVerdict:
 
 
 def judge_box(table: FreeCurveTable, motor: Motor, *, pulses: Iterable[int] | None = None,
-              samples: int = 1000, seed: int = 0,
+              samples: int = DEFAULT_SAMPLES, seed: int = 0,
               progress: Progress | None = None) -> BoxVerdict:
     """The load angle of `table` over `motor`'s tolerance box (every move length, or the
     moves of the given lengths)."""

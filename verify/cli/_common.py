@@ -130,10 +130,12 @@ def _scaled(value: Any, scale: float) -> float:
 
 def add_sample_options(p: argparse.ArgumentParser, scope: str) -> None:
     """`--samples` and `--seed`: the Monte Carlo sample of a motor's tolerance box."""
-    p.add_argument("--samples", type=sample_count, default=1000, metavar="N",
+    from verify.check_options import DEFAULT_SAMPLES
+
+    p.add_argument("--samples", type=sample_count, default=DEFAULT_SAMPLES, metavar="N",
                    help=f"{scope}Monte Carlo samples of the motor's tolerance box for the load "
-                        "angle (default 1000; 0: its corners only; a motor without "
-                        "tolerances has none)")
+                        f"angle (default {DEFAULT_SAMPLES}; 0: its corners only; a motor "
+                        "without tolerances has none)")
     p.add_argument("--seed", type=positive_int, default=0,
                    help="random seed of the samples (default 0: the same samples every run)")
 
