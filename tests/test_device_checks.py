@@ -104,6 +104,15 @@ def test_read_stream_of_a_planned_stream() -> None:
     assert r.target == 600 and r.hold == 11  # the last command and the 10 hold packets
 
 
+def test_a_stream_of_broken_packets_applies_no_position() -> None:
+    """Every packet fails its checksum: the driver applies none, so nothing is held."""
+    broken = bytearray(STREAM[:12 * 4])
+    for k in range(4):
+        broken[12 * k + 4] ^= 0x01
+    r = read_stream(bytes(broken))
+    assert (r.bad_count, r.target, r.hold, r.reversal_count) == (4, None, 0, 0)
+
+
 # --- check: MC-200 -------------------------------------------------------------------------------
 def test_check_a_planned_stream_in_every_format(tmp_path: Path) -> None:
     for fmt in ("hex", "json", "c", "ihex", "bin"):

@@ -146,3 +146,14 @@ def test_explicit_instants_are_a_train() -> None:
     a = np.array([0.1, 0.2, 0.3])
     b = np.array([0.15, 0.3])
     assert pulses.line_deviation([a, b])[0] == pytest.approx(plain_deviation([a, b]))
+
+
+def test_the_lcm_of_periods_is_the_least_common_multiple() -> None:
+    """lcm(3/2, 5/3) = 15 (3/2·10 = 5/3·9); of one period, itself; 2/3 and 4/9: 4/3."""
+    from fractions import Fraction
+
+    from profiles.pulses import _lcm
+
+    assert _lcm([Fraction(3, 2), Fraction(5, 3)]) == Fraction(15)
+    assert _lcm([Fraction(7, 4)]) == Fraction(7, 4)
+    assert _lcm([Fraction(2, 3), Fraction(4, 9)]) == Fraction(4, 3)
