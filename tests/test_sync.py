@@ -378,3 +378,32 @@ def test_the_envelope_ends_where_the_axes_can_no_longer_accelerate_together() ->
     assert env.top_pps < braked.top_pps
     assert braked.a_acc_pps2(env.top_pps) <= 0 < braked.a_acc_pps2(0.99 * env.top_pps)
     assert env.a_acc_pps2(0.99 * env.top_pps) > 0
+
+
+@pytest.mark.parametrize(("items", "bound"), [
+    ((("x", "nema17-1600", 12000), ("y", "pk566-5phase-half", -5000)), 2.0),
+    ((("x", "nema17-1600", 3000), ("y", "nema17-1600", 2999)), 1.0),
+])
+def test_every_line_candidate_stays_on_the_line(items: tuple, bound: float) -> None:
+    """Not only the chosen set: every candidate line mode builds (each capped top rate, LE=1
+    and LE=0, followers stage by stage or spanning stages) keeps the joint path within a
+    pulse or two of the line, so a candidate generator that drifts cannot hide behind the
+    choice. The tops start at the envelope plan's own and slow down from there."""
+    from profiles.motor.envelope import envelope_motor
+    from profiles.ppmc312.planner import plan_free_curve
+    from profiles.ppmc312.sync.line_mode import TOP_SLACK, VARIANTS, Axes, line_candidates
+    from profiles.ppmc312.sync.moves import axis_distance
+    from profiles.ppmc312.sync.time_mode import fastest_table
+
+    axes = [(name, load_motor(motor), pulses) for name, motor, pulses in items]
+    dist = [axis_distance(name, pulses) for name, _, pulses in axes]
+    lead = dist.index(max(dist))
+    motors = [m for _, m, _ in axes]
+    ax = Axes(axes, dist, lead, [d / dist[lead] for d in dist],
+              [fastest_table(m, d)[1].duration_s for m, d in zip(motors, dist, strict=True)])
+    base = plan_free_curve(envelope_motor(motors, ax.scales, margin=0.97), pulses=dist[lead],
+                           max_stages=24).table
+    found = line_candidates(ax, base, TOP_SLACK)
+    tops = sorted({c.top_rate for c in found})
+    assert tops[0] == base.rates[0] and len(found) == len(VARIANTS) * len(tops)
+    assert max(c.deviation for c in found) <= bound
