@@ -3,7 +3,8 @@
 For each module of profiles/ and verify/ (tools/mutation.toml maps each to the tests
 that exercise it, or excludes it with the reason), every mutant of tools/mutants.py is
 run against the module's tests: a forked child imports the mutant in place of the
-module (the parent has imported the heavy libraries once) and runs pytest (-x, slow
+module (the parent has imported the heavy libraries once; the Python processes its tests
+start get the same mutant, tools/mutant_finder.py) and runs pytest (-x, slow
 tests deselected, example tests before hypothesis ones, hypothesis derandomised and
 never shrinking: a failing example is enough). A mutant is *killed* when a test fails,
 *timeout* when it runs past the module's limit (counted as killed), *survived*
