@@ -128,3 +128,19 @@ def test_every_front_end_draws_the_same_number_of_samples_by_default() -> None:
     guide = (ROOT / "docs" / "guide.md").read_text(encoding="utf-8")
     said = re.search(r"`--samples N` \(default (\d+)\)", guide)
     assert said is not None and int(said.group(1)) == DEFAULT_SAMPLES == 1000
+
+
+def test_check_file_defaults_are_check_options_defaults() -> None:
+    """check_file is CheckOptions spelled as keywords: the same defaults (the load angle
+    judged, seed 0 so a verdict is reproducible, resonance dwells warnings)."""
+    import dataclasses
+    import inspect
+
+    from verify.check_options import CheckOptions
+
+    fields = {f.name: f.default for f in dataclasses.fields(CheckOptions)}
+    params = inspect.signature(check_file).parameters
+    shared = set(fields) & set(params)
+    assert shared >= {"physics", "samples", "seed", "strict", "pulses", "clock", "extck_hz"}
+    assert {n: params[n].default for n in shared} == {n: fields[n] for n in shared}
+    assert (fields["physics"], fields["seed"], fields["strict"]) == (True, 0, False)

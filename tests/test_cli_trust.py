@@ -438,3 +438,12 @@ def test_an_internal_error_is_one_line_unless_debug_shows_the_traceback(
     err = capsys.readouterr().err
     assert code == 2 and "internal error (RuntimeError: a bug)" in err
     assert ("Traceback (most recent call last)" in err) == debug
+
+
+def test_a_pulse_list_is_every_length_given_in_order() -> None:
+    """--pulses N[,M…]: each length kept, spaces allowed, 1..2³²−1 (a move counter)."""
+    assert _common.pulse_list("1000, 3000,10000") == [1000, 3000, 10000]
+    assert _common.pulse_list("4294967295") == [4294967295]
+    for bad in ("0", "4294967296", "1000,", "1000,x"):
+        with pytest.raises(argparse.ArgumentTypeError):
+            _common.pulse_list(bad)

@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from subprocess_env import checkout_env
 
 from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312 import decode_upload
@@ -144,7 +145,7 @@ def server() -> Iterator[tuple[subprocess.Popen[str], str]]:
         [sys.executable, "-m", "verify.cli", "design", "--motor", str(NEMA17_PATH),
          "--no-browser", "--port", "0", "--pulses", "5000"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT,
-        env=dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg"))
+        env=checkout_env(MPLBACKEND="Agg"))
     try:
         line = _read_line(proc, timeout_s=180)
         found = re.search(r"http://127\.0\.0\.1:\d+/", line)
@@ -189,7 +190,7 @@ def _download(page: Any, key: str, folder: Path) -> Path:
 def _check(*files: Path) -> subprocess.CompletedProcess[str]:
     return subprocess.run([sys.executable, "-m", "verify.cli", "check", "--motor",
                            str(NEMA17_PATH), *map(str, files)], capture_output=True, text=True,
-                          cwd=ROOT, env=dict(os.environ, PYTHONPATH=str(ROOT)), timeout=300)
+                          cwd=ROOT, timeout=300, env=checkout_env())
 
 
 @pytest.mark.slow
@@ -255,3 +256,18 @@ def test_the_server_stops_on_sigterm_too(server: tuple[subprocess.Popen[str], st
     proc.terminate()
     assert proc.wait(timeout=60) == 0
     assert time.perf_counter() - t0 < 30
+
+
+def test_the_page_opens_with_the_designers_move_length() -> None:
+    """`stepramp design` without --pulses opens on the notebook designer's move
+    (verify.designer.OPENING_PULSES; the command keeps its own literal so that building
+    the parser never imports the designer), and its help says so."""
+    from verify import cli
+    from verify.designer import OPENING_PULSES, Settings
+
+    parser = cli.build_parser("design")
+    args = parser.parse_args(["design", "--motor", "nema17-1600"])
+    assert args.pulses == OPENING_PULSES == Settings().pulses
+    (pulses,) = [a for a in parser._subparsers._group_actions[0].choices["design"]._actions
+                 if a.dest == "pulses"]
+    assert pulses.help is not None and pulses.help.endswith(f"(default {OPENING_PULSES})")

@@ -16,6 +16,7 @@ from typing import Any
 import ipywidgets  # noqa: F401  (a [dev] dependency: missing, the suite fails)
 import numpy as np
 import pytest
+from subprocess_env import checkout_env
 
 from profiles.errors import StepRampError
 from profiles.motor import bundled_motor_paths, load_motor
@@ -224,8 +225,7 @@ def execute_notebook(tmp_path: Path, extra: list[str], kernel: tuple[str, Any]) 
     for source in extra:
         nb.cells.append(nbformat.v4.new_code_cell(source))
     name, ksm = kernel
-    env = dict(os.environ, MPLBACKEND="Agg", PYTHONPATH=os.pathsep.join(
-        [str(ROOT)] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]))
+    env = checkout_env(MPLBACKEND="Agg")
     km = KernelManager(kernel_name=name, kernel_spec_manager=ksm)
     client = NotebookClient(nb, km=km, timeout=180, store_widget_state=True,
                             resources={"metadata": {"path": str(tmp_path)}})

@@ -71,3 +71,13 @@ def test_every_error_class_lives_in_errors_py() -> None:
                     for b in node.bases):
                 elsewhere.append(f"{path.relative_to(ROOT)}:{node.name}")
     assert elsewhere == []
+
+
+def test_a_chip_refusal_reads_as_its_message_and_keeps_the_code() -> None:
+    """What the CLI prints after "stepramp link: " is the message alone."""
+    from profiles.errors import ChipRefused, LinkError
+
+    e = ChipRefused("slave 5: move: the chip refused it: state error (B5 43)", 0x43)
+    assert isinstance(e, LinkError)
+    assert str(e) == "slave 5: move: the chip refused it: state error (B5 43)"
+    assert e.args == (str(e),) and e.code == 0x43

@@ -11,6 +11,7 @@ from typing import Any
 
 import pytest
 import serial
+from subprocess_env import checkout_env
 
 from profiles.errors import FieldChoiceError, UnsupportedError
 from profiles.ppmc312.ascii import encode_frame
@@ -431,13 +432,11 @@ def test_cli_link_bad_input_is_one_line_exit_2(pty_chip: tuple[SerialChip, str],
 
 def test_cli_emulate_serves_a_pty_until_sigterm(tmp_path: Path,
                                                 capsys: pytest.CaptureFixture[str]) -> None:
-    import os
     import signal
     import subprocess
     import sys
 
-    root = Path(__file__).resolve().parents[1]
-    env = dict(os.environ, PYTHONPATH=str(root))
+    env = checkout_env()
     link_path = tmp_path / "chip.tty"
     proc = subprocess.Popen([sys.executable, "-m", "verify.cli", "emulate", "--pty",
                              "--address", "9", "--link", str(link_path), "--log"],

@@ -230,3 +230,23 @@ def test_a_trace_runs_forward_unless_told_otherwise() -> None:
     forward = trace_load_angle(run, motor, direction=1).worst_angle_deg
     assert trace_load_angle(run, motor).worst_angle_deg == forward
     assert trace_load_angle(run, motor, direction=-1).worst_angle_deg != forward
+
+
+def test_past_the_aim_below_the_peak_is_a_warning_naming_the_aim() -> None:
+    """A table whose worst angle lies between the aim and 90°: stall-safe, with a
+    `load-angle-margin` warning that says what `stepramp plan` aims at."""
+    from pathlib import Path
+
+    from profiles.ppmc312.table import load_table
+
+    root = Path(__file__).resolve().parents[1]
+    table = load_table(root / "examples" / "free-curve-nema17.json")
+    motor = load_motor(root / "profiles" / "data" / "motor-nema17-1600.json")
+    worst = judge_safety(table, motor).load_angle.worst_deg  # type: ignore[union-attr]
+    verdict = judge_safety(table, motor, aim_deg=worst / 2)
+    assert verdict.safe and not verdict.within_aim
+    (found,) = [f for f in verdict.findings() if f.rule.startswith("load-angle")]
+    assert (found.severity, found.rule) == ("warning", "load-angle-margin")
+    assert found.message.endswith(f"(stepramp plan aims at ≤ {worst / 2:g}°)")
+    assert not [f for f in judge_safety(table, motor).findings()
+                if f.rule.startswith("load-angle")]

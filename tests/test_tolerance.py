@@ -173,6 +173,7 @@ def test_judge_box_is_reproducible_and_reports_the_worst_case() -> None:
     assert a.corner_worst_deg == max(worst_load_angle(table, c.motor, pulses=[200, 5000])
                                      .worst_angle_deg for c in corners(m))
     assert a.worst_angle_deg == max(a.corner_worst_deg, a.sample_worst_deg)
+    assert a.worst_direction in (1, -1) and a.worst_pulses in (200, 5000)
     assert ("corner" in a.worst_where) or ("sample" in a.worst_where)
     if a.sample_failures == 0:
         assert a.stall_probability_upper == pytest.approx(1 - 0.05 ** (1 / 200))

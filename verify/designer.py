@@ -41,6 +41,7 @@ from profiles.ppmc312.planner import Plan, plan_free_curve
 
 AUTO_CLOCK = "auto"
 PULSES_RANGE = (10, 1_000_000)
+OPENING_PULSES = 10_000       # the move a designer (notebook or web page) opens with
 PULSES_SLIDER_MAX = 200_000
 AIM_RANGE_DEG = (10.0, PEAK_DEG)
 SLOW_REFERENCES = ("toppra", "ruckig", "casadi")
@@ -56,7 +57,7 @@ class Settings:
     until it is met, as `stepramp plan` does (a few plans instead of one); without it the
     plain criterion's table is shown, and the verdict says how far past the aim it is."""
 
-    pulses: int = 10_000
+    pulses: int = OPENING_PULSES
     safety_factor: float = 0.6
     load_inertia_kgm2: float = 0.0
     load_torque_nm: float | None = None
@@ -89,7 +90,7 @@ class ControlSpec:
 MOTOR_SPECIFIC = ("safety_factor", "load_inertia_kgm2", "load_torque_nm", "friction_torque_nm")
 
 
-def control_specs(motor: Motor, pulses: int = 10_000) -> dict[str, ControlSpec]:
+def control_specs(motor: Motor, pulses: int = OPENING_PULSES) -> dict[str, ControlSpec]:
     """The designer's sliders for `motor`, by `Settings` field: the move, the load
     (inertia up to 10× the rotor's, load torque and friction up to half the usable
     standstill torque), the aim (safety factor, load-angle aim) and the stage budget."""
@@ -412,7 +413,7 @@ class Designer:
     PNG), `summary`, `status`; `result` is the latest `Design`. Display it in a notebook
     (it shows its widget); setting a control from code recomputes as dragging it does."""
 
-    def __init__(self, motor: Motor | None = None, *, pulses: int = 10_000,
+    def __init__(self, motor: Motor | None = None, *, pulses: int = OPENING_PULSES,
                  out_dir: str | Path = ".", motors: dict[str, Motor] | None = None,
                  load_angle: bool = True) -> None:
         try:

@@ -29,6 +29,7 @@ from profiles.motor import Motor
 from profiles.ppmc312.clock import INTERNAL_HZ
 from verify.designer import (
     AUTO_CLOCK,
+    OPENING_PULSES,
     UPLOAD_FORMATS,
     ControlSpec,
     Design,
@@ -61,7 +62,7 @@ class DesignPage:
     the `verdict`, `summary` and `figure` panes; `result` is the latest `Design`. Setting a
     control's value from Python recomputes as moving it in the browser does."""
 
-    def __init__(self, motor: Motor, *, pulses: int = 10_000, motor_name: str = "") -> None:
+    def __init__(self, motor: Motor, *, pulses: int = OPENING_PULSES, motor_name: str = "") -> None:
         """`motor_name`: the short name the downloaded files carry (default: the motor's)."""
         pn = require_panel()
         self.motor = motor
@@ -175,7 +176,7 @@ def _label(cls: Any, text: str) -> dict[str, str]:
     return {"label" if "label" in cls.param else "name": text}
 
 
-def warm(motor: Motor, pulses: int = 10_000) -> float:
+def warm(motor: Motor, pulses: int = OPENING_PULSES) -> float:
     """One design and one drawing, so the load-angle kernel is compiled (or loaded from
     its cache) and matplotlib imported before the first page asks; milliseconds taken."""
     t0 = time.perf_counter()
@@ -193,7 +194,7 @@ def free_port(host: str) -> int:
         return int(sock.getsockname()[1])
 
 
-def serve(motor: Motor, *, port: int, open_browser: bool, pulses: int = 10_000,
+def serve(motor: Motor, *, port: int, open_browser: bool, pulses: int = OPENING_PULSES,
           motor_name: str = "", say: Callable[[str], None] = print) -> None:
     """Serve the designer for `motor` on 127.0.0.1:`port` (0: a free port) until Ctrl-C or
     SIGTERM; `say` is told the address once the server listens."""

@@ -1,0 +1,15 @@
+"""The environment a test gives a Python subprocess of the checkout."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def checkout_env(**extra: str) -> dict[str, str]:
+    """os.environ with the checkout first on PYTHONPATH, then what the caller had there
+    (a mutation run's import hook, tools/mutant_site), and `extra`."""
+    kept = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
+    return {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), *kept]), **extra}
