@@ -51,6 +51,20 @@ def test_it_opens_on_the_given_motor_with_a_figure(d: Designer) -> None:
     assert "5000 pulses" in d.summary.value and "load angle" in d.summary.value
 
 
+def test_the_figure_names_its_three_axes_and_marks_the_peak() -> None:
+    """Speed against time, the stall margin per stage, the load angle against time with
+    the ±90° peak drawn; each axis says its quantity and unit."""
+    from verify.designer import DesignFigure
+
+    fig = DesignFigure()
+    labels = [(ax.get_xlabel(), ax.get_ylabel()) for ax in (fig.ax_v, fig.ax_m, fig.ax_l)]
+    assert labels == [("time [ms]", "speed [pps]"), ("stage (0 = fastest)", "stall margin"),
+                      ("time [ms]", "load angle [° el.]")]
+    peaks = sorted(line.get_ydata()[0] for line in fig.ax_l.get_lines()
+                   if line is not fig.lag_line)
+    assert peaks == [-90, 90]
+
+
 @pytest.mark.parametrize(("control", "value", "slower"), [
     ("safety_factor", 0.3, True),
     ("load_inertia_kgm2", 3 * NEMA17.inertia_kgm2, True),
