@@ -242,3 +242,24 @@ def test_ctrl_c_stops_local_workers_and_writes_nothing(tmp_path: Path) -> None:
     assert not out.exists()
     _, alive = psutil.wait_procs([*servers, *workers], timeout=10)
     assert not alive
+
+
+@pytest.mark.parametrize(("aim", "lines"), [(75.0, {90.0: "90° peak", 75.0: "75° aim"}),
+                                            (60.0, {90.0: "90° peak", 60.0: "60° aim"}),
+                                            (90.0, {90.0: "90° peak"}),
+                                            (None, {90.0: "90° peak"})])
+def test_the_sweep_figure_draws_the_aim_the_tables_were_tightened_to(
+        aim: float | None, lines: dict[float, str]) -> None:
+    """Two panels over move length (time, worst angle; one line a motor), the peak, and the
+    sweep's own aim (--load-angle), not a fixed 75°."""
+    from verify.sweep import sweep_figure
+
+    rows = [{"motor": "m", "pulses": n, "move_time_s": n * 1e-4, "worst_load_angle_deg": 50.0,
+             "error": None} for n in (1000, 3000)]
+    fig = sweep_figure(rows, aim)
+    ax_t, ax_a = fig.axes
+    assert (ax_t.get_ylabel(), ax_a.get_ylabel()) == ("move time [s]",
+                                                      "worst load angle [° electrical]")
+    drawn = {line.get_ydata()[0]: line.get_label() for line in ax_a.get_lines()
+             if line.get_label() != "m"}
+    assert drawn == lines

@@ -374,8 +374,10 @@ def _cell(v: Any) -> Any:
     return v
 
 
-def sweep_figure(rows: Sequence[dict[str, Any]]) -> Any:
-    """Move time and worst load angle against move length, one line per motor."""
+def sweep_figure(rows: Sequence[dict[str, Any]], aim_deg: float | None = None) -> Any:
+    """Move time and worst load angle against move length, one line per motor; the 90°
+    peak, and the aim the tables were tightened to (`aim_deg`, when below the peak)."""
+    from profiles.motor.angles import PEAK_DEG
     from verify.plot import pyplot
 
     plt = pyplot()
@@ -389,7 +391,8 @@ def sweep_figure(rows: Sequence[dict[str, Any]]) -> Any:
         ax_t.plot(n, [r["move_time_s"] for r in mine], marker="o", label=name)
         ax_a.plot(n, [r["worst_load_angle_deg"] for r in mine], marker="o", label=name)
     ax_a.axhline(90.0, color="red", lw=1, ls="--", label="90° peak")
-    ax_a.axhline(75.0, color="orange", lw=1, ls=":", label="75° target")
+    if aim_deg is not None and aim_deg < PEAK_DEG:
+        ax_a.axhline(aim_deg, color="orange", lw=1, ls=":", label=f"{aim_deg:g}° aim")
     ax_t.set(xscale="log", yscale="log", ylabel="move time [s]",
              title="stepramp sweep: robust tables")
     ax_a.set(xscale="log", xlabel="move length [pulses]",

@@ -95,7 +95,7 @@ def _do_sweep(args: argparse.Namespace) -> int:
     if args.plot:
         from verify.plot import save_figure
 
-        save_figure(sweep_figure(rows), args.plot)
+        save_figure(sweep_figure(rows, args.load_angle), args.plot)
     write_output(args.output, data)
     unsafe = [r for r in rows if not r["safe"]]
     print(f"stepramp sweep: {len(motors)} motor(s) × {len(args.pulses)} move length(s): "
