@@ -263,3 +263,14 @@ def test_the_sweep_figure_draws_the_aim_the_tables_were_tightened_to(
     drawn = {line.get_ydata()[0]: line.get_label() for line in ax_a.get_lines()
              if line.get_label() != "m"}
     assert drawn == lines
+
+
+def test_jobs_aim_at_the_planners_aim_unless_told() -> None:
+    """jobs_of's default aim is the one every planner and verdict uses (AIM_DEG; kept as a
+    literal there so that importing verify.sweep stays light)."""
+    import inspect
+
+    from profiles.motor.angles import AIM_DEG
+    from verify.sweep import jobs_of
+
+    assert inspect.signature(jobs_of).parameters["load_angle_deg"].default == AIM_DEG
