@@ -127,3 +127,22 @@ def test_compiled_encode_equals_interpreter(frame: Frame, draw: st.DataObject) -
                       st.lists(st.integers(-1, 0x1000000), max_size=12))
     values = {n: draw.draw(value) for n in names if draw.draw(st.integers(0, 9))}
     assert _outcome(frame.encode, values) == _outcome(frame._encode_slow, values)
+
+
+@pytest.mark.parametrize("size", [1, 2, 4])
+def test_a_signed_field_takes_its_whole_twos_complement_range(size: int) -> None:
+    """−2^(8n−1) … 2^(8n−1) − 1, both ends encoded and read back; one past either end
+    refused, naming the range."""
+    field = SInt("x", size)
+    lo, hi = -(1 << (8 * size - 1)), (1 << (8 * size - 1)) - 1
+    for value in (lo, hi, -1, 0):
+        assert field.unpack(field.pack(value), 0) == value
+    for value in (lo - 1, hi + 1):
+        with pytest.raises(FieldRangeError, match=rf"x: {value}.* allowed range {lo}\.\.{hi}"):
+            field.pack(value)
+
+
+def test_a_bit_field_left_out_is_zero() -> None:
+    """Bits a caller does not name are 0 (the manual's reserved and default-off bits)."""
+    frame = Frame("f", (Bits("flags", 1, (Bit("a", 7), Bit("b", 0, 3))),))
+    assert frame.encode(a=1) == b"\x80" and frame.encode(b=5) == b"\x05"

@@ -383,3 +383,23 @@ def test_ruckig_refusal_is_one_line() -> None:
     with pytest.raises(StepRampError, match="ruckig: no move for 3200 pulses") as err:
         M.ruckig_profile(3200, 1e-9, 200000, 5e6)
     assert "\n" not in str(err.value)
+
+
+def test_the_mode_switch_magics_are_the_manuals() -> None:
+    """SPEC §3: bytes 3–6 of a mode switch are 0F0F0F0F (the position and current pages);
+    the velocity page prints F0F0F0F0 (an open question: both are offered)."""
+    assert (M.MAGIC_DEFAULT, M.MAGIC_VELOCITY_PAGE) == (0x0F0F0F0F, 0xF0F0F0F0)
+
+
+def test_a_command_value_is_bytes_3_to_6_little_endian() -> None:
+    """The raw value a host packet carries: the int32 position −2 is FE FF FF FF there,
+    read back as the unsigned 0xFFFFFFFE; a magic reads as itself."""
+    p = M.HostPacket(driver_id=3, servo=True, value=-2)
+    assert p.encode()[3:7] == b"\xfe\xff\xff\xff" and p.raw_value == 0xFFFFFFFE
+    assert M.HostPacket(value=0x01020304).raw_value == 0x01020304
+
+
+def test_packets_default_to_driver_0() -> None:
+    """A packet built without a driver ID addresses driver 0 (a single driver's bus)."""
+    assert M.HostPacket().driver_id == 0 and M.DriverPacket().driver_id == 0
+    assert M.HostPacket().encode()[0] >> 4 == 0

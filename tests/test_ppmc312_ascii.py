@@ -185,3 +185,21 @@ def test_the_link_commands_are_the_manuals_bytes(frame: Frame, values: dict, pay
     assert frame.encode(values).hex().upper() == payload
     decoded = frame.decode(bytes.fromhex(payload))
     assert {k: decoded[k] for k in values} == values
+
+
+def test_the_end_codes_are_the_manuals() -> None:
+    """§18-6: why pulse output stopped, 0x31–0x39 (0x35 is not used)."""
+    from profiles.ppmc312.ascii import END_CODES
+
+    assert sorted(END_CODES) == [0x31, 0x32, 0x33, 0x34, 0x36, 0x37, 0x38, 0x39]
+    assert "normal stop" in END_CODES[0x38] and "immediate-stop" in END_CODES[0x37]
+    assert "alarm" in END_CODES[0x31] and "no deceleration" in END_CODES[0x39]
+
+
+def test_a_special_reply_carries_one_code_byte() -> None:
+    """§19: a special reply is the control byte B0 + address and one code byte."""
+    from profiles.ppmc312.ascii import SPECIAL_REPLY
+
+    assert SPECIAL_REPLY.size == 1
+    assert SPECIAL_REPLY.encode(code=0x42) == b"\x42"
+    assert SPECIAL_REPLY.decode(b"\x43")["code"] == 0x43

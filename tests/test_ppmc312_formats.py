@@ -127,6 +127,16 @@ def test_bus_format_lists_every_register_write() -> None:
         render([ascii_frame], "bus")
 
 
+@pytest.mark.parametrize(("cut", "says"), [
+    (["WCR 20"], "line 1: WCR 20 is followed by WAR"),                # nothing after it
+    (["WCR 20", "DWR 03"], "line 1: WCR 20 is followed by WAR"),      # data, no size
+    (["WCR 20", "WAR 1F"], "line 1: WAR says 1 DWR writes follow; found 0"),  # size, no data
+])
+def test_a_cut_bus_block_is_refused_at_its_line(cut: list[str], says: str) -> None:
+    with pytest.raises(DecodeError, match=says):
+        parse(("\n".join(cut) + "\n").encode(), fmt="bus")
+
+
 # --- Intel HEX, checked against the intelhex package ---------------------------------
 def test_ihex_golden() -> None:
     assert render(BLOCKS, "ihex").decode().splitlines() == [
