@@ -108,6 +108,21 @@ def test_files_carry_the_crc() -> None:
                                                       "little-endian, 30 bytes)\n")
 
 
+def test_text_says_the_summary_and_c_rows_end_without_a_comma() -> None:
+    """The text file's head: the multiplier line, then each summary number the planner
+    gave (6 significant digits); the C rows: a comma between rows, none after the last."""
+    text = render(COMMANDS, "text", RenderOptions(header={
+        "predicted_time_s": 0.123456789, "ratio_to_optimum": 1.0417, "warnings": []}))
+    lines = text.decode().splitlines()
+    assert lines[0].startswith("multiplier ×5: start 500 pps, high 10000 pps")
+    assert lines[1:3] == ["predicted_time_s: 0.123457", "ratio_to_optimum: 1.0417"]
+    rows = [line for line in render(COMMANDS, "c").decode().splitlines()
+            if line.startswith("    {0x")]
+    assert len(rows) == len(COMMANDS)
+    assert all("}," in r for r in rows[:-1])
+    assert rows[-1].startswith("    {0x8214, 0x8000, 0x87D0}   /* UP_TIME")
+
+
 def test_render_settings_keeps_the_document() -> None:
     s = A.quantise_settings(500, 12345, 3.35)
     doc = A.settings_document(s, A.settings_commands(s, slave_address=5),

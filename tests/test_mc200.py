@@ -403,3 +403,22 @@ def test_packets_default_to_driver_0() -> None:
     """A packet built without a driver ID addresses driver 0 (a single driver's bus)."""
     assert M.HostPacket().driver_id == 0 and M.DriverPacket().driver_id == 0
     assert M.HostPacket().encode()[0] >> 4 == 0
+
+
+def test_samples_start_at_0_and_end_at_the_move_whatever_the_profile_says() -> None:
+    """The first packet commands position 0 and the last one the move's pulses, even when
+    the profile's ends are off by a little (a profile evaluated in floating point)."""
+    def position_at(t: np.ndarray) -> np.ndarray:
+        return 1.5 + 1000.0 * t  # 1.5 pulses ahead at the start, 998.5 at t = 1 s
+
+    q = M.sample_positions(position_at, 1.0, 1000, 0.01)
+    assert q[0] == 0 and q[-1] == 1000 and q[1] == 11 and np.all(np.diff(q) >= 0)
+
+
+def test_stream_progress_counts_whole_packets_up_to_the_total() -> None:
+    position_at, duration = M.ruckig_profile(2000, 20000.0, 2e5, 2e7)
+    heard: list[tuple[int, int]] = []
+    total = sum(len(c) for c in M.stream_chunks(position_at, duration, 2000, period_us=500,
+                                                progress=lambda d, t: heard.append((d, t))))
+    assert all(isinstance(d, int) and isinstance(t, int) for d, t in heard)
+    assert heard[0][0] == 0 and heard[-1][0] == heard[-1][1] == total // M.PACKET_SIZE
