@@ -373,6 +373,10 @@ def test_decode_read_back() -> None:
     r = A.decode_response(status, (3 << 14) | (12345 >> 14), (3 << 14) | (12345 & 0x3FFF),
                           expected_pair=3, read_back=True, expected_cmd=A.Cmd.H_SPEED_R)
     assert r.valid and r.value == 12345 and r.subcommand == 3 and r.param0 == 1
+    # a read-back's status word has its own layout (extended, sub-command, parameter 0):
+    # no drive flag is read from it, so none is claimed
+    assert not any((r.driving, r.inhibit, r.origin_set, r.origin_detecting, r.plus_limit,
+                    r.minus_limit, r.limit_latched, r.abnormal_stop, r.eeprom_error))
     wrong = A.decode_response(status, 0xC000, 0xC000, read_back=True,
                               expected_cmd=A.Cmd.L_SPEED_R)
     assert not wrong.valid and "sub-command" in (wrong.mismatch or "")
