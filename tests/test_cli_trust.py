@@ -447,3 +447,18 @@ def test_a_pulse_list_is_every_length_given_in_order() -> None:
     for bad in ("0", "4294967296", "1000,", "1000,x"):
         with pytest.raises(argparse.ArgumentTypeError):
             _common.pulse_list(bad)
+
+
+def test_main_reads_the_command_line_after_the_program_name(
+        monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    """`stepramp` (the console script) calls main() with no arguments: sys.argv[1:]."""
+    monkeypatch.setattr(sys, "argv", ["stepramp", "--version"])
+    assert cli.main() == 0
+    assert capsys.readouterr().out.strip() == f"stepramp {version('stepramp')}"
+
+
+def test_top_level_help_lists_debug(capsys: pytest.CaptureFixture[str]) -> None:
+    """--debug works anywhere on the line (it is taken out before parsing), and the help
+    says it exists."""
+    assert cli.main(["--help"]) == 0
+    assert "--debug" in capsys.readouterr().out

@@ -196,3 +196,15 @@ def test_the_architecture_lists_every_module_and_no_other() -> None:
         assert names - files == set(), f"{root}: listed but gone"
         assert {f for f in files if not f.endswith("__init__.py")} - names == set(), \
             f"{root}: missing from docs/architecture.md"
+
+
+def test_profiles_gives_the_motor_model_on_first_use() -> None:
+    """`profiles.Motor` and `profiles.load_motor` are the motor package's, imported when
+    first asked for (a table's check never needs numpy); any other name is an error."""
+    import profiles
+    import profiles.motor
+
+    assert profiles.Motor is profiles.motor.Motor
+    assert profiles.load_motor is profiles.motor.load_motor
+    with pytest.raises(AttributeError):
+        profiles.no_such_thing  # noqa: B018

@@ -392,3 +392,13 @@ def test_a_plan_is_immutable_and_hashable_without_its_extras() -> None:
         plan.duration_s = 0.0  # type: ignore[misc]
     other = dataclasses.replace(plan, extras=MappingProxyType({"plans": 3}))
     assert hash(plan) == hash(other)
+
+
+@pytest.mark.parametrize("pulses", [7, 0, 2**32])
+def test_a_move_shorter_than_the_smallest_trapezoid_is_refused(pulses: int) -> None:
+    """2 stages × 2 pulses × 2 sides: 8 pulses is the shortest move a free curve plans for."""
+    from profiles.errors import FieldRangeError
+
+    with pytest.raises(FieldRangeError,
+                       match=rf"^pulses: {pulses}.* allowed range 8\.\.4294967295"):
+        plan_free_curve(load_motor(bundled_motor_paths()[0]), pulses=pulses)

@@ -280,3 +280,18 @@ def test_json_that_is_not_utf8_says_so_and_where() -> None:
     with pytest.raises(FormatError) as e:
         parse_json(b'{"a": "\xbe"}', "motor.json")
     assert str(e.value) == "motor.json: not a UTF-8 text file (byte 0xbe at offset 7)"
+
+
+def test_the_guide_states_the_input_bounds_the_reader_keeps() -> None:
+    """docs/guide.md, "Inputs": a file over 16 MiB, JSON nested more than 64 deep and a
+    number of more than 40 characters are refused; the reader's constants say the same."""
+    import re
+
+    guide = (Path(__file__).resolve().parents[1] / "docs" / "guide.md").read_text("utf-8")
+    inputs = " ".join(guide[guide.index("- **Inputs**"):guide.index("- **Outputs**")].split())
+    said = re.search(r"a file over (\d+) MiB .* JSON nested more than (\d+) deep, a number "
+                     r"of more than (\d+) characters", inputs)
+    assert said is not None
+    mib, depth, chars = (int(g) for g in said.groups())
+    assert (mib * 1024 * 1024, depth, chars) == (reading.MAX_INPUT_BYTES,
+                                                 reading.MAX_JSON_DEPTH, MAX_NUMBER_CHARS)

@@ -142,3 +142,20 @@ def test_bad_bands(bands: list, words: str) -> None:
     with pytest.raises(Exception, match="resonance_bands_pps") as e:
         Motor.from_json(obj)
     assert words in str(e.value)
+
+
+def test_bands_are_closed_and_their_edge_rates_lie_just_outside() -> None:
+    """A band [lo, hi] holds both ends; the rates a jump over it needs are the first whose
+    speed is below lo and the first above hi; a band exactly as wide as the jump limit is
+    not narrow (one jump cannot clear it)."""
+    from profiles.motor.resonance import band_edges_rates, narrow_bands
+
+    bands = ((4000.0, 4500.0),)
+    assert in_bands([3999.9, 4000.0, 4250.0, 4500.0, 4500.1], bands).tolist() == [
+        False, True, True, True, False]
+    m = with_bands(load_motor(NEMA17), [(4000.0, 4500.0)])
+    below, above = band_edges_rates(m, 8e6)
+    assert 8e6 / below < 4000.0 <= 8e6 / (below - 1)
+    assert 8e6 / above > 4500.0 >= 8e6 / (above + 1)
+    assert narrow_bands(with_bands(m, [(4000.0, 4000.0 + m.jump_pps)])) == ()
+    assert narrow_bands(with_bands(m, [(4000.0, 3999.0 + m.jump_pps)])) != ()

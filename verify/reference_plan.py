@@ -105,7 +105,7 @@ def reference_motor(motor: Motor, v_pps: np.ndarray, x_pulses: np.ndarray) -> Mo
     t_acc = (accel / k + motor.friction_torque_nm + load) / motor.safety_factor
     t_dec = (decel / k - motor.friction_torque_nm + load) / motor.safety_factor
     torque = np.minimum(np.minimum(t_acc, t_dec), motor.torque_nm(speeds))
-    torque[-1] = min(torque[-1], torque[-2]) if len(torque) > 1 else torque[-1]
+    torque[-1] = min(torque[-1], torque[-2])  # `speeds` holds CURVE_POINTS speeds at least
     return replace(motor, curve_speed_pps=speeds, curve_torque_nm=np.maximum(torque, 0.0),
                    max_pps=top, name=f"{motor.name} (following a reference)")
 
