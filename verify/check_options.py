@@ -10,8 +10,9 @@ if TYPE_CHECKING:
     from profiles.motor import Motor
     from profiles.progress import Progress
 
-# Monte Carlo samples of a motor's tolerance box, unless told otherwise: every front end's
-# default (check, compare, sweep, the library), here where the CLI reads it without numpy
+# Monte Carlo samples of a motor's tolerance box, unless told otherwise: the default of
+# check's and sweep's --samples and of the library's judges, here where the CLI reads it
+# without numpy
 DEFAULT_SAMPLES = 1000
 
 
