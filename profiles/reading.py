@@ -181,6 +181,16 @@ def require_shallow_json(data: bytes, path: str | Path) -> None:
                           f"{MAX_JSON_DEPTH} levels an input may have")
 
 
+def utf8_text(data: bytes, path: str | Path, *, encoding: str = "utf-8") -> str:
+    """A text input's bytes as text (`encoding`: "utf-8-sig" takes a spreadsheet's
+    byte-order mark too); bytes that are not UTF-8 are one line naming the first."""
+    try:
+        return data.decode(encoding)
+    except UnicodeDecodeError as e:
+        raise FormatError(f"{display_path(path)}: not a UTF-8 text file (byte "
+                          f"0x{e.object[e.start]:02x} at offset {e.start})") from None
+
+
 def parse_json(data: bytes, path: str | Path) -> Any:
     """JSON from a file's bytes (read once); `path` names it in errors."""
     name = display_path(path)
@@ -190,11 +200,8 @@ def parse_json(data: bytes, path: str | Path) -> Any:
         raise FormatError(f"{name}: {word} is not a JSON number (NaN and Infinity are refused)")
 
     try:
-        return json.loads(data.decode("utf-8"), parse_int=_number(int, name),
+        return json.loads(utf8_text(data, path), parse_int=_number(int, name),
                           parse_float=_number(float, name), parse_constant=no_constant)
-    except UnicodeDecodeError as e:  # the words `plan --moves` uses for a CSV, and where
-        raise FormatError(f"{name}: not a UTF-8 text file (byte 0x{e.object[e.start]:02x} "
-                          f"at offset {e.start})") from None
     except json.JSONDecodeError as e:
         raise FormatError(f"{name}: not valid JSON (line {e.lineno}, column {e.colno}: "
                           f"{e.msg})") from None

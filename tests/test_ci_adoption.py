@@ -29,6 +29,7 @@ from typing import Any
 
 import pytest
 import yaml
+from subprocess_env import checkout_env
 
 REPO = Path(__file__).resolve().parents[1]
 README = REPO / "README.md"
@@ -146,17 +147,11 @@ def _tables(root: Path, with_bad: bool) -> None:
         shutil.copy(BAD, root / "bad.table.json")
 
 
-def _cli_env() -> dict[str, str]:
-    env = dict(os.environ)
-    env["PYTHONPATH"] = str(REPO) + os.pathsep + env.get("PYTHONPATH", "")
-    return env
-
-
 def _run_check_step(script: str, cwd: Path) -> subprocess.CompletedProcess[str]:
     # `shell: bash` on GitHub runs `bash --noprofile --norc -eo pipefail {0}`.
     stepramp = f'stepramp() {{ "{sys.executable}" -m verify.cli "$@"; }}\n'
     return subprocess.run(["bash", "--noprofile", "--norc", "-eo", "pipefail", "-c",
-                           stepramp + script], cwd=cwd, env=_cli_env(), capture_output=True,
+                           stepramp + script], cwd=cwd, env=checkout_env(), capture_output=True,
                           text=True, timeout=120)
 
 
@@ -168,7 +163,7 @@ def test_workflow_check_step(tmp_path: Path) -> None:
     # An upload file in a subfolder: the step's globs must reach it.
     subprocess.run([sys.executable, "-m", "verify.cli", "export", str(GOOD), "--format", "hex",
                     "-o", str(tmp_path / "tables" / "good.upload.hex")],
-                   check=True, env=_cli_env(), cwd=tmp_path, timeout=60)
+                   check=True, env=checkout_env(), cwd=tmp_path, timeout=60)
 
     failing = _run_check_step(script, tmp_path)
     assert failing.returncode == 1, failing.stderr

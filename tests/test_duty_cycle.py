@@ -131,6 +131,17 @@ def test_plan_moves_names_the_file_line_and_field(
     assert "--pulses" not in err and "motor" not in err
 
 
+def test_plan_moves_names_the_first_byte_that_is_not_utf8(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The words and detail a JSON input gets (profiles.reading.utf8_text)."""
+    mix = tmp_path / "mix.csv"
+    mix.write_bytes(b"pulses,weight\n30\xff,1\n")
+    code = main(["plan", "--motor", str(PK566), "--moves", str(mix)])
+    assert code == 2
+    assert capsys.readouterr().err.endswith(
+        "mix.csv: not a UTF-8 text file (byte 0xff at offset 16)\n")
+
+
 def test_plan_moves_caps_its_rows(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                   monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(duty_cycle, "MIX_ROWS_MAX", 3)

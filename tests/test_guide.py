@@ -37,6 +37,7 @@ from glob import glob
 from pathlib import Path
 
 import pytest
+from subprocess_env import checkout_env
 
 from profiles.motor import OPTIONAL_KEYS as MOTOR_OPTIONAL
 from profiles.motor import REQUIRED_KEYS as MOTOR_REQUIRED
@@ -207,8 +208,7 @@ def run_in_process(argv: list[str], cwd: Path) -> tuple[int, str]:
 
 
 def run_subprocess(argv: list[str], cwd: Path) -> tuple[int, str]:
-    env = dict(os.environ, MPLBACKEND="Agg",
-               PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    env = checkout_env(MPLBACKEND="Agg")
     done = subprocess.run([sys.executable, "-m", "verify.cli", *argv], cwd=cwd, env=env,
                           capture_output=True, timeout=600)
     text = (done.stdout.decode("utf-8", errors="replace")
@@ -218,7 +218,7 @@ def run_subprocess(argv: list[str], cwd: Path) -> tuple[int, str]:
 
 def start_background(argv: list[str], cwd: Path) -> tuple[subprocess.Popen[str], str]:
     """A serving command (`emulate`) as a subprocess, and the first line it prints."""
-    env = dict(os.environ, PYTHONPATH=str(REPO) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    env = checkout_env()
     proc = subprocess.Popen([sys.executable, "-m", "verify.cli", *argv], cwd=cwd, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     assert proc.stdout is not None

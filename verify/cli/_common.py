@@ -15,6 +15,7 @@ from contextlib import contextmanager
 from typing import TYPE_CHECKING, Any
 
 from profiles.errors import echo
+from verify.check_options import DEFAULT_SAMPLES
 
 if TYPE_CHECKING:
     from profiles.ppmc312.clock import Clock
@@ -130,8 +131,6 @@ def _scaled(value: Any, scale: float) -> float:
 
 def add_sample_options(p: argparse.ArgumentParser, scope: str) -> None:
     """`--samples` and `--seed`: the Monte Carlo sample of a motor's tolerance box."""
-    from verify.check_options import DEFAULT_SAMPLES
-
     p.add_argument("--samples", type=sample_count, default=DEFAULT_SAMPLES, metavar="N",
                    help=f"{scope}Monte Carlo samples of the motor's tolerance box for the load "
                         f"angle (default {DEFAULT_SAMPLES}; 0: its corners only; a motor "

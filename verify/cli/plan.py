@@ -163,13 +163,10 @@ def read_mix(path: str) -> list[tuple[int, float]]:
 
     from profiles.errors import FormatError
     from profiles.ppmc312.planner.duty_cycle import MIX_LENGTHS_MAX, MIX_ROWS_MAX
-    from profiles.reading import display_path, read_bytes
+    from profiles.reading import display_path, read_bytes, utf8_text
 
     name = display_path(path)
-    try:
-        text = read_bytes(path).decode("utf-8-sig")  # a spreadsheet's byte-order mark too
-    except UnicodeDecodeError:
-        raise FormatError(f"{name}: not a UTF-8 text file") from None
+    text = utf8_text(read_bytes(path), path, encoding="utf-8-sig")  # a spreadsheet's BOM too
     reader = csv.reader(io.StringIO(text))
     mix: list[tuple[int, float]] = []
     try:
