@@ -349,3 +349,44 @@ def test_check_reads_stdin_once(kind: str, monkeypatch: pytest.MonkeyPatch,
     assert main(["check", "-"]) == 0, capsys.readouterr()
     out = capsys.readouterr().out
     assert "1 ok" in out and ("MC-200 stream file" in out) == (kind == "stream")
+
+
+# --- the PPMC-312 block size (REV 1.3, manual §5-5) ----------------------------------
+def _nema17_upload(tmp_path: Path, max_data: int | None) -> Path:
+    from profiles.ppmc312.formats import render as render_upload
+    from profiles.ppmc312.table import load_table
+    from profiles.ppmc312.upload import encode_free_curve
+
+    table = load_table(Path(__file__).resolve().parents[1] / "examples"
+                       / "free-curve-nema17.json")
+    blocks = (encode_free_curve(table) if max_data is None
+              else encode_free_curve(table, max_data=max_data))
+    path = tmp_path / f"nema17-{max_data}.upload.hex"
+    path.write_bytes(render_upload(blocks, "text"))
+    return path
+
+
+def test_a_rev11_sized_upload_is_warned_naming_the_manual(tmp_path: Path,
+                                                          capsys: pytest.CaptureFixture[str]
+                                                          ) -> None:
+    old = _nema17_upload(tmp_path, 30)
+    found = [f for f in check_file(str(old)).findings if f.rule == "upload-block-size"]
+    assert len(found) == 1 and found[0].severity == "warning"
+    assert "§5-5" in found[0].message and "up to 30" in found[0].message
+    # 26 rates and 26 counts: 30 + 22 and 30 + 30 + 18 data bytes, every one over 14
+    assert "5 block(s)" in found[0].message and "blocks 1, 2, 3, 4, 5)" in found[0].message
+    assert main(["check", str(old)]) == 0  # a warning: chips that take REV 1.1 blocks exist
+    assert "upload-block-size" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("max_data", [None, 14, 7])
+def test_rev13_sized_uploads_draw_no_block_size_finding(tmp_path: Path,
+                                                        max_data: int | None) -> None:
+    result = check_file(str(_nema17_upload(tmp_path, max_data)))
+    assert result.ok and not [f for f in result.findings if f.rule == "upload-block-size"]
+
+
+def test_one_block_of_15_is_over_the_limit(tmp_path: Path) -> None:
+    found = [f for f in check_file(str(_nema17_upload(tmp_path, 15))).findings
+             if f.rule == "upload-block-size"]
+    assert len(found) == 1 and "up to 15" in found[0].message

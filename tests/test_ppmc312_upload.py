@@ -454,7 +454,7 @@ def test_free_curve_golden_bytes(table: FreeCurveTable, max_data: int, blocks: l
 
 def test_full_30_byte_parameter_block_is_32_bytes_on_the_bus() -> None:
     table = FreeCurveTable(C8, tuple(range(400, 415)), (100,) * 15)
-    blocks = encode_free_curve(table)
+    blocks = encode_free_curve(table, max_data=30)
     assert [len(b) for b in blocks] == [5, 32, 32, 17]
     assert blocks[1][:4].hex(" ") == "00 1e 01 90" and blocks[2][:2].hex(" ") == "00 1e"
     assert blocks[3][:2].hex(" ") == "01 0f"
@@ -721,3 +721,37 @@ def test_encode_free_curve_refuses_an_init_table() -> None:
     init = InitTable(Clock.internal("8MHz"), "linear", 0x1122, 0x5566, 0xABCDEF)
     with pytest.raises(FormatError, match="needs a free-curve table, got InitTable"):
         encode_free_curve(init)  # type: ignore[arg-type]
+
+
+# --- REV 1.3 block size (manual §5-5: code and parameters [0]–[12]) -------------------
+def test_default_blocks_are_rev13_sized_by_hand() -> None:
+    # 15 rates: 7 + 7 + 1 (14, 14, 2 bytes); 15 accel counts: 4 + 4 + 4 + 3 (12 … 9 bytes).
+    table = FreeCurveTable(C8, tuple(range(400, 415)), (100,) * 15)
+    blocks = encode_free_curve(table)
+    assert [len(b) - 2 for b in blocks[1:]] == [14, 14, 2, 12, 12, 12, 9]
+    assert [b[0] for b in blocks[1:]] == [0, 0, 0, 0, 0, 0, 1]
+    assert encode_table(table) == blocks
+
+
+@SETTINGS
+@given(free_curves())
+def test_default_blocks_never_pass_14_data_bytes(table: FreeCurveTable) -> None:
+    blocks = encode_free_curve(table)
+    assert all(len(b) - 2 <= 14 for b in blocks)
+    # as full as whole entries allow: 7 rates or 4 pulse counts, a section's last may be short
+    sizes = [len(b) - 2 for b in blocks[1:]]
+    assert max(sizes) == (14 if len(table.rates) >= 7 else 12 if len(table.accel_pulses) >= 4
+                          else max(sizes))
+    assert decode_free_curve(blocks, extck_hz=_hz(table)) == table
+
+
+def test_export_default_is_the_rev13_size() -> None:
+    import argparse
+
+    from profiles.ppmc312.frames import REV13_BLOCK_DATA
+    from verify.cli import export
+
+    parser = argparse.ArgumentParser()
+    export.add_subparser(parser.add_subparsers())
+    args = parser.parse_args(["export", "t.json"])
+    assert args.max_block_data == REV13_BLOCK_DATA == 14

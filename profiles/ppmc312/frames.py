@@ -8,6 +8,14 @@ so a bad table still round-trips and gets its chip error code.
 Block = header | length | [code] | parameters (SPEC §1.5, manual §5-5):
 the length byte counts every byte after itself, so a block is `2 + length`
 bytes and at most 32 on the bus.
+
+Block size: REV 1.3 of the manual (§5-5) limits a block to the code and parameters
+[0]–[12], i.e. 14 bytes after the length byte (a parameter-only block the same); the
+§24 change list shows REV 1.1 allowed [0]–[28] (30 bytes). §11-6's error 0x15 (a
+length byte ≥ 31) still stands, so 15–30 is a size only older chips are documented
+to take. stepramp writes REV 1.3 blocks (every revision accepts them); the frames
+still carry up to 30, so an older file decodes and `check` names §5-5 instead of
+failing to read it.
 """
 
 from __future__ import annotations
@@ -22,7 +30,8 @@ HDR_CODE_MORE = 0x02
 HDR_CODE_EXEC = 0x03
 
 MAX_BLOCK_BYTES = 32  # WAR = 0x20 − size must not go negative
-MAX_BLOCK_DATA = MAX_BLOCK_BYTES - 2  # header and length byte
+MAX_BLOCK_DATA = MAX_BLOCK_BYTES - 2  # header and length byte: REV 1.1's [0]–[28] + code
+REV13_BLOCK_DATA = 14  # REV 1.3 §5-5: the code slot and parameters [0]–[12]
 REFUSED_LENGTH = 31  # error 0x15 / response F6: a length byte ≥ 31 is refused
 
 CODE_INIT = 0x00

@@ -55,6 +55,7 @@ from .frames import (
     READ_DATA_BYTES,
     READ_DECEL,
     READ_RATES,
+    REV13_BLOCK_DATA,
     TABLE_READ_FIRST,
     block_bytes,
     block_list,
@@ -73,8 +74,10 @@ def _sections(table: FreeCurveTable) -> list[tuple[str, Frame, tuple[int, ...]]]
     return out
 
 
-def encode_free_curve(table: FreeCurveTable, *, max_data: int = MAX_BLOCK_DATA) -> list[bytes]:
-    """Command block then parameter blocks of at most `max_data` data bytes each."""
+def encode_free_curve(table: FreeCurveTable, *, max_data: int = REV13_BLOCK_DATA
+                      ) -> list[bytes]:
+    """Command block then parameter blocks of at most `max_data` data bytes each (default
+    REV 1.3's 14; 3..30)."""
     if not isinstance(table, FreeCurveTable):
         raise FormatError(f"encode_free_curve needs a free-curve table, got "
                           f"{type(table).__name__}")
@@ -300,7 +303,7 @@ def decode_move(block: bytes) -> dict[str, Any]:
 
 # --- tables in general ------------------------------------------------------------
 def encode_table(table: Table, *, to: str = "parallel", address: int = 0,
-                 max_data: int = MAX_BLOCK_DATA) -> list[bytes]:
+                 max_data: int = REV13_BLOCK_DATA) -> list[bytes]:
     """Blocks for the parallel bus, or one ASCII command frame (init tables only)."""
     if to not in ("parallel", "ascii"):
         raise FormatError(f"to: {echo(to)} is not 'parallel' or 'ascii'")

@@ -28,8 +28,12 @@ def add_subparser(sub: Any) -> None:
     e.add_argument("--motor", metavar="M.json",
                    help="the motor the table was planned for: named in the file's provenance "
                         "comment (C header)")
-    e.add_argument("--max-block-data", type=positive_int, default=30,
-                   help="data bytes per parameter block, 3-30 (default 30)")
+    # The literal keeps the parser free of profiles' imports; a test holds it equal to
+    # profiles.ppmc312.frames.REV13_BLOCK_DATA.
+    e.add_argument("--max-block-data", type=positive_int, default=14,
+                   help="data bytes per parameter block, 3-30 (default 14: the REV 1.3 "
+                        "limit, manual §5-5, which every revision accepts; up to 30 only "
+                        "for chips known to take REV 1.1 blocks)")
     e.add_argument("--force", action="store_true", help="export even a table with errors")
     e.add_argument("-o", "--output", metavar="OUT", help="write the file here (default stdout)")
     e.set_defaults(func=_do_export)

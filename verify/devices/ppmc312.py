@@ -171,7 +171,31 @@ def upload_verdict(blocks: list[bytes], options: CheckOptions) -> Verdict:
     refused = chip_refusal(blocks)
     if refused is not None:
         return Verdict([refused])
-    return table_verdict(decode_upload(blocks, extck_hz=options.extck_hz), options)
+    out = table_verdict(decode_upload(blocks, extck_hz=options.extck_hz), options)
+    out.findings[:0] = block_size_findings(blocks)
+    return out
+
+
+def block_size_findings(blocks: list[bytes]) -> list[Finding]:
+    """A warning for parallel blocks over REV 1.3's size (manual §5-5: code and parameters
+    [0]–[12], 14 bytes after the length byte). Error 0x15 still only refuses 31 or more,
+    and REV 1.1 chips took 30: files written for them are judged, not refused, but a
+    REV 1.3 chip is not documented to take them (docs/manual-notes.md)."""
+    from profiles.ppmc312.frames import REV13_BLOCK_DATA
+
+    if blocks[0][:1] not in (b"\x00", b"\x01", b"\x02", b"\x03"):  # ASCII: no blocks
+        return []
+    over = [i for i, b in enumerate(blocks) if len(b) > 1 and b[1] > REV13_BLOCK_DATA]
+    if not over:
+        return []
+    largest = max(blocks[i][1] for i in over)
+    where = ", ".join(map(str, over[:6])) + (", …" if len(over) > 6 else "")
+    return [Finding("warning", "upload-block-size",
+                    f"{len(over)} block(s) carry more than {REV13_BLOCK_DATA} bytes after the "
+                    f"length byte (up to {largest}; blocks {where}): the REV 1.3 manual "
+                    f"(§5-5) limits a block to the code and parameters [0]–[12]; only chips "
+                    f"known to take REV 1.1 blocks accept them. Re-export with the default "
+                    f"--max-block-data {REV13_BLOCK_DATA}")]
 
 
 def chip_refusal(blocks: list[bytes]) -> Finding | None:
