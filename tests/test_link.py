@@ -4,6 +4,7 @@ pseudo-terminal, on a noisy line, and against scripted replies it must not belie
 from __future__ import annotations
 
 import random
+import re
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -43,26 +44,68 @@ def wait_stopped(link: Link, pulses: int) -> Any:
     return link.poll()
 
 
+class SkewedTime:
+    """Real time plus every wait the link asked for: the link's waits after an init cost
+    no real time, and the chip, on the same clock, sees them pass (moves still run on
+    real time)."""
+
+    def __init__(self) -> None:
+        self.skew = 0.0
+        self.slept: list[float] = []
+
+    def now(self) -> float:
+        return time.monotonic() + self.skew
+
+    def sleep(self, seconds: float) -> None:
+        self.slept.append(seconds)
+        self.skew += seconds
+
+    def timing(self) -> dict[str, Any]:
+        """A Link's clock_s and sleep_s."""
+        return {"clock_s": self.now, "sleep_s": self.sleep}
+
+
+class FakeTime:
+    """A clock only the link's sleeps move (and the test, by setting `t`)."""
+
+    def __init__(self) -> None:
+        self.t = 100.0
+        self.slept: list[float] = []
+
+    def now(self) -> float:
+        return self.t
+
+    def sleep(self, seconds: float) -> None:
+        self.slept.append(seconds)
+        self.t += seconds
+
+
 @pytest.fixture
-def pty_chip() -> Iterator[tuple[SerialChip, str]]:
-    chip = SerialChip(ADDRESS)
+def skewed() -> SkewedTime:
+    return SkewedTime()
+
+
+@pytest.fixture
+def pty_chip(skewed: SkewedTime) -> Iterator[tuple[SerialChip, str]]:
+    chip = SerialChip(ADDRESS, clock_s=skewed.now)
     with PtyServer(chip) as server:
         yield chip, server.path
 
 
 @pytest.fixture
-def link(pty_chip: tuple[SerialChip, str]) -> Iterator[Link]:
-    with Link(pty_chip[1], ADDRESS, timeout_s=0.5) as opened:
+def link(pty_chip: tuple[SerialChip, str], skewed: SkewedTime) -> Iterator[Link]:
+    with Link(pty_chip[1], ADDRESS, timeout_s=0.5, **skewed.timing()) as opened:
         yield opened
 
 
 # --- every command on a real pty --------------------------------------------------------
 
-def test_poll_init_move_position_and_the_stop_report(link: Link) -> None:
+def test_poll_init_move_position_and_the_stop_report(link: Link, skewed: SkewedTime) -> None:
     assert str(link.poll()) == "ready"
     assert link.position() == 0
     link.init(TABLE)
     link.move(2000)  # 0.27 s: still running at the next poll
+    assert len(skewed.slept) == 1 and 0.1 < skewed.slept[0] <= 0.115  # §7-1, once
     assert link.poll().state == "busy"
     stopped = wait_stopped(link, 2000)
     assert (stopped.state, stopped.code) == ("stopped", 0x38)
@@ -143,14 +186,83 @@ def test_a_missing_port_is_one_line() -> None:
         Link("/nonexistent/tty", ADDRESS)
 
 
-def test_link_over_loop_transport() -> None:
-    chip = SerialChip(ADDRESS)
-    link = Link(LoopSerial(chip), ADDRESS, timeout_s=0.2)
+def test_link_over_loop_transport(skewed: SkewedTime) -> None:
+    chip = SerialChip(ADDRESS, clock_s=skewed.now)
+    link = Link(LoopSerial(chip), ADDRESS, timeout_s=0.2, **skewed.timing())
     link.init(TABLE)
     link.move(2000)
     assert chip.busy
     assert wait_stopped(link, 2000).code == 0x38
     assert link.position() == 2000
+
+
+# --- the time the chip needs after an init (§7-1; profiles/ppmc312/timing.py) -------------
+
+S_TABLE = InitTable(Clock.internal("8MHz"), "s_curve", 10_000, 400, 2000)
+
+
+def timed_link(fake: FakeTime, notes: list[str], sleep: Any = None) -> tuple[SerialChip, Link]:
+    """The chip and the link on one fake clock, over the in-process loop port."""
+    chip = SerialChip(ADDRESS, clock_s=fake.now)
+    return chip, Link(LoopSerial(chip), ADDRESS, clock_s=fake.now,
+                      sleep_s=fake.sleep if sleep is None else sleep, on_note=notes.append)
+
+
+def test_the_link_waits_out_the_window_before_the_first_move_only() -> None:
+    fake, notes = FakeTime(), []
+    chip, link = timed_link(fake, notes)
+    link.init(TABLE)
+    link.move(100)
+    # The fake clock stood still while the frames went: the whole window is waited.
+    assert fake.slept == [pytest.approx(0.115, abs=1e-12)]
+    assert notes == ["the chip accepts motion commands 115 ms after an init (§7-1): "
+                     "waiting 115 ms"]
+    assert chip.log[-1].startswith("move: 100 pulses CW")
+    fake.t += 1.0       # the move is over
+    link.move(100)      # no init since: no wait
+    assert len(fake.slept) == 1 and len(notes) == 1
+    assert sum(line.startswith("move:") for line in chip.log) == 2
+
+
+def test_time_already_spent_is_not_waited_again() -> None:
+    fake, notes = FakeTime(), []
+    chip, link = timed_link(fake, notes)
+    link.init(S_TABLE)
+    fake.t += 0.100     # the host did other things
+    link.move(100)
+    assert fake.slept == [pytest.approx(0.075, abs=1e-12)]
+    assert notes == ["the chip accepts motion commands 175 ms after an init (§7-1): "
+                     "waiting 75 ms"]
+    fake.t += 1.0
+    link.init(S_TABLE)
+    fake.t += 0.2       # past the window: nothing to wait
+    link.move(100)
+    assert len(fake.slept) == 1 and len(notes) == 1
+    assert sum(line.startswith("move:") for line in chip.log) == 2
+
+
+def test_a_link_that_did_not_wait_would_be_refused_by_the_chip() -> None:
+    fake, notes = FakeTime(), []
+    chip, link = timed_link(fake, notes, sleep=lambda _s: None)  # a sleep that takes no time
+    link.init(TABLE)
+    with pytest.raises(ChipRefused, match=r"^slave 5: move: the chip refused it: state error "
+                                          r"\(B5 43\)$"):
+        link.move(100)
+    assert chip.log[-1] == ("refused 0x43: move 0 ms after the init: the chip accepts motion "
+                            "commands 115 ms after an init (§7-1)")
+
+
+def test_a_stop_is_never_delayed_and_waiting_needs_an_init() -> None:
+    fake, notes = FakeTime(), []
+    _, link = timed_link(fake, notes)
+    link.wait_until_motion_accepted()   # no init yet: nothing to wait for
+    link.init(TABLE)
+    link.stop()
+    assert fake.slept == [] and notes == []
+    link.wait_until_motion_accepted()   # what `stepramp link init` does before it ends
+    assert fake.slept == [pytest.approx(0.115, abs=1e-12)]
+    link.move(100)
+    assert len(fake.slept) == 1
 
 
 # --- replies the link must not believe ----------------------------------------------------
@@ -286,10 +398,11 @@ class DropReplies(PassThrough):
         return n  # type: ignore[no-any-return]
 
 
-def test_a_move_whose_reply_is_lost_is_not_sent_twice(pty_chip: tuple[SerialChip, str]) -> None:
+def test_a_move_whose_reply_is_lost_is_not_sent_twice(pty_chip: tuple[SerialChip, str],
+                                                       skewed: SkewedTime) -> None:
     chip, path = pty_chip
     port = DropReplies(serial.Serial(path, timeout=0.1), drop={2})  # init, position, MOVE
-    with Link(port, ADDRESS, timeout_s=0.3) as link:
+    with Link(port, ADDRESS, timeout_s=0.3, **skewed.timing()) as link:
         link.init(TABLE)
         link.move(200)
         assert sum(line.startswith("move:") for line in chip.log) == 1
@@ -300,10 +413,10 @@ def test_a_move_whose_reply_is_lost_is_not_sent_twice(pty_chip: tuple[SerialChip
 
 
 def test_a_lost_stop_report_is_recovered_from_the_end_status(
-        pty_chip: tuple[SerialChip, str]) -> None:
+        pty_chip: tuple[SerialChip, str], skewed: SkewedTime) -> None:
     chip, path = pty_chip
     port = DropReplies(serial.Serial(path, timeout=0.1), drop={3})  # init, position, move, POLL
-    with Link(port, ADDRESS, timeout_s=0.3) as link:
+    with Link(port, ADDRESS, timeout_s=0.3, **skewed.timing()) as link:
         link.init(TABLE)
         link.move(100)
         time.sleep(move_s(100) + 0.02)
@@ -350,10 +463,10 @@ class NoisyLine(PassThrough):
                                   pytest.param(2, marks=pytest.mark.slow),
                                   pytest.param(3, marks=pytest.mark.slow)])
 def test_a_noisy_line_loses_and_misreads_nothing(pty_chip: tuple[SerialChip, str],
-                                                 seed: int) -> None:
+                                                 skewed: SkewedTime, seed: int) -> None:
     chip, path = pty_chip
     noisy = NoisyLine(serial.Serial(path, timeout=0.1), seed, flip=0.02, drop=0.02)
-    link = Link(noisy, ADDRESS, timeout_s=0.15, retries=10)
+    link = Link(noisy, ADDRESS, timeout_s=0.15, retries=10, **skewed.timing())
     link.init(TABLE)
     assert chip.table == TABLE
     expected = 0
@@ -396,9 +509,14 @@ def test_cli_link_runs_every_command(pty_chip: tuple[SerialChip, str], tmp_path:
     code, out, err = run_cli([*base, "move", "--pulses", "100"], capsys)
     assert (code, out) == (1, "")
     assert err == "stepramp link: slave 5: move: the chip refused it: state error (B5 43)\n"
-    assert run_cli([*base, "init", str(table)], capsys) == (
-        0, "slave 5: init accepted: linear, start rate 10000, high rate 400, 2000 accel/decel "
-           "pulses\n", "")
+    # -v: init ends once the chip takes moves (§7-1), and says so; it waits real time.
+    code, out, err = run_cli([*base, "-v", "init", str(table)], capsys)
+    assert (code, err) == (0, "")
+    accepted, waited = out.splitlines()
+    assert accepted == ("slave 5: init accepted: linear, start rate 10000, high rate 400, "
+                        "2000 accel/decel pulses")
+    assert re.fullmatch(r"slave 5: the chip accepts motion commands 115 ms after an init "
+                        r"\(§7-1\): waiting 1[01]\d(\.\d)? ms", waited), waited
     assert chip.table is not None
     assert run_cli([*base, "move", "--pulses", "100000", "--ccw"], capsys) == (
         0, "slave 5: move of 100000 pulses CCW started\n", "")

@@ -32,10 +32,12 @@ from profiles.ppmc312.ascii import (
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.serial_chip import COMMANDS, LoopSerial, SerialChip, command_of
-from profiles.ppmc312.table import InitTable
+from profiles.ppmc312.table import FreeCurveTable, InitTable
+from profiles.ppmc312.timing import motion_window
 
 ADDRESS = 3
 TABLE = InitTable(Clock.internal("8MHz"), "linear", 10_000, 400, 2000)
+WINDOW_S = 0.115   # §7-1: a linear LE=0 init's table is ready for moves 115 ms after it
 
 
 class Clock_:
@@ -62,6 +64,12 @@ def poll(chip: SerialChip) -> bytes:
 
 def command(chip: SerialChip, payload: bytes) -> bytes:
     return chip.receive(encode_frame("command", ADDRESS, payload))
+
+
+def init(chip: SerialChip, clock: Clock_, table: InitTable = TABLE) -> None:
+    """Send `table` and let the window after it pass (§7-1): moves are taken then."""
+    assert chip.receive(encode_serial_init(table, ADDRESS)) == READY
+    clock.t += motion_window(table).seconds
 
 
 READY = bytes([0x90 + ADDRESS]) + b"6C"   # §19-1: 90 + a, checksum ~(0x93) & 0x7F
@@ -101,7 +109,7 @@ def test_poll_is_ready_then_busy_during_a_move_then_the_stop_report(chip: Serial
                                                                    clock: Clock_) -> None:
     assert poll(chip) == READY
     assert command(chip, bytes.fromhex("4C")) == encode_frame("ready", ADDRESS, b"\x00\x00")
-    assert chip.receive(encode_serial_init(TABLE, ADDRESS)) == READY
+    init(chip, clock)
     assert chip.receive(encode_serial_move(ADDRESS, 2000)) == READY
     run = simulate_move(TABLE, 2000)
     end = run.first_pulse_latency_s + run.duration_s
@@ -119,11 +127,12 @@ def test_poll_is_ready_then_busy_during_a_move_then_the_stop_report(chip: Serial
 
 def test_position_follows_the_execution_model_and_ccw_counts_down(chip: SerialChip,
                                                                   clock: Clock_) -> None:
-    chip.receive(encode_serial_init(TABLE, ADDRESS))
-    chip.receive(encode_serial_move(ADDRESS, 5000, ccw=True))
+    init(chip, clock)
+    sent = clock.t
+    assert chip.receive(encode_serial_move(ADDRESS, 5000, ccw=True)) == READY
     run = simulate_move(TABLE, 5000)
     for t_s in (0.0, 0.05, 0.2, 0.4):
-        clock.t = 100.0 + run.first_pulse_latency_s + t_s
+        clock.t = sent + run.first_pulse_latency_s + t_s
         reply = command(chip, SERIAL_POSITION_READ.encode(encoder=0))
         assert reply[0] == 0xA0 + ADDRESS
         fields = POSITION_REPLY.decode(decode_frame(reply, from_slave=True).payload)
@@ -133,8 +142,8 @@ def test_position_follows_the_execution_model_and_ccw_counts_down(chip: SerialCh
 
 def test_stop_holds_the_counter_and_reports_immediate_stop(chip: SerialChip,
                                                           clock: Clock_) -> None:
-    chip.receive(encode_serial_init(TABLE, ADDRESS))
-    chip.receive(encode_serial_move(ADDRESS, 20_000))
+    init(chip, clock)
+    assert chip.receive(encode_serial_move(ADDRESS, 20_000)) == READY
     clock.t += 0.3
     held = chip.position
     assert 0 < held < 20_000
@@ -164,9 +173,9 @@ def test_the_manuals_init_example_is_parsed_and_refused_by_the_rate_rules(
                                                                           b"\x42")
 
 
-def test_move_needs_a_table_and_an_idle_chip(chip: SerialChip) -> None:
+def test_move_needs_a_table_and_an_idle_chip(chip: SerialChip, clock: Clock_) -> None:
     assert chip.receive(encode_serial_move(ADDRESS, 100)) == special(0x43)
-    chip.receive(encode_serial_init(TABLE, ADDRESS))
+    init(chip, clock)
     assert chip.receive(encode_serial_move(ADDRESS, 100_000)) == READY
     assert chip.receive(encode_serial_move(ADDRESS, 100)) == special(0x43)
     assert chip.receive(encode_serial_init(TABLE, ADDRESS)) == special(0x43)
@@ -176,6 +185,63 @@ def test_move_needs_a_table_and_an_idle_chip(chip: SerialChip) -> None:
 
 
 SERIAL_STOP_FRAME = encode_frame("command", ADDRESS, SERIAL_STOP.encode())
+
+
+# --- the time the chip needs after an init (§7-1; profiles/ppmc312/timing.py) -------------
+
+def test_the_windows_are_the_manuals() -> None:
+    """§7-1: 115 ms linear LE=0, 200 ms linear LE=1, 175 ms S-curve (either LE); a free
+    curve: §21-4.4's 100 µs of the 'other commands' (docs/manual-notes.md)."""
+    clk = Clock.internal("8MHz")
+    windows = {(shape, le): motion_window(InitTable(clk, shape, 10_000, 400, 2000,
+                                                    *((9_000, 3000) if le else ())))
+               for shape in ("linear", "s_curve") for le in (False, True)}
+    assert {key: w.seconds for key, w in windows.items()} == {
+        ("linear", False): 0.115, ("linear", True): 0.200,
+        ("s_curve", False): 0.175, ("s_curve", True): 0.175}
+    assert windows[("linear", True)].why == ("the chip accepts motion commands 200 ms after "
+                                             "an init (§7-1)")
+    free = motion_window(FreeCurveTable(clk, (400, 800), (100, 100)))
+    assert free.seconds == 100e-6
+    assert free.why.startswith("the chip accepts motion commands 0.1 ms after a free "
+                               "curve's last block (§21-4.4")
+
+
+@pytest.mark.parametrize(("shape", "window_s"), [("linear", 0.115), ("s_curve", 0.175)])
+def test_a_move_inside_the_window_after_an_init_is_a_state_error(
+        chip: SerialChip, clock: Clock_, shape: str, window_s: float) -> None:
+    table = InitTable(Clock.internal("8MHz"), shape, 10_000, 400, 2000)  # type: ignore[arg-type]
+    start = clock.t
+    assert chip.receive(encode_serial_init(table, ADDRESS)) == READY
+    clock.t = start + 0.010
+    # §19-5 state error: B0 + a, "43", checksum ~(0xB3 + 0x34 + 0x33) & 0x7F = 0x65.
+    assert chip.receive(encode_serial_move(ADDRESS, 100)) == b"\xB3" + b"4365"
+    assert chip.log[-1] == (f"refused 0x43: move 10 ms after the init: the chip accepts "
+                            f"motion commands {window_s * 1e3:g} ms after an init (§7-1)")
+    assert chip.error_code == 0x43   # §18-10 reads it back
+    clock.t = start + window_s - 1e-6
+    assert chip.receive(encode_serial_move(ADDRESS, 100)) == special(0x43)
+    clock.t = start + window_s
+    assert chip.receive(encode_serial_move(ADDRESS, 100)) == READY
+    assert chip.log[-1].startswith("move: 100 pulses CW")
+
+
+def test_inside_the_window_other_commands_are_taken_and_a_new_init_restarts_it(
+        chip: SerialChip, clock: Clock_) -> None:
+    start = clock.t
+    assert chip.receive(encode_serial_init(TABLE, ADDRESS)) == READY
+    clock.t = start + 0.1
+    assert poll(chip) == READY
+    assert command(chip, SERIAL_POSITION_SET.encode(encoder=0, position=5)) == READY
+    assert command(chip, SERIAL_POSITION_READ.encode(encoder=0)) == encode_frame(
+        "data", ADDRESS, POSITION_REPLY.encode(source=0, position=5))
+    assert command(chip, SERIAL_STOP.encode()) == READY  # nothing runs: nothing to refuse
+    assert chip.receive(encode_serial_init(TABLE, ADDRESS)) == READY  # at start + 0.1
+    clock.t = start + WINDOW_S   # the first init's window is over, the second's is not
+    assert chip.receive(encode_serial_move(ADDRESS, 100)) == special(0x43)
+    assert chip.log[-1].startswith("refused 0x43: move 15 ms after the init")
+    clock.t = start + 0.1 + WINDOW_S
+    assert chip.receive(encode_serial_move(ADDRESS, 100)) == READY
 
 
 def test_undefined_and_unmodelled_commands_are_command_errors(chip: SerialChip) -> None:

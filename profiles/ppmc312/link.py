@@ -18,11 +18,18 @@ Faults, and what the link does about them:
 - the chip's refusals (B0 42/43/44/46) raise `ChipRefused` at once; replies
   no table knows raise `UnknownReply`; the retries used up raise `LinkTimeout`
   or `GarbledReply`. Every message is one line.
+
+Timing: the chip takes a motion command only some time after an init (manual §7-1:
+115 ms linear, 175 ms S-curve; `timing.motion_window`). The link remembers when it
+may send one and, before the next move, sleeps out what is left of that window
+(`on_note` hears why); `wait_until_motion_accepted()` does it at once, for a caller
+about to hand the line over (`stepramp link init` ends so). A stop is never delayed.
 """
 
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from types import TracebackType
 from typing import Any, Protocol
@@ -61,6 +68,7 @@ from .ascii import (
     encode_serial_move,
 )
 from .table import FreeCurveTable, InitTable
+from .timing import Window, motion_window, ms
 
 BAUD_RATES = (19_200, 38_400, 83_333)  # §13 and SPEC §1.7 (8N1)
 COMMAND_ERROR = 0x47
@@ -126,10 +134,16 @@ class Link:
 
     `timeout_s` bounds the wait for each reply; `retries` bounds the resends of one
     command. `stats` counts attempts, resends, timeouts and garbled replies.
+    `clock_s` and `sleep_s` time the wait after an init (tests pass their own; reply
+    timeouts always run on the port's real time); `on_note` is told, in one line,
+    whenever the link waits for the chip.
     """
 
     def __init__(self, port: str | SerialPort, address: int, *, baud: int = 19_200,
-                 timeout_s: float = 0.2, retries: int = 3) -> None:
+                 timeout_s: float = 0.2, retries: int = 3,
+                 clock_s: Callable[[], float] = time.monotonic,
+                 sleep_s: Callable[[float], None] = time.sleep,
+                 on_note: Callable[[str], None] | None = None) -> None:
         self.address = require_int("address", address, 0, MAX_ADDRESS)
         if isinstance(timeout_s, bool) or not (isinstance(timeout_s, int | float)
                                                and 0.001 <= timeout_s <= 60):
@@ -142,6 +156,9 @@ class Link:
         self._port: SerialPort = _open(port, baud, self.timeout_s) if isinstance(port, str) \
             else port
         self._move_running = False  # a move was accepted and its stop not yet reported
+        self._clock, self._sleep, self._on_note = clock_s, sleep_s, on_note
+        # After an init: when (clock_s time) the chip takes motion commands, and why.
+        self._motion_at: tuple[float, Window] | None = None
 
     # --- lifetime ------------------------------------------------------------------------
     def close(self) -> None:
@@ -163,12 +180,33 @@ class Link:
             raise UnsupportedError("the free-curve command has no serial form (manual §15): "
                                    "upload free curves over the parallel bus; the serial "
                                    "link sends init tables")
-        self._command(encode_serial_init(table, self.address), "init")
+        window = motion_window(table)
+        try:
+            self._command(encode_serial_init(table, self.address), "init")
+        finally:
+            # Counted from the last reply (or timeout), which follows the chip's receipt
+            # of any init it took: never too early. Kept when the init failed too: the
+            # chip may have taken a frame whose reply was lost.
+            self._motion_at = (self._clock() + window.seconds, window)
+
+    def wait_until_motion_accepted(self) -> None:
+        """Sleep out what is left of the window after the last init (if any): then the
+        chip accepts motion commands (§7-1). `move` calls it; so may a caller."""
+        if self._motion_at is None:
+            return
+        at, window = self._motion_at
+        self._motion_at = None
+        left = at - self._clock()
+        if left > 0:
+            if self._on_note is not None:
+                self._on_note(f"{window.why}: waiting {ms(left)} ms")
+            self._sleep(left)
 
     def move(self, pulses: int, *, ccw: bool = False, high_rate: int = 0) -> None:
         """Start the §16-3 accel/decel move of `pulses` pulses (high_rate 0 = the table's)."""
         frame = encode_serial_move(self.address, pulses, ccw=ccw, high_rate=high_rate)
         before = self.position()
+        self.wait_until_motion_accepted()
         self._command(frame, "move", lost=lambda: self._move_started(before))
         self._move_running = True
 

@@ -8,7 +8,8 @@ chip models:
   from the command code (`command_size`, every §15–18 command);
 - the checksum of every frame, and the error counter the master reads with
   command 4C (framing, overrun and checksum errors);
-- init (§15-1), accel/decel move (§16-3, timed by `execution.simulate_move`),
+- init (§15-1), accel/decel move (§16-3, timed by `execution.simulate_move`; refused
+  with the state error B0 43 inside the window after an init, `timing.motion_window`),
   immediate stop (§16-1), position read/set (§18-1/2), end status (§18-6),
   error code (§18-10), error count (§18-11), and polls (§19): busy while the
   simulated move runs, then once the stop report (A0 + end code), then ready.
@@ -23,7 +24,11 @@ Our readings where the manual is silent (docs/manual-notes.md, "Serial link"):
   byte with bit 6 set or a slave type. None of them is answered (§13-5);
 - the error count is the sum of the three counters, saturating at 0xFFFF;
 - error code and error count replies carry the ready control byte (90 + a), as
-  §18-10/18-11 print it; the master also accepts a data reply (A0 + a).
+  §18-10/18-11 print it; the master also accepts a data reply (A0 + a);
+- a move inside the window after an init (§7-1: 115 ms linear, 175 ms S-curve) is
+  answered with the state error B0 43 (§19-5: a command the chip's state does not
+  allow; §2-1.8: the chip enters the normal state, where moves are taken, only once
+  the init is processed). The window counts from the init frame's last character.
 """
 
 from __future__ import annotations
@@ -60,6 +65,7 @@ from .clock import Clock
 from .execution import Execution, simulate_move
 from .init_model import init_stage_problem
 from .table import InitTable
+from .timing import Window, motion_window, ms
 
 # (name, mask, value, payload bytes including the code): how long each command's
 # frame is, from its code byte alone (manual §15–18). Codes are disjoint (tested).
@@ -161,6 +167,8 @@ class SerialChip:
         self.log: list[str] = []      # one line per frame handled, for a console
         self._position = 0
         self._move: _Move | None = None
+        # The last init taken: when (clock_s time) and the window that followed it.
+        self._init_at: tuple[float, Window] | None = None
         self._report: int | None = None   # the stop report the next poll carries
         self._frame: bytearray | None = None
         self._need = 0                # characters still due after the control byte
@@ -310,6 +318,7 @@ class SerialChip:
             self.table = None  # §7-1: a refused table command destroys the table
             return self._refuse(PARAMETER_ERROR, f"init: {problem[1]}")
         self.table = table
+        self._init_at = (self._now(), motion_window(table))
         return self._ready(f"init: {table.shape}, start {table.start_rate}, high "
                            f"{table.high_rate}, {table.accel_pulses} pulses")
 
@@ -318,6 +327,9 @@ class SerialChip:
             return self._refuse(STATE_ERROR, "move during pulse output")
         if self.table is None:
             return self._refuse(STATE_ERROR, "move with no table (send init first)")
+        early = self._too_early()
+        if early is not None:
+            return self._refuse(STATE_ERROR, f"move {early}")
         try:
             f = SERIAL_MOVE.decode(payload)
             execution = simulate_move(self.table, f["pulses"], high_rate=f["high_rate"])
@@ -330,6 +342,17 @@ class SerialChip:
         self._report = None
         return self._ready(f"move: {f['pulses']} pulses {'CCW' if f['dir'] else 'CW'}, "
                            f"{execution.duration_s:.6f} s")
+
+    def _too_early(self) -> str | None:
+        """Why a motion command now comes too early (inside the window after the last
+        init), or None when the chip takes it."""
+        if self._init_at is None:
+            return None
+        since, window = self._init_at
+        now = self._now()
+        if now >= since + window.seconds:
+            return None
+        return f"{ms(now - since)} ms after the init: {window.why}"
 
     def _stop(self, payload: bytes) -> bytes:
         if self.busy:

@@ -23,6 +23,8 @@ def add_subparser(sub: Any) -> None:
     link.add_argument("--retries", type=positive_int, default=3,
                       help="resends of one command after a timeout or a damaged frame "
                            "(default 3)")
+    link.add_argument("-v", "--verbose", action="store_true",
+                      help="say when the link waits for the chip (after an init, §7-1)")
     lsub = link.add_subparsers(dest="link_command", required=True, metavar="COMMAND")
     init = lsub.add_parser("init", help="send an init table (linear or S-curve, LE=0)")
     init.add_argument("table", metavar="TABLE", help="an init table file (stepramp.table/1)")
@@ -38,10 +40,17 @@ def add_subparser(sub: Any) -> None:
 def _do_link(args: argparse.Namespace) -> int:
     from profiles.ppmc312.link import ChipRefused, Link
 
+    def note(text: str) -> None:
+        print(f"slave {args.address}: {text}", flush=True)
+
     with Link(args.port, args.address, baud=args.baud, timeout_s=args.timeout_s,
-              retries=args.retries) as link:
+              retries=args.retries, on_note=note if args.verbose else None) as link:
         try:
-            print(f"slave {args.address}: {_run(link, args)}")
+            print(f"slave {args.address}: {_run(link, args)}", flush=True)
+            if args.link_command == "init":
+                # This process ends here: the next `link move` cannot know the window,
+                # so init returns only once the chip accepts motion commands.
+                link.wait_until_motion_accepted()
         except ChipRefused as refused:
             print(f"stepramp link: {refused}", file=sys.stderr)
             return EXIT_FINDINGS
