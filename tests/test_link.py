@@ -209,7 +209,7 @@ def timed_link(fake: FakeTime, notes: list[str], sleep: Any = None) -> tuple[Ser
 
 
 def test_the_link_waits_out_the_window_before_the_first_move_only() -> None:
-    fake, notes = FakeTime(), []
+    fake, notes = FakeTime(), list[str]()
     chip, link = timed_link(fake, notes)
     link.init(TABLE)
     link.move(100)
@@ -225,7 +225,7 @@ def test_the_link_waits_out_the_window_before_the_first_move_only() -> None:
 
 
 def test_time_already_spent_is_not_waited_again() -> None:
-    fake, notes = FakeTime(), []
+    fake, notes = FakeTime(), list[str]()
     chip, link = timed_link(fake, notes)
     link.init(S_TABLE)
     fake.t += 0.100     # the host did other things
@@ -242,7 +242,7 @@ def test_time_already_spent_is_not_waited_again() -> None:
 
 
 def test_a_link_that_did_not_wait_would_be_refused_by_the_chip() -> None:
-    fake, notes = FakeTime(), []
+    fake, notes = FakeTime(), list[str]()
     chip, link = timed_link(fake, notes, sleep=lambda _s: None)  # a sleep that takes no time
     link.init(TABLE)
     with pytest.raises(ChipRefused, match=r"^slave 5: move: the chip refused it: state error "
@@ -253,7 +253,7 @@ def test_a_link_that_did_not_wait_would_be_refused_by_the_chip() -> None:
 
 
 def test_a_stop_is_never_delayed_and_waiting_needs_an_init() -> None:
-    fake, notes = FakeTime(), []
+    fake, notes = FakeTime(), list[str]()
     _, link = timed_link(fake, notes)
     link.wait_until_motion_accepted()   # no init yet: nothing to wait for
     link.init(TABLE)
