@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 
+from profiles.ppmc312.emulator import expected_answers
 from profiles.ppmc312.formats import parse_upload
 from profiles.ppmc312.table import load_table
 from profiles.ppmc312.upload import decode_move, decode_upload, encode_table
@@ -80,11 +81,15 @@ def test_export_hex_format_is_exact(capsys: pytest.CaptureFixture[str]) -> None:
     code, out, _ = run(capsys, "export", GOOD, "--format", "hex")
     assert code == 0
     blocks = encode_table(load_table(GOOD))
+    answers = expected_answers(blocks) or []
     payload = b"".join(blocks)
-    assert out == "".join(b.hex(" ").upper() + "\n" for b in blocks) + (
+    # each block, then the answer the chip gives to it (the handshake, manual §7-2)
+    assert out == "".join(b.hex(" ").upper() + "\n# answer: " + a.hex(" ").upper() + "\n"
+                          for b, a in zip(blocks, answers, strict=True)) + (
         f"# crc32 {zlib.crc32(payload):08X}: CRC-32 of the {len(payload)} bytes above\n")
     assert out.splitlines()[0].startswith("02 ")
-    assert out.splitlines()[-2].startswith("01 ")
+    assert out.splitlines()[-3].startswith("01 ")
+    assert out.splitlines()[-2].startswith("# answer: 03 08 01 0F ")
 
 
 def test_export_ascii_init_frame(capsys: pytest.CaptureFixture[str]) -> None:

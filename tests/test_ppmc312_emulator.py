@@ -283,3 +283,23 @@ def test_a_one_byte_block_is_judged_not_crashed() -> None:
 def test_a_refused_entry_is_named_by_its_stage(blocks: list[bytes], words: str) -> None:
     """The message points at the entry the chip refused: its place in its section."""
     assert accept_upload(blocks).message.endswith(words)
+
+
+def test_the_alarm_state_refuses_every_block_until_a_reset() -> None:
+    """Manual §11-9 and 表 2-1 (異常発生: ほとんどの命令を受け付けられません): the upload in
+    progress is dropped; every block draws F1 00 with the ALM bit (0x10), unexecuted."""
+    table = FreeCurveTable(CLOCK, (100, 200, 300), (500, 400, 300))
+    blocks = encode_free_curve(table, max_data=4)
+    chip = ChipEmulator()
+    assert chip.feed(blocks[0]).hex(" ") == "03 03 01 00 03"
+    chip.raise_alarm(0x01)
+    assert not chip.busy and chip.alarm == 0x01
+    assert chip.feed(blocks[1]).hex(" ") == "03 04 f1 00 11 00"  # ALM | INI, no command code
+    assert chip.feed(blocks[0]).hex(" ") == "03 04 f1 00 11 01"  # the free-curve command
+    init = encode_init(InitTable(CLOCK, "linear", 0x2710, 0x190, 0x7D0))
+    assert chip.feed(init).hex(" ") == "03 04 f1 00 11 00"
+    assert chip.table_kind is None and "alarm state" in chip.last_message
+    chip.reset()
+    assert chip.alarm is None and chip.feed(init).hex(" ") == "03 01 00"
+    chip.raise_alarm(0x01)  # with a table: ALM | NOR; the table is kept
+    assert chip.feed(init).hex(" ") == "03 04 f1 00 12 00" and chip.table_kind == "init"

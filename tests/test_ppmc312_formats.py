@@ -90,10 +90,21 @@ def test_crc32_is_the_standard_one() -> None:
     assert CRC == "423ABBA0"
 
 
+# What the chip answers to each of BLOCKS (manual §7-2): 3 rates due, 1 left; 3 accel
+# counts due, 2, 1; done: accel and decel totals 60 (LE=0: the same counts).
+ANSWERS = ["03 03 01 00 03", "03 03 01 00 01", "03 03 01 01 03", "03 03 01 01 02",
+           "03 03 01 01 01", "03 08 01 0F 00 00 3C 00 00 3C"]
+
+
 def test_text_format_golden() -> None:
     assert render(BLOCKS, "text").decode().splitlines() == [
-        "02 03 01 00 03", "00 04 00 64 00 C8", "00 02 01 2C", "00 03 00 00 0A",
-        "00 03 00 00 14", "01 03 00 00 1E", "# crc32 423ABBA0: CRC-32 of the 30 bytes above"]
+        "02 03 01 00 03", "# answer: 03 03 01 00 03",
+        "00 04 00 64 00 C8", "# answer: 03 03 01 00 01",
+        "00 02 01 2C", "# answer: 03 03 01 01 03",
+        "00 03 00 00 0A", "# answer: 03 03 01 01 02",
+        "00 03 00 00 14", "# answer: 03 03 01 01 01",
+        "01 03 00 00 1E", "# answer: 03 08 01 0F 00 00 3C 00 00 3C",
+        "# crc32 423ABBA0: CRC-32 of the 30 bytes above"]
     assert render(BLOCKS, "hex") == render(BLOCKS, "text")  # the old name is an alias
 
 
@@ -110,18 +121,29 @@ def test_text_accepts_hand_made_files_without_a_check() -> None:
 def test_json_and_bin_golden() -> None:
     assert json.loads(render(BLOCKS, "json")) == {"blocks": [
         "02 03 01 00 03", "00 04 00 64 00 C8", "00 02 01 2C", "00 03 00 00 0A",
-        "00 03 00 00 14", "01 03 00 00 1E"], "crc32": CRC}
+        "00 03 00 00 14", "01 03 00 00 1E"], "answers": ANSWERS, "crc32": CRC}
+    assert list(json.loads(render(BLOCKS, "json"))) == ["blocks", "answers", "crc32"]
     assert render(BLOCKS, "bin") == PAYLOAD
     assert parse(PAYLOAD).integrity == "none"
     old = json.dumps({"blocks": json.loads(render(BLOCKS, "json"))["blocks"]}).encode()
     assert parse(old).integrity == "absent"  # JSON uploads written before the check
 
 
-def test_bus_format_lists_every_register_write() -> None:
+def test_bus_format_lists_every_register_access() -> None:
+    """Per block: the MWEF wait and its writes (§5-6), then its answer's reads (§5-8):
+    the MREF wait, RCR's dummy read, RAR = 0x40 − size, the bytes last first."""
     lines = render(BLOCKS, "bus").decode().splitlines()
-    expected = [f"{r} {v:02X}" for b in BLOCKS for r, v in bus_writes(b)]
-    assert lines == [*expected, f"# crc32 {CRC}: CRC-32 of the 30 bytes above"]
-    assert lines[:5] == ["WCR 20", "WAR 1B", "DWR 03", "DWR 00", "DWR 01"]
+    expected = []
+    for block, answer in zip(BLOCKS, ANSWERS, strict=True):
+        data = bytes.fromhex(answer)
+        expected += ["WAIT CSR.MWEF 0", *(f"{r} {v:02X}" for r, v in bus_writes(block)),
+                     "WAIT CSR.MREF 0", "RCR --", f"RAR {0x40 - len(data):02X}",
+                     *(f"DRR {b:02X}" for b in reversed(data))]
+    assert [line.partition("  #")[0] for line in lines] == [
+        *expected, f"# crc32 {CRC}: CRC-32 of the 30 bytes above"]
+    assert lines[:14] == ["WAIT CSR.MWEF 0", "WCR 20", "WAR 1B", "DWR 03", "DWR 00", "DWR 01",
+                          "DWR 03", "DWR 02", "WAIT CSR.MREF 0  # answer to block 0: "
+                          "03 03 01 00 03", "RCR --", "RAR 3B", "DRR 03", "DRR 00", "DRR 01"]
     ascii_frame = encode_serial_init(InitTable(CLOCK, "linear", 0x1000, 0x100, 0x200), 1)
     with pytest.raises(StepRampError, match="serial"):
         render([ascii_frame], "bus")

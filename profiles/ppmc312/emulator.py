@@ -12,6 +12,20 @@ per block, as the data arrives — length (15), header (10/17), section fit
 (16), rate ≤ 1 (18), pulses ≤ 1 (19), running total > 0xFFFFF (1A) — and the
 stage counts (11) on the command block. Init errors 04/05 need the chip's
 table builder and are left to `verify`.
+
+The answer handshake (manual §7-2 「各ブロック書込毎にレスポンスが報告されます」): the
+chip answers every block, and a host compares each answer with the one expected
+before it writes the next block. `expected_answers(blocks)` is that list for a
+table upload the chip accepts (what every upload file carries, `formats`);
+`chip_answers(blocks)` the answer to every block of any table upload, refusals
+included (what a file's answers are checked against).
+
+The alarm state (manual §5-4, §11-9, 表 2-1 「異常発生 … ほとんどの命令を受け付け
+られません」): `raise_alarm(status)` puts the chip in it (the bus emulator,
+`profiles.ppmc312.bus`, does when an answer overwrites an unread one: F4 01); an
+upload in progress is dropped, and until `reset()` every block is refused
+unexecuted with a state error, F1 status 00 and the ALM state bit (what 表 2-2's ×
+means for every command in 異常発生).
 """
 
 from __future__ import annotations
@@ -53,6 +67,8 @@ from .limits import SIDE_TOTAL_MAX, STAGE_PULSES_MIN, STAGES_MAX, STAGES_MIN
 from .table import InitTable
 
 STATE_INI, STATE_NOR = 0x01, 0x02  # F1 state bits: INI initial, NOR normal (a table)
+STATE_ALM = 0x10  # F1 state bit: ALM, the alarm state (manual §11-7)
+ALARM_DOUBLE_WRITE = 0x01  # F4 status: 命令の多重書込み (an unread command answer overwritten)
 
 
 @dataclass
@@ -96,6 +112,14 @@ class ChipEmulator:
         self.decel_total: int | None = None
         self._upload: _Upload | None = None
         self.last_message = ""
+        self.alarm: int | None = None  # the F4 status while in the alarm state
+
+    def raise_alarm(self, status: int) -> None:
+        """Enter the alarm state (F4 `status`, manual §11-9): pulse output stops, an
+        upload in progress is dropped; every block is refused until `reset()`."""
+        self.alarm = status
+        self._upload = None
+        self.last_message = f"alarm F4 {status:02X}"
 
     @property
     def busy(self) -> bool:
@@ -109,6 +133,12 @@ class ChipEmulator:
         if len(data) > MAX_BLOCK_BYTES:
             raise DecodeError(f"block is {len(data)} bytes; the bus takes at most "
                               f"{MAX_BLOCK_BYTES} (WAR = 0x20 − size)", byte=MAX_BLOCK_BYTES)
+        if self.alarm is not None:
+            command = data[2] if data[0] in (HDR_CODE_MORE, HDR_CODE_EXEC) and len(data) > 2 \
+                else 0
+            self.last_message = (f"state error: the chip is in the alarm state (F4 "
+                                 f"{self.alarm:02X}) and executes no block until a reset")
+            return self._state_error(0, command)
         try:
             if self._upload is not None:
                 return self._param_block(data)
@@ -245,7 +275,8 @@ class ChipEmulator:
                         f"parameter error 0x{code:02X} ({PARAM_ERRORS[code]}): {detail}")
 
     def _state_error(self, status: int, command: int) -> bytes:
-        state = STATE_NOR if self.table_kind else STATE_INI
+        state = (STATE_NOR if self.table_kind else STATE_INI) | (
+            STATE_ALM if self.alarm is not None else 0)
         return STATE_ERROR.encode(status=status, state=state, command=command)
 
 
@@ -278,3 +309,40 @@ def accept_upload(blocks: Sequence[bytes], emulator: ChipEmulator | None = None)
                                "is still waiting for data")
     return Verdict(True, responses, None, None, chip.accel_total, chip.decel_total,
                    chip.last_message)
+
+
+def is_table_upload(blocks: Sequence[bytes]) -> bool:
+    """Parallel blocks starting with a table-setting command (02/03 … 00 init or 01 free
+    curve): what the emulator answers. Moves, table-read captures and ASCII frames are not."""
+    items = block_list(blocks)
+    return bool(items) and len(items[0]) > 2 and items[0][0] in (HDR_CODE_MORE, HDR_CODE_EXEC) \
+        and items[0][2] in (CODE_INIT, CODE_FREE_CURVE)
+
+
+def chip_answers(blocks: Sequence[bytes]) -> list[bytes] | None:
+    """The chip's answer to every block of a table upload, from power-on, each read before
+    the next block is written, refusals included (after a refusal the chip answers what
+    follows as it would: a parameter block out of sequence draws F1); None when the blocks
+    are not a table upload the emulator models (`is_table_upload`, or a later block with
+    a command it does not model)."""
+    if not is_table_upload(blocks):
+        return None
+    chip = ChipEmulator()
+    try:
+        return [chip.feed(block) for block in block_list(blocks)]
+    except DecodeError:
+        return None
+
+
+def expected_answers(blocks: Sequence[bytes]) -> list[bytes] | None:
+    """The answer a host expects to each block of a table upload the chip accepts, header
+    first as the blocks (manual §7-2: progress `03 03 01 status remaining`, `03 08 01 0F`
+    and the totals after the last block; `03 01 00` for an init block); None for anything
+    else (a move, a table-read capture, ASCII frames, an upload the chip refuses)."""
+    if not is_table_upload(blocks):
+        return None
+    try:
+        verdict = accept_upload(blocks)
+    except DecodeError:
+        return None
+    return verdict.responses if verdict.ok else None

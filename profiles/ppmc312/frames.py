@@ -140,6 +140,8 @@ SIZE_ERROR = Frame("size-error response", (
     Const("header", ANSWER), Const("length", b"\x02"), Const("code", bytes([RESP_SIZE_ERROR])),
     UInt("length_written", 1, lo=REFUSED_LENGTH),
 ))
+ALARM = Frame("alarm response", (Const("header", b"\x23"), Const("length", b"\x02"),
+                                 Const("code", b"\xf4"), UInt("status", 1, hi=3)))
 
 # --- table read (code 41), manual §10-1 -------------------------------------------
 TABLE_READ_COMMAND = Frame("table read", (
