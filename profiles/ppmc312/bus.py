@@ -60,7 +60,6 @@ CSR_MWEF = 0x08  # bit 3: 1 = the chip cannot take a write
 CSR_MREF = 0x04  # bit 2: 0 = a response is waiting
 WCR_VALUE = 0x20  # WCR takes 0x20 only (§4-1.4)
 READ_WINDOW = 0x40  # an answer is 0x40 − RAR bytes (§5-8)
-DRR_BYTE_S = 3.625e-6  # the time a host has to read each DRR byte (§5-8 注意3)
 
 WRITES = ("WCR", "WAR", "DWR")
 READS = ("RCR", "RAR", "DRR")
