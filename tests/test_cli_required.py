@@ -30,8 +30,9 @@ REQUIRED = {
 
 
 def test_every_command_is_listed() -> None:
-    """simulate alone has its own rule (TABLE and --pulses, or --axes)."""
-    assert set(REQUIRED) | {"simulate"} == set(cli.COMMANDS)
+    """simulate and answer have their own rules (TABLE and --pulses, or --axes; HEX bytes
+    or --file)."""
+    assert set(REQUIRED) | {"simulate", "answer"} == set(cli.COMMANDS)
 
 
 @pytest.mark.parametrize("command", sorted(REQUIRED))
@@ -47,3 +48,9 @@ def test_simulate_says_what_it_needs(capsys: pytest.CaptureFixture[str]) -> None
     assert cli.main(["simulate"]) == 2
     assert capsys.readouterr().err.splitlines() == [
         "stepramp simulate: give TABLE and --pulses, or --axes AXES.json"]
+
+
+def test_answer_says_what_it_needs(capsys: pytest.CaptureFixture[str]) -> None:
+    assert cli.main(["answer"]) == 2
+    assert capsys.readouterr().err.splitlines() == [
+        "stepramp answer: give the answer's bytes as HEX (e.g. 03 01 00) or --file PATH"]

@@ -524,9 +524,10 @@ def test_cli_link_runs_every_command(pty_chip: tuple[SerialChip, str], tmp_path:
     assert run_cli([*base, "stop"], capsys) == (0, "slave 5: pulse output stopped\n", "")
     assert run_cli([*base, "poll"], capsys) == (
         0, "slave 5: stopped: stopped by the immediate-stop command (0x37)\n", "")
-    assert run_cli([*base, "position"], capsys) == (
-        0, f"slave 5: position {chip.position} pulses\n", "")
+    # CCW from 0: the counter wraps; shown unsigned, 0…0xFFFFFFFF (§2-1.6, §10-3)
     assert chip.position < 0
+    assert run_cli([*base, "position"], capsys) == (
+        0, f"slave 5: position {chip.position + (1 << 32)} pulses\n", "")
     assert run_cli([*base, "errors"], capsys) == (
         0, "slave 5: 0 line error(s) (framing, overrun and checksum); last error code 0x43 "
            "(state error)\n", "")

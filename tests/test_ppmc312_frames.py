@@ -180,15 +180,24 @@ def test_a_block_carries_at_least_one_entry(frame: Frame) -> None:
 
 
 def test_parameter_error_texts_by_code() -> None:
-    # manual §11-6: the codes the chip answers in F0, each with what it means
-    words = {0x00: "length", 0x01: "out of range", 0x02: "slower", 0x03: "not above",
-             0x04: "no table", 0x05: "≤ 2 pulses", 0x10: "command header",
+    # manual §11-6: every code the chip answers in F0, each with what it means
+    words = {0x00: "length", 0x01: "a rate is out of range", 0x02: "slower",
+             0x03: "not above", 0x04: "no table", 0x05: "≤ 2 pulses", 0x10: "command header",
              0x11: "stage count", 0x15: "31 or more", 0x16: "more data", 0x17: "block header",
-             0x18: "rate ≤ 1", 0x19: "pulse count ≤ 1", 0x1A: "total above 0xFFFFF"}
+             0x18: "rate ≤ 1", 0x19: "pulse count ≤ 1", 0x1A: "total above 0xFFFFF",
+             0x20: "rate outside", 0x21: "position trigger", 0x23: "pulse count",
+             0x24: "no event registered", 0x25: "length byte", 0x26: "range of 0",
+             0x27: "range of 0"}
     assert sorted(F.PARAM_ERRORS) == sorted(words)
     for code, word in words.items():
         assert word in F.PARAM_ERRORS[code], code
-        assert F.PARAM_ERRORS[code].startswith("init: " if code < 0x10 else "free curve: ")
+    prefixes = {0x20: "move", 0x21: "override", 0x23: "move", 0x24: "event read",
+                0x25: "event setting", 0x26: "in-position setting", 0x27: "encoder setting"}
+    for code, text in F.PARAM_ERRORS.items():
+        prefix = "init" if code < 0x10 else "free curve" if code < 0x20 else prefixes[code]
+        assert text.startswith(prefix + ": "), code
+    # 「パルスレートのデータが範囲外です」: 01 is the init's rates only, never a pulse count
+    assert "pulse" not in F.PARAM_ERRORS[0x01]
 
 
 def test_a_length_byte_above_the_limit_names_byte_1() -> None:

@@ -182,7 +182,7 @@ READ_DATA_BYTES = 13
 # Chip parameter-error texts (manual §11-6), for one-line messages.
 PARAM_ERRORS: dict[int, str] = {
     0x00: "init: wrong data length",
-    0x01: "init: a rate or pulse count is out of range",
+    0x01: "init: a rate is out of range",  # 「パルスレートのデータが範囲外です」: rates only
     0x02: "init: the slower of start/stop rate is within 127 of the high rate",
     0x03: "init: start or stop rate is not above the high rate",
     0x04: "init: start/stop too close to the high rate, no table can be built",
@@ -195,6 +195,13 @@ PARAM_ERRORS: dict[int, str] = {
     0x18: "free curve: a stage rate ≤ 1",
     0x19: "free curve: a stage pulse count ≤ 1",
     0x1A: "free curve: accel or decel pulse total above 0xFFFFF",
+    0x20: "move: a pulse rate outside the table's range",
+    0x21: "override: a position trigger on a command that cannot start at a position",
+    0x23: "move: a wrong pulse count",
+    0x24: "event read: no event registered under that number",
+    0x25: "event setting: a wrong length byte",
+    0x26: "in-position setting: a range of 0",
+    0x27: "encoder setting: a range of 0",
 }
 
 

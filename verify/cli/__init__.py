@@ -45,7 +45,7 @@ COMMANDS: tuple[str, ...] = (
     "sweep",
     *command_groups(),
     "motor",
-    "link", "emulate",
+    "link", "emulate", "answer",
 )
 
 
