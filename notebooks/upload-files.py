@@ -4,7 +4,9 @@
 # One plan, written out as the bytes each device takes, then read back and
 # decoded to show nothing was lost:
 #
-# - PPMC-312 free-curve upload: hex, C header and bus register writes;
+# - PPMC-312 free-curve upload in REV 1.3 blocks (at most 14 bytes after the
+#   length byte): hex, C header and bus register writes, each with the answer the
+#   chip gives to every block, and the bus script run through the emulated chip;
 # - PPMC-312 ASCII init frame (the best linear init table, LE=0: the serial
 #   command has no separate decel counts);
 # - A-Link ALUM settings command words, with the CRC-32 the words lack;
@@ -28,6 +30,8 @@ from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312 import decode_upload, encode_free_curve
 from profiles.ppmc312.ascii import decode_serial_init, encode_serial_init
+from profiles.ppmc312.bus import run_bus_script
+from profiles.ppmc312.emulator import expected_answers
 from profiles.ppmc312.formats import parse, parse_upload, render
 from profiles.ppmc312.execution import simulate_move
 from verify.references import exact_optimum
@@ -83,23 +87,25 @@ c_blocks = [bytes(int(b, 16) for b in re.findall(r"0x([0-9A-F]{2})", body))
 assert c_blocks == blocks
 print(f"C header: {len(c_blocks)} arrays equal to the blocks")
 
-# Bus writes: per block WCR 20, WAR 20 − length, then DWR last byte first.
-bus_blocks, data = [], []
-for line in files["bus"].read_text().splitlines():
-    if line.startswith("#"):  # the CRC-32 line
-        continue
-    reg, value = line.split()
-    if reg == "WCR":
-        data = []
-    elif reg == "WAR":
-        length = 0x20 - int(value, 16)
-    else:
-        data.append(int(value, 16))
-        if len(data) == length:
-            bus_blocks.append(bytes(reversed(data)))
-assert bus_blocks == blocks
-assert decode_upload(bus_blocks) == plan.table
-print(f"bus writes: {len(bus_blocks)} blocks rebuilt, table decoded equal")
+# Bus script: per block, wait MWEF = 0, WCR 20, WAR 20 − size, DWR last byte first;
+# then read the chip's answer (manual §5-8: wait MREF = 0, dummy RCR, RAR, DRR) before
+# the next block. The chip keeps ONE answer buffer (§5-4): a block written over an
+# unread answer raises alarm F4 01 and stops it. Run the script through the chip at
+# register level, then the same script with one answer's reads left out.
+bus_text = files["bus"].read_text()
+run = run_bus_script(bus_text)
+assert run.ok and run.blocks == len(blocks) and run.answers == tuple(expected_answers(blocks))
+print(f"bus script: {run.message}")
+print("first answers:", ", ".join(a.hex(" ").upper() for a in run.answers[:3]), "…")
+
+lines = bus_text.splitlines()
+first_read = next(i for i, line in enumerate(lines) if line.startswith("WAIT CSR.MREF"))
+next_block = next(i for i, line in enumerate(lines) if i > first_read
+                  and line.startswith("WAIT CSR.MWEF"))
+skipped = run_bus_script("\n".join(lines[:first_read] + lines[next_block:]))
+assert not skipped.ok and skipped.alarm == 0x01
+print(f"one read skipped: {skipped.message}")
+
 
 # %% [markdown]
 # ## PPMC-312 ASCII init frame
