@@ -286,7 +286,7 @@ def test_json_of_an_answer() -> None:
     ("02 01 00", "header 0x02 has NEXT 0, init answer (00)'s figure (§7-1) draws 1", 0),
     ("03 02 82 05", "status 0x05 is none of the manual's (00, 01, 10, 11, 20, 21, 40, 41, "
                     "§8-3)", 3),
-    ("23 02 F4 04", "alarm (F4): status 0x04 is none of the manual's (00, 01, 02, 03", 3),
+    ("23 02 F4 04", "alarm (F4): status = 4 (0x4) is outside 0..3", 3),
     ("03 03 F0 22 00", "error 0x22 is none of the manual's", 3),
     ("00 03 07 00 01", "a PAL=0 block (table read, §10-1) starts with its item kind 01, 02 "
                        "or 03, got 0x07", 2),
@@ -392,6 +392,26 @@ def test_the_kinds_are_the_manual_s() -> None:
     assert BY_KEY["F1"].block.fields[1:] == F.STATE_ERROR.fields[1:]
     assert BY_KEY["01 done"].block.fields[1:] == F.FC_DONE.fields[1:]
     assert BY_KEY["41 rates"].block.fields[1:] == F.READ_RATES.fields[1:]
+    assert BY_KEY["F4"].block.fields[1:] == F.ALARM.fields[1:]
+
+
+@pytest.mark.parametrize("example", ["free-curve-nema17.json", "init-linear.json",
+                                     "free-curve-bad.json"])
+def test_every_answer_the_emulator_gives_decodes(example: str) -> None:
+    # the chip model's answer to each block of an upload (refusals included) is an answer
+    from pathlib import Path
+
+    from profiles.ppmc312.emulator import chip_answers
+    from profiles.ppmc312.table import load_table
+    from profiles.ppmc312.upload import encode_table
+
+    table = load_table(Path(__file__).resolve().parents[1] / "examples" / example)
+    answers = chip_answers(encode_table(table))
+    assert answers
+    decoded = [decode_answer(a) for a in answers]
+    assert all(a.header == {"cmr": 0, "source": "bus", "pal": 1, "next": 1} for a in decoded)
+    assert decode_answers(b"".join(answers)) == decoded
+    assert {a.kind.key for a in decoded} <= {"00", "01 progress", "01 done", "F0", "F1"}
 
 
 # --- serial replies (§13, §15–19) -----------------------------------------------------------------

@@ -8,7 +8,7 @@ draws them; RESP says where the command came from (00 the bus, 01 an event, 11 a
 override; 10 cannot occur) and is left free but for F8 and F9, whose figures fix it.
 
 The frames of frames.py that the emulator and the table reader already write and read
-(init, free curve, F1, F6, table read) are reused here with the general header in
+(init, free curve, F1, F4, F6, table read) are reused here with the general header in
 place of their bus-only `03`, never written twice. F0 is the one that differs: its
 tail is 「命令とパラメータ」, the refused command and any number of its parameters,
 where frames.PARAM_ERROR fixes it to the command code (what the emulator sends, a
@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 from ..fields import Array, Bit, Bits, Const, Frame, SInt, UInt
 from .frames import (
+    ALARM,
     CODE_FREE_CURVE,
     CODE_INIT,
     CODE_TABLE_READ,
@@ -311,6 +312,8 @@ def _report_kinds() -> list[Kind]:
         Kind("F1", "state error (F1)", "§11-7",
              _headed("state error (F1)", STATE_ERROR, answer_header(0)), RESP_STATE_ERROR,
              {"status": STATE_STATUS}, {"state": STATES}),
+        Kind("F4", "alarm (F4)", "§11-9", _headed("alarm (F4)", ALARM, answer_header(1)), 0xF4,
+             {"status": ALARM_STATUS}),
         Kind("F6", "size error (F6)", "§11-5",
              _headed("size error (F6)", SIZE_ERROR, answer_header(0)), RESP_SIZE_ERROR,
              labels={"length_written": "length byte written"}),
@@ -323,7 +326,6 @@ def _report_kinds() -> list[Kind]:
     one_byte: dict[int, tuple[str, str, int, str, Mapping[int, str] | None, int | None]] = {
         0xE3: ("encoder range changed (E3)", "§7-4", 1, "encoder", RANGE, None),
         0xE4: ("in-position range changed (E4)", "§7-3", 1, "in_position", RANGE, None),
-        0xF4: ("alarm (F4)", "§11-9", 1, "status", ALARM_STATUS, None),
         0xF5: ("command error (F5)", "§11-10", 0, "command", None, None),
         0xF7: ("registration failed (F7)", "§11-4", 0, "status", {
             0x00: "the command buffer is full",
