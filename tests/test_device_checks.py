@@ -390,3 +390,15 @@ def test_one_block_of_15_is_over_the_limit(tmp_path: Path) -> None:
     found = [f for f in check_file(str(_nema17_upload(tmp_path, 15))).findings
              if f.rule == "upload-block-size"]
     assert len(found) == 1 and "up to 15" in found[0].message
+
+
+def test_an_upload_without_its_answers_is_noted(tmp_path: Path) -> None:
+    fresh = _nema17_upload(tmp_path, None)
+    assert "# answer:" in fresh.read_text()
+    assert not [n for n in check_file(str(fresh)).notes if "expected answers" in n]
+    old = tmp_path / "old.upload.hex"  # as stepramp wrote it before the handshake
+    old.write_text("".join(line for line in fresh.read_text().splitlines(keepends=True)
+                           if not line.startswith("# answer:")))
+    result = check_file(str(old))
+    assert result.ok
+    assert [n for n in result.notes if "F4 01" in n and "re-export" in n]

@@ -87,12 +87,12 @@ def check(raw: bytes, path: str, options: CheckOptions) -> FileResult:
 
 def file_verdict(raw: bytes, path: str, options: CheckOptions) -> Verdict:
     """The verdict on an upload, move or table-read file in any format."""
-    from profiles.ppmc312.formats import parse
+    from profiles.ppmc312.formats import parse_handshake
     from profiles.reading import require_shallow_json
 
     require_shallow_json(raw, path)  # a JSON upload is parsed by formats.parse
     try:
-        parsed = parse(raw, path)
+        parsed, answers = parse_handshake(raw, path)
     except CorruptedError as e:  # the file's own check failed: a verdict, not unusable input
         return Verdict([Finding("error", "upload-corrupted", str(e))])
     # A file without a check (hand-made, or bin: no room for one) is judged, with a warning.
@@ -101,7 +101,21 @@ def file_verdict(raw: bytes, path: str, options: CheckOptions) -> Verdict:
     if not is_table_read(blocks):  # a capture from the bus carries no check: none expected
         verdict.findings[:0] = integrity_findings("upload", parsed.format, parsed.integrity,
                                                   parsed.detail)
+    verdict.notes += handshake_note(blocks, parsed.format, answers)
     return verdict
+
+
+def handshake_note(blocks: list[bytes], fmt: str, answers: list[bytes] | None) -> list[str]:
+    """A note for a table upload in a format with room for the chip's answers that lists
+    none (written before stepramp carried them): a host must still read each answer
+    before the next block (manual §5-4, §5-8), and the file cannot say what to expect."""
+    from profiles.ppmc312.emulator import is_table_upload
+
+    if answers is not None or fmt in ("bin", "ihex") or not is_table_upload(blocks):
+        return []
+    return ["the file lists no expected answers: the chip answers every block and raises "
+            "alarm F4 01 when a block is written over an unread answer (§5-4, §7-2); "
+            "re-export it for the answers and, in a bus script, the reads"]
 
 
 def c_set_verdict(raw: bytes, names: list[str], options: CheckOptions) -> Verdict:
