@@ -165,7 +165,7 @@ def test_the_table_read_answer_needs_its_clock(capsys: pytest.CaptureFixture[str
 
 @pytest.mark.parametrize(("data", "pulses", "rule", "code"), [
     (bytes.fromhex("03 08 82 00 00 00 00 00 00 00"), None, "move-pulses", 0x23),
-    (bytes.fromhex("03 08 82 04 00 00 00 00 01 00"), None, "move-trigger", None),
+    (bytes.fromhex("03 08 82 04 00 00 00 00 01 00"), None, "move-trigger", 0x21),
     (bytes.fromhex("03 08 82 02 00 00 00 00 01 00"), None, "move-trigger-ignored", None),
     (bytes.fromhex("03 08 82 00 00 01 00 00 01 00"), None, "move-high-rate", 0x20),
     (bytes.fromhex("03 08 82 80 00 00 00 00 01 00"), None, "move-mode-bits", None),

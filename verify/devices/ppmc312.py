@@ -5,8 +5,8 @@ from it, by what its blocks (or ASCII frames) hold:
   frame), asked first what the chip would answer (profiles/ppmc312/emulator.py), then
   the chip rules (verify/chip_rules.py) and, with a motor, the one safety verdict
   (verify/safety.py);
-- move commands (82), parallel or ASCII: the chip's rules for them
-  (verify/command_rules.py);
+- motion commands (80–88, 10, 11, 05: `stepramp move --command`), parallel or ASCII:
+  the chip's rules for them (verify/command_rules.py);
 - the chip's table-read answer (41): the table it holds, judged like a table file; the
   answer does not carry the clock, so `--clock` says it;
 - a C header of several uploads (sync's axes.h): each upload by its symbol prefix,
@@ -23,9 +23,9 @@ from typing import TYPE_CHECKING, Any
 from profiles.errors import CorruptedError, DecodeError, FormatError
 
 from ..command_rules import (
-    SERIAL_MOVE_CODES,
     frame_payload,
     is_move_block,
+    is_serial_move,
     move_block_findings,
     move_notes,
     serial_move_findings,
@@ -138,7 +138,7 @@ def blocks_verdict(blocks: list[bytes], options: CheckOptions) -> Verdict:
         raise DecodeError("the file holds no blocks")
     if blocks[0][:1] and blocks[0][0] & 0x80:
         payloads = [frame_payload(f, i) for i, f in enumerate(blocks)]
-        if all(p[0] in SERIAL_MOVE_CODES for p in payloads):
+        if all(is_serial_move(p) for p in payloads):
             return Verdict([f for i, p in enumerate(payloads)
                             for f in serial_move_findings(p, i)],
                            serial_move_notes(payloads) + motor_note(options))
