@@ -32,7 +32,7 @@ def add_subparser(sub: Any) -> None:
                        f"{c.name} ({c.code:02X})" for c in COMMANDS.values())
                    + f" (default {DEFAULT})")
     m.add_argument("--pulses", type=positive_int,
-                   help="pulses to output (accel, constant: required), 1..0xFFFFFFFF")
+                   help="the move length [pulses] (accel, constant: required), 1..0xFFFFFFFF")
     m.add_argument("--ccw", action="store_true", help="direction CCW (default CW)")
     m.add_argument("--rate", type=positive_int, metavar="R",
                    help="a rate divisor; 0 = the table's high rate where the manual allows "
@@ -45,7 +45,7 @@ def add_subparser(sub: Any) -> None:
                    help="origin search/return: find /ORG and /INDEX low together (IDX = 1)")
     m.add_argument("--override-at", type=positive_int, metavar="POS",
                    help="stop, decel-stop, change-speed, set-speed: wait in the override "
-                        "buffer until the position counter reaches POS (OV = 1, TRG 00)")
+                        "buffer until the position counter reaches POS [pulses] (OV = 1, TRG 00)")
     m.add_argument("--on", choices=("evt1", "evt2"),
                    help="wait in the override buffer for event input 1 or 2 (OV = 1, "
                         "TRG 01 or 11)")
