@@ -35,7 +35,7 @@ from typing import Any
 
 from ..errors import DecodeError, FieldRangeError, FormatError, UnsupportedError, echo, require_int
 from ..fields import Bit, Bits, Const, Frame, UInt
-from .ascii import SERIAL_MOVE, SERIAL_STOP, decode_frame, encode_frame
+from .ascii import MAX_ADDRESS, SERIAL_MOVE, SERIAL_STOP, decode_frame, encode_frame
 from .frames import HDR_CODE_EXEC, MOVE, block_bytes
 
 RATE_MAX = 0xFFFF
@@ -268,7 +268,7 @@ def encode_command(name: str, *, to: str = "parallel", address: int = 0,
             return command.block.encode(values)
         assert command.positioned is not None  # _values allows AT for these only
         return command.positioned.encode(values)
-    address = require_int("address", address, 0, 15)
+    address = require_int("address", address, 0, MAX_ADDRESS)
     frame = command.serial.get(start)
     if frame is None:
         raise UnsupportedError(f"{command.label} has no serial form started by "
