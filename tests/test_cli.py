@@ -264,3 +264,15 @@ def test_check_with_motor_on_an_init_table_the_chip_refuses(
     code, out, _ = run(capsys, "check", path, "--motor", motor, "--format", "json")
     assert code == 1
     assert [f["chip_code"] for f in json.loads(out)["files"][0]["findings"]] == ["0x03"]
+
+
+@pytest.mark.parametrize("argv, named", [
+    (["answer", "03", "01", "-inf"], "stepramp answer:"),
+    (["check", "x.json", "--no-such-option"], "stepramp check:"),
+    (["alink", "decode", "0", "0", "0", "-1e9"], "stepramp alink:"),
+])
+def test_unrecognized_arguments_name_the_command(argv: list[str], named: str,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(named) and "unrecognized arguments" in err and err.count("\n") == 1

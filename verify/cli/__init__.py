@@ -75,6 +75,15 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     return p
 
 
+def command_parser(parser: argparse.ArgumentParser, command: str) -> argparse.ArgumentParser:
+    """`command`'s own parser in `build_parser`'s result (the top one if it has none)."""
+    for action in parser._actions:  # argparse keeps its sub-parsers only there
+        if isinstance(action, argparse._SubParsersAction) and command in action.choices:
+            found: argparse.ArgumentParser = action.choices[command]
+            return found
+    return parser
+
+
 # Positional and option names that hold the command's input, in the order an error
 # line names them.
 _INPUTS = ("files", "table", "upload", "file", "motor", "words")
@@ -95,7 +104,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     args_list = [a for a in args_list if a != "--debug"]
     parser = build_parser(_command_named(args_list))
     try:
-        args = parser.parse_args(args_list)
+        args, extra = parser.parse_known_args(args_list)
+        if extra:  # named by the command's own parser ("stepramp answer: …"), not the top's
+            command_parser(parser, args.command).error(
+                f"unrecognized arguments: {' '.join(extra)}")
     except SystemExit as e:  # --help/--version (0) or a usage error (printed, 2)
         return EXIT_OK if e.code in (0, None) else EXIT_UNUSABLE
     command = args.command  # the group for alink/mc200 ("stepramp mc200: …"), as before

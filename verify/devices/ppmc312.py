@@ -109,9 +109,10 @@ def handshake_note(blocks: list[bytes], fmt: str, answers: list[bytes] | None) -
     """A note for a table upload in a format with room for the chip's answers that lists
     none (written before stepramp carried them): a host must still read each answer
     before the next block (manual §5-4, §5-8), and the file cannot say what to expect."""
-    from profiles.ppmc312.emulator import is_table_upload
+    from profiles.ppmc312.emulator import expected_answers
 
-    if answers is not None or fmt in ("bin", "ihex") or not is_table_upload(blocks):
+    # a refused upload has its finding already; its answers would be the refusal
+    if answers is not None or fmt in ("bin", "ihex") or expected_answers(blocks) is None:
         return []
     return ["the file lists no expected answers: the chip answers every block and raises "
             "alarm F4 01 when a block is written over an unread answer (§5-4, §7-2); "
