@@ -8,6 +8,14 @@ characters; NaN and Infinity are refused. Tables, motors and uploads are kilobyt
 so the caps only ever stop a wrong path (/dev/zero, a directory, a socket) or a
 hostile file, before it costs memory, time or a Python limit. A pipe is read like
 stdin: to its end (its writer closing it), at most the same number of bytes.
+
+Files from other editors (issue 32 item 7): a UTF-8 byte-order mark (Windows editors and
+spreadsheets write one) is dropped as the bytes are read, so every reader sees the text
+as written; UTF-16 and UTF-32 text is refused in one line saying so ("save it as UTF-8")
+rather than failing later as some format's odd byte. No binary input of stepramp's can
+start with a byte-order mark: a PPMC-312 block starts with its length (≤ 31), an MC-200
+packet's low three bits (its mode switch) are ≤ 3. JSON with a key twice in one object is
+refused naming the key: readers disagree on which value wins (Python takes the last).
 """
 
 from __future__ import annotations
@@ -21,7 +29,7 @@ import sys
 from pathlib import Path
 from typing import Any, BinaryIO
 
-from .errors import FormatError
+from .errors import FormatError, echo
 
 MAX_INPUT_BYTES = 16 * 1024 * 1024
 # MC-200 stream files run long (a 4 M-packet move is 144 MB of hex): their readers, which
@@ -55,9 +63,45 @@ def read_bytes(path: str | Path, *, limit: int = MAX_INPUT_BYTES) -> bytes:
         data = _read_capped(sys.stdin.buffer, limit, "stdin")
     else:
         data = _read_regular(os.fspath(path), name, limit)
+    data = without_utf8_bom(data)
     if not data.strip():
         raise FormatError(f"{name}: the file is empty")
+    refuse_wide_text(data, name)
     return data
+
+
+UTF8_BOM = b"\xef\xbb\xbf"
+# Byte-order marks of the wide encodings, longest first (UTF-32 LE starts like UTF-16 LE).
+_WIDE_BOMS = ((b"\xff\xfe\x00\x00", "UTF-32"), (b"\x00\x00\xfe\xff", "UTF-32"),
+              (b"\xff\xfe", "UTF-16"), (b"\xfe\xff", "UTF-16"))
+# UTF-16 without a mark: four ASCII characters, each with a zero byte beside it, the first
+# printable (a PPMC-312 block's length byte is ≤ 31, an MC-200 packet's reserved byte 2
+# is 0, so neither binary input matches).
+_BARE_UTF16 = re.compile(rb"\A(?:[\x21-\x7e]\x00(?:[\t\n\r\x20-\x7e]\x00){3}"
+                         rb"|\x00[\x21-\x7e](?:\x00[\t\n\r\x20-\x7e]){3})")
+
+
+def without_utf8_bom(data: bytes) -> bytes:
+    """`data` without a leading UTF-8 byte-order mark (a Windows editor's)."""
+    return data[len(UTF8_BOM):] if data.startswith(UTF8_BOM) else data
+
+
+def wide_text_encoding(data: bytes) -> str | None:
+    """"UTF-16" or "UTF-32" when `data` is text in a wide encoding (by its byte-order
+    mark, or ASCII characters each beside a zero byte), else None."""
+    for bom, encoding in _WIDE_BOMS:
+        if data.startswith(bom):
+            return encoding
+    return "UTF-16" if _BARE_UTF16.match(data) else None
+
+
+def refuse_wide_text(data: bytes, name: str) -> None:
+    """The honest one-line refusal of UTF-16/UTF-32 text (Notepad's "Unicode", PowerShell's
+    `>`): every stepramp input is UTF-8 or binary."""
+    encoding = wide_text_encoding(data)
+    if encoding is not None:
+        raise FormatError(f"{name}: {encoding} text: save it as UTF-8 (stepramp reads UTF-8 "
+                          "text files)")
 
 
 def _read_regular(path: str, name: str, limit: int) -> bytes:
@@ -173,7 +217,7 @@ def _number(kind: type[int] | type[float], path: str) -> Any:
 def require_shallow_json(data: bytes, path: str | Path) -> None:
     """Refuse JSON text nested deeper than MAX_JSON_DEPTH (Python's parser would hit its
     recursion limit on it); text that is not a JSON object or array passes untouched."""
-    text = data.removeprefix(b"\xef\xbb\xbf").lstrip()
+    text = without_utf8_bom(data).lstrip()
     if text[:1] not in (b"{", b"["):
         return
     if json_depth(text, stop=MAX_JSON_DEPTH + 1) > MAX_JSON_DEPTH:
@@ -182,10 +226,13 @@ def require_shallow_json(data: bytes, path: str | Path) -> None:
 
 
 def utf8_text(data: bytes, path: str | Path, *, encoding: str = "utf-8") -> str:
-    """A text input's bytes as text (`encoding`: "utf-8-sig" takes a spreadsheet's
-    byte-order mark too); bytes that are not UTF-8 are one line naming the first."""
+    """A text input's bytes as text, a UTF-8 byte-order mark dropped (`encoding` is kept
+    for callers that name "utf-8-sig"; both read the same); UTF-16/32 text is refused
+    saying so, other bytes that are not UTF-8 in one line naming the first."""
+    data = without_utf8_bom(data)
+    refuse_wide_text(data, display_path(path))
     try:
-        return data.decode(encoding)
+        return data.decode("utf-8" if encoding in ("utf-8", "utf-8-sig") else encoding)
     except UnicodeDecodeError as e:
         raise FormatError(f"{display_path(path)}: not a UTF-8 text file (byte "
                           f"0x{e.object[e.start]:02x} at offset {e.start})") from None
@@ -199,14 +246,42 @@ def parse_json(data: bytes, path: str | Path) -> Any:
     def no_constant(word: str) -> Any:
         raise FormatError(f"{name}: {word} is not a JSON number (NaN and Infinity are refused)")
 
+    def unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+        out = dict(pairs)
+        if len(out) < len(pairs):
+            raise FormatError(f"{name}: key {echo(_repeated(pairs))} appears twice in one "
+                              "object (JSON readers differ on which value counts: keep one)")
+        return out
+
+    text = utf8_text(data, path)
     try:
-        return json.loads(utf8_text(data, path), parse_int=_number(int, name),
+        return json.loads(text, parse_int=_number(int, name), object_pairs_hook=unique_keys,
                           parse_float=_number(float, name), parse_constant=no_constant)
     except json.JSONDecodeError as e:
         raise FormatError(f"{name}: not valid JSON (line {e.lineno}, column {e.colno}: "
-                          f"{e.msg})") from None
+                          f"{e.msg}){_not_json_hint(text, e.pos)}") from None
     except RecursionError:  # unreachable below MAX_JSON_DEPTH; kept as the last guard
         raise FormatError(f"{name}: JSON nested too deeply") from None
+
+
+def _repeated(pairs: list[tuple[str, Any]]) -> str:
+    """The first key of `pairs` met a second time."""
+    seen: set[str] = set()
+    for key, _ in pairs:
+        if key in seen:
+            return key
+        seen.add(key)
+    return ""
+
+
+def _not_json_hint(text: str, pos: int) -> str:
+    """What a file that fails at its first character is instead (another tool's CSV or
+    text), so the line says more than "Expecting value"."""
+    if text[:pos].strip():
+        return ""
+    first = next((line.strip() for line in text.splitlines() if line.strip()), "")
+    kind = "CSV or text" if "," in first or ";" in first or "\t" in first else "text"
+    return f"; it starts {echo(first[:40])}, {kind}, not a JSON document"
 
 
 def read_json(path: str | Path) -> Any:

@@ -111,7 +111,8 @@ def test_motor_list_text_and_json(folders: tuple[Path, Path, Path],
     env_a, env_b, config = folders
     motor_file(env_a, "nema17-1600.json", name="my NEMA17")
     (config / "broken.json").parent.mkdir(parents=True)
-    (config / "broken.json").write_text("{}")
+    (config / "broken.json").write_text('{"format": "stepramp.motor/2"}')
+    (config / "settings.json").write_text('{"editor.tabSize": 4}')  # another tool's: unlisted
     assert cli.main(["motor", "list"]) == 0
     out, err = capsys.readouterr()
     assert err == f"stepramp motor: warning: {ENV_VAR} folder {env_b} is not a folder\n"
@@ -123,6 +124,7 @@ def test_motor_list_text_and_json(folders: tuple[Path, Path, Path],
     assert "bundled (shadowed by STEPRAMP_MOTORS)" in rows[("nema17-1600", "bundled")]
     assert rows[("nema17-1600", "bundled")].split()[1:5] == ["1600", "0.45", "48000", "1800"]
     assert "unreadable: format: expected" in next(v for k, v in rows.items() if k[0] == "broken")
+    assert not any(k[0] == "settings" for k in rows)
     assert lines[-1].startswith("≈: the pull-out torque at 0 pps")
     for column in ("steps/rev", "holding [N·m]", "top [pps]", "[rpm]"):  # numbers: right
         end = lines[0].index(column) + len(column)

@@ -128,6 +128,9 @@ def motor_result(raw: bytes, path: str, options: CheckOptions) -> FileResult:
     return result(path, found, [f"motor file{f': {name}' if name else ''}"])
 
 
+# A CSV header: cells of words, no C or JSON punctuation (a broken C upload is no CSV).
+_OTHER_CSV = re.compile(r'["A-Za-z_][\w" .()/%-]*(?:[,;\t][\w" .()/%-]*)+')
+
 # Files stepramp writes or reads that `check` does not judge: what each is and which
 # command reads it (none: for people, or for CI).
 _UNJUDGED: tuple[tuple[Callable[[bytes, str], bool], str], ...] = (
@@ -150,6 +153,12 @@ _UNJUDGED: tuple[tuple[Callable[[bytes, str], bool], str], ...] = (
     (lambda raw, head: head.startswith(("phase,rate,", "pulse,time_s", "t_s,x_pulses",
                                         "stage,rate,")),
      "a CSV that simulate or show writes: no stepramp command reads it"),
+    # last: another tool's files, said as such rather than "not an upload in any format"
+    (lambda raw, head: raw.lstrip()[:1] == b"[",
+     "a JSON array, not one of stepramp's documents (a JSON object with its \"format\")"),
+    (lambda raw, head: _OTHER_CSV.match(head) is not None,
+     "a CSV file that is not one of stepramp's (CSV inputs: plan --moves' duty cycle, "
+     "motor new --curve's vendor curve)"),
 )
 
 

@@ -19,7 +19,11 @@ shadowed entry, marked. Two files of one name in one folder: the first in sorted
 is always a path (a path still works); an argument that looks like a path (a folder
 separator, or ending in `.json`) stays a path even when missing, so the error names the
 file; anything else is a name, and an unknown name is a one-line error naming the close
-ones.
+ones, or `./NAME.json` when that file exists (the user meant the file).
+
+A user's folder may hold other JSON (an editor's settings, another tool's files): only
+files that declare the motor format in their head are motors (`is_motor_file`); a motor
+file that fails to load is still listed, saying why.
 """
 
 from __future__ import annotations
@@ -71,12 +75,31 @@ def motor_name(path: Path) -> str:
     return name.removeprefix("motor-") or name
 
 
+# A motor file says what it is in its first bytes (`motor new` writes "format" first; a
+# hand-written file keeps it within the first kilobytes): enough to tell it from other
+# tools' JSON sharing the folder without reading those whole.
+MOTOR_MARK = b'"stepramp.motor/'
+HEAD_BYTES = 64 * 1024
+
+
+def is_motor_file(path: Path) -> bool:
+    """Whether `path` declares itself a motor file (its head names the format
+    stepramp.motor/…): a broken motor file still does, another tool's JSON does not."""
+    try:
+        with open(path, "rb") as fh:
+            return MOTOR_MARK in fh.read(HEAD_BYTES)
+    except OSError:  # unreadable: listed, so the listing says why
+        return True
+
+
 def _files(folder: Path, source: str) -> list[Path]:
     pattern = "motor-*.json" if source == BUNDLED else "*.json"  # data/ holds schemas too
     try:
-        return sorted(p for p in folder.glob(pattern) if p.is_file())
+        found = sorted(p for p in folder.glob(pattern) if p.is_file())
     except OSError:  # unreadable folder: nothing to list from it
         return []
+    # a user's folder may hold other JSON (settings, other tools' files): motors only
+    return found if source == BUNDLED else [p for p in found if is_motor_file(p)]
 
 
 def entries() -> list[Entry]:
@@ -117,6 +140,12 @@ def resolve(spec: str | Path) -> str | Path:
     entry = find(spec)
     if entry is not None:
         return entry.path
+    local = next((f"./{spec}{ext}" for ext in (".json", ".motor.json")
+                  if Path(spec + ext).is_file()), None)
+    if local is not None:  # the file the user most likely meant: say so first
+        raise FormatError(f"motor {spec!r}: no motor of that name; did you mean {local}? "
+                          "(a name is looked up in the motor folders, a file needs its "
+                          "path: `stepramp motor list` lists the names)")
     names = sorted({e.name for e in entries()})
     close = difflib.get_close_matches(spec.lower(), names, n=4, cutoff=0.5)
     close += [n for n in names if spec.lower() in n.lower() and n not in close]

@@ -18,8 +18,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
-from ..errors import FieldRangeError, FormatError, echo, is_number
-from ..reading import read_json
+from ..errors import FieldRangeError, FormatError, StepRampError, echo, is_number
+from ..reading import display_path, read_json
 from .clock import Clock
 
 if TYPE_CHECKING:
@@ -175,7 +175,11 @@ def table_from_json(obj: Any) -> Table:
     if not isinstance(obj, dict):
         raise FormatError("a table file holds one JSON object")
     if obj.get("format") != FORMAT:
-        raise FormatError(f"format: expected {echo(FORMAT)}, got {echo(obj.get('format'))}")
+        # another tool's JSON has no "format": say what it holds instead of "got None"
+        got = (echo(obj["format"]) if "format" in obj else
+               "no \"format\" key (JSON from another tool? its keys: "
+               f"{echo(', '.join(map(str, list(obj)[:6])) or 'none')})")
+        raise FormatError(f"format: expected {echo(FORMAT)}, got {got}")
     if obj.get("device") != DEVICE:
         raise FormatError(f"device: expected {echo(DEVICE)}, got {echo(obj.get('device'))}")
     kind = obj.get("kind")
@@ -203,8 +207,15 @@ def table_from_json(obj: Any) -> Table:
 
 
 def load_table(path: str | Path) -> Table:
-    """Read a table file; every problem is a one-line `StepRampError`."""
-    return table_from_json(read_json(path))
+    """Read a table file; every problem is a one-line `StepRampError` naming the file."""
+    obj = read_json(path)
+    try:
+        return table_from_json(obj)
+    except StepRampError as e:
+        name = display_path(path)
+        if not str(e).startswith(name):  # show and export said "format: …" of no file
+            e.args = (f"{name}: {e}",)
+        raise
 
 
 def dump_table(table: Table) -> str:

@@ -138,7 +138,7 @@ def _motor_object(args: argparse.Namespace) -> dict[str, Any]:
         motor_object,
     )
     from profiles.motor.loads import loads_from_specs
-    from profiles.reading import read_bytes
+    from profiles.reading import read_bytes, utf8_text
 
     # first: the curve's speeds are converted with it (a 0 would be blamed on the curve)
     require_int("microstep", args.microstep, 1, MICROSTEP_MAX)
@@ -168,7 +168,7 @@ def _motor_object(args: argparse.Namespace) -> dict[str, Any]:
         mech = Mechanics(args.step_angle, args.rotor_inertia_gcm2 * 1e-7, args.phases,
                          args.detent_torque_nm)
         speeds, torques = curve_from_csv(
-            read_bytes(args.curve).decode("utf-8", errors="replace"),
+            utf8_text(read_bytes(args.curve), args.curve),
             speed_unit=args.speed_unit, torque_unit=args.torque_unit,
             steps_per_rev=full_steps_per_rev(args.step_angle) * args.microstep,
             microstep=args.microstep, name=args.curve)
