@@ -252,6 +252,30 @@ def test_a_link_that_did_not_wait_would_be_refused_by_the_chip() -> None:
                             "commands 115 ms after an init (§7-1)")
 
 
+def test_the_position_is_the_unsigned_counter() -> None:
+    """§2-1.6: positions 0…0xFFFFFFFF; a CCW move past 0 reads 0xFFFFFF9C, never −100,
+    and a CW move back wraps to 50 (the emulator's counter is 32 bits too)."""
+    fake, notes = FakeTime(), list[str]()
+    chip, link = timed_link(fake, notes)
+    link.init(TABLE)
+    link.move(100, ccw=True)
+    fake.t += 1.0  # the move is over
+    assert link.position() == chip.position == 0xFFFFFF9C
+    link.move(150)
+    fake.t += 1.0
+    assert link.position() == chip.position == 50
+
+
+@pytest.mark.parametrize(("counter", "why"), [
+    (1, "the encoder position (01)"), (2, "counter 0x02, none of the manual's (00, 01)")])
+def test_a_position_reply_for_another_counter_is_refused(counter: int, why: str) -> None:
+    reply = encode_frame("data", ADDRESS, bytes([counter]) + (7).to_bytes(4, "big"))
+    with pytest.raises(GarbledReply, match=rf"^slave 5: position: the reply is for "
+                                           rf"{re.escape(why)}, the pulse position \(00\) "
+                                           r"was asked$"):
+        Link(Scripted([reply]), ADDRESS, retries=0).position()
+
+
 def test_a_stop_is_never_delayed_and_waiting_needs_an_init() -> None:
     fake, notes = FakeTime(), list[str]()
     _, link = timed_link(fake, notes)
@@ -293,7 +317,7 @@ class Scripted:
 
 
 def position_reply(value: int, address: int = ADDRESS) -> bytes:
-    return encode_frame("data", address, b"\x00" + value.to_bytes(4, "big", signed=True))
+    return encode_frame("data", address, b"\x00" + value.to_bytes(4, "big"))
 
 
 def test_a_bad_checksum_is_resent_and_the_good_reply_taken() -> None:
@@ -474,7 +498,7 @@ def test_a_noisy_line_loses_and_misreads_nothing(pty_chip: tuple[SerialChip, str
     for _ in range(6):
         pulses, ccw = rng.randint(20, 150), rng.random() < 0.4
         link.move(pulses, ccw=ccw)
-        expected += -pulses if ccw else pulses
+        expected = (expected + (-pulses if ccw else pulses)) % (1 << 32)  # §2-1.6: wraps
         time.sleep(move_s(pulses) + 0.01)
         assert link.poll() == PollReply("stopped", 0x38, "normal stop at the commanded position")
         assert link.position() == expected == chip.position
@@ -524,10 +548,10 @@ def test_cli_link_runs_every_command(pty_chip: tuple[SerialChip, str], tmp_path:
     assert run_cli([*base, "stop"], capsys) == (0, "slave 5: pulse output stopped\n", "")
     assert run_cli([*base, "poll"], capsys) == (
         0, "slave 5: stopped: stopped by the immediate-stop command (0x37)\n", "")
-    # CCW from 0: the counter wraps; shown unsigned, 0…0xFFFFFFFF (§2-1.6, §10-3)
-    assert chip.position < 0
+    # CCW from 0: the 32-bit counter wraps, 0…0xFFFFFFFF (§2-1.6, §10-3)
+    assert (1 << 32) - 100_000 < chip.position < 1 << 32
     assert run_cli([*base, "position"], capsys) == (
-        0, f"slave 5: position {chip.position + (1 << 32)} pulses\n", "")
+        0, f"slave 5: position {chip.position} pulses\n", "")
     assert run_cli([*base, "errors"], capsys) == (
         0, "slave 5: 0 line error(s) (framing, overrun and checksum); last error code 0x43 "
            "(state error)\n", "")

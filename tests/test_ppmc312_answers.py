@@ -15,7 +15,7 @@ from profiles.fields import Array, Bits, SInt, UInt
 from profiles.ppmc312 import frames as F
 from profiles.ppmc312.answer_kinds import BY_KEY, KINDS, SOURCES, Kind
 from profiles.ppmc312.answers import Answer, decode_answer, decode_answers, encode_answer
-from profiles.ppmc312.ascii import encode_frame
+from profiles.ppmc312.ascii import POSITION_REPLY, encode_frame
 from profiles.ppmc312.replies import (
     REPLY_KINDS,
     REPLY_TO,
@@ -474,6 +474,15 @@ def test_a_bad_reply_is_one_line(frame: bytes, reply_to: str | None, message: st
     with pytest.raises(DecodeError) as e:
         decode_reply(frame, reply_to=reply_to)
     assert message in str(e.value) and e.value.byte == byte
+
+
+def test_the_serial_position_reply_is_the_links_and_42s() -> None:
+    # §18-1's data is §10-2's parameters: the reply kind reads ascii.POSITION_REPLY, the
+    # frame the link decodes and the emulator writes, field for field 42's (unsigned).
+    assert REPLY_KINDS["position"][0].frame is POSITION_REPLY
+    assert POSITION_REPLY.fields == BY_KEY["42"].block.fields[3:]
+    top = encode_frame("data", 3, POSITION_REPLY.encode(counter=0, position=0xFFFFFFFF))
+    assert decode_reply(top, reply_to="position").fields["position"] == 0xFFFFFFFF
 
 
 def test_serial_replies_back_to_back() -> None:

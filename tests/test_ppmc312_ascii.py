@@ -173,7 +173,7 @@ def test_describe_reply() -> None:
     (SERIAL_POSITION_READ, {"encoder": 0}, "42"),                     # §18-1: 0 1 P 0 0010
     (SERIAL_POSITION_READ, {"encoder": 1}, "62"),
     (SERIAL_POSITION_SET, {"encoder": 0, "position": 0x01020304}, "4301020304"),  # §18-2
-    (SERIAL_POSITION_SET, {"encoder": 1, "position": -2}, "63FFFFFFFE"),
+    (SERIAL_POSITION_SET, {"encoder": 1, "position": 0xFFFFFFFE}, "63FFFFFFFE"),
     (SERIAL_END_STATUS_READ, {}, "40"),                               # §18-6
     (SERIAL_ERROR_CODE_READ, {}, "41"),                               # §18-10
     (SERIAL_ERROR_COUNT_READ, {}, "4C"),                              # §18-11

@@ -136,8 +136,9 @@ def test_position_follows_the_execution_model_and_ccw_counts_down(chip: SerialCh
         reply = command(chip, SERIAL_POSITION_READ.encode(encoder=0))
         assert reply[0] == 0xA0 + ADDRESS
         fields = POSITION_REPLY.decode(decode_frame(reply, from_slave=True).payload)
-        assert fields == {"source": 0, "position": -int(run.position_at(t_s))}
-    assert -5000 < chip.position < 0
+        # the 32-bit counter counts down from 0 and wraps (§2-1.6): 0…0xFFFFFFFF
+        assert fields == {"counter": 0, "position": -int(run.position_at(t_s)) % (1 << 32)}
+    assert (1 << 32) - 5000 < chip.position < 1 << 32
 
 
 def test_stop_holds_the_counter_and_reports_immediate_stop(chip: SerialChip,
@@ -155,9 +156,27 @@ def test_stop_holds_the_counter_and_reports_immediate_stop(chip: SerialChip,
 
 
 def test_position_set_and_encoder_position(chip: SerialChip) -> None:
-    assert command(chip, SERIAL_POSITION_SET.encode(encoder=0, position=-1234)) == READY
-    assert chip.position == -1234
+    assert command(chip, SERIAL_POSITION_SET.encode(encoder=0, position=0xFFFFFB2E)) == READY
+    assert chip.position == 0xFFFFFB2E
     assert command(chip, SERIAL_POSITION_READ.encode(encoder=1)) == special(0x47)
+
+
+def test_the_counter_wraps_both_ways(chip: SerialChip, clock: Clock_) -> None:
+    """§2-1.6: positions 0…0xFFFFFFFF, CW counts up, CCW down; the 32-bit counter wraps
+    (§10-3 sets it anywhere in 0x0~0xffffffff), never a negative number."""
+    init(chip, clock)
+    assert command(chip, SERIAL_POSITION_SET.encode(encoder=0, position=0xFFFFFFFF - 9)) \
+        == READY
+    assert chip.receive(encode_serial_move(ADDRESS, 100)) == READY
+    clock.t += 1.0
+    assert chip.position == 90  # past 0xFFFFFFFF to 0 and on
+    assert chip.receive(encode_serial_move(ADDRESS, 100, ccw=True)) == READY
+    clock.t += 1.0
+    assert chip.position == 0xFFFFFFF6  # and back down past 0
+    reply = command(chip, SERIAL_POSITION_READ.encode(encoder=0))
+    assert reply == encode_frame("data", ADDRESS, bytes.fromhex("00 FF FF FF F6"))
+    with pytest.raises(FieldRangeError, match="position: -1"):
+        SERIAL_POSITION_SET.encode(encoder=0, position=-1)
 
 
 # --- refusals ----------------------------------------------------------------------------
@@ -234,7 +253,7 @@ def test_inside_the_window_other_commands_are_taken_and_a_new_init_restarts_it(
     assert poll(chip) == READY
     assert command(chip, SERIAL_POSITION_SET.encode(encoder=0, position=5)) == READY
     assert command(chip, SERIAL_POSITION_READ.encode(encoder=0)) == encode_frame(
-        "data", ADDRESS, POSITION_REPLY.encode(source=0, position=5))
+        "data", ADDRESS, POSITION_REPLY.encode(counter=0, position=5))
     assert command(chip, SERIAL_STOP.encode()) == READY  # nothing runs: nothing to refuse
     assert chip.receive(encode_serial_init(TABLE, ADDRESS)) == READY  # at start + 0.1
     clock.t = start + WINDOW_S   # the first init's window is over, the second's is not
@@ -269,7 +288,7 @@ def test_lowercase_hex_is_accepted(chip: SerialChip) -> None:
     lower = upper[:1] + payload.hex().encode()
     lower += f"{~(lower[0] + sum(lower[1:])) & 0x7F:02X}".encode()
     assert chip.receive(lower) == READY
-    assert chip.position == -2
+    assert chip.position == 0xFFFFFFFE
 
 
 def test_a_frame_cut_short_is_a_framing_error_and_the_next_frame_is_answered(
@@ -323,7 +342,7 @@ def test_any_split_of_the_stream_gives_the_same_replies(cuts: list[int]) -> None
     out += pieces.receive(stream[at:])
     assert out == whole
     assert whole == READY + READY + READY + encode_frame(
-        "data", ADDRESS, POSITION_REPLY.encode(source=0, position=77))
+        "data", ADDRESS, POSITION_REPLY.encode(counter=0, position=77))
 
 
 def test_loop_transport_answers_like_the_chip() -> None:
@@ -334,11 +353,11 @@ def test_loop_transport_answers_like_the_chip() -> None:
 
 # --- the serial frames the link and the chip share: one description, both ways ----------------
 
-@given(st.integers(0, 15), st.integers(0, 1), st.integers(-(1 << 31), (1 << 31) - 1))
+@given(st.integers(0, 15), st.integers(0, 1), st.integers(0, 0xFFFFFFFF))
 def test_position_frames_round_trip(address: int, encoder: int, position: int) -> None:
     for frame, values, kind in (
             (SERIAL_POSITION_SET, {"encoder": encoder, "position": position}, "command"),
-            (POSITION_REPLY, {"source": encoder, "position": position}, "data")):
+            (POSITION_REPLY, {"counter": encoder, "position": position}, "data")):
         wire = encode_frame(kind, address, frame.encode(values))
         parsed = decode_frame(wire, from_slave=kind == "data")
         assert (parsed.kind, parsed.address) == (kind, address)
@@ -360,7 +379,7 @@ def test_serial_command_codes_are_the_manuals() -> None:
     # §18-10 41, §18-11 4C.
     assert SERIAL_STOP.encode() == b"\x80"
     assert [SERIAL_POSITION_READ.encode(encoder=p) for p in (0, 1)] == [b"\x42", b"\x62"]
-    assert SERIAL_POSITION_SET.encode(encoder=1, position=-1) == b"\x63\xff\xff\xff\xff"
+    assert SERIAL_POSITION_SET.encode(encoder=1, position=0xFFFFFFFF) == b"\x63\xff\xff\xff\xff"
     assert (SERIAL_END_STATUS_READ.encode(), SERIAL_ERROR_CODE_READ.encode(),
             SERIAL_ERROR_COUNT_READ.encode()) == (b"\x40", b"\x41", b"\x4c")
 

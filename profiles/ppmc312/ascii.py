@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..errors import DecodeError, FormatError, UnsupportedError, echo, require_int
-from ..fields import Bit, Bits, Const, Frame, SInt, UInt
+from ..fields import Bit, Bits, Const, Frame, UInt
 from .clock import EXTCK_FALLING, Clock
 from .frames import block_bytes
 from .table import InitTable
@@ -211,14 +211,18 @@ SERIAL_POSITION_READ = Frame("serial position read", (                          
 SERIAL_POSITION_SET = Frame("serial position set", (                                  # §18-2
     Bits("code", 1, (Bit("high", 6, 2, const=0b01), Bit("encoder", 5),
                      Bit("low", 0, 5, const=0b00011))),
-    SInt("position", 4),
+    UInt("position", 4),  # 0…0xFFFFFFFF (§10-3 「設定範囲は 0x0~0xffffffff」)
 ))
 SERIAL_END_STATUS_READ = Frame("serial end status read", (Const("code", b"\x40"),))   # §18-6
 SERIAL_ERROR_CODE_READ = Frame("serial error code read", (Const("code", b"\x41"),))   # §18-10
 SERIAL_ERROR_COUNT_READ = Frame("serial error count read", (Const("code", b"\x4C"),))  # §18-11
 
-# Replies. The position is a signed 32-bit count (CCW moves count down).
-POSITION_REPLY = Frame("position reply", (UInt("source", 1, hi=1), SInt("position", 4)))
+# Replies. The position is the 32-bit counter, 0…0xFFFFFFFF (§2-1.6, §10-3): CCW counts
+# down and wraps from 0 to 0xFFFFFFFF. Laid out as the parallel answer 42's parameters
+# (§18-1 is §10-2's): `counter` 00 pulse, 01 encoder; the reader checks it (replies.py
+# names any other value as none of the manual's, the link refuses all but 00).
+POSITION_REPLY = Frame("position reply", (UInt("counter", 1), UInt("position", 4)))
+POSITION_MODULUS = 1 << 32  # the counter's 32 bits: positions are taken modulo it
 END_CODE_REPLY = Frame("end code reply", (UInt("end_code", 1),))       # §18-6, §19-14
 ERROR_CODE_REPLY = Frame("error code reply", (UInt("error_code", 1),))  # §18-10
 ERROR_COUNT_REPLY = Frame("error count reply", (UInt("error_count", 2),))  # §18-11

@@ -233,13 +233,16 @@ class Link:
         return PollReply("ready")
 
     def position(self) -> int:
-        """The pulse position counter (§18-1)."""
+        """The pulse position counter (§18-1): 0…0xFFFFFFFF, the 32-bit counter (§2-1.6), so
+        a CCW move past 0 reads 0xFFFFFFFF, not −1."""
         frame = encode_frame("command", self.address, SERIAL_POSITION_READ.encode(encoder=0))
         reply = self._data(frame, POSITION, "position")
         fields = POSITION_REPLY.decode(reply.payload)
-        if fields["source"] != 0:
-            raise GarbledReply(f"slave {self.address}: position: the reply is for the "
-                               "encoder position (selector 01), the pulse position was asked")
+        if fields["counter"] != 0:
+            what = ("the encoder position (01)" if fields["counter"] == 1
+                    else f"counter 0x{fields['counter']:02X}, none of the manual's (00, 01)")
+            raise GarbledReply(f"slave {self.address}: position: the reply is for {what}, "
+                               "the pulse position (00) was asked")
         return int(fields["position"])
 
     def end_status(self) -> int:

@@ -9,7 +9,9 @@ it a reply is read as the poll's (the stop report for one data byte) or by its l
 where only one command gives it, and a reply no reading fits is a `DecodeError`.
 
 The data of a serial reply is laid out as the parallel answer's parameters (§18-1 is
-§10-2's, §18-9 is §10-9's), so those payloads reuse the parallel kinds' fields.
+§10-2's, §18-9 is §10-9's), so those payloads reuse the parallel kinds' fields; the
+position reply is `ascii.POSITION_REPLY`, the link's and the emulator's, which matches
+42's parameters field for field (a test holds them equal).
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from .ascii import (
     ERROR_CODE_REPLY,
     ERROR_CODES,
     ERROR_COUNT_REPLY,
+    POSITION_REPLY,
     SPECIAL_REPLIES,
     SPECIAL_REPLY,
     decode_frame,
@@ -53,8 +56,9 @@ REPLY_KINDS: dict[str, tuple[Kind, tuple[str, ...]]] = {k.key: (k, types) for k,
            choices={"end_code": END_CODES}), ("data",)),
     (_kind("end status", "end status read reply (A0+a)", "§18-6", END_CODE_REPLY,
            choices={"end_code": END_CODES}), ("data",)),
-    (_kind("position", "position read reply (A0+a)", "§18-1",
-           _params_of("42", "serial position reply"),
+    # ascii.POSITION_REPLY, what the link reads and the emulator writes, is laid out as
+    # 42's parameters (counter, position unsigned): one description for all three.
+    (_kind("position", "position read reply (A0+a)", "§18-1", POSITION_REPLY,
            choices=BY_KEY["42"].choices), ("data",)),
     (_kind("inputs", "general input reply (A0+a)", "§17-6",
            _params_of("25", "serial general input reply"), flags=BY_KEY["25"].flags),

@@ -10,7 +10,8 @@ chip models:
   command 4C (framing, overrun and checksum errors);
 - init (§15-1), accel/decel move (§16-3, timed by `execution.simulate_move`; refused
   with the state error B0 43 inside the window after an init, `timing.motion_window`),
-  immediate stop (§16-1), position read/set (§18-1/2), end status (§18-6),
+  immediate stop (§16-1), position read/set (§18-1/2: the 32-bit counter, 0…0xFFFFFFFF,
+  wrapping past 0 and past 0xFFFFFFFF, §2-1.6), end status (§18-6),
   error code (§18-10), error count (§18-11), and polls (§19): busy while the
   simulated move runs, then once the stop report (A0 + end code), then ready.
 Documented commands outside that list are answered with the command error
@@ -52,6 +53,7 @@ from .ascii import (
     ERROR_CODE_REPLY,
     ERROR_COUNT_REPLY,
     MAX_ADDRESS,
+    POSITION_MODULUS,
     POSITION_REPLY,
     SERIAL_INIT,
     SERIAL_MOVE,
@@ -145,6 +147,10 @@ class _Move:
     def pulses_at(self, now_s: float) -> int:
         return int(self.execution.position_at(max(0.0, now_s - self.start_s)))
 
+    def counter(self, pulses: int) -> int:
+        """The position counter after `pulses` of this move: modulo 2³² (§2-1.6)."""
+        return (self.origin + self.sign * pulses) % POSITION_MODULUS
+
     def done_at(self, now_s: float) -> bool:
         return now_s - self.start_s >= self.execution.duration_s
 
@@ -187,16 +193,18 @@ class SerialChip:
 
     @property
     def position(self) -> int:
+        """The pulse position counter, 0…0xFFFFFFFF: 32 bits that wrap (§2-1.6), so a CCW
+        move past 0 reads 0xFFFFFFFF next."""
         self._settle()
         if self._move is None:
             return self._position
-        return self._move.origin + self._move.sign * self._move.pulses_at(self._now())
+        return self._move.counter(self._move.pulses_at(self._now()))
 
     def _settle(self) -> None:
         """Finish a move whose last pulse is out: the counter holds, the report waits."""
         move = self._move
         if move is not None and move.done_at(self._now()):
-            self._position = move.origin + move.sign * move.execution.pulses
+            self._position = move.counter(move.execution.pulses)
             self._move = None
             self.end_code = self._report = END_NORMAL
 
@@ -367,7 +375,7 @@ class SerialChip:
             return self._refuse(COMMAND_ERROR, "encoder position (no encoder modelled)")
         position = self.position
         self.log.append(f"position: {position}")
-        return self._reply("data", POSITION_REPLY, source=0, position=position)
+        return self._reply("data", POSITION_REPLY, counter=0, position=position)
 
     def _position_set(self, payload: bytes) -> bytes:
         f = SERIAL_POSITION_SET.decode(payload)

@@ -73,8 +73,8 @@ def _run(link: Any, args: argparse.Namespace) -> str:
     if command == "poll":
         return str(link.poll())
     if command == "position":
-        # The counter is 32 bits, 0…0xFFFFFFFF (§2-1.6, §10-3); the link reads it signed.
-        return f"position {link.position() & 0xFFFFFFFF} pulses"
+        # The 32-bit counter, 0…0xFFFFFFFF (§2-1.6, §10-3), as the link reads it.
+        return f"position {link.position()} pulses"
     if command == "errors":
         report = link.errors()
         return (f"{report.error_count} line error(s) (framing, overrun and checksum); "
