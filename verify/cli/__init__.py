@@ -21,7 +21,7 @@ import os
 import signal
 import sys
 import traceback
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import NoReturn
 
 # Before numpy loads: OpenBLAS starts a thread per core at import, 0.1 s of CPU on every
@@ -54,6 +54,8 @@ class OneLineParser(argparse.ArgumentParser):
     are required: FILE`) and exit 2, like every other unusable input; sub-parsers inherit
     the class."""
 
+    commands: Mapping[str, argparse.ArgumentParser]  # build_parser's, by command name
+
     def error(self, message: str) -> NoReturn:
         print(f"{self.prog}: {bounded(display_path(message))} (see {self.prog} --help)",
               file=sys.stderr)
@@ -72,16 +74,14 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in COMMANDS if command not in COMMANDS else (command,):
         importlib.import_module(f"{__name__}.{name}").add_subparser(sub)
+    p.commands = sub.choices  # each command's own parser, for the errors it names
     return p
 
 
 def command_parser(parser: argparse.ArgumentParser, command: str) -> argparse.ArgumentParser:
     """`command`'s own parser in `build_parser`'s result (the top one if it has none)."""
-    for action in parser._actions:  # argparse keeps its sub-parsers only there
-        if isinstance(action, argparse._SubParsersAction) and command in action.choices:
-            found: argparse.ArgumentParser = action.choices[command]
-            return found
-    return parser
+    commands: Mapping[str, argparse.ArgumentParser] = getattr(parser, "commands", {})
+    return commands.get(command, parser)
 
 
 # Positional and option names that hold the command's input, in the order an error
