@@ -352,7 +352,7 @@ def test_check_reads_stdin_once(kind: str, monkeypatch: pytest.MonkeyPatch,
 
 
 # --- the PPMC-312 block size (REV 1.3, manual §5-5) ----------------------------------
-def _nema17_upload(tmp_path: Path, max_data: int | None) -> Path:
+def _nema17_upload(tmp_path: Path, max_data: int | None, fmt: str = "text") -> Path:
     from profiles.ppmc312.formats import render as render_upload
     from profiles.ppmc312.table import load_table
     from profiles.ppmc312.upload import encode_free_curve
@@ -361,8 +361,8 @@ def _nema17_upload(tmp_path: Path, max_data: int | None) -> Path:
                        / "free-curve-nema17.json")
     blocks = (encode_free_curve(table) if max_data is None
               else encode_free_curve(table, max_data=max_data))
-    path = tmp_path / f"nema17-{max_data}.upload.hex"
-    path.write_bytes(render_upload(blocks, "text"))
+    path = tmp_path / f"nema17-{max_data}-{fmt}.upload"
+    path.write_bytes(render_upload(blocks, fmt))
     return path
 
 
@@ -384,6 +384,20 @@ def test_rev13_sized_uploads_draw_no_block_size_finding(tmp_path: Path,
                                                         max_data: int | None) -> None:
     result = check_file(str(_nema17_upload(tmp_path, max_data)))
     assert result.ok and not [f for f in result.findings if f.rule == "upload-block-size"]
+
+
+@pytest.mark.parametrize("fmt", ["text", "bin", "ihex", "c", "json", "bus"])
+def test_every_format_carries_rev13_blocks_and_is_judged_by_them(tmp_path: Path,
+                                                                 fmt: str) -> None:
+    from profiles.ppmc312.formats import parse
+
+    fresh = _nema17_upload(tmp_path, None, fmt)
+    blocks = parse(fresh.read_bytes()).items
+    assert max(len(b) - 2 for b in blocks) == 14 and len(blocks) == 12
+    assert not [f for f in check_file(str(fresh)).findings if f.rule == "upload-block-size"]
+    old = _nema17_upload(tmp_path, 30, fmt)
+    assert [f.rule for f in check_file(str(old)).findings if f.severity == "warning"
+            and f.rule == "upload-block-size"] == ["upload-block-size"]
 
 
 def test_one_block_of_15_is_over_the_limit(tmp_path: Path) -> None:
