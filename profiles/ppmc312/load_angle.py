@@ -200,22 +200,9 @@ def samples(table: FreeCurveTable, motors: Sequence[Motor]
     spacing = np.maximum(hi - lo, 1)
     dense = hi.copy()  # the lengths sampled finely; the family's longest is judged too
     at = np.flatnonzero(slowest)
-    speed = hz / slowest[at].astype(float)
-    periods = np.array([r.natural_periods_s(speed) for r in rotor_list])
-    period = periods.min(axis=0)
-    # a motor with no torque at that speed has no period there: it cannot hold the
-    # command, and a dwell of a few periods at rest is long enough to show it slipping
-    rest = np.array([[r.natural_period_s(0.0)] for r in rotor_list])
-    settle = np.where(np.isfinite(periods), np.minimum(periods, 1.0), rest).max(axis=0)
-    finite = np.isfinite(period)
-    spacing[at[finite]] = np.maximum(1, np.minimum(
-        spacing[at[finite]], (period[finite] * speed[finite] / PHASE_SAMPLES).astype(np.int64)))
-    # past this much dwell the rotor has settled in that stage (or cruise): a longer one
-    # repeats the settled state (a cruise grows a pulse a length; two partial stages
-    # share the growth: twice it)
-    share = np.where(trapezoid[at], 1, 2)
-    dense[at] = np.minimum(hi[at], lo[at] + share * np.maximum(
-        np.ceil(speed * SETTLE_CRUISE_PERIODS * settle).astype(np.int64), 1))
+    # a cruise grows a pulse a length; two partial stages share the growth: twice it
+    spacing[at], dense[at] = dwell_sampling(rotor_list, hz / slowest[at].astype(float),
+                                            lo[at], hi[at], np.where(trapezoid[at], 1, 2))
     hi = np.where(trapezoid, dense, hi)  # a longer cruise repeats the settled one
     count = (dense - lo) // spacing + 1
     family = np.repeat(np.arange(len(lo)), count)
@@ -225,6 +212,28 @@ def samples(table: FreeCurveTable, motors: Sequence[Motor]
     family = np.concatenate((family, np.arange(len(lo)), np.arange(len(lo))))
     lengths, first = np.unique(lengths, return_index=True)
     return lengths, family[first], spacing
+
+
+def dwell_sampling(rotor_list: Sequence[Rotor], speed: np.ndarray, lo: np.ndarray,
+                   hi: np.ndarray, share: np.ndarray | int) -> tuple[np.ndarray, np.ndarray]:
+    """How to sample runs lo..hi whose dwell at `speed` grows by 1/`share` pulse a run
+    (a move family's, a stop's dwell): (the spacing that moves the dwell by at most
+    1/PHASE_SAMPLES of the natural period there, the stiffest rotor's; the last run
+    sampled so: past it the dwell has lasted SETTLE_CRUISE_PERIODS natural periods for
+    every rotor, and a longer one repeats that settled state)."""
+    spacing = np.maximum(hi - lo, 1)
+    periods = np.array([r.natural_periods_s(speed) for r in rotor_list])
+    period = periods.min(axis=0)
+    # a motor with no torque at that speed has no period there: it cannot hold the
+    # command, and a dwell of a few periods at rest is long enough to show it slipping
+    rest = np.array([[r.natural_period_s(0.0)] for r in rotor_list])
+    settle = np.where(np.isfinite(periods), np.minimum(periods, 1.0), rest).max(axis=0)
+    finite = np.isfinite(period)
+    spacing[finite] = np.maximum(1, np.minimum(
+        spacing[finite], (period[finite] * speed[finite] / PHASE_SAMPLES).astype(np.int64)))
+    dense = np.minimum(hi, lo + share * np.maximum(
+        np.ceil(speed * SETTLE_CRUISE_PERIODS * settle).astype(np.int64), 1))
+    return spacing, dense
 
 
 def refine(lengths: np.ndarray, family: np.ndarray, spacing: np.ndarray,
