@@ -18,8 +18,10 @@ from profiles.errors import FieldChoiceError, UnsupportedError
 from profiles.ppmc312.ascii import encode_frame
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.execution import simulate_move
+from profiles.ppmc312.link import REPLY_TO as LINK_REPLY_TO
 from profiles.ppmc312.link import (
     ChipRefused,
+    Exchange,
     GarbledReply,
     Link,
     LinkError,
@@ -27,6 +29,7 @@ from profiles.ppmc312.link import (
     PollReply,
     UnknownReply,
 )
+from profiles.ppmc312.replies import REPLY_TO, decode_reply
 from profiles.ppmc312.serial_chip import LoopSerial, PtyServer, SerialChip
 from profiles.ppmc312.table import FreeCurveTable, InitTable
 
@@ -289,6 +292,44 @@ def test_a_stop_is_never_delayed_and_waiting_needs_an_init() -> None:
     assert len(fake.slept) == 1
 
 
+# --- every reply heard (on_reply), read through the one decoder ---------------------------
+
+def test_every_reply_taken_is_heard_with_the_command_it_answers() -> None:
+    fake, heard = FakeTime(), list[Exchange]()
+    chip = SerialChip(ADDRESS, clock_s=fake.now)
+    link = Link(LoopSerial(chip), ADDRESS, clock_s=fake.now, sleep_s=fake.sleep,
+                on_reply=heard.append)
+    link.init(TABLE)
+    link.move(100, ccw=True)     # reads the position first (a lost reply's check)
+    assert link.poll().state == "busy"
+    fake.t += 1.0
+    assert link.poll().code == 0x38
+    assert link.errors().error_code == 0
+    assert [(e.what, e.reply_to) for e in heard] == [
+        ("init", "command"), ("position", "position"), ("move", "command"),
+        ("poll", "poll"), ("poll", "poll"), ("error count", "error-count"),
+        ("error code", "error-code")]
+    decoded = [decode_reply(e.reply, reply_to=e.reply_to) for e in heard]
+    assert [a.kind.key for a in decoded] == ["ready", "position", "ready", "busy",
+                                             "stop report", "error count", "error code"]
+    assert decoded[4].fields == {"end_code": 0x38}
+    assert all(e.sent[0] in (0x80 + ADDRESS, 0x90 + ADDRESS) and e.attempt == 0
+               for e in heard)
+    assert set(LINK_REPLY_TO.values()) <= set(REPLY_TO)  # every exchange has its reading
+
+
+def test_a_resent_command_is_heard_each_time_and_a_damaged_reply_never() -> None:
+    good = position_reply(1234)
+    bad = good[:-1] + bytes([good[-1] ^ 0x01])
+    refusal = encode_frame("special", ADDRESS, b"\x47")  # the chip's answer to damage
+    heard = list[Exchange]()
+    port = Scripted([bad, refusal, good])
+    assert Link(port, ADDRESS, retries=2, on_reply=heard.append).position() == 1234
+    assert [(e.reply, e.attempt) for e in heard] == [(refusal, 1), (good, 2)]
+    assert all(e.sent == port.sent[0] for e in heard)
+    assert decode_reply(heard[0].reply, reply_to="position").fields == {"code": 0x47}
+
+
 # --- replies the link must not believe ----------------------------------------------------
 
 class Scripted:
@@ -536,7 +577,10 @@ def test_cli_link_runs_every_command(pty_chip: tuple[SerialChip, str], tmp_path:
     # -v: init ends once the chip takes moves (§7-1), and says so; it waits real time.
     code, out, err = run_cli([*base, "-v", "init", str(table)], capsys)
     assert (code, err) == (0, "")
-    accepted, waited = out.splitlines()
+    sent, *reply, accepted, waited = out.splitlines()
+    assert sent.startswith("slave 5: init: sent 95 30 30 32 37 31 30 ")
+    assert reply == ["  reply 95 36 41: ready (90+a): no pulse output, or the command "
+                     "accepted, manual §19-1", "    control 95: ready reply from slave 5"]
     assert accepted == ("slave 5: init accepted: linear, start rate 10000, high rate 400, "
                         "2000 accel/decel pulses")
     assert re.fullmatch(r"slave 5: the chip accepts motion commands 115 ms after an init "
@@ -552,9 +596,44 @@ def test_cli_link_runs_every_command(pty_chip: tuple[SerialChip, str], tmp_path:
     assert (1 << 32) - 100_000 < chip.position < 1 << 32
     assert run_cli([*base, "position"], capsys) == (
         0, f"slave 5: position {chip.position} pulses\n", "")
+    # -v: the frame sent, then the reply as `stepramp answer --serial --reply-to position`
+    # decodes it, indented; the position unsigned in both
+    code, out, err = run_cli([*base, "-v", "position"], capsys)
+    at = chip.position
+    reply = encode_frame("data", ADDRESS, b"\x00" + at.to_bytes(4, "big"))
+    assert (code, err) == (0, "")
+    assert out.splitlines() == [
+        "slave 5: position: sent 95 34 32 30 34",
+        f"  reply {reply.hex(' ').upper()}: position read reply (A0+a), manual §18-1",
+        "    control A5: data reply from slave 5",
+        "    counter 00: pulse position",
+        f"    position {at} (0x{at:08X})",
+        f"slave 5: position {at} pulses"]
     assert run_cli([*base, "errors"], capsys) == (
         0, "slave 5: 0 line error(s) (framing, overrun and checksum); last error code 0x43 "
            "(state error)\n", "")
+
+
+class UnknownCode(SerialChip):
+    """A slave that answers every frame with a special reply no table of the manual has."""
+
+    def receive(self, data: bytes) -> bytes:
+        return encode_frame("special", ADDRESS, b"\x99") if super().receive(data) else b""
+
+
+def test_cli_link_v_shows_a_reply_no_reading_fits_then_the_link_s_error(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    with PtyServer(UnknownCode(ADDRESS)) as server:
+        code, out, err = run_cli(["link", "--port", server.path, "--address", str(ADDRESS),
+                                  "-v", "poll"], capsys)
+    reply = encode_frame("special", ADDRESS, b"\x99").hex(" ").upper()
+    assert code == 2
+    assert out.splitlines() == [
+        "slave 5: poll: sent 85 37 41",
+        f"  reply {reply}: byte 1: special reply (B0+a): code 0x99 is none of the manual's "
+        "(20, 21, 22, 23, 24, 25, 26, 27, 28, 42, 43, 44, 46, 47, 48, 49, 4A, §19)"]
+    assert err == ("stepramp link: slave 5: poll: unknown special reply 0x99 (no code of the "
+                   "manual's §15–19)\n")
 
 
 @pytest.mark.parametrize(("argv", "message"), [

@@ -19,6 +19,12 @@ Faults, and what the link does about them:
   no table knows raise `UnknownReply`; the retries used up raise `LinkTimeout`
   or `GarbledReply`. Every message is one line.
 
+Replies heard: `on_reply` is told of every reply frame the link takes off the line
+(`Exchange`: what it was doing, the command the reply answers as `replies.REPLY_TO`
+names it, the frame sent, the reply), once the frame passed the checks above and before
+the link acts on it, so `stepramp link -v` can print each through the one decoder
+(`replies.decode_reply`).
+
 Timing: the chip takes a motion command only some time after an init (manual §7-1:
 115 ms linear, 175 ms S-curve; `timing.motion_window`). The link remembers when it
 may send one and, before the next move, sleeps out what is left of that window
@@ -80,6 +86,11 @@ ERROR_CODE = {"ready": 1, "data": 1, "special": 1}
 ERROR_COUNT = {"ready": 2, "data": 2, "special": 1}
 POSITION = {"data": 5, "special": 1}
 END_STATUS = {"data": 1, "special": 1}
+# What each exchange's reply answers, as replies.REPLY_TO names it (a test holds these to
+# its keys): a data reply carries no code, so its reader needs the command.
+REPLY_TO = {"init": "command", "move": "command", "stop": "command", "poll": "poll",
+            "position": "position", "end status": "end-status", "error count": "error-count",
+            "error code": "error-code"}
 
 
 class SerialPort(Protocol):
@@ -106,6 +117,20 @@ class PollReply:
         if self.code is None:
             return self.state
         return f"{self.state}: {self.text} (0x{self.code:02X})"
+
+
+@dataclass(frozen=True)
+class Exchange:
+    """A reply the link took (for `on_reply`): `what` the link was doing (a `REPLY_TO`
+    key), `reply_to` the command it answers (a `replies.REPLY_TO` key), the frame `sent`,
+    the `reply` frame as it came (control byte, ASCII hex, checksum) and the `attempt`
+    (0, then each resend)."""
+
+    what: str
+    reply_to: str
+    sent: bytes
+    reply: bytes
+    attempt: int
 
 
 @dataclass(frozen=True)
@@ -136,14 +161,15 @@ class Link:
     command. `stats` counts attempts, resends, timeouts and garbled replies.
     `clock_s` and `sleep_s` time the wait after an init (tests pass their own; reply
     timeouts always run on the port's real time); `on_note` is told, in one line,
-    whenever the link waits for the chip.
+    whenever the link waits for the chip; `on_reply` of every reply it takes (`Exchange`).
     """
 
     def __init__(self, port: str | SerialPort, address: int, *, baud: int = 19_200,
                  timeout_s: float = 0.2, retries: int = 3,
                  clock_s: Callable[[], float] = time.monotonic,
                  sleep_s: Callable[[float], None] = time.sleep,
-                 on_note: Callable[[str], None] | None = None) -> None:
+                 on_note: Callable[[str], None] | None = None,
+                 on_reply: Callable[[Exchange], None] | None = None) -> None:
         self.address = require_int("address", address, 0, MAX_ADDRESS)
         if isinstance(timeout_s, bool) or not (isinstance(timeout_s, int | float)
                                                and 0.001 <= timeout_s <= 60):
@@ -157,6 +183,7 @@ class Link:
             else port
         self._move_running = False  # a move was accepted and its stop not yet reported
         self._clock, self._sleep, self._on_note = clock_s, sleep_s, on_note
+        self._on_reply = on_reply
         # After an init: when (clock_s time) the chip takes motion commands, and why.
         self._motion_at: tuple[float, Window] | None = None
 
@@ -296,13 +323,20 @@ class Link:
             self._port.reset_input_buffer()
             self._port.write(frame)
             try:
-                reply = self._read_reply(accepts)
+                raw, reply = self._read_reply(accepts)
             except _Failed as failed:
                 self.stats["timeouts" if failed.kind == "timeout" else "garbled"] += 1
                 last = failed
                 if lost is not None and lost():
                     return AsciiFrame("ready", self.address, b"")
                 continue
+            if self._on_reply is not None:
+                # Here, once the frame is the chip's (control byte, type, length, hex,
+                # checksum and address checked) and before the link acts on it: a 47 it
+                # resends and a refusal it raises are heard too. Not before the checks: a
+                # frame the line damaged is not the chip's answer, would only fail the
+                # decoder again, and the link resends it (and names it if none comes whole).
+                self._on_reply(Exchange(what, REPLY_TO[what], frame, raw, attempt))
             if reply.kind == "special" and reply.payload == bytes([COMMAND_ERROR]):
                 # The chip's answer to a frame that reached it damaged (a bad checksum).
                 last = _Failed("refused", "the chip answered command error 47 (a frame "
@@ -318,7 +352,9 @@ class Link:
             raise ChipRefused(message, COMMAND_ERROR)
         raise GarbledReply(message)
 
-    def _read_reply(self, accepts: dict[str, int]) -> AsciiFrame:
+    def _read_reply(self, accepts: dict[str, int]) -> tuple[bytes, AsciiFrame]:
+        """The next reply frame, whole, as it came and as read; a `_Failed` when none
+        comes whole and checked within the timeout."""
         deadline = time.monotonic() + self.timeout_s
         stray = 0
         while True:
@@ -351,7 +387,7 @@ class Link:
                           ) from None
         if reply.address != self.address:
             raise _Failed("garbled", f"a reply from slave {reply.address}")
-        return reply
+        return head + body, reply
 
     def _read(self, size: int, deadline: float) -> bytes:
         data = b""
@@ -404,5 +440,5 @@ def _special_text(link: Link, what: str, code: int) -> str:
     return text
 
 
-__all__ = ["BAUD_RATES", "ChipRefused", "ErrorReport", "GarbledReply", "Link", "LinkError",
-           "LinkTimeout", "PollReply", "UnknownReply"]
+__all__ = ["BAUD_RATES", "REPLY_TO", "ChipRefused", "ErrorReport", "Exchange", "GarbledReply",
+           "Link", "LinkError", "LinkTimeout", "PollReply", "UnknownReply"]

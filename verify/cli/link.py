@@ -24,7 +24,9 @@ def add_subparser(sub: Any) -> None:
                       help="resends of one command after a timeout or a damaged frame "
                            "(default 3)")
     link.add_argument("-v", "--verbose", action="store_true",
-                      help="say when the link waits for the chip (after an init, §7-1)")
+                      help="print every frame sent and every reply, decoded as `stepramp "
+                           "answer --serial` decodes it, and say when the link waits for "
+                           "the chip (after an init, §7-1)")
     lsub = link.add_subparsers(dest="link_command", required=True, metavar="COMMAND")
     init = lsub.add_parser("init", help="send an init table (linear or S-curve, LE=0)")
     init.add_argument("table", metavar="TABLE", help="an init table file (stepramp.table/1)")
@@ -38,13 +40,20 @@ def add_subparser(sub: Any) -> None:
 
 
 def _do_link(args: argparse.Namespace) -> int:
-    from profiles.ppmc312.link import ChipRefused, Link
+    from profiles.ppmc312.link import ChipRefused, Exchange, Link
 
     def note(text: str) -> None:
         print(f"slave {args.address}: {text}", flush=True)
 
+    def heard(exchange: Exchange) -> None:
+        note(f"{exchange.what}: sent {exchange.sent.hex(' ').upper()}"
+             + (f" (resend {exchange.attempt})" if exchange.attempt else ""))
+        for line in _reply_lines(exchange):
+            print("  " + line, flush=True)
+
     with Link(args.port, args.address, baud=args.baud, timeout_s=args.timeout_s,
-              retries=args.retries, on_note=note if args.verbose else None) as link:
+              retries=args.retries, on_note=note if args.verbose else None,
+              on_reply=heard if args.verbose else None) as link:
         try:
             print(f"slave {args.address}: {_run(link, args)}", flush=True)
             if args.link_command == "init":
@@ -55,6 +64,22 @@ def _do_link(args: argparse.Namespace) -> int:
             print(f"stepramp link: {refused}", file=sys.stderr)
             return EXIT_FINDINGS
     return EXIT_OK
+
+
+def _reply_lines(exchange: Any) -> list[str]:
+    """A reply as `stepramp answer --serial --reply-to …` shows it: its bytes as they came
+    (to paste there), its name, then its fields, indented."""
+    from profiles.errors import DecodeError
+    from profiles.ppmc312.replies import decode_reply
+
+    got = exchange.reply.hex(" ").upper()
+    try:
+        lines = decode_reply(exchange.reply, reply_to=exchange.reply_to).describe()
+    except DecodeError as e:
+        # A frame the link took that no reading of the manual fits (an unknown special
+        # code): shown as it came; the link's own message follows.
+        return [f"reply {got}: {e}"]
+    return [f"reply {got}: {lines[0]}", *lines[1:]]
 
 
 def _run(link: Any, args: argparse.Namespace) -> str:
