@@ -84,10 +84,52 @@ def test_a_capture_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
     (["03 01 00", "--file", "x.hex"], "give the bytes as HEX or with --file, not both"),
     (["03 01 00", "--reply-to", "poll"], "--reply-to is for --serial replies (a parallel "
                                          "answer carries its response code)"),
+    (["--read-order", "--serial", "A5 33 38 36 46"], "--read-order is for parallel answers "
+                                                     "read from DRR (a serial reply comes on "
+                                                     "the line in its own order)"),
+    # read order: a capture that starts inside an answer is named at its start
+    (["--read-order", "34 12 00 42 06 03"], "block 0, byte 4: length byte 0x06 says 6 bytes "
+                                            "were read before it, only 4 were"),
+    (["--read-order", "03"], "block 0, byte 0: 0x03 with no length byte read before it (read "
+                             "from DRR, an answer ends with its length byte and its header, "
+                             "§5-8)"),
+    # header first pasted as if read: 0x78 is taken for the header, 0x56 for its length
+    (["--read-order", "03 06 42 00 12 34 56 78"], "block 0, byte 6: length byte 0x56 says 86 "
+                                                  "bytes were read before it, only 6 were"),
+    # a value the figure does not give, named at its byte as read (03 02 82 05 read back)
+    (["--read-order", "00 01 03", "05 82 02 03"], "block 1, byte 0: accel/decel move answer "
+                                                  "(82): status 0x05 is none of the manual's "
+                                                  "(00, 01, 10, 11, 20, 21, 40, 41, §8-3)"),
 ])
 def test_bad_input_is_one_line_and_exit_2(argv: list[str], line: str,
                                           capsys: pytest.CaptureFixture[str]) -> None:
     assert run(capsys, *argv) == (2, "", f"stepramp answer: {line}\n")
+
+
+def test_the_manuals_read_order_example(capsys: pytest.CaptureFixture[str]) -> None:
+    # §5-8: the position answer as DRR gives it, 「パラメータの下位から読み出します」
+    code, out, err = run(capsys, "--read-order", "78 56 34 12 00 42 06 03")
+    assert (code, err) == (0, "")
+    assert out.splitlines() == [
+        "position read answer (42), manual §10-2",
+        "  header 03: CMR 0 (the answer to a command), from the bus, PAL 1, NEXT 1 (the last "
+        "block)",
+        "  counter 00: pulse position",
+        "  position 305419896 (0x12345678)"]
+    assert out == run(capsys, "03 06 42 00 12 34 56 78")[1]  # the same answer, header first
+
+
+def test_a_read_order_capture_is_the_answers_oldest_first(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # two answers read one after the other, each header last: a DRR capture in a file
+    capture = tmp_path / "drr.hex"
+    capture.write_text("# DRR reads\n05 00 01 03 03   # block 0's answer\n"
+                       "00 00 00 0F 00 00 0F 01 08 03\n", encoding="utf-8")
+    code, out, err = run(capsys, "--read-order", "--file", str(capture), "--format", "json")
+    assert (code, err) == (0, "")
+    answers = json.loads(out)["answers"]
+    assert [a["bytes"] for a in answers] == ["03 03 01 00 05", "03 08 01 0F 00 00 0F 00 00 00"]
+    assert [a["key"] for a in answers] == ["01 progress", "01 done"]
 
 
 def test_serial_replies(capsys: pytest.CaptureFixture[str]) -> None:

@@ -25,14 +25,13 @@ REQUIRED = {
     "mc200": "COMMAND",
     "motor": "SUBCOMMAND",
     "link": "--port, --address, COMMAND",
-    "emulate": "--pty",
 }
 
 
 def test_every_command_is_listed() -> None:
-    """simulate and answer have their own rules (TABLE and --pulses, or --axes; HEX bytes
-    or --file)."""
-    assert set(REQUIRED) | {"simulate", "answer"} == set(cli.COMMANDS)
+    """simulate, answer and emulate have their own rules (TABLE and --pulses, or --axes;
+    HEX bytes or --file; --pty or --bus SCRIPT)."""
+    assert set(REQUIRED) | {"simulate", "answer", "emulate"} == set(cli.COMMANDS)
 
 
 @pytest.mark.parametrize("command", sorted(REQUIRED))
@@ -48,6 +47,13 @@ def test_simulate_says_what_it_needs(capsys: pytest.CaptureFixture[str]) -> None
     assert cli.main(["simulate"]) == 2
     assert capsys.readouterr().err.splitlines() == [
         "stepramp simulate: give TABLE and --pulses, or --axes AXES.json"]
+
+
+def test_emulate_says_what_it_needs(capsys: pytest.CaptureFixture[str]) -> None:
+    assert cli.main(["emulate"]) == 2
+    assert capsys.readouterr().err.splitlines() == [
+        "stepramp emulate: give --pty (a serial slave on a pseudo-terminal) or --bus SCRIPT "
+        "(a bus script run through the chip)"]
 
 
 def test_answer_says_what_it_needs(capsys: pytest.CaptureFixture[str]) -> None:

@@ -83,8 +83,9 @@ class Command:
 
     @property
     def background(self) -> bool:
-        """Commands that serve until stopped (`emulate`): started, checked, left running."""
-        return self.argv[:1] == ["emulate"]
+        """Commands that serve until stopped (`emulate --pty`): started, checked, left
+        running. (`emulate --bus` runs a script and ends, as any command.)"""
+        return self.argv[:1] == ["emulate"] and "--pty" in self.argv
 
 
 def guide_text() -> str:

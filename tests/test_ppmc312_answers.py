@@ -14,7 +14,13 @@ from profiles.errors import DecodeError, FieldChoiceError, FormatError
 from profiles.fields import Array, Bits, SInt, UInt
 from profiles.ppmc312 import frames as F
 from profiles.ppmc312.answer_kinds import BY_KEY, KINDS, SOURCES, Kind
-from profiles.ppmc312.answers import Answer, decode_answer, decode_answers, encode_answer
+from profiles.ppmc312.answers import (
+    Answer,
+    decode_answer,
+    decode_answers,
+    decode_read_order,
+    encode_answer,
+)
 from profiles.ppmc312.ascii import POSITION_REPLY, encode_frame
 from profiles.ppmc312.replies import (
     REPLY_KINDS,
@@ -159,6 +165,7 @@ def test_the_manual_s_read_order_example_is_the_position_answer() -> None:
     # 78 56 34 12 00 42 06 03; header first it is 03 06 42 00 12 34 56 78.
     read = bytes.fromhex("78 56 34 12 00 42 06 03")
     a = decode_answer(read[::-1])
+    assert decode_read_order(read) == [a]  # as read, pasted as is
     assert a.name == "position read answer (42)"
     assert a.fields == {"counter": 0, "position": 0x12345678}
     assert a.header == {"cmr": 0, "source": "bus", "pal": 1, "next": 1}
@@ -380,6 +387,15 @@ def test_every_kind_round_trips(case: tuple[Kind, dict[str, Any]]) -> None:
         assert a.header["next"] == values["next"]
     assert len(a.describe()) == 2 + len(fields)
     assert decode_answers(data + data) == [a, a]
+
+
+@given(st.lists(kind_and_values(), min_size=1, max_size=4))
+def test_a_capture_in_read_order_is_the_same_answers(cases: list[tuple[Kind, dict[str, Any]]]
+                                                     ) -> None:
+    # §5-8: DRR gives each answer lowest parameter first, header last, one after another
+    blocks = [encode_answer(kind.key, **values) for kind, values in cases]
+    read = b"".join(block[::-1] for block in blocks)
+    assert decode_read_order(read) == decode_answers(b"".join(blocks))
 
 
 def test_the_kinds_are_the_manual_s() -> None:

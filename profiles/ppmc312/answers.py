@@ -123,6 +123,47 @@ def split_answers(capture: bytes) -> list[bytes]:
     return blocks
 
 
+def decode_read_order(capture: bytes) -> list[Answer]:
+    """Answers as the host reads them from DRR (§5-8: 「パラメータの下位から読み出します」,
+    its example 78 56 34 12 00 42 06 03): each lowest parameter first and its header
+    last, the reverse of the figures, one answer after another (a logic analyser's
+    capture of the DRR reads). An error names the answer (counted from 0) and the byte
+    as read."""
+    out = []
+    for index, block in enumerate(split_read_order(capture)):
+        try:
+            out.append(decode_answer(block[::-1]))
+        except DecodeError as e:
+            byte = None if e.byte is None else len(block) - 1 - e.byte
+            raise DecodeError(without_where(str(e)), block=index, byte=byte) from None
+    return out
+
+
+def split_read_order(capture: bytes) -> list[bytes]:
+    """A DRR capture's answers, each as read (header last). An answer ends with its length
+    byte and its header, and the length byte says how many bytes were read before those
+    two, so the capture splits from its end; what is left over is at its start (a capture
+    that began inside an answer), and is named there."""
+    data = block_bytes(capture)
+    if not data:
+        raise DecodeError("no bytes: an answer is at least a length byte and a header")
+    blocks: list[bytes] = []
+    end = len(data)
+    while end:
+        if end == 1:
+            raise DecodeError(f"0x{data[0]:02X} with no length byte read before it (read from "
+                              "DRR, an answer ends with its length byte and its header, "
+                              "§5-8)", block=0, byte=0)
+        length = data[end - 2]
+        start = end - 2 - length
+        if start < 0:
+            raise DecodeError(f"length byte 0x{length:02X} says {length} bytes were read "
+                              f"before it, only {end - 2} were", block=0, byte=end - 2)
+        blocks.append(data[start:end])
+        end = start
+    return blocks[::-1]
+
+
 def _require_answer_header(data: bytes) -> None:
     if len(data) < 2:
         raise DecodeError(f"an answer is at least a header and a length byte, got "

@@ -367,8 +367,12 @@ class BusRun:
 def run_bus_script(raw: bytes | str, bus: BusChip | None = None) -> BusRun:
     """Run a bus script from power-on through `BusChip` (see the module docstring): every
     expected read checked, stopped at the first mismatch, procedure slip or alarm, which
-    `BusRun` names by its line. A line that is no register access is a `DecodeError`."""
+    `BusRun` names by its line. A line that is no register access, or a script with none,
+    is a `DecodeError`."""
     lines = read_bus_script(raw)
+    if not lines:  # nothing to run: no verdict to give (comments only, blank lines)
+        raise DecodeError("the bus script holds no register access (only comments or blank "
+                          "lines)")
     chip = bus if bus is not None else BusChip()
     chip.reset()
     answers: list[bytes] = []

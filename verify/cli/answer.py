@@ -23,6 +23,10 @@ def add_subparser(sub: Any) -> None:
                         "back to back are split by their length bytes")
     a.add_argument("--file", metavar="PATH",
                    help="read the bytes from a capture file instead (hex text, # comments)")
+    a.add_argument("--read-order", action="store_true",
+                   help="the bytes as the host reads them from DRR (§5-8): each answer lowest "
+                        "parameter first and its header last (`78 56 34 12 00 42 06 03`), "
+                        "so a logic analyser's capture of the DRR reads is pasted as is")
     a.add_argument("--serial", action="store_true",
                    help="the bytes are ASCII serial replies (control byte 80/90/A0/B0 + "
                         "address, ASCII hex, checksum), each from its control byte")
@@ -44,11 +48,18 @@ def _do_answer(args: argparse.Namespace) -> int:
     if args.reply_to is not None and not args.serial:
         raise FormatError("--reply-to is for --serial replies (a parallel answer carries its "
                           "response code)")
+    if args.read_order and args.serial:
+        raise FormatError("--read-order is for parallel answers read from DRR (a serial "
+                          "reply comes on the line in its own order)")
     data = _input_bytes(args)
     if args.serial:
         from profiles.ppmc312.replies import decode_replies
 
         answers = decode_replies(data, reply_to=args.reply_to)
+    elif args.read_order:
+        from profiles.ppmc312.answers import decode_read_order
+
+        answers = decode_read_order(data)
     else:
         from profiles.ppmc312.answers import decode_answers
 

@@ -1,36 +1,85 @@
-"""`stepramp emulate --pty`: a PPMC-312 slave in ASCII serial mode on a pseudo-terminal."""
+"""`stepramp emulate`: the emulated PPMC-312 — a slave in ASCII serial mode on a
+pseudo-terminal (`--pty`), or a bus script run through the chip on its parallel bus
+(`--bus SCRIPT`)."""
 
 from __future__ import annotations
 
 import argparse
 from typing import Any
 
-from ._common import EXIT_OK, positive_int
+from ._common import EXIT_FINDINGS, EXIT_OK, positive_int
 
 
 def add_subparser(sub: Any) -> None:
-    e = sub.add_parser("emulate", help="a PPMC-312 serial slave to talk to (until Ctrl-C)")
-    e.add_argument("--pty", action="store_true", required=True,
-                   help="serve on a new pseudo-terminal; its path is printed first")
-    e.add_argument("--address", type=positive_int, default=0,
-                   help="slave address 0-15 (default 0)")
+    e = sub.add_parser("emulate", help="an emulated PPMC-312: a serial slave to talk to "
+                                       "(--pty, until Ctrl-C), or a bus script run through "
+                                       "the chip (--bus)")
+    # One of the two, named by the handler when neither is given (a one-line error that
+    # says what each does, as answer and simulate do).
+    how = e.add_mutually_exclusive_group()
+    how.add_argument("--pty", action="store_true",
+                     help="serve on a new pseudo-terminal; its path is printed first")
+    how.add_argument("--bus", metavar="SCRIPT",
+                     help="run a bus script (`export --format bus`, or one of your own: WAIT "
+                          "CSR.MWEF 0 / WCR / WAR / DWR / WAIT CSR.MREF 0 / RCR -- / RAR / "
+                          "DRR lines) through the chip register by register, from power-on; "
+                          "exit 1 when a read differs, the procedure slips or the chip would "
+                          "raise an alarm (F4 01: a block written over an unread answer)")
+    e.add_argument("--address", type=positive_int, default=None,
+                   help="with --pty: slave address 0-15 (default 0)")
     e.add_argument("--link", metavar="PATH",
-                   help="also make a symbolic link PATH to the terminal (removed on exit)")
+                   help="with --pty: also make a symbolic link PATH to the terminal (removed "
+                        "on exit)")
     e.add_argument("--log", action="store_true",
-                   help="print one line per frame the slave handles")
+                   help="with --pty: print one line per frame the slave handles")
     e.set_defaults(func=_do_emulate)
 
 
 def _do_emulate(args: argparse.Namespace) -> int:
+    from profiles.errors import FormatError
+
+    if args.bus is not None:
+        serial_only = [name for name, given in (("--address", args.address is not None),
+                                                ("--link", args.link is not None),
+                                                ("--log", args.log)) if given]
+        if serial_only:
+            raise FormatError(f"{', '.join(serial_only)}: for --pty (the serial slave); "
+                              "--bus runs the chip on its parallel bus")
+        return _run_bus(args.bus)
+    if not args.pty:
+        raise FormatError("give --pty (a serial slave on a pseudo-terminal) or --bus SCRIPT "
+                          "(a bus script run through the chip)")
+    return _serve_pty(args)
+
+
+def _run_bus(path: str) -> int:
+    """The script through the chip: its verdict on one line. A script that cannot be
+    read, or a line that is no register access, raises (one line, exit 2); a script that
+    runs into a mismatch, a slip or an alarm is a finding about it (exit 1)."""
+    from profiles.errors import DecodeError
+    from profiles.ppmc312.bus import run_bus_script
+    from profiles.reading import display_path, read_bytes
+
+    name = display_path(path)
+    try:
+        run = run_bus_script(read_bytes(path))
+    except DecodeError as e:  # a line that is no register access: named with the file
+        raise DecodeError(f"{name}: {e}") from None
+    print(f"{name}: {run.message}", flush=True)
+    return EXIT_OK if run.ok else EXIT_FINDINGS
+
+
+def _serve_pty(args: argparse.Namespace) -> int:
     import signal
 
     from profiles.ppmc312.serial_chip import PtyServer, SerialChip
 
-    chip = SerialChip(args.address)
+    address = 0 if args.address is None else args.address
+    chip = SerialChip(address)
     server = PtyServer(chip, link=args.link,
                        on_log=(lambda line: print(line, flush=True)) if args.log else None)
     where = server.path + (f" (link {args.link})" if args.link else "")
-    print(f"PPMC-312 slave {args.address} (ASCII serial mode) on {where}", flush=True)
+    print(f"PPMC-312 slave {address} (ASCII serial mode) on {where}", flush=True)
 
     def stop(_signum: int, _frame: Any) -> None:
         server.request_stop()
