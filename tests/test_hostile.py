@@ -191,8 +191,10 @@ DATASHEET = ["--holding-torque-nm", "0.4", "--rated-current-a", "1.5", "--resist
     ([*CURVE, "--microstep", "0"], "--microstep: 0 is outside the allowed range 1..1024"),
     ([*DATASHEET, "--microstep", "0"], "--microstep: 0 is outside the allowed range 1..1024"),
     ([*CURVE, "--phases", "3"], "argument --phases: invalid choice: 3 (choose from 2, 5)"),
-    ([*DATASHEET, "--inductance-mh", "0"], "--inductance-mh (0 excluded): 0.0 is outside"),
-    ([*DATASHEET[:-1], "-50"], "--rotor-inertia-gcm2 (0 excluded): -50.0 is outside"),
+    ([*DATASHEET, "--inductance-mh", "0"],
+     "--inductance-mh: 0 mH is outside any stepper's phase inductance (0.05..500 mH)"),
+    ([*DATASHEET[:-1], "-50"],
+     "--rotor-inertia-gcm2: -50 g·cm² is outside any stepper's rotor inertia"),
 ])
 def test_motor_new_names_the_option(argv: list[str], says: str,
                                     capsys: pytest.CaptureFixture[str]) -> None:

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import FieldRangeError, FormatError, echo, require_int
+from ..errors import FieldRangeError, FormatError, echo, is_number, require_int
 from .loads import Contribution, combine
 from .model import FORMAT
 
@@ -106,6 +106,10 @@ def electrical_periods(step_angle_deg: float, phases: int, rotor_teeth: int | No
 
 
 MICROSTEP_MAX = 1024  # microsteps per full step a driver setting may have
+MIN_FRACTION = 0.05   # the model's curve ends where the torque falls to this share of T(0)
+# A curve whose top is slower than this has no usable speed (and its points, written to
+# 0.001 pps, would collapse onto each other): the supply cannot drive the back-EMF.
+MIN_TOP_PPS = 40.0
 
 
 @dataclass(frozen=True)
@@ -139,7 +143,7 @@ def speed_rad_s(speed_pps: np.ndarray | float, steps_per_rev: int) -> np.ndarray
     return np.asarray(speed_pps, dtype=float) * (2 * math.pi / steps_per_rev)
 
 
-def pullout_curve(ds: Datasheet, drive: Drive, *, min_fraction: float = 0.05,
+def pullout_curve(ds: Datasheet, drive: Drive, *, min_fraction: float = MIN_FRACTION,
                   tolerance: float = 0.002, dense: int = 4001) -> tuple[np.ndarray, np.ndarray]:
     """(speeds [pps], torques [N·m]) of the model as a piecewise-linear curve that never lies
     above the model: from 0 to the speed where the torque falls to `min_fraction` of its
@@ -217,6 +221,13 @@ def motor_from_datasheet(ds: Datasheet, drive: Drive, loads: Sequence[Contributi
     """A `stepramp.motor/1` object with the model's pull-out curve at the drive's settings
     (see `motor_object` for the rest)."""
     speeds, torques = pullout_curve(ds, drive)
+    if speeds[-1] < MIN_TOP_PPS:  # rounded to the file's 0.001 pps, the curve would collapse
+        # The back-EMF eats the supply at once; the top speed grows about in proportion to
+        # the voltage, so the bound is where it would reach MIN_TOP_PPS (no dots in the
+        # field's note: the CLI reads the field's last dotted part).
+        need = drive.supply_v * MIN_TOP_PPS / max(float(speeds[-1]), 1e-300)
+        raise FieldRangeError("supply_v (no usable speed below it, for this back-EMF)",
+                              drive.supply_v, float(f"{need:.3g}"), 1e4)
     obj = motor_object(
         speeds, torques, Mechanics(ds.step_angle_deg, ds.rotor_inertia_kgm2, ds.phases,
                                    ds.detent_torque_nm, ds.rotor_teeth),
@@ -226,9 +237,7 @@ def motor_from_datasheet(ds: Datasheet, drive: Drive, loads: Sequence[Contributi
                     f"{ds.rated_current_a:.4g} A, R {ds.resistance_ohm:.4g} Ω, L "
                     f"{ds.inductance_h * 1e3:.4g} mH, {ds.phases} phases; drive "
                     f"{drive.supply_v:.4g} V, {drive.current_a:.4g} A RMS, "
-                    f"1/{drive.microstep} step"))
-    sources = obj.pop("sources")
-    obj.update(holding_torque_nm=ds.holding_torque_nm, sources=sources)
+                    f"1/{drive.microstep} step"), holding_torque_nm=ds.holding_torque_nm)
     return obj
 
 
@@ -252,13 +261,21 @@ class Mechanics:
 
 def motor_object(speeds: np.ndarray, torques: np.ndarray, mech: Mechanics, microstep: int,
                  loads: Sequence[Contribution] = (), *, safety_factor: float = 0.6,
-                 start_pps: float | None = None, name: str = "",
-                 curve_from: str = "") -> dict[str, object]:
+                 start_pps: float | None = None, name: str = "", curve_from: str = "",
+                 holding_torque_nm: float | None = None) -> dict[str, object]:
     """A `stepramp.motor/1` object from a pull-out curve (pps, N·m) and the motor's mechanics:
     the rotor plus `loads` (reflected to the shaft), detent torque counted as friction (it
     brakes a turning rotor; conservative), the self-start speed estimated when not given
-    (`start_pps_estimate`, at most half the curve's top), and where each number came from
-    (`"sources"`)."""
+    (`start_pps_estimate`, at most half the curve's top), the datasheet's holding torque
+    when given, and where each number came from (`"sources"`). The safety factor and a
+    given start speed are checked first, as given: the estimate and the file's rounding
+    would otherwise blame another value."""
+    if not (is_number(safety_factor, finite=True) and 0 < safety_factor <= 1):
+        raise FieldRangeError("safety_factor", safety_factor, 0, 1, lo_excluded=True)
+    top = float(speeds[-1])
+    if start_pps is not None and not (is_number(start_pps, finite=True)
+                                      and 0 < start_pps <= top):
+        raise FieldRangeError("start_pps", start_pps, 0, round(top, 3), lo_excluded=True)
     spr = full_steps_per_rev(mech.step_angle_deg) * microstep
     contributions = [Contribution("inertia_kgm2", mech.rotor_inertia_kgm2,
                                   f"rotor (datasheet): {mech.rotor_inertia_kgm2:.4g}")]
@@ -280,15 +297,23 @@ def motor_object(speeds: np.ndarray, torques: np.ndarray, mech: Mechanics, micro
                pullout_torque=[[round(float(v), 3), round(float(t), 6)]
                                for v, t in zip(speeds, torques, strict=True)],
                inertia_kgm2=totals.inertia_kgm2, friction_torque_nm=totals.friction_torque_nm,
-               safety_factor=safety_factor, start_pps=round(start_pps, 3),
+               safety_factor=safety_factor, start_pps=_round_pps(start_pps),
                rotor_teeth=electrical_periods(mech.step_angle_deg, mech.phases,
                                               mech.rotor_teeth))
     obj["phases"] = mech.phases
     if totals.load_torque_nm:
         obj["load_torque_nm"] = totals.load_torque_nm
+    if holding_torque_nm is not None:
+        obj["holding_torque_nm"] = holding_torque_nm
     obj["sources"] = {**totals.sources, "pullout_torque": [
         {"value": round(float(np.max(torques)), 6), "from": curve_from}]}
     return obj
+
+
+def _round_pps(speed: float) -> float:
+    """A speed as the file writes it: to 0.001 pps, or to 6 digits below 1 pps (a slow
+    start speed given as 1e-6 pps stays 1e-6, never 0)."""
+    return round(speed, 3) if speed >= 1 else float(f"{speed:.6g}")
 
 
 def curve_from_csv(text: str, *, speed_unit: str, torque_unit: str, steps_per_rev: int,

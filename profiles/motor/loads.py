@@ -229,6 +229,11 @@ _KEYS: dict[str, dict[str, tuple[str, float]]] = {
 _REQUIRED_KEYS = {"inertia": set(), "disc": {"mass_kg", "diameter_mm"},
                   "screw": {"lead_mm", "mass_kg"}, "belt": {"pulley_diameter_mm", "mass_kg"},
                   "gear": {"ratio"}}
+# Millimetre keys and the range of every real part (a lead in metres typed as mm is 0.008,
+# not 8): docs/manual-notes.md, "Plausible motors".
+PLAUSIBLE_MM = {"lead_mm": ("lead screw's lead", 0.1, 500.0),
+                "pulley_diameter_mm": ("belt pulley's pitch diameter", 3.0, 1000.0),
+                "screw_diameter_mm": ("lead screw's diameter", 1.0, 200.0)}
 _ALIASES = {"cylinder": "disc", "leadscrew": "screw", "lead_screw": "screw", "pulley": "belt"}
 LOAD_HELP = ("KIND:key=value,…  KIND: inertia (j_kgm2, friction_nm, load_torque_nm); "
              "disc|cylinder (mass_kg, diameter_mm, inner_diameter_mm); screw (lead_mm, mass_kg, "
@@ -258,6 +263,7 @@ def parse_load(spec: str) -> tuple[str, dict[str, float]]:
             value = float(text)
         except ValueError:
             raise FormatError(f"load {echo(spec)}: {key}: {echo(text)} is not a number") from None
+        _refuse_implausible_mm(spec, key, value)
         arg, factor = _KEYS[kind][key]
         args[arg] = value * factor
         seen.add(key)
@@ -265,6 +271,20 @@ def parse_load(spec: str) -> tuple[str, dict[str, float]]:
     if missing:
         raise FormatError(f"load {echo(spec)}: missing {', '.join(sorted(missing))}")
     return kind, args
+
+
+def _refuse_implausible_mm(spec: str, key: str, value: float) -> None:
+    """A millimetre value no such part has, named with its unit (and metres, when the
+    value read in metres fits)."""
+    if key not in PLAUSIBLE_MM:
+        return
+    what, lo, hi = PLAUSIBLE_MM[key]
+    if math.isfinite(value) and lo <= value <= hi:
+        return
+    hint = (f"; m typed as mm? {value:g} m = {value * 1e3:g} mm"
+            if lo <= value * 1e3 <= hi else "")
+    raise FormatError(f"load {echo(spec)}: {key}: {value:g} mm is outside any {what} "
+                      f"({lo:g}..{hi:g} mm){hint}")
 
 
 def loads_from_specs(specs: Sequence[str]) -> list[Contribution]:

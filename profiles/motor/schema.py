@@ -13,6 +13,7 @@ from typing import Any
 
 from ..errors import FieldRangeError, StepRampError
 from .model import OPTIONAL_KEYS, REQUIRED_KEYS, Motor
+from .plausible import file_problems
 
 SCHEMA_PATH = Path(__file__).parent.parent / "data" / "motor.schema.json"
 Problem = tuple[str, str]   # (JSON pointer, message)
@@ -83,5 +84,7 @@ def problems(obj: Any) -> list[Problem]:
     found = _rule_problems(obj)
     if found:
         return found
+    # values no stepper has (a unit slip): motor check refuses them, the loader does not
+    found = file_problems(obj)
     loader = _loader_problem(obj)
-    return [loader] if loader else []
+    return found + ([loader] if loader else [])

@@ -10,7 +10,8 @@ Speed units of a vendor curve (`curve_speed_to_pps`):
           microstep factor, and reads "pps" as already being the motor file's own pulse rate.
     rps   revolutions per second
     rpm   revolutions per minute
-Torque units: N·m, mN·m, oz·in (ounce-force inch), kgf·cm (also written kg·cm on datasheets).
+Torque units: N·m, N·cm (most datasheets' and curves' unit; also Ncm, N.cm), mN·m, oz·in
+(ounce-force inch), kgf·cm (also written kg·cm on datasheets).
 """
 
 from __future__ import annotations
@@ -25,17 +26,17 @@ OZF_IN_NM = 0.028349523125 * G_MPS2 * 0.0254   # 1 oz·in = 7.0615518e-3 N·m
 KGF_CM_NM = G_MPS2 * 0.01             # 1 kgf·cm = 0.0980665 N·m
 
 # canonical name → N·m per unit
-TORQUE_UNITS: dict[str, float] = {"N·m": 1.0, "mN·m": 1e-3, "oz·in": OZF_IN_NM,
+TORQUE_UNITS: dict[str, float] = {"N·m": 1.0, "N·cm": 1e-2, "mN·m": 1e-3, "oz·in": OZF_IN_NM,
                                   "kgf·cm": KGF_CM_NM}
 SPEED_UNITS = ("pps", "Hz", "rps", "rpm")
 MACHINE_SPEED_UNITS = ("pps", "rps", "rpm", "mm/s", "m/s", "m/min")
 
-_TORQUE_ALIASES = {"nm": "N·m", "mnm": "mN·m", "ozin": "oz·in", "ozfin": "oz·in",
+_TORQUE_ALIASES = {"nm": "N·m", "ncm": "N·cm", "mnm": "mN·m", "ozin": "oz·in", "ozfin": "oz·in",
                    "kgfcm": "kgf·cm", "kgcm": "kgf·cm"}
 
 
 def torque_unit(name: str) -> str:
-    """The canonical torque unit for `name` (N·m, N.m, Nm, mNm, oz-in, kg·cm, …)."""
+    """The canonical torque unit for `name` (N·m, N.m, Nm, N·cm, Ncm, mNm, oz-in, kg·cm, …)."""
     key = re.sub(r"[\s·*.\-_]", "", name).lower()
     if key not in _TORQUE_ALIASES:
         raise FormatError(f"torque unit {echo(name)}: expected one of {', '.join(TORQUE_UNITS)}")

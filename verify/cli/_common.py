@@ -116,12 +116,12 @@ def fields_as_options(options: Mapping[str, str],
         if option is None or not str(e).startswith(e.field):
             raise
         scale = (scales or {}).get(base)
+        note = last[len(last.split(" (")[0]):]  # "(0 excluded)" stays: it says why
         if scale is not None and all(isinstance(v, int | float) for v in (e.value, e.lo, e.hi)):
-            note = last[len(last.split(" (")[0]):]  # "(0 excluded)" stays
             raise FieldRangeError(option + note, _scaled(e.value, scale),
                                   _scaled(e.lo, scale), _scaled(e.hi, scale)) from None
-        e.args = (option + str(e)[len(e.field):],)
-        e.field = option
+        e.args = (option + note + str(e)[len(e.field):],)
+        e.field = option + note
         raise
 
 

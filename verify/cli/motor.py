@@ -41,18 +41,29 @@ def add_subparser(sub: Any) -> None:
                         "steps_per_rev = 360/step angle × microstep")
     g.add_argument("--rotor-inertia-gcm2", type=number, required=True, metavar="G·CM²",
                    help="rotor inertia [g·cm²] as datasheets print it (1 g·cm² = 1e-7 kg·m²)")
-    g.add_argument("--detent-torque-nm", type=number, default=0.0, metavar="N·M",
-                   help="detent torque [N·m], counted as friction (default 0)")
+    detent = g.add_mutually_exclusive_group()
+    detent.add_argument("--detent-torque-nm", type=number, metavar="N·M",
+                        help="detent torque [N·m], counted as friction (default 0)")
+    detent.add_argument("--detent-torque-ncm", type=number, metavar="N·CM",
+                        help="detent torque [N·cm], as most datasheets print it")
     d = n.add_argument_group("datasheet (the electrical model of profiles/datasheet.py)")
-    d.add_argument("--holding-torque-nm", type=number, metavar="N·M",
-                   help="holding torque [N·m], two phases on at the rated current")
+    holding = d.add_mutually_exclusive_group()
+    holding.add_argument("--holding-torque-nm", type=number, metavar="N·M",
+                         help="holding torque [N·m], two phases on at the rated current "
+                              "(with --curve too: the curve is checked against it)")
+    holding.add_argument("--holding-torque-ncm", type=number, metavar="N·CM",
+                         help="holding torque [N·cm], as most datasheets print it")
     d.add_argument("--rated-current-a", type=number, metavar="A",
                    help="rated current per phase [A] (RMS)")
     d.add_argument("--resistance-ohm", type=number, metavar="Ω", help="phase resistance [Ω]")
     d.add_argument("--inductance-mh", type=number, metavar="MH", help="phase inductance [mH]")
     d.add_argument("--supply-v", type=number, metavar="V", help="drive supply voltage [V]")
     d.add_argument("--current-a", type=number, metavar="A",
-                   help="drive current setting per phase [A] RMS (default: the rated current)")
+                   help="drive current setting per phase [A] RMS (default: the rated current; "
+                        "above it only with --allow-overcurrent)")
+    d.add_argument("--allow-overcurrent", action="store_true",
+                   help="accept a --current-a above --rated-current-a (the motor runs hotter "
+                        "than its rating; only where its datasheet allows it)")
     c = n.add_argument_group("vendor curve (instead of the model)")
     c.add_argument("--curve", metavar="FILE.csv",
                    help="pull-out curve: two columns speed, torque (a header line is skipped)")
@@ -60,8 +71,8 @@ def add_subparser(sub: Any) -> None:
                    help="the curve's speed unit: pps (the driver's pulses at --microstep), Hz "
                         "(FULL steps/s), rps or rpm")
     c.add_argument("--torque-unit", metavar="|".join(TORQUE_UNITS),
-                   help="the curve's torque unit (also spelled N.m, Nm, mNm, oz-in, kgf-cm, "
-                        "kg-cm)")
+                   help="the curve's torque unit (also spelled N.m, Nm, N.cm, Ncm, mNm, oz-in, "
+                        "kgf-cm, kg-cm)")
     o = n.add_argument_group("load and use")
     o.add_argument("--load", action="append", default=[], metavar="SPEC", help=LOAD_HELP)
     o.add_argument("--safety-factor", type=number, default=0.6,
@@ -92,24 +103,36 @@ def add_subparser(sub: Any) -> None:
     sh.set_defaults(func=_do_show)
 
 
-_DATASHEET_OPTS = ("holding_torque_nm", "rated_current_a", "resistance_ohm", "inductance_mh",
-                   "supply_v")
+# The datasheet's options by their library field (a refusal names what the user typed).
+_DATASHEET_OPTS = {"holding_torque_nm": "--holding-torque-nm", "rated_current_a":
+                   "--rated-current-a", "resistance_ohm": "--resistance-ohm",
+                   "inductance_mh": "--inductance-mh", "supply_v": "--supply-v"}
 # The library's fields by the options that set them (a refusal names what the user typed),
 # and the factor from a field's unit to its option's.
-OPTIONS = {"microstep": "--microstep", "phases": "--phases", "step_angle_deg": "--step-angle",
-           "rotor_inertia_kgm2": "--rotor-inertia-gcm2", "detent_torque_nm": "--detent-torque-nm",
-           "holding_torque_nm": "--holding-torque-nm", "rated_current_a": "--rated-current-a",
-           "resistance_ohm": "--resistance-ohm", "inductance_h": "--inductance-mh",
-           "supply_v": "--supply-v", "current_a": "--current-a",
-           "safety_factor": "--safety-factor", "start_pps": "--start-pps"}
+# Each with its unit, in the help's brackets: a refusal names the value's unit too.
+OPTIONS = {"microstep": "--microstep", "phases": "--phases",
+           "step_angle_deg": "--step-angle [°]",
+           "rotor_inertia_kgm2": "--rotor-inertia-gcm2 [g·cm²]",
+           "detent_torque_nm": "--detent-torque-nm [N·m]",
+           "holding_torque_nm": "--holding-torque-nm [N·m]",
+           "rated_current_a": "--rated-current-a [A]", "resistance_ohm": "--resistance-ohm [Ω]",
+           "inductance_h": "--inductance-mh [mH]", "supply_v": "--supply-v [V]",
+           "current_a": "--current-a [A]", "safety_factor": "--safety-factor [1]",
+           "start_pps": "--start-pps [pps]"}
 SCALES = {"rotor_inertia_kgm2": 1e7, "inductance_h": 1e3}
+NCM_PER_NM = 100.0
 
 
 def _do_new(args: argparse.Namespace) -> int:
     from profiles.motor import Motor
     from verify.output import write_output
 
-    with fields_as_options(OPTIONS, SCALES):
+    options, scales = dict(OPTIONS), dict(SCALES)
+    for what in ("holding", "detent"):  # a torque typed in N·cm is refused in N·cm
+        if getattr(args, f"{what}_torque_ncm") is not None:
+            options[f"{what}_torque_nm"] = f"--{what}-torque-ncm [N·cm]"
+            scales[f"{what}_torque_nm"] = NCM_PER_NM
+    with fields_as_options(options, scales):
         obj = _motor_object(args)
         Motor.from_json(obj)   # refuse here what the planner would refuse later
     text_out = dump_motor(obj)
@@ -124,59 +147,113 @@ def _do_new(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _torque(args: argparse.Namespace, what: str) -> tuple[float | None, Any]:
+    """A torque given in N·m or N·cm (`what`: holding, detent) in N·m, and how it was typed."""
+    from profiles.motor.plausible import Label
+
+    ncm = getattr(args, f"{what}_torque_ncm")
+    if ncm is not None:
+        return ncm / NCM_PER_NM, Label(f"--{what}-torque-ncm", "N·cm", NCM_PER_NM)
+    return getattr(args, f"{what}_torque_nm"), Label(f"--{what}-torque-nm", "N·m")
+
+
+def _refuse_implausible(args: argparse.Namespace, holding: float | None, label: Any) -> None:
+    """Refuse, naming the option and its unit, a value no stepper's datasheet has (a unit
+    slip) and a drive current above the rating (profiles/motor/plausible.py)."""
+    from profiles.errors import FormatError
+    from profiles.motor.plausible import Label, datasheet_problems
+
+    mh, gcm2 = args.inductance_mh, args.rotor_inertia_gcm2
+    values = {"holding_torque_nm": holding, "rated_current_a": args.rated_current_a,
+              "current_a": args.current_a, "resistance_ohm": args.resistance_ohm,
+              "inductance_h": None if mh is None else mh * 1e-3,
+              "rotor_inertia_kgm2": gcm2 * 1e-7, "supply_v": args.supply_v}
+    labels = {"holding_torque_nm": label, "rated_current_a": Label("--rated-current-a", "A"),
+              "current_a": Label("--current-a", "A"),
+              "resistance_ohm": Label("--resistance-ohm", "Ω"),
+              "inductance_h": Label("--inductance-mh", "mH", 1e3),
+              "rotor_inertia_kgm2": Label("--rotor-inertia-gcm2", "g·cm²", 1e7),
+              "supply_v": Label("--supply-v", "V")}
+    found = datasheet_problems(values, labels, allow_overcurrent=None if args.allow_overcurrent
+                               else "--allow-overcurrent")
+    if found:
+        raise FormatError(found[0])
+
+
 def _motor_object(args: argparse.Namespace) -> dict[str, Any]:
     """The motor file's object from the datasheet or the vendor curve, and the loads."""
     from profiles.errors import FormatError, require_int
-    from profiles.motor.datasheet import (
-        MICROSTEP_MAX,
-        Datasheet,
-        Drive,
-        Mechanics,
-        curve_from_csv,
-        full_steps_per_rev,
-        motor_from_datasheet,
-        motor_object,
-    )
+    from profiles.motor.datasheet import MICROSTEP_MAX
     from profiles.motor.loads import loads_from_specs
-    from profiles.reading import read_bytes, utf8_text
 
     # first: the curve's speeds are converted with it (a 0 would be blamed on the curve)
     require_int("microstep", args.microstep, 1, MICROSTEP_MAX)
-    loads = loads_from_specs(args.load)
-    given = [o for o in _DATASHEET_OPTS if getattr(args, o) is not None]
+    holding, label = _torque(args, "holding")
+    detent = _torque(args, "detent")[0] or 0.0
+    given = [o for f, o in _DATASHEET_OPTS.items() if f != "holding_torque_nm"
+             and getattr(args, f) is not None]
     if args.curve is None:
-        missing = [o for o in _DATASHEET_OPTS if getattr(args, o) is None]
+        missing = [o for f, o in _DATASHEET_OPTS.items() if (holding if f == "holding_torque_nm"
+                                                            else getattr(args, f)) is None]
         if missing:
-            raise FormatError("a datasheet motor needs " + ", ".join(
-                "--" + o.replace("_", "-") for o in missing) + " (or a vendor --curve)")
-        ds = Datasheet(step_angle_deg=args.step_angle, holding_torque_nm=args.holding_torque_nm,
-                       rated_current_a=args.rated_current_a, resistance_ohm=args.resistance_ohm,
-                       inductance_h=args.inductance_mh * 1e-3,
-                       rotor_inertia_kgm2=args.rotor_inertia_gcm2 * 1e-7, phases=args.phases,
-                       detent_torque_nm=args.detent_torque_nm)
-        current = args.rated_current_a if args.current_a is None else args.current_a
-        drive = Drive(args.supply_v, current, args.microstep)
-        obj = motor_from_datasheet(ds, drive, loads, safety_factor=args.safety_factor,
-                                   start_pps=args.start_pps, name=args.name)
-    else:
-        if given:
-            raise FormatError("--curve replaces the datasheet model: drop " + ", ".join(
-                "--" + o.replace("_", "-") for o in given))
-        if args.speed_unit is None or args.torque_unit is None:
-            raise FormatError("--curve needs --speed-unit and --torque-unit (declared, never "
-                              "guessed)")
-        mech = Mechanics(args.step_angle, args.rotor_inertia_gcm2 * 1e-7, args.phases,
-                         args.detent_torque_nm)
-        speeds, torques = curve_from_csv(
-            utf8_text(read_bytes(args.curve), args.curve),
-            speed_unit=args.speed_unit, torque_unit=args.torque_unit,
-            steps_per_rev=full_steps_per_rev(args.step_angle) * args.microstep,
-            microstep=args.microstep, name=args.curve)
-        obj = motor_object(speeds, torques, mech, args.microstep, loads,
-                           safety_factor=args.safety_factor, start_pps=args.start_pps,
-                           name=args.name, curve_from=(f"vendor curve {args.curve} "
-                                                       f"({args.speed_unit}, {args.torque_unit})"))
-    return obj
+            raise FormatError(f"a datasheet motor needs {', '.join(missing)} (or a vendor "
+                              "--curve)")
+    elif given or args.current_a is not None:
+        raise FormatError("--curve replaces the datasheet model: drop " + ", ".join(
+            given + ["--current-a"] * (args.current_a is not None)))
+    _refuse_implausible(args, holding, label)
+    loads = loads_from_specs(args.load)
+    if args.curve is None:
+        return _datasheet_motor(args, holding, detent, loads)
+    return _curve_motor(args, (holding, label), detent, loads)
+
+
+def _datasheet_motor(args: argparse.Namespace, holding: Any, detent: float,
+                     loads: Any) -> dict[str, Any]:
+    from profiles.motor.datasheet import Datasheet, Drive, motor_from_datasheet
+
+    ds = Datasheet(step_angle_deg=args.step_angle, holding_torque_nm=holding,
+                   rated_current_a=args.rated_current_a, resistance_ohm=args.resistance_ohm,
+                   inductance_h=args.inductance_mh * 1e-3,
+                   rotor_inertia_kgm2=args.rotor_inertia_gcm2 * 1e-7, phases=args.phases,
+                   detent_torque_nm=detent)
+    current = args.rated_current_a if args.current_a is None else args.current_a
+    drive = Drive(args.supply_v, current, args.microstep)
+    return motor_from_datasheet(ds, drive, loads, safety_factor=args.safety_factor,
+                                start_pps=args.start_pps, name=args.name)
+
+
+def _curve_motor(args: argparse.Namespace, holding: tuple[float | None, Any], detent: float,
+                 loads: Any) -> dict[str, Any]:
+    """A motor from a vendor curve; a holding torque given beside it is written to the file
+    and the curve is checked against it (a torque unit slip shows as a curve far above)."""
+    from profiles.errors import FormatError
+    from profiles.motor.datasheet import Mechanics, curve_from_csv, full_steps_per_rev, motor_object
+    from profiles.motor.plausible import Label, curve_problem, ratio_problem
+    from profiles.reading import read_bytes, utf8_text
+
+    if args.speed_unit is None or args.torque_unit is None:
+        raise FormatError("--curve needs --speed-unit and --torque-unit (declared, never "
+                          "guessed)")
+    mech = Mechanics(args.step_angle, args.rotor_inertia_gcm2 * 1e-7, args.phases, detent)
+    speeds, torques = curve_from_csv(
+        utf8_text(read_bytes(args.curve), args.curve),
+        speed_unit=args.speed_unit, torque_unit=args.torque_unit,
+        steps_per_rev=full_steps_per_rev(args.step_angle) * args.microstep,
+        microstep=args.microstep, name=args.curve)
+    curve = Label(f"--curve {args.curve} (--torque-unit {args.torque_unit})", "N·m")
+    value, label = holding
+    inertia = Label("--rotor-inertia-gcm2", "g·cm²", 1e7)
+    found = (curve_problem(float(max(torques)), value, curve, label) if value is not None
+             else None) or ratio_problem(float(torques[0]), mech.rotor_inertia_kgm2, curve,
+                                         inertia)
+    if found:
+        raise FormatError(found)
+    return motor_object(speeds, torques, mech, args.microstep, loads,
+                        safety_factor=args.safety_factor, start_pps=args.start_pps,
+                        name=args.name, holding_torque_nm=value,
+                        curve_from=(f"vendor curve {args.curve} "
+                                    f"({args.speed_unit}, {args.torque_unit})"))
 
 
 def dump_motor(obj: dict[str, Any]) -> str:
