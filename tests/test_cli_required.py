@@ -46,7 +46,7 @@ def test_a_command_without_its_required_arguments_names_them(
 def test_simulate_says_what_it_needs(capsys: pytest.CaptureFixture[str]) -> None:
     assert cli.main(["simulate"]) == 2
     assert capsys.readouterr().err.splitlines() == [
-        "stepramp simulate: give TABLE and --pulses, or --axes AXES.json"]
+        "stepramp simulate: give TABLE and --pulses, a program file, or --axes AXES.json"]
 
 
 def test_emulate_says_what_it_needs(capsys: pytest.CaptureFixture[str]) -> None:

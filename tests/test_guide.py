@@ -384,6 +384,13 @@ def test_json_examples_load() -> None:
             schema = json.loads((REPO / "profiles/data/axes.schema.json").read_text())
             jsonschema.validate(obj, schema)
             assert axes_from_json(obj, axes_entries(), None, load_motors=False).axes, line
+        elif obj["format"] == "stepramp.program/1":
+            import jsonschema
+
+            from profiles.ppmc312.program import program_from_json
+            schema = json.loads((REPO / "profiles/data/program.schema.json").read_text())
+            jsonschema.validate(obj, schema)
+            assert program_from_json(obj, REPO / "examples").commands, line
         else:
             assert Motor.from_json(obj).to_json()["format"] == "stepramp.motor/1", line
 

@@ -1,4 +1,4 @@
-"""`stepramp simulate`: what the chip runs for an accel/decel move."""
+"""`stepramp simulate`: what the chip runs for an accel/decel move, or for a program."""
 
 from __future__ import annotations
 
@@ -9,9 +9,11 @@ from ._common import EXIT_OK, fields_as_options, positive_int
 
 
 def add_subparser(sub: Any) -> None:
-    s = sub.add_parser("simulate", help="what the chip runs for an accel/decel move")
+    s = sub.add_parser("simulate", help="what the chip runs for an accel/decel move or a "
+                                        "program")
     s.add_argument("table", metavar="TABLE", nargs="?",
-                   help="a table file (free curve or init); or give --axes")
+                   help="a table file (free curve or init) with --pulses, or a program file "
+                        "(stepramp.program/1: every command it issues); or give --axes")
     s.add_argument("--pulses", type=positive_int, help="move length [pulses] (with TABLE)")
     s.add_argument("--axes", metavar="AXES.json",
                    help="a stepramp.axes/1 file whose axes give tables (\"table\": …): every "
@@ -19,6 +21,10 @@ def add_subparser(sub: Any) -> None:
                         "[µs] and line deviation [pulses]")
     s.add_argument("--high-rate", type=positive_int, default=0,
                    help="high-rate override, a rate divisor (0 = the table's)")
+    s.add_argument("--reading", choices=("a", "b", "c"), default="a",
+                   help="a program's decel stop from the middle of an accel stage: (a) at once "
+                        "from the stage's decel count, (b) finish the stage, (c) at once one "
+                        "stage down (default a; check judges every one)")
     s.add_argument("--format", choices=("text", "json"), default="text",
                    help="summary format on stdout (default text)")
     s.add_argument("--csv", metavar="OUT",
@@ -49,8 +55,10 @@ def _do_simulate(args: argparse.Namespace) -> int:
             raise FormatError("--axes takes the tables and pulses from the axes file: give no "
                               "TABLE, --pulses or --high-rate with it")
         return _simulate_axes(args)
+    if args.table is not None and args.pulses is None and _is_program(args.table):
+        return _simulate_program(args)
     if args.table is None or args.pulses is None:
-        raise FormatError("give TABLE and --pulses, or --axes AXES.json")
+        raise FormatError("give TABLE and --pulses, a program file, or --axes AXES.json")
     table = load_table(args.table)
     with fields_as_options({"pulses": "--pulses",
                             "high_rate": "--high-rate (0: the table's)"}):
@@ -109,4 +117,47 @@ def _simulate_axes(args: argparse.Namespace) -> int:
         write_output(None, json_text(doc))
     else:
         write_output(None, joint_timeline(names, runs))
+    return EXIT_OK
+
+
+def _is_program(path: str) -> bool:
+    """Whether `path` names a program file (a file that cannot be read is not: loading the
+    table then says why)."""
+    from profiles.errors import StepRampError
+    from profiles.ppmc312.program import FORMAT
+    from profiles.reading import read_bytes
+    from verify.devices import document_format
+
+    try:
+        return path != "-" and document_format(read_bytes(path)) == FORMAT
+    except StepRampError:
+        return False
+
+
+def _simulate_program(args: argparse.Namespace) -> int:
+    from profiles.errors import FormatError
+    from profiles.ppmc312.program import load_program
+    from profiles.reading import json_text
+    from verify.output import Data, write_output, write_outputs
+    from verify.programs import timeline
+
+    if args.high_rate or args.samples:
+        raise FormatError("a program gives its own rates and runs several motions: "
+                          "--high-rate and --samples are for one move (use --csv, "
+                          "--pulse-times)")
+    program = load_program(args.table)
+    run = program.run(args.reading)
+    files: list[tuple[str | None, Data]] = []
+    if args.csv:
+        files.append((args.csv, run.to_csv(program.names())))
+    if args.pulse_times:
+        files.append((args.pulse_times, run.pulse_times_chunks()))
+    write_outputs(files)
+    if args.format == "json":
+        write_output(None, json_text({
+            "program": {"table": program.table_path, "commands": program.names()},
+            "reading": run.reading, "notes": list(run.notes),
+            "motions": [m.to_json(program.names()) for m in run.motions]}))
+    else:
+        write_output(None, timeline(program, run))
     return EXIT_OK

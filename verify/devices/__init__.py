@@ -110,7 +110,7 @@ class Device:
 DEVICES: tuple[Device, ...] = (
     Device("ppmc312", "PPMC-312", "upload", "stepramp decode", "profiles.ppmc312",
            "profiles.ppmc312.formats:FORMATS", "verify.devices.ppmc312",
-           documents=("stepramp.table/1",), axes=(16, 0xFFFFFFFF),
+           documents=("stepramp.table/1", "stepramp.program/1"), axes=(16, 0xFFFFFFFF),
            sync="profiles.ppmc312.sync", simulates=True),
     Device("alink", "A-Link ALUM", "settings", "stepramp alink read", "profiles.alink",
            "profiles.alink.formats:FORMATS", "verify.devices.alink",

@@ -9,6 +9,8 @@ from it, by what its blocks (or ASCII frames) hold:
   the chip's rules for them (verify/command_rules.py);
 - the chip's table-read answer (41): the table it holds, judged like a table file; the
   answer does not carry the clock, so `--clock` says it;
+- a program file (`stepramp.program/1`): what the chip runs for its commands, judged with
+  the motor as the table's moves are (verify/programs.py);
 - a C header of several uploads (sync's axes.h): each upload by its symbol prefix,
   verified against its own CRC-32 and judged as above.
 
@@ -42,6 +44,7 @@ if TYPE_CHECKING:
     from ..check_options import CheckOptions
 
 TABLE_READ_HEAD = b"\x02\x0a\x41"   # the table-read answer's first block: PAL, length, 41
+PROGRAM_FORMAT = "stepramp.program/1"
 
 
 @dataclass
@@ -71,7 +74,9 @@ def check(raw: bytes, path: str, options: CheckOptions) -> FileResult:
     from profiles.reading import display_path, require_size
 
     require_size(len(raw), display_path(path))
-    if looks_like_table_json(raw):
+    if is_program(raw):
+        verdict = program_file_verdict(raw, path, options)
+    elif looks_like_table_json(raw):
         from profiles.ppmc312.table import table_from_json
         from profiles.reading import parse_json
 
@@ -83,6 +88,27 @@ def check(raw: bytes, path: str, options: CheckOptions) -> FileResult:
     found = dedupe(verdict.findings)
     return FileResult(path=path, ok=not any(f.severity == "error" for f in found),
                       findings=found, notes=verdict.notes, details=verdict.details)
+
+
+def is_program(raw: bytes) -> bool:
+    """Whether `raw` is a program file (`profiles.ppmc312.program.FORMAT`, spelled here: a
+    table's check imports no numpy, which the program's model does)."""
+    from . import document_format
+
+    return document_format(raw) == PROGRAM_FORMAT
+
+
+def program_file_verdict(raw: bytes, path: str, options: CheckOptions) -> Verdict:
+    """A program file: what the chip runs for it, judged with the motor (verify/programs.py)."""
+    from profiles.ppmc312.program import load_program
+
+    from ..programs import program_verdict
+
+    if options.pulses is not None:
+        raise FormatError("--pulses names the moves of a table to judge: a program says what "
+                          "it runs (give the program alone)")
+    program = load_program(path, raw=raw)
+    return Verdict(*program_verdict(program, options.motor, physics=options.physics))
 
 
 def file_verdict(raw: bytes, path: str, options: CheckOptions) -> Verdict:
