@@ -9,13 +9,24 @@ it. Loading from the cache says nothing.
 
 Each kernel module calls `watch()` after importing numba; `announce` itself never
 imports numba, so a command that runs no kernel never pays for it.
+
+The cache needs a writable folder: numba takes NUMBA_CACHE_DIR, else the package's own
+`__pycache__`, else the user's cache folder (~/.cache/numba), and with none of them
+(a read-only install and an unwritable HOME) every kernel module failed at import
+("no locator available"; under threads an ImportError). So `watch()`, before the first
+kernel is declared, checks that numba will find one; if not, it points numba at a
+private folder under the temporary folder, or, with none writable, turns the cache off
+(every run compiles), and says so once.
 """
 
 from __future__ import annotations
 
 import os
+import stat
+import tempfile
 import threading
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 NOTICE = ("compiling the kernels for this machine (once: about half a minute; "
@@ -23,29 +34,36 @@ NOTICE = ("compiling the kernels for this machine (once: about half a minute; "
 OURS = ("profiles.", "verify.")   # the modules whose kernels are announced
 QUIET_ENV = "STEPRAMP_COMPILE_NOTICE"  # "0": nothing is said
 
+CACHE_FALLBACK = "stepramp-numba-cache"  # the folder under the temporary folder
+KERNELS = Path(__file__).resolve().parent   # every *_kernel.py lies under it
+
 _lock = threading.Lock()
 _say: Callable[[str], None] | None = None
+_channel: Callable[[str], None] | None = None  # also when the compile notice is quiet
 _said = False
 _watching = False
 
 
 def announce(say: Callable[[str], None] | None) -> None:
     """Have `say` told NOTICE on the first compilation of one of our kernels in this
-    process (None, or STEPRAMP_COMPILE_NOTICE=0 in the environment: say nothing)."""
-    global _say
-    if os.environ.get(QUIET_ENV, "1") == "0":
-        say = None
+    process (None, or STEPRAMP_COMPILE_NOTICE=0 in the environment: say nothing), and
+    where the kernels are cached when numba's own folders are not writable."""
+    global _say, _channel
     with _lock:
-        _say = say
+        _channel = say
+        _say = None if os.environ.get(QUIET_ENV, "1") == "0" else say
 
 
 def watch() -> None:
-    """Listen to numba's compilations (once per process; a kernel module calls it)."""
+    """Listen to numba's compilations and make sure its cache has a folder (once per
+    process; a kernel module calls it before declaring its kernels)."""
     global _watching
     with _lock:
         if _watching:
             return
         from numba.core import event
+
+        note = choose_cache()
 
         class Compiling(event.Listener):  # type: ignore[misc]
             def on_start(self, ev: Any) -> None:
@@ -59,6 +77,9 @@ def watch() -> None:
 
         event.register("numba:compile", Compiling())
         _watching = True
+        channel = _channel
+    if note is not None and channel is not None:
+        channel(note)
 
 
 def _first() -> None:
@@ -68,3 +89,74 @@ def _first() -> None:
             return
         _said, say = True, _say
     say(NOTICE)
+
+
+def writable(folder: str | Path) -> bool:
+    """Whether a file can be made in `folder` (made if missing): numba's own test."""
+    try:
+        os.makedirs(folder, exist_ok=True)
+        tempfile.TemporaryFile(dir=folder).close()
+    except OSError:
+        return False
+    return True
+
+
+def numba_finds_a_cache() -> bool:
+    """Whether numba's locators find a writable folder for every kernel module: its
+    NUMBA_CACHE_DIR, else each kernel folder's __pycache__, else the user cache."""
+    from numba.core import config
+    from numba.misc.appdirs import AppDirs
+
+    folder = getattr(config, "CACHE_DIR", "")  # NUMBA_CACHE_DIR, read as numba loads
+    if folder and writable(folder):
+        return True
+    folders = {p.parent / "__pycache__" for p in KERNELS.rglob("*_kernel.py")}
+    return all(writable(f) for f in folders) or writable(
+        AppDirs(appname="numba", appauthor=False).user_cache_dir)
+
+
+def fallback_folder() -> str | None:
+    """A cache folder only this user can write: <tmp>/stepramp-numba-cache-<uid>, kept
+    across runs when it is this user's own and closed to others (numba's cache holds
+    code: a folder another user could write into would run their code), else a fresh
+    private folder for this process; None when the temporary folder is not writable."""
+    uid = os.getuid() if hasattr(os, "getuid") else None
+    shared = Path(tempfile.gettempdir()) / f"{CACHE_FALLBACK}-{uid if uid is not None else 'user'}"
+    try:
+        shared.mkdir(mode=0o700, exist_ok=True)
+        st = shared.lstat()
+        if (stat.S_ISDIR(st.st_mode) and not st.st_mode & 0o022
+                and (uid is None or st.st_uid == uid) and writable(shared)):
+            return str(shared)
+    except OSError:
+        pass
+    try:
+        return tempfile.mkdtemp(prefix=CACHE_FALLBACK + "-")
+    except OSError:
+        return None
+
+
+def choose_cache() -> str | None:
+    """Point numba's cache at a writable folder when its own are not (see the module
+    docstring); the line that says so, or None when nothing changed."""
+    if numba_finds_a_cache():
+        return None
+    from numba.core import config
+
+    folder = fallback_folder()
+    if folder is not None:
+        # numba's first locator reads it as each kernel is declared
+        config.CACHE_DIR = folder  # type: ignore[attr-defined]
+        return (f"numba's cache folders are not writable (the installed package, "
+                f"~/.cache): the kernels are cached in {folder}")
+    from numba.core.dispatcher import Dispatcher
+
+    # No writable folder at all: declaring a kernel with cache=True would fail, so the
+    # cache is not enabled (the dispatcher keeps its NullCache) and every run compiles.
+    Dispatcher.enable_caching = no_cache  # type: ignore[method-assign]
+    return ("no writable folder for numba's cache: the kernels are compiled in every run "
+            "(about half a minute)")
+
+
+def no_cache(self: Any) -> None:
+    pass

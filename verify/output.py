@@ -13,7 +13,11 @@
 - Several outputs of one command (`write_outputs`) are written all or none: every file
   is staged first and only renamed into place once every one of them is complete.
 - On any failure, including Ctrl-C and SIGTERM/SIGHUP, no temp file is left behind.
-  Errors name OUT as the user wrote it, never the temp file.
+  Errors name OUT as the user wrote it, never the temp file. A run killed outright
+  (SIGKILL, a power cut) cannot clean up: its temp files carry the host and process
+  that made them (`.OUT.HOST-PID-xxxx.part`, `.orig`), and the next run writing OUT
+  removes those whose process no longer runs on this host (another host's, and those
+  named before this scheme, once a day old).
 - Before a command reads anything (`refuse_unsafe_outputs`): an output path ending in
   `/` or naming a directory, naming one of the command's inputs (the same file: device
   and inode, through symlinks and hard links), or named by two outputs, is refused.
@@ -177,8 +181,9 @@ class _Target:
         import tempfile  # here: its imports are a tenth of `stepramp check`'s cold start
 
         folder = os.path.dirname(self.path) or "."
+        clear_leftovers(folder, os.path.basename(self.path))
         try:
-            fd, self.tmp = tempfile.mkstemp(prefix=f".{os.path.basename(self.path)}.",
+            fd, self.tmp = tempfile.mkstemp(prefix=f".{os.path.basename(self.path)}.{_OWNER}-",
                                             suffix=".part", dir=folder)
             with os.fdopen(fd, "wb") as fh:
                 _write_chunks(fh, data)
@@ -206,7 +211,7 @@ class _Target:
 
         folder = os.path.dirname(self.path) or "."
         for _ in range(100):
-            name = os.path.join(folder, f".{os.path.basename(self.path)}."
+            name = os.path.join(folder, f".{os.path.basename(self.path)}.{_OWNER}-"
                                         f"{secrets.token_hex(4)}.orig")
             try:
                 os.link(self.path, name)
@@ -261,6 +266,60 @@ class _Target:
                 _write_chunks(fh, data)
         except OSError as e:
             raise self._fail(e) from None
+
+
+def host_tag() -> str:
+    node = os.uname().nodename if hasattr(os, "uname") else os.environ.get("COMPUTERNAME", "")
+    return "".join(c for c in node if c.isascii() and c.isalnum())[:12] or "host"
+
+
+# Who makes a temp file, in its name: a later run can tell a dead run's leftovers.
+_OWNER = f"{host_tag()}-{os.getpid()}"
+_LEFTOVER = r"\.(?:(?P<host>[A-Za-z0-9]{1,12})-(?P<pid>[0-9]+)-)?[A-Za-z0-9_]+\.(?:part|orig)"
+STALE_S = 24 * 3600   # another host's leftover (or one named without its owner) is this old
+
+
+def clear_leftovers(folder: str, base: str) -> list[str]:
+    """Remove the temp files earlier runs writing `base` in `folder` left when they were
+    killed outright (see the module docstring); the names removed."""
+    import re
+    import time
+
+    pattern = re.compile(re.escape(f".{base}") + _LEFTOVER)
+    removed: list[str] = []
+    try:
+        entries = [e for e in os.scandir(folder) if e.name.startswith(f".{base}.")]
+    except OSError:
+        return removed
+    for entry in entries:
+        m = pattern.fullmatch(entry.name)
+        if m is None or not entry.is_file(follow_symlinks=False):
+            continue
+        try:
+            old = time.time() - entry.stat(follow_symlinks=False).st_mtime > STALE_S
+        except OSError:
+            continue
+        mine = m["host"] == host_tag()
+        if (mine and not _running(int(m["pid"]))) or (not mine and old):
+            with contextlib.suppress(OSError):
+                os.unlink(entry.path)
+                removed.append(entry.name)
+    return removed
+
+
+def _running(pid: int) -> bool:
+    """Whether process `pid` runs on this host (as anyone); unknown counts as running."""
+    if pid == os.getpid():
+        return True
+    if os.name != "posix":  # os.kill(pid, 0) would end the process on Windows
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, OSError):
+        return True
+    return True
 
 
 def _chunks(data: Data, encoding: str = "utf-8") -> Iterator[bytes]:

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from profiles.errors import PlanError
+from profiles.errors import PlanError, StepRampError
 from profiles.motor import Motor
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.planner import Plan, plan_free_curve
@@ -104,10 +104,22 @@ def reference_motor(motor: Motor, v_pps: np.ndarray, x_pulses: np.ndarray) -> Mo
     decel = _mean_accel(v[peak:][::-1], (x[-1] - x[peak:])[::-1], speeds)
     t_acc = (accel / k + motor.friction_torque_nm + load) / motor.safety_factor
     t_dec = (decel / k - motor.friction_torque_nm + load) / motor.safety_factor
-    torque = np.minimum(np.minimum(t_acc, t_dec), motor.torque_nm(speeds))
+    # Friction helps a deceleration: where the reference brakes with less torque than it
+    # takes to overcome friction and load, the decel side's torque would leave the
+    # follower no acceleration at all (a long ruckig move on a motor with friction:
+    # "cannot accelerate from rest"). There the accel side alone shapes the follower; its
+    # deceleration is then the motor's own at that torque (never above the motor's),
+    # and the table is judged on the real motor either way.
+    moving = t_dec * motor.safety_factor > motor.friction_torque_nm + load
+    torque = np.minimum(np.where(moving, np.minimum(t_acc, t_dec), t_acc),
+                        motor.torque_nm(speeds))
     torque[-1] = min(torque[-1], torque[-2])  # `speeds` holds CURVE_POINTS speeds at least
-    return replace(motor, curve_speed_pps=speeds, curve_torque_nm=np.maximum(torque, 0.0),
-                   max_pps=top, name=f"{motor.name} (following a reference)")
+    try:
+        return replace(motor, curve_speed_pps=speeds, curve_torque_nm=np.maximum(torque, 0.0),
+                       max_pps=top, name=f"{motor.name} (following a reference)")
+    except StepRampError as e:  # the stand-in's fault, not the user's motor's: say so
+        raise PlanError(f"the reference's acceleration makes no motor to follow ({e})") \
+            from None
 
 
 def _mean_accel(v: np.ndarray, x: np.ndarray, speeds: np.ndarray) -> np.ndarray:

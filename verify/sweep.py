@@ -32,6 +32,8 @@ import csv
 import io
 import re
 import signal
+import socket
+import struct
 import time
 from collections.abc import Iterator, Sequence
 from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
@@ -246,6 +248,7 @@ def _on_cluster(jobs: Sequence[Job], address: str, timeout_s: float,
         import distributed  # noqa: F401
     except ImportError:
         raise FormatError("--scheduler needs Dask: pip install 'stepramp[cluster]'") from None
+    probe_scheduler(address, timeout_s)
     work = _cluster_rows(jobs, address, timeout_s, progress)
     with _quiet("distributed"):
         try:
@@ -256,6 +259,64 @@ def _on_cluster(jobs: Sequence[Job], address: str, timeout_s: float,
 
         with ThreadPoolExecutor(1) as thread:  # called from a running loop (a notebook)
             return thread.submit(asyncio.run, work).result()
+
+
+# A Dask handshake is some hundred bytes; a text banner read as its length is petabytes
+# (Dask allocated it: "MemoryError: Unable to allocate 3.07 EiB").
+HANDSHAKE_MAX_BYTES = 1 << 26
+
+
+def probe_scheduler(address: str, timeout_s: float) -> None:
+    """Before Dask connects to a tcp:// address: is something there, and does it speak
+    first as a Dask scheduler does? On accepting, a scheduler sends its handshake, whose
+    first 8 bytes are the message's length (distributed.comm.tcp). A refused connection
+    is said at once (Dask retries until its timeout, then says TimeoutError), and a
+    server that is not Dask in one line (Dask read its first bytes as a length and
+    tried to allocate it). Other schemes (tls, ws, ucx, inproc) are left to Dask."""
+    scheme, sep, rest = address.partition("://")
+    found = _HOST_PORT.fullmatch(rest if sep else address)
+    if (sep and scheme != "tcp") or found is None:
+        return
+    host, port = found[1].strip("[]"), int(found[2])
+    deadline = time.monotonic() + timeout_s
+    try:
+        sock = socket.create_connection((host, port), timeout=timeout_s)
+    except ConnectionRefusedError:
+        raise ClusterError(f"no Dask scheduler at {address}: connection refused (nothing "
+                           "listens on that port)") from None
+    except TimeoutError:
+        raise ClusterError(f"no Dask scheduler answered at {address} within {timeout_s:g} s "
+                           "(no connection)") from None
+    except OSError as e:
+        raise ClusterError(f"no Dask scheduler at {address}: {e.strerror or _why(e)}") from None
+    with sock:
+        head = _first_bytes(sock, 8, deadline)
+    if head is None:
+        raise ClusterError(f"no Dask scheduler answered at {address} within {timeout_s:g} s "
+                           "(the server accepted the connection and sent nothing: not a "
+                           "Dask scheduler?)")
+    size = struct.unpack("Q", head)[0] if len(head) == 8 else 0
+    if not 0 < size <= HANDSHAKE_MAX_BYTES:
+        raise ClusterError(f"the server at {address} is not a Dask scheduler (its first bytes: "
+                           f"{head!r}; a scheduler's handshake starts with its length)")
+
+
+def _first_bytes(sock: socket.socket, n: int, deadline: float) -> bytes | None:
+    """Up to `n` bytes a peer sends first (fewer: it closed); None when it sends
+    nothing before `deadline`."""
+    head = b""
+    try:
+        while len(head) < n:
+            sock.settimeout(max(deadline - time.monotonic(), 1e-3))
+            chunk = sock.recv(n - len(head))
+            if not chunk:
+                break
+            head += chunk
+    except TimeoutError:
+        return head or None
+    except OSError:  # reset by the peer: what it sent is all there is
+        pass
+    return head
 
 
 @contextlib.contextmanager

@@ -20,8 +20,15 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import FieldRangeError, FormatError, echo, is_number, require_int
-from ..reading import read_json
+from ..errors import (
+    FieldRangeError,
+    FormatError,
+    StepRampError,
+    echo,
+    is_number,
+    require_int,
+)
+from ..reading import display_path, read_json
 
 FORMAT = "stepramp.motor/1"
 REQUIRED_KEYS = {"format", "steps_per_rev", "pullout_torque", "inertia_kgm2",
@@ -273,7 +280,15 @@ def load_motor(spec: str | Path) -> Motor:
     list`; profiles/motor/catalogue.py says how a name is looked up)."""
     from .catalogue import resolve
 
-    return Motor.from_json(read_json(resolve(spec)))
+    path = resolve(spec)
+    obj = read_json(path)
+    try:
+        return Motor.from_json(obj)
+    except StepRampError as e:  # a file that reads but is no motor: name the file
+        name = display_path(path)
+        if not str(e).startswith(name):
+            e.args = (f"{name}: {e}",)
+        raise
 
 
 def bundled_motor_paths() -> list[Path]:

@@ -321,8 +321,8 @@ def _entry_row(entry: Any) -> dict[str, Any]:
                            "shadowed_by": entry.shadowed_by, "path": display_path(entry.path)}
     try:
         m = load_motor(entry.path)
-    except StepRampError as e:
-        return row | {"error": str(e)}
+    except StepRampError as e:  # the row names the file already
+        return row | {"error": str(e).removeprefix(f"{row['path']}: ")}
     holding = m.holding_torque_nm
     return row | {"steps_per_rev": m.steps_per_rev,
                   "holding_torque_nm": float(m.torque_nm(0.0)) if holding is None else holding,
