@@ -134,6 +134,11 @@ def test_ncm_wherever_torque_is_typed(capsys: pytest.CaptureFixture[str],
     code, _, err = run(capsys, *argv(), "--holding-torque-nm", "0.5", "--holding-torque-ncm",
                        "50")
     assert code == 2 and "not allowed with argument" in err
+    by_nm = json.loads(run(capsys, *argv(), "--load", "inertia:friction_nm=0.03")[1])
+    by_ncm = json.loads(run(capsys, *argv(), "--load", "inertia:friction_ncm=3")[1])
+    assert by_nm["friction_torque_nm"] == pytest.approx(by_ncm["friction_torque_nm"])
+    assert "friction_ncm gives a value given already" in refused(
+        capsys, *argv(), "--load", "inertia:friction_nm=0.03,friction_ncm=3")
 
 
 def curve_args(csv: Path, unit: str, *extra: str) -> list[str]:

@@ -210,7 +210,10 @@ def through_gear(ratio: float, downstream: Sequence[Contribution], *, efficiency
 # kind → {key: (builder argument, factor to SI)}
 _KEYS: dict[str, dict[str, tuple[str, float]]] = {
     "inertia": {"j_kgm2": ("inertia_kgm2", 1.0), "friction_nm": ("friction_torque_nm", 1.0),
-                "load_torque_nm": ("load_torque_nm", 1.0)},
+                "load_torque_nm": ("load_torque_nm", 1.0),
+                # N·cm, as datasheets print torque (issue 32 item 3)
+                "friction_ncm": ("friction_torque_nm", 1e-2),
+                "load_torque_ncm": ("load_torque_nm", 1e-2)},
     "disc": {"mass_kg": ("mass_kg", 1.0), "diameter_mm": ("diameter_m", 1e-3),
              "inner_diameter_mm": ("inner_diameter_m", 1e-3)},
     "screw": {"lead_mm": ("lead_m", 1e-3), "mass_kg": ("mass_kg", 1.0),
@@ -235,7 +238,8 @@ PLAUSIBLE_MM = {"lead_mm": ("lead screw's lead", 0.1, 500.0),
                 "pulley_diameter_mm": ("belt pulley's pitch diameter", 3.0, 1000.0),
                 "screw_diameter_mm": ("lead screw's diameter", 1.0, 200.0)}
 _ALIASES = {"cylinder": "disc", "leadscrew": "screw", "lead_screw": "screw", "pulley": "belt"}
-LOAD_HELP = ("KIND:key=value,…  KIND: inertia (j_kgm2, friction_nm, load_torque_nm); "
+LOAD_HELP = ("KIND:key=value,…  KIND: inertia (j_kgm2, friction_nm | friction_ncm, "
+             "load_torque_nm | load_torque_ncm); "
              "disc|cylinder (mass_kg, diameter_mm, inner_diameter_mm); screw (lead_mm, mass_kg, "
              "screw_inertia_kgm2 | screw_diameter_mm + screw_length_mm, efficiency, incline_deg "
              "[90 = vertical, up is positive], friction_coeff, force_n); belt "
@@ -265,6 +269,9 @@ def parse_load(spec: str) -> tuple[str, dict[str, float]]:
             raise FormatError(f"load {echo(spec)}: {key}: {echo(text)} is not a number") from None
         _refuse_implausible_mm(spec, key, value)
         arg, factor = _KEYS[kind][key]
+        if arg in args:  # a key twice, or the N·m and N·cm keys of one value
+            raise FormatError(f"load {echo(spec)}: {key} gives a value given already (one "
+                              "key per value)")
         args[arg] = value * factor
         seen.add(key)
     missing = _REQUIRED_KEYS[kind] - seen
