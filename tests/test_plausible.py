@@ -81,6 +81,10 @@ def test_the_new_users_motor_is_accepted(capsys: pytest.CaptureFixture[str]) -> 
      "--rated-current-a: 2000 A is outside any stepper's rated current (0.05..15 A); mA typed "
      "as A? 2000 mA = 2 A"),
     ({"supply_v": "0.5"}, "--supply-v: 0.5 V is outside any stepper's supply voltage (1..400 V)"),
+    ({"step_angle": "7"}, "--step-angle [°]: 7 does not divide 360° (1.8, 0.9, 0.72, 0.36, …; "
+                          "at most 90)"),
+    ({"step_angle": "nan"}, "--step-angle [°]: nan does not divide 360° (1.8, 0.9, 0.72, 0.36, "
+                            "…; at most 90)"),
     ({"safety_factor": "0"}, "--safety-factor [1]: 0.0 is outside the allowed range above 0 "
                              "up to 1"),
     ({"start_pps": "0"}, "--start-pps [pps]: 0.0 is outside the allowed range above 0 up to "

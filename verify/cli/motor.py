@@ -188,6 +188,10 @@ def _motor_object(args: argparse.Namespace) -> dict[str, Any]:
 
     # first: the curve's speeds are converted with it (a 0 would be blamed on the curve)
     require_int("microstep", args.microstep, 1, MICROSTEP_MAX)
+    steps = 360.0 / args.step_angle if 0 < args.step_angle <= 90 else 0.5
+    if abs(steps - round(steps)) > 1e-6:  # named as typed, not as the library's field
+        raise FormatError(f"--step-angle [°]: {args.step_angle:g} does not divide 360° "
+                          "(1.8, 0.9, 0.72, 0.36, …; at most 90)")
     holding, label = _torque(args, "holding")
     detent = _torque(args, "detent")[0] or 0.0
     given = [o for f, o in _DATASHEET_OPTS.items() if f != "holding_torque_nm"
