@@ -47,8 +47,9 @@ from .load_angle import PHASE_SAMPLES, directions, dwell_sampling, judge
 from .table import FreeCurveTable, InitTable
 
 GRID = 12           # rates judged across a range before the bisection
-PHASE_PERIODS = 2   # natural periods of a dwell sampled at every phase
-Runs = list[tuple[Phase, int, int]]
+PHASE_PERIODS = 1   # natural periods of a dwell sampled at every phase (then it only decays)
+AFTER_JUMP_PERIODS = 3   # natural periods followed at a new rate before its decel
+Runs = Sequence[tuple[Phase, int, int]]
 
 
 # --- one motion of a program -------------------------------------------------------------
@@ -124,28 +125,37 @@ class _Judge:
         self.rotor_list = [rotor_of(m) for m in motors]
         self.kept: dict[tuple[Any, ...], tuple[float, int]] = {}
 
-    def worst(self, runs: Sequence[Runs]) -> tuple[float, int]:
-        """The worst angle over `runs` and every rotor, and which run gives it."""
-        key = tuple(tuple(r) for r in runs)
+    def worst(self, key: tuple[Any, ...], make: Callable[[], MoveBatch]) -> tuple[float, int]:
+        """The worst angle over the runs `make()` gives and every rotor, and which run
+        gives it; remembered by `key` (what names those runs)."""
         if key not in self.kept:
-            lag, slipped = judge(_batch(runs), self.hz, self.rot)
+            lag, slipped = judge(make(), self.hz, self.rot)
             deg = np.degrees(lag * self.rot.c_e)
             deg = np.where(slipped, np.maximum(deg, SLIP_DEG), deg).max(axis=0)
             e = int(np.argmax(deg))
             self.kept[key] = (float(deg[e]), e)
         return self.kept[key]
 
+    def period_pulses(self, rate: int, periods: int) -> int:
+        """The pulses of `periods` natural periods at `rate` (the stiffest rotor's; at
+        least one), at most the ten a dwell settles in."""
+        spacing, dense = self._sampling(rate)
+        return max(1, min(dense, spacing * PHASE_SAMPLES * periods))
+
+    def _sampling(self, rate: int) -> tuple[int, int]:
+        speed = np.asarray([self.hz / rate])
+        one = np.asarray([1], np.int64)
+        spacing, dense = dwell_sampling(self.rotor_list, speed, one,
+                                        np.asarray([2**40], np.int64), 1)
+        return int(spacing[0]), int(dense[0])
+
     def counts(self, rate: int) -> np.ndarray:
         """Pulse counts at `rate` that stand for every count: every 1/8 natural period
         over the first PHASE_PERIODS (every phase of the ringing at its largest: a cruise
         only damps it), and ten periods (a longer dwell repeats that settled state)."""
-        speed = np.asarray([self.hz / rate])
-        one = np.asarray([1], np.int64)
-        big = np.asarray([2**40], np.int64)
-        spacing, dense = dwell_sampling(self.rotor_list, speed, one, big, 1)
-        step = int(spacing[0])
-        last = min(int(dense[0]), 1 + step * PHASE_SAMPLES * PHASE_PERIODS)
-        return np.unique(np.append(np.arange(1, last + 1, step), dense[0]))
+        step, dense = self._sampling(rate)
+        last = min(dense, 1 + step * PHASE_SAMPLES * PHASE_PERIODS)
+        return np.unique(np.append(np.arange(1, last + 1, step), dense))
 
     def ramp(self, rate: int) -> Runs:
         """Up the table's accel stages to `rate` (85, `command_runs.Stairs.up`)."""
@@ -153,6 +163,21 @@ class _Judge:
 
     def decel(self, rate: int) -> Runs:
         return [(p.phase, p.rate, p.pulses) for p in self.stairs.decel_from(rate, 0)]
+
+
+def _members(prefix: Runs, rate: int, counts: np.ndarray, suffix: Runs = ()) -> MoveBatch:
+    """The runs `prefix`, then `counts[e]` pulses at `rate`, then `suffix`, one for each
+    count, built at once (a family whose dwell alone differs)."""
+    n = len(counts)
+    row = [*prefix, ("cruise", rate, 0), *suffix]
+    size = len(row)
+    phase = np.tile(np.asarray([PHASE_CODES[p] for p, _, _ in row], np.int8), n)
+    rates = np.tile(np.asarray([r for _, r, _ in row], np.int64), n)
+    count = np.tile(np.asarray([c for _, _, c in row], np.int64), n)
+    count[len(prefix)::size] = counts
+    offsets = np.arange(n + 1, dtype=np.int64) * size
+    return MoveBatch(count.reshape(n, size).sum(axis=1), np.zeros(n, np.int64), phase, rates,
+                     count, offsets)
 
 
 def _batch(runs: Sequence[Runs]) -> MoveBatch:
@@ -187,34 +212,53 @@ def _reach(x0: int, x1: int, safe: Callable[[int], bool]) -> int | None:
 
 def _constant(j: _Judge, aim: float) -> Family:
     """83 (and 10): a jump from rest to the rate, any count, an immediate stop."""
-    def runs(rate: int) -> list[Runs]:
-        return [[("cruise", rate, int(n))] for n in j.counts(rate)]
+    def worst(rate: int) -> tuple[float, int]:
+        return j.worst(("constant", rate), lambda: _members((), rate, j.counts(rate)))
 
     s = j.stairs
-    fastest = _reach(s.hi, s.lo, lambda r: j.worst(runs(r))[0] <= aim)
-    deg, e = j.worst(runs(s.top))
+    fastest = _reach(s.hi, s.lo, lambda r: worst(r)[0] <= aim)
+    deg, e = worst(s.top)
     n = int(j.counts(s.top)[e])
     return Family("constant", deg, f"a constant run of {n} pulses at the table's high rate "
                   f"{s.top} ({j.hz / s.top:.6g} pps)", {
                       "fastest_rate": fastest,
-                      "fastest_pps": None if fastest is None else j.hz / fastest})
+                      "fastest_pps": None if fastest is None else j.hz / fastest,
+                      "slowest_rate": s.hi, "slowest_rate_deg": worst(s.hi)[0]})
+
+
+def _origin_search(j: _Judge, const: Family, aim: float) -> Family:
+    """10: 83's runs (a constant run stopped at once on /ORG) over the rates its figure
+    allows: the table's high rate up to the faster of its start and stop rates (§8-10)."""
+    s = j.stairs
+    slowest = min(s.start_rate, s.stop_rate)
+
+    def worst(rate: int) -> float:   # the constant runs' batches, remembered alike
+        return j.worst(("constant", rate), lambda: _members((), rate, j.counts(rate)))[0]
+
+    fastest = _reach(slowest, s.lo, lambda r: worst(r) <= aim)
+    deg = worst(slowest)
+    return Family("origin-search", const.worst_deg,
+                  const.where.replace("a constant run", "an origin search"), {
+                      "fastest_rate": fastest,
+                      "fastest_pps": None if fastest is None else j.hz / fastest,
+                      "slowest_rate": slowest, "slowest_rate_deg": deg})
 
 
 def _stop(j: _Judge, aim: float) -> Family:
     """80, /FL, /BL: up the ramp to the rate, any pulse of its cruise, stopped at once."""
-    def runs(rate: int) -> list[Runs]:
-        ramp = j.ramp(rate)
-        return [[*ramp, ("cruise", rate, int(n))] for n in j.counts(rate)]
+    def worst(rate: int) -> tuple[float, int]:
+        return j.worst(("stop", rate), lambda: _members(j.ramp(rate), rate, j.counts(rate)))
 
     s = j.stairs
-    fastest = _reach(s.hi, s.lo, lambda r: j.worst(runs(r))[0] <= aim)
-    deg, e = j.worst(runs(s.top))
+    fastest = _reach(s.hi, s.lo, lambda r: worst(r)[0] <= aim)
+    deg, e = worst(s.top)
     n = int(j.counts(s.top)[e])
     limit = None if fastest is None else (fastest - 1 if fastest > s.lo else None)
     return Family("stop", deg, f"an immediate stop {n} pulses into the cruise at the "
                   f"table's high rate {s.top} ({j.hz / s.top:.6g} pps)", {
                       "fastest_rate": fastest,
                       "fastest_pps": None if fastest is None else j.hz / fastest,
+                      "slowest_rate": s.hi, "slowest_rate_deg": worst(s.hi)[0],
                       # /FHL /BHL decelerate at this rate and faster (§7-6)
                       "high_speed_limit_rate": 0xFFFF if fastest is None else
                       (None if limit is None else max(limit, 2))})
@@ -225,41 +269,55 @@ def _set_speed(j: _Judge, aim: float) -> Family:
     then down the decel stages; both ways."""
     s = j.stairs
 
-    def runs(frm: int, to: int) -> list[Runs]:
-        ramp = j.ramp(frm)
-        return [[*ramp, ("cruise", frm, int(n)), ("cruise", to, int(j.counts(to)[-1])),
-                 *j.decel(to)] for n in j.counts(frm)]
+    def runs(frm: int, to: int) -> MoveBatch:
+        # a few natural periods at the new rate show the jump's ringing at its largest;
+        # the decel after it is the table's own (its verdict judges that)
+        after = j.period_pulses(to, AFTER_JUMP_PERIODS)
+        return _members(j.ramp(frm), frm, j.counts(frm),
+                        [("cruise", to, after), *j.decel(to)])
 
     def worst(rate: int) -> float:
-        return max(j.worst(runs(s.top, rate))[0], j.worst(runs(rate, s.top))[0])
+        return max(j.worst(("jump", s.top, rate), lambda: runs(s.top, rate))[0],
+                   j.worst(("jump", rate, s.top), lambda: runs(rate, s.top))[0])
 
     to = _reach(s.top, s.hi, lambda r: worst(r) <= aim)
+    still = worst(s.top)   # no change at all: the ramp, the cruise and the decel
     step = s.table.rates[1] if len(s.table.rates) > 1 else s.top
     deg = worst(step)
     return Family("set-speed", deg, f"an immediate speed change between the table's two "
                   f"fastest stages, {j.hz / s.top:.6g} and {j.hz / step:.6g} pps", {
                       "largest_change_pps": None if to is None else j.hz / s.top - j.hz / to,
-                      "down_to_rate": to})
+                      "down_to_rate": to, "no_change_deg": still})
 
 
 def _change_speed(j: _Judge, table: FreeCurveTable, motor: Motor) -> Family:
     """87 up to the top in the cruise of a move whose high rate is a slower stage: where
-    the old decel point leaves it stopping (§8-8), for the high rate that stops fastest."""
+    the old decel point leaves it stopping (§8-8), for the high rate that stops fastest.
+    A high rate H leaves the decel stages at or below its speed (D_H pulses); sped up,
+    the walk down from the top runs out of them in the stage where the decel counts from
+    the top first reach D_H: found for every H at once, the few fastest run through the
+    model."""
     s = j.stairs
     pulses = 2 * (table.accel_total + table.decel_total) + 16
-    worst: tuple[float, int, Motion] | None = None
-    for rate in sorted({r for _, r, _ in s.acc if r != s.top}):
-        at = sum(p.pulses for p in s.up(None, rate, 0)) + 1
-        run = run_program(table, [ProgramCommand("accel", rate, pulses),
-                                  ProgramCommand("change-speed", s.top, at=at)])
-        motion = run.motions[0]
-        if worst is None or motion.final_rate < worst[2].final_rate:
-            worst = (j.hz / motion.final_rate, rate, motion)
-    if worst is None:
+    highs = np.asarray(sorted({r for _, r, _ in s.acc if r != s.top}), np.int64)
+    if not len(highs):
         return Family("change-speed", 0.0, "the table has one stage: no speed change", {
             "stops_from_pps": None, "faster_than_stop_rate": False, "high_rate": None})
-    speed, rate, motion = worst
-    deg, _ = j.worst([motion.runs()])
+    rates = np.asarray([r for _, r, _ in s.dec], np.int64)
+    counts = np.asarray([n for _, _, n in s.dec], np.int64)
+    left = (counts[None, :] * (rates[None, :] >= highs[:, None])).sum(axis=1)
+    ends = rates[np.minimum(np.searchsorted(np.cumsum(counts), left), len(rates) - 1)]
+    worst: tuple[int, Motion] | None = None
+    for rate in highs[np.argsort(ends, kind="stable")][:3].tolist():
+        at = sum(p.pulses for p in s.up(None, rate, 0)) + 1
+        motion = run_program(table, [ProgramCommand("accel", rate, pulses),
+                                     ProgramCommand("change-speed", s.top, at=at)]).motions[0]
+        if worst is None or motion.final_rate < worst[1].final_rate:
+            worst = (rate, motion)
+    assert worst is not None
+    rate, motion = worst
+    speed = j.hz / motion.final_rate
+    deg, _ = j.worst(("speed-up", rate), lambda: _batch([motion.runs()]))
     return Family("change-speed", deg, f"a move of {pulses} pulses at high rate {rate}, "
                   f"sped up to the top in its cruise, stops from {speed:.6g} pps at its old "
                   "decel point (§8-8)", {
@@ -297,13 +355,8 @@ def command_families(table: FreeCurveTable | InitTable, motors: Sequence[Motor],
     def compute() -> dict[str, Family]:
         j = _Judge(free, motors)
         const = _constant(j, aim_deg)
-        search = Family("origin-search", const.worst_deg,
-                        const.where.replace("a constant run", "an origin search"), {
-                            "fastest_rate": None if const.envelope["fastest_rate"] is None
-                            else max(const.envelope["fastest_rate"], j.stairs.top)})
-        search.envelope["fastest_pps"] = (None if search.envelope["fastest_rate"] is None
-                                          else j.hz / search.envelope["fastest_rate"])
-        return {f.name: f for f in (const, search, _stop(j, aim_deg), _set_speed(j, aim_deg),
+        return {f.name: f for f in (const, _origin_search(j, const, aim_deg), _stop(j, aim_deg),
+                                    _set_speed(j, aim_deg),
                                     _change_speed(j, free, motors[0]),
                                     _origin_return(j, free, motors))}
 
