@@ -62,8 +62,9 @@ def test_every_option_and_argument_has_help() -> None:
     assert len(_arguments()) > 60  # the walk found the sub-commands' options
 
 
-# motor new's datasheet options add N·m, A, Ω, mH, V, g·cm², ° and [1] (a ratio)
-UNIT = re.compile(r"\[(pps|pps²|pps³|s|ms|µs|Hz|pulses|N·m|N·cm|A|Ω|mH|V|g·cm²|°|1)\]")
+# motor new's datasheet options add N·m, A, Ω, mH, V, g·cm², ° and [1] (a ratio); mc200
+# stream's torque constant N·m/A
+UNIT = re.compile(r"\[(pps|pps²|pps³|s|ms|µs|Hz|pulses|N·m|N·m/A|N·cm|A|Ω|mH|V|g·cm²|°|1)\]")
 
 
 def test_every_quantity_option_names_its_unit() -> None:

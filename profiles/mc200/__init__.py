@@ -4,8 +4,10 @@
   byte streams (encode, hex, decode);
 - `model`: the host's sequences (servo on/off, mode switch, SPI-error reset) and
   `DriverModel`, the driver's reading of them (`read_stream`: a whole stream);
-- `stream`: streaming a move, lazily (`stream_chunks`, `render_chunks`), with
-  `stream_move` / `stream_bytes` for small moves, and `ruckig_profile`;
+- `commands`: the command values along a profile (positions, velocities [pps],
+  currents [A] through a `CurrentModel`), a chunk at a time;
+- `stream`: streaming a move in any control mode (`Drive`), lazily (`stream_chunks`,
+  `render_chunks`), with `stream_move` / `stream_bytes` for small moves, and `ruckig_profile`;
 - `formats`: the stream files (hex, bin, json, c, ihex) with their CRC-32, read back.
 
 Every public name is importable from `profiles.mc200` directly.
@@ -16,6 +18,7 @@ from .codec import (
     HOST_FRAMES,
     MAGIC_DEFAULT,
     MAGIC_VELOCITY_PAGE,
+    MAGICS,
     MODE_CODE,
     MODES,
     PACKET_SIZE,
@@ -28,19 +31,35 @@ from .codec import (
     checksums,
     decode_stream,
     decoded_lines,
+    detect_magic,
     encode_positions,
     encode_stream,
+    encode_values,
     hex_lines,
     iter_decode,
     render_hex,
+    reply_faults,
+)
+from .commands import (
+    CURRENT_UNIT,
+    UNITS,
+    VELOCITY_UNIT,
+    CurrentModel,
+    iter_currents,
+    iter_samples,
+    iter_velocities,
+    sample_currents,
+    sample_velocities,
 )
 from .model import (
     SEQUENCE_MAX,
     SERVO_OFF_COUNT,
     SERVO_ON_COUNT,
+    Commands,
     DriverModel,
     DriverState,
     StreamReading,
+    applied_commands,
     mode_switch,
     read_stream,
     servo_off,
@@ -49,12 +68,14 @@ from .model import (
 )
 from .stream import (
     CHUNK_PACKETS,
+    CS_TO_CLK_US,
     HOLD_PACKETS_MIN,
     INT32_MAX,
     MAX_STREAM_PACKETS,
     OBJECT_CHUNK_PACKETS,
     PERIOD_US_RANGE,
     STREAM_FORMATS,
+    Drive,
     PositionFn,
     StreamFormat,
     iter_positions,
@@ -72,10 +93,13 @@ from .stream import (
 
 __all__ = [
     "CHUNK_PACKETS",
+    "CS_TO_CLK_US",
+    "CURRENT_UNIT",
     "DRIVER_FRAME",
     "HOLD_PACKETS_MIN",
     "HOST_FRAMES",
     "INT32_MAX",
+    "MAGICS",
     "MAGIC_DEFAULT",
     "MAGIC_VELOCITY_PAGE",
     "MAX_STREAM_PACKETS",
@@ -88,7 +112,12 @@ __all__ = [
     "SERVO_OFF_COUNT",
     "SERVO_ON_COUNT",
     "STREAM_FORMATS",
+    "UNITS",
+    "VELOCITY_UNIT",
+    "Commands",
+    "CurrentModel",
     "Direction",
+    "Drive",
     "DriverModel",
     "DriverPacket",
     "DriverState",
@@ -98,15 +127,21 @@ __all__ = [
     "StreamFormat",
     "StreamReading",
     "ValueKind",
+    "applied_commands",
     "checksum",
     "checksums",
     "decode_stream",
     "decoded_lines",
+    "detect_magic",
     "encode_positions",
     "encode_stream",
+    "encode_values",
     "hex_lines",
+    "iter_currents",
     "iter_decode",
     "iter_positions",
+    "iter_samples",
+    "iter_velocities",
     "mode_switch",
     "packet_count",
     "plan_stream",
@@ -114,8 +149,11 @@ __all__ = [
     "render_chunks",
     "render_hex",
     "render_stream",
+    "reply_faults",
     "ruckig_profile",
+    "sample_currents",
     "sample_positions",
+    "sample_velocities",
     "servo_off",
     "servo_on",
     "spi_error_reset",

@@ -25,6 +25,7 @@ if TYPE_CHECKING:
 PACKET_SIZE = 12
 MAGIC_DEFAULT = 0x0F0F0F0F  # position and current pages; the velocity page says F0F0F0F0
 MAGIC_VELOCITY_PAGE = 0xF0F0F0F0
+MAGICS = (MAGIC_DEFAULT, MAGIC_VELOCITY_PAGE)
 Mode = Literal["position", "velocity", "current"]
 MODES: tuple[Mode, Mode, Mode] = ("position", "velocity", "current")
 MODE_CODE: dict[str, int] = {"position": 1, "velocity": 2, "current": 3}
@@ -51,6 +52,30 @@ def packet_faults(rows: np.ndarray) -> np.ndarray:
     return (crc != checksums(rows)) | (rows[:, 7] & 0xB0 != 0) | (rows[:, 0] & 0x07 > 3)
 
 
+def reply_faults(rows: np.ndarray) -> np.ndarray:
+    """Per reply of an (n, 12) uint8 array: True where the driver Frame refuses it (bad
+    checksum, bits 6–4 of byte 9 set, a mode state above 3): the Frame's rules,
+    vectorised."""
+    crc = rows[:, 10].astype(np.int32) | rows[:, 11].astype(np.int32) << 8
+    return (crc != checksums(rows)) | (rows[:, 9] & 0x70 != 0) | (rows[:, 9] & 0x0F > 3)
+
+
+def detect_magic(payload: bytes) -> int:
+    """The mode-switch magic a host stream uses: bytes 3–6 of its first packet with a
+    mode-switch field, when they are one of the sheet's two (`MAGICS`); else the
+    default. A stream is written with one magic (`mc200 stream --magic`), and a file
+    cannot say which, so its own first switch tells (`check`, `mc200 decode`)."""
+    usable = len(payload) - len(payload) % PACKET_SIZE
+    rows = np.frombuffer(payload[:usable], dtype=np.uint8).reshape(-1, PACKET_SIZE)
+    switching = np.flatnonzero((rows[:, 0] & 0x07 != 0) & ~packet_faults(rows))
+    if len(switching):
+        k = int(switching[0]) * PACKET_SIZE
+        raw = int.from_bytes(payload[k + 3:k + 7], "little")
+        if raw in MAGICS:
+            return raw
+    return MAGIC_DEFAULT
+
+
 _HOST_HEADER = Bits("header", 1, (Bit("driver_id", 4, 4), Bit("servo", 3),
                                   Bit("mode_switch", 0, 3, hi=3)))
 _HOST_BYTE7 = Bits("control", 1, (Bit("spi_error_reset", 6), Bit("din", 0, 4)))
@@ -75,7 +100,9 @@ DRIVER_FRAME = Frame("mc200.driver", (
                        Bit("limit_alarm", 1), Bit("spi_error", 0))),
     SInt("encoder_pulses", 4, "little"),
     F32("current_a", "little"),
-    Bits("state", 1, (Bit("in_position", 7), Bit("mode", 0, 3, hi=3))),
+    # byte 9: 位置決め完了状態 | 0 | 0 | 0 | 制御モード状態 (1: 位置、2: 速度、3: 電流): three
+    # zeros (bits 6–4), the mode state in the four bits left (3–0), 1–3 defined
+    Bits("state", 1, (Bit("in_position", 7), Bit("mode", 0, 4, hi=3))),
     Checksum("checksum", 2, checksum),
 ))
 
@@ -176,28 +203,56 @@ def hex_lines(data: bytes) -> str:
 
 
 def encode_positions(template: HostPacket, positions: np.ndarray) -> bytes:
-    """Position-command packets, one per position, otherwise equal to `template`, at once.
-
-    The Frame encodes the template (header, control byte, reserved bytes); the
-    positions go where the Frame puts its value field, and `checksums` closes each
-    packet: the bytes equal `replace(template, value=p).encode()` for every p.
-    """
+    """Position-command packets, one per position, otherwise equal to `template`, at once
+    (`encode_values` of a position template)."""
     if template.value_kind != "position":
         raise FormatError(f"template: a position command, not {echo(template.value_kind)}")
-    frame = HOST_FRAMES["position"]
-    p = np.asarray(positions)
-    if p.ndim != 1 or (p.size and not np.issubdtype(p.dtype, np.integer)):
-        raise FormatError("positions: expected a 1-D array of integers")
-    lo, hi = -(1 << 31), (1 << 31) - 1
-    if p.size and (int(p.min()) < lo or int(p.max()) > hi):
-        bad = int(p.min()) if int(p.min()) < lo else int(p.max())
-        raise FieldRangeError(f"{frame.name}.value", bad, lo, hi)
-    rows = np.tile(np.frombuffer(template.encode(), dtype=np.uint8), (p.size, 1))
+    return encode_values(template, positions)
+
+
+def encode_values(template: HostPacket, values: np.ndarray) -> bytes:
+    """Command packets, one per value, otherwise equal to `template`, at once: int32
+    positions, or float32 velocities or currents, by the template's `value_kind`.
+
+    The Frame encodes the template (header, control byte, reserved bytes); the values
+    go where the Frame puts its value field, and `checksums` closes each packet: the
+    bytes equal `replace(template, value=v).encode()` for every v (a float rounded to
+    float32 as the Frame's struct rounds it; non-finite values are refused: a stream
+    has no use for them).
+    """
+    kind = template.value_kind
+    if kind not in ("position", "velocity", "current"):
+        raise FormatError(f"template: a position, velocity or current command, not "
+                          f"{echo(kind)}")
+    frame = HOST_FRAMES[kind]
+    v = np.asarray(values)
+    if v.ndim != 1 or (v.size and not np.issubdtype(v.dtype, np.integer if kind == "position"
+                                                    else np.number)):
+        raise FormatError(f"{'positions' if kind == 'position' else 'values'}: expected a 1-D "
+                          f"array of {'integers' if kind == 'position' else 'numbers'}")
+    rows = np.tile(np.frombuffer(template.encode(), dtype=np.uint8), (v.size, 1))
     at = _offset(frame, "value")
-    rows[:, at:at + 4] = p.astype("<i4").view(np.uint8).reshape(-1, 4)
+    rows[:, at:at + 4] = _value_bytes(frame, v).reshape(-1, 4)
     at = _offset(frame, "checksum")
     rows[:, at:at + 2] = checksums(rows).astype("<u2").view(np.uint8).reshape(-1, 2)
     return rows.tobytes()
+
+
+def _value_bytes(frame: Frame, v: np.ndarray) -> np.ndarray:
+    """The four bytes of every value, as the frame's value field packs one (its range)."""
+    if frame.name.endswith("position"):
+        lo, hi = -(1 << 31), (1 << 31) - 1
+        if v.size and (int(v.min()) < lo or int(v.max()) > hi):
+            bad = int(v.min()) if int(v.min()) < lo else int(v.max())
+            raise FieldRangeError(f"{frame.name}.value", bad, lo, hi)
+        return v.astype("<i4").view(np.uint8)
+    with np.errstate(over="ignore", invalid="ignore"):
+        single = v.astype("<f4")
+    unfit = np.flatnonzero(~np.isfinite(single))
+    if len(unfit):  # the float32 maximum, as F32 states its range
+        raise FieldRangeError(f"{frame.name}.value", float(v[unfit[0]]), -3.4028235e38,
+                              3.4028235e38)
+    return single.view(np.uint8)
 
 
 def _offset(frame: Frame, name: str) -> int:
@@ -255,11 +310,12 @@ def _decode_host(raw: bytes, mode: Mode, magic: int) -> Iterator[HostPacket]:
 
 
 def decoded_lines(raw: bytes, direction: Direction = "host", fmt: str = "text", *,
-                  rows_per_chunk: int = 4096, progress: Progress | None = None
-                  ) -> Iterator[str]:
+                  magic: int = MAGIC_DEFAULT, rows_per_chunk: int = 4096,
+                  progress: Progress | None = None) -> Iterator[str]:
     """What `stepramp mc200 decode` prints for `raw` (packets back to back), a chunk of
     packets at a time: `text` (one numbered line of field=value a packet) or `json`
     (the text `json_text({"direction", "packets": [fields…]})` gives, NaN as null).
+    Host packets follow the stream's mode switches, `magic` the one they carry.
     Memory is one chunk however long the stream. Every packet is judged before this
     returns: a bad packet raises here, before any line is given. `progress` hears
     (packets listed, packets) as the chunks go out."""
@@ -268,7 +324,7 @@ def decoded_lines(raw: bytes, direction: Direction = "host", fmt: str = "text", 
     # A bad packet near the end must not leave half a listing behind its error. Host
     # packets are judged at once by the Frame's rules vectorised (the first bad one
     # decoded for its exact error), driver packets by decoding them.
-    packets = iter_decode(raw, direction)
+    packets = iter_decode(raw, direction, magic=magic)
     if direction == "host":
         faulty = np.flatnonzero(packet_faults(np.frombuffer(raw, np.uint8).reshape(-1, 12)))
         if len(faulty):

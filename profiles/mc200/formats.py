@@ -11,7 +11,7 @@ chunks go and written at the end.
 |---|---|---|
 | `hex` | one packet per line, hex byte pairs | last line `# crc32 1C291CA3: CRC-32 …` |
 | `bin` | the raw packets | none: no room (it must be exactly the bytes sent) |
-| `json` | `{period_us, duration_s, pulses, "packets": [...], "crc32"}` | the `crc32` field |
+| `json` | `{period_us, duration_s, pulses, [mode, unit,] "packets": [...], "crc32"}` | `crc32` |
 | `c` | a C header: `NAME_packets[N][12]`, symbols prefixed by `name` | `NAME_CRC32`, comment |
 | `ihex` | Intel HEX of the payload from `base_address` | record checksums, EOF record |
 
@@ -64,7 +64,7 @@ from .codec import PACKET_SIZE, checksums, hex_lines
 
 C_NAME_DEFAULT = "stepramp_mc200"
 STREAM_FILE_MAX_BYTES = STREAM_INPUT_MAX_BYTES  # (profiles.reading) hex, bin and ihex
-JSON_HEADER_KEYS = ("period_us", "duration_s", "pulses")
+JSON_HEADER_KEYS = ("period_us", "duration_s", "pulses", "mode", "unit")
 
 
 def payload_of(packets: Sequence[bytes]) -> bytes:

@@ -30,6 +30,7 @@ def check(raw: bytes, path: str, options: CheckOptions) -> FileResult:
 
 
 def findings(raw: bytes, path: str) -> list[Finding]:
+    from profiles.mc200.codec import detect_magic
     from profiles.mc200.formats import parse, payload_of_parsed
     from profiles.mc200.model import read_stream
 
@@ -38,12 +39,13 @@ def findings(raw: bytes, path: str) -> list[Finding]:
     except CorruptedError as e:  # a verdict on the file, not unusable input
         return [Finding("error", "mc200-corrupted", str(e))]
     out = integrity_findings("mc200", parsed.format, parsed.integrity, parsed.detail)
-    return out + stream_findings(read_stream(payload_of_parsed(parsed)))
+    payload = payload_of_parsed(parsed)
+    # the magic the stream's own first switch carries: one of the sheet's two pages
+    return out + stream_findings(read_stream(payload, magic=detect_magic(payload)))
 
 
 def stream_findings(r: StreamReading) -> list[Finding]:
     """The driver rules on a `StreamReading`."""
-    from profiles.mc200 import HOLD_PACKETS_MIN as HOLD_TARGET_MIN
 
     out: list[Finding] = []
     if r.bad_count:
@@ -70,22 +72,48 @@ def stream_findings(r: StreamReading) -> list[Finding]:
                            "on the driver being in position mode already"))
     if r.moved_while_off is not None:
         out.append(Finding("warning", "mc200-servo-off",
-                           f"packet {r.moved_while_off}: a position command moves the target "
-                           "while the servo is off (the motor jumps when it turns on)"))
+                           f"packet {r.moved_while_off}: a {_kind(r, r.moved_while_off)} "
+                           "command changes while the servo is off (the motor jumps when it "
+                           "turns on)"))
     if r.reversal_count:
         shown = "; ".join(f"packet {at}: {a} → {b} → {c}" for at, a, b, c in r.reversals)
         out.append(Finding("warning", "mc200-position-reversal",
                            f"the commanded position turns back {r.reversal_count} time(s) "
                            f"({shown}); a planned move is monotone, and bit 7 of byte 3 or 5 "
                            "flipped (±128, ±8388608 pulses) passes the packet checksum"))
-    if r.hold < HOLD_TARGET_MIN:
-        st = r.state
-        why = ("the servo is off at the end" if not st.servo_on else
-               "the SPI error stands at the end" if st.spi_error else
-               "the driver is not in position mode at the end" if st.mode != 1 else
-               f"the last {r.hold} packet(s) hold position {r.target}" if r.target is not None
-               else "no position command is applied")
-        out.append(Finding("error", "mc200-hold",
-                           f"the stream does not end holding one target for ≥ "
-                           f"{HOLD_TARGET_MIN} packets: {why}"))
-    return out
+    return out + _hold_findings(r)
+
+
+def _kind(r: StreamReading, packet: int) -> str:
+    """The control mode a command of packet `packet` was read in, by name."""
+    import numpy as np
+
+    from profiles.mc200 import MODES
+
+    at = r.commands.at
+    k = int(np.searchsorted(at, packet))
+    return MODES[int(r.commands.mode[k]) - 1] if k < len(at) and at[k] == packet else "position"
+
+
+def _hold_findings(r: StreamReading) -> list[Finding]:
+    """The stream's end: one command held ≥ 5 packets (servo on, no SPI error, its mode),
+    and in velocity mode that command 0 (a velocity held is a motor still turning)."""
+    from profiles.mc200 import HOLD_PACKETS_MIN as HOLD_TARGET_MIN
+    from profiles.mc200 import MODES, UNITS
+
+    st = r.state
+    mode = MODES[st.mode - 1]
+    if r.hold >= HOLD_TARGET_MIN:
+        if mode == "velocity" and r.target != 0:
+            return [Finding("error", "mc200-hold",
+                            f"the stream ends commanding velocity {r.target:g} "
+                            f"{UNITS['velocity']}, not 0: the motor keeps turning")]
+        return []
+    applied = len(r.commands) and r.commands.mode[-1] == st.mode
+    why = ("the servo is off at the end" if not st.servo_on else
+           "the SPI error stands at the end" if st.spi_error else
+           f"the last {r.hold} packet(s) hold {mode} {r.target} {UNITS[mode]}" if applied
+           else f"no {mode} command is applied after the switch to {mode} mode")
+    return [Finding("error", "mc200-hold",
+                    f"the stream does not end holding one command for ≥ "
+                    f"{HOLD_TARGET_MIN} packets: {why}")]
