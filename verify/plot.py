@@ -211,3 +211,44 @@ def drawn_texts(fig: Any) -> list[Any]:
     return [t for t in fig.findobj(Text) if t.get_visible() and t.get_text().strip()
             and id(t) not in hidden]
 
+
+
+def following_figure(following: Any) -> Any:
+    """An MC-200 stream against its reply log (`profiles.mc200.follow.Following`): the
+    commanded and encoder positions, the following error with its worst, the move's end
+    and in-position marked, and the motor current the replies give, against time."""
+    plt = pyplot()
+    f = following
+    fig, (ax_x, ax_e, ax_i) = plt.subplots(3, 1, figsize=(8.0, 8.0), sharex=True,
+                                           constrained_layout=True,
+                                           gridspec_kw={"height_ratios": [3, 3, 2]})
+    t = f.t_s * 1e3
+    shown_x = [ax_x.plot(t, f.command, color="tab:blue", lw=1.4, label="command")[0],
+               ax_x.plot(t, np.where(f.servo_on, f.encoder, np.nan), color="tab:orange",
+                         lw=1.2, ls="--", label="encoder (servo on)")[0]]
+    ax_x.set(ylabel="position [pulses]")
+    ax_e.plot(t, f.error, color="tab:red", lw=1.2, label="command − encoder")
+    ax_e.axhline(0, color="k", lw=0.8, label="no error")
+    w, end, inpos = f.worst, f.move_end, f.in_position_at
+    if w is not None:
+        ax_e.plot([t[w]], [f.error[w]], "o", color="tab:red", ms=6,
+                  label=f"worst {f.error[w]:+g} pulses at {t[w]:g} ms")
+    for ax in (ax_x, ax_e, ax_i):  # the same marks on every panel, named once (ax_e)
+        if end is not None:
+            ax.axvline(t[end], color="0.4", ls=":", lw=1.0, label="the command's end")
+        if inpos is not None:
+            ax.axvline(t[inpos], color="tab:green", ls="-.", lw=1.0, label="in position")
+        ax.grid(alpha=0.3)
+    ax_e.set(ylabel="following error [pulses]")
+    shown_i = ax_i.plot(t, f.current_a, color="tab:purple", lw=1.0,
+                        label="motor current (replies)")
+    ax_i.set(xlabel="time [ms]", ylabel="motor current [A]")
+    settle = ("in position: not by the log's end" if inpos is None or end is None else
+              f"in position {(inpos - end) * f.period_us * 1e-3:g} ms after the command's end")
+    worst = "no reply follows a position" if w is None else \
+        f"worst {f.error[w]:+g} pulses at {t[w]:g} ms"
+    ax_x.set_title(f"MC-200 following error: {worst}; {settle}")
+    ax_x.legend(handles=shown_x, fontsize=8, loc="upper left")
+    ax_e.legend(fontsize=8, loc="best")
+    ax_i.legend(handles=shown_i, fontsize=8, loc="upper right")
+    return fig

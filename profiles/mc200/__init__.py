@@ -8,6 +8,7 @@
   currents [A] through a `CurrentModel`), a chunk at a time;
 - `stream`: streaming a move in any control mode (`Drive`), lazily (`stream_chunks`,
   `render_chunks`), with `stream_move` / `stream_bytes` for small moves, and `ruckig_profile`;
+- `follow`: a stream's following error against the driver's captured replies;
 - `formats`: the stream files (hex, bin, json, c, ihex) with their CRC-32, read back.
 
 Every public name is importable from `profiles.mc200` directly.
@@ -37,6 +38,7 @@ from .codec import (
     encode_values,
     hex_lines,
     iter_decode,
+    looks_like_replies,
     render_hex,
     reply_faults,
 )
@@ -51,6 +53,7 @@ from .commands import (
     sample_currents,
     sample_velocities,
 )
+from .follow import Following, commanded_positions, following_error, reply_rows
 from .model import (
     SEQUENCE_MAX,
     SERVO_OFF_COUNT,
@@ -121,6 +124,7 @@ __all__ = [
     "DriverModel",
     "DriverPacket",
     "DriverState",
+    "Following",
     "HostPacket",
     "Mode",
     "PositionFn",
@@ -130,18 +134,21 @@ __all__ = [
     "applied_commands",
     "checksum",
     "checksums",
+    "commanded_positions",
     "decode_stream",
     "decoded_lines",
     "detect_magic",
     "encode_positions",
     "encode_stream",
     "encode_values",
+    "following_error",
     "hex_lines",
     "iter_currents",
     "iter_decode",
     "iter_positions",
     "iter_samples",
     "iter_velocities",
+    "looks_like_replies",
     "mode_switch",
     "packet_count",
     "plan_stream",
@@ -150,6 +157,7 @@ __all__ = [
     "render_hex",
     "render_stream",
     "reply_faults",
+    "reply_rows",
     "ruckig_profile",
     "sample_currents",
     "sample_positions",

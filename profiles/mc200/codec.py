@@ -60,6 +60,17 @@ def reply_faults(rows: np.ndarray) -> np.ndarray:
     return (crc != checksums(rows)) | (rows[:, 9] & 0x70 != 0) | (rows[:, 9] & 0x0F > 3)
 
 
+def looks_like_replies(payload: bytes) -> bool:
+    """Whether packets (back to back) are the driver's replies rather than host packets:
+    every one passes the reply Frame's rules and some say a control mode in byte 9 (1–3:
+    every reply does), where a host packet's byte 9 is 予約, 0. Both sides share the
+    checksum, so a host packet that passes its own check never has byte 9 set."""
+    if not payload or len(payload) % PACKET_SIZE:
+        return False
+    rows = np.frombuffer(payload, dtype=np.uint8).reshape(-1, PACKET_SIZE)
+    return bool((rows[:, 9] & 0x0F).any() and not reply_faults(rows).any())
+
+
 def detect_magic(payload: bytes) -> int:
     """The mode-switch magic a host stream uses: bytes 3–6 of its first packet with a
     mode-switch field, when they are one of the sheet's two (`MAGICS`); else the

@@ -267,6 +267,14 @@ def _json_packets(raw: bytes) -> tuple[bytes, object]:
     return bytes(out), obj.get("crc32")
 
 
+def json_header(raw: bytes) -> dict[str, object]:
+    """A JSON stream file's header (`JSON_HEADER_KEYS` it holds: period_us, duration_s,
+    pulses, mode, unit), e.g. the period `mc200 follow` reads from it."""
+    _whole_reader_cap(raw, "json")
+    obj = parse_json(raw, "the JSON stream")
+    return {k: obj[k] for k in JSON_HEADER_KEYS if k in obj} if isinstance(obj, dict) else {}
+
+
 def _parse_json(raw: bytes) -> Parsed[bytes]:
     payload, claimed = _json_packets(raw)
     if claimed is not None and (not isinstance(claimed, str)
@@ -446,5 +454,6 @@ def is_stream_file(raw: bytes) -> bool:
     return bool(np.all(rows[:, 11] & 0x80) and np.all(reserved_clear | summed))
 
 
-__all__ = ["FORMATS", "STREAM_FILE_MAX_BYTES", "Packets", "is_stream_file", "parse", "payload_of",
+__all__ = ["FORMATS", "STREAM_FILE_MAX_BYTES", "Packets", "is_stream_file", "json_header", "parse",
+           "payload_of",
            "payload_of_parsed", "render", "render_chunks", "split_packets"]

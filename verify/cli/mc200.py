@@ -87,6 +87,27 @@ def add_subparser(sub: Any) -> None:
                          "(default: what the stream's first mode switch carries)")
     md.set_defaults(func=_do_decode)
 
+    fo = msub.add_parser("follow", help="the following error of a stream against the "
+                                        "driver's captured replies")
+    fo.add_argument("stream", metavar="STREAM",
+                    help="the host packets sent (any format of mc200 stream)")
+    fo.add_argument("replies", metavar="REPLIES",
+                    help="the driver's replies captured with them, one per packet, in order "
+                         "(hex, bin, json, c or ihex)")
+    fo.add_argument("--period-us", type=number,
+                    help="SPI packet period [µs], 15..1000000 (default: a JSON stream's "
+                         "period_us)")
+    fo.add_argument("--magic", type=magic, metavar="HEX",
+                    help="the stream's mode-switch magic: 0F0F0F0F or F0F0F0F0 (default: "
+                         "what its first mode switch carries)")
+    fo.add_argument("--format", choices=("text", "json"), default="text",
+                    help="report format (default text; times in ms, positions in pulses, "
+                         "currents in A)")
+    fo.add_argument("--plot", metavar="OUT.png",
+                    help="write a figure (PNG or SVG by extension): positions, the following "
+                         "error and the current against time")
+    fo.set_defaults(func=_do_follow)
+
 
 def _do_stream(args: argparse.Namespace) -> int:
     from dataclasses import replace
@@ -209,4 +230,45 @@ def _do_decode(args: argparse.Namespace) -> int:
         if parsed.integrity != "verified":  # decoded, but nothing vouches for the bytes
             print(f"stepramp mc200: warning: {args.file}: {parsed.detail}", file=sys.stderr)
         write_output(None, lines)  # a chunk of packets at a time (streams run to millions)
+    return EXIT_OK
+
+
+def _do_follow(args: argparse.Namespace) -> int:
+    from profiles.errors import DecodeError, FormatError
+    from profiles.mc200.follow import following_error
+    from profiles.mc200.formats import (
+        STREAM_FILE_MAX_BYTES,
+        json_header,
+        parse,
+        payload_of_parsed,
+    )
+    from profiles.reading import json_text, read_bytes
+    from verify.output import write_outputs
+
+    if args.plot and not args.plot.lower().endswith((".png", ".svg")):
+        raise FormatError(f"--plot {args.plot}: the figure format is taken from the "
+                          "extension: .png or .svg")
+    raw = read_bytes(args.stream, limit=STREAM_FILE_MAX_BYTES)
+    stream = parse(raw, args.stream)
+    period = args.period_us
+    if period is None:
+        period = json_header(raw).get("period_us") if stream.format == "json" else None
+        if period is None:
+            raise FormatError(f"--period-us: {args.stream} ({stream.format}) does not say its "
+                              "packet period; give --period-us [µs]")
+    replies = parse(read_bytes(args.replies, limit=STREAM_FILE_MAX_BYTES), args.replies)
+    try:
+        with fields_as_options(OPTIONS):
+            following = following_error(payload_of_parsed(stream), payload_of_parsed(replies),
+                                        period_us=period, magic=args.magic)
+    except DecodeError as e:  # the replies' packets: say which file
+        raise DecodeError(f"REPLIES {args.replies}: {e}") from None
+    outputs: list[tuple[str | None, Any]] = []
+    if args.plot:
+        from verify.plot import figure_bytes, following_figure
+
+        outputs.append((args.plot, figure_bytes(following_figure(following), args.plot)))
+    text = (json_text(following.to_json()) if args.format == "json"
+            else following.describe())
+    write_outputs([*outputs, (None, text)])  # the figure and the report, all or none
     return EXIT_OK

@@ -30,7 +30,8 @@ def check(raw: bytes, path: str, options: CheckOptions) -> FileResult:
 
 
 def findings(raw: bytes, path: str) -> list[Finding]:
-    from profiles.mc200.codec import detect_magic
+    from profiles.errors import FormatError
+    from profiles.mc200.codec import detect_magic, looks_like_replies
     from profiles.mc200.formats import parse, payload_of_parsed
     from profiles.mc200.model import read_stream
 
@@ -40,6 +41,9 @@ def findings(raw: bytes, path: str) -> list[Finding]:
         return [Finding("error", "mc200-corrupted", str(e))]
     out = integrity_findings("mc200", parsed.format, parsed.integrity, parsed.detail)
     payload = payload_of_parsed(parsed)
+    if looks_like_replies(payload):  # read by mc200 follow, not run by the driver
+        raise FormatError("not judged: MC-200 replies (the driver's answers, byte 9 saying "
+                          "the control mode): stepramp mc200 follow STREAM REPLIES reads them")
     # the magic the stream's own first switch carries: one of the sheet's two pages
     return out + stream_findings(read_stream(payload, magic=detect_magic(payload)))
 

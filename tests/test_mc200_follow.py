@@ -1,0 +1,290 @@
+"""`stepramp mc200 follow`: a stream's following error against the driver's replies
+(issue 33 item 4). Synthetic reply logs with a known lag give back exactly the error
+built into them; the report as text, JSON and a figure; bad input one line, exit 2.
+
+`examples/move.mc200.replies.hex` is such a log: the guide's stream (ruckig, 20 000 pps,
+200 000 pps², 5e6 pps³, 3 200 pulses, one packet a ms) answered by a driver 3 packets
+behind (`lagging_replies(GUIDE_STREAM, 3)`; `test_the_example_reply_log_is_the_guides_
+stream_3_packets_behind` rewrites it when STEPRAMP_WRITE_EXAMPLES=1).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from test_figures import problems
+
+from profiles import mc200 as M
+from profiles.errors import DecodeError, FieldRangeError, FormatError
+from profiles.mc200.follow import commanded_positions, following_error
+from profiles.mc200.formats import render
+from profiles.motor import load_motor
+from verify.check_file import check_file
+from verify.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE_REPLIES = ROOT / "examples" / "move.mc200.replies.hex"
+EXAMPLE_STREAM = ROOT / "examples" / "move.mc200.hex"
+MOTOR = ROOT / "profiles" / "data" / "motor-nema17-1600.json"
+POSITION_AT, DURATION = M.ruckig_profile(3200, 20000.0, 2e5, 5e6)
+GUIDE_STREAM = M.stream_bytes(POSITION_AT, DURATION, 3200, period_us=1000)
+
+
+def lagging_replies(stream: bytes, lag: int, *, period_s: float = 1e-3, origin: int = 0,
+                    amps_per_pulse: float = 0.01, alarm_at: int | None = None) -> bytes:
+    """A driver `lag` packets behind the command it is given: the encoder at reply k is
+    ⌊the command of reply k − lag⌋ (+ `origin`, where the encoder counted from), the
+    servo on from the packet after the stream turns it on, in position from `lag`
+    replies after the command's end, the current proportional to the error. Written
+    straight from the definitions, one reply at a time."""
+    reading = M.read_stream(stream)
+    n = reading.packets
+    commanded = commanded_positions(reading.commands, np.full(n, origin), period_s)
+    commanded = np.nan_to_num(commanded, nan=float(origin))
+    final = np.flatnonzero(commanded != commanded[-1])
+    end = int(final[-1]) + 1 if len(final) else 0
+    mode = int(reading.commands.mode[-1])
+    out = []
+    for k in range(n):
+        encoder = int(np.floor(commanded[max(k - lag, 0)]))
+        on = reading.servo_on_at is not None and k > reading.servo_on_at
+        out.append(M.DriverPacket(
+            0, on, k == alarm_at, False, False, encoder,
+            amps_per_pulse * float(commanded[k] - encoder), on and k >= end + lag, mode).encode())
+    return b"".join(out)
+
+
+def _write_replies(path: Path, replies: bytes, comment: str = "") -> None:
+    packets = [replies[i:i + 12] for i in range(0, len(replies), 12)]
+    text = render(packets, "hex")
+    path.write_bytes(comment.encode() + text)
+
+
+# --- the error built in is the error reported ----------------------------------------------------
+@pytest.mark.parametrize("lag", [0, 1, 3, 10])
+def test_a_known_lag_is_the_reported_following_error(lag: int) -> None:
+    replies = lagging_replies(GUIDE_STREAM, lag)
+    f = following_error(GUIDE_STREAM, replies, period_us=1000)
+    reading = M.read_stream(GUIDE_STREAM)
+    n = reading.packets
+    commanded = commanded_positions(reading.commands, np.zeros(n), 1e-3)
+    commanded = np.nan_to_num(commanded, nan=0.0)
+    on = np.arange(n) > reading.servo_on_at
+    lagged = commanded[np.maximum(np.arange(n) - lag, 0)]
+    assert np.array_equal(f.error[on], (commanded - lagged)[on])
+    assert np.all(np.isnan(f.error[~on]))
+    worst = f.worst
+    assert worst is not None and f.error[worst] == np.max(commanded - lagged)
+    # in the cruise at 20 000 pps, one packet a ms: 20 pulses a packet of lag
+    assert 20 * lag <= f.error[worst] <= 20 * lag + 1
+    assert f.move_end is not None and f.command[f.move_end] == 3200
+    # the stream holds 10 packets: a driver 10 behind is not in position by its end
+    assert f.in_position_at == (f.move_end + lag if lag < 10 else None)
+    assert f.replies == f.packets == n
+
+
+@settings(max_examples=40, deadline=None)
+@given(lag=st.integers(0, 40), pulses=st.integers(50, 40_000), v=st.floats(500.0, 50_000.0),
+       period_us=st.sampled_from([15.0, 250.0, 1000.0]))
+def test_any_lag_on_any_move(lag: int, pulses: int, v: float, period_us: float) -> None:
+    position_at, duration = M.ruckig_profile(pulses, v, 10 * v, 200 * v)
+    if duration / (period_us * 1e-6) > 20_000:
+        return  # keep the test fast
+    stream = M.stream_bytes(position_at, duration, pulses, period_us=period_us)
+    f = following_error(stream, lagging_replies(stream, lag, period_s=period_us * 1e-6),
+                        period_us=period_us)
+    command = np.nan_to_num(f.command, nan=0.0)
+    lagged = command[np.maximum(np.arange(len(command)) - lag, 0)]
+    followed = f.followed
+    assert np.array_equal(f.error[followed], (command - lagged)[followed])
+    end = f.move_end
+    assert end is not None
+    assert f.in_position_at == (end + lag if end + lag < f.replies else None)
+
+
+def test_a_velocity_stream_is_followed_by_its_integral() -> None:
+    """Velocity commands [pps] integrate, from the encoder where velocity control began
+    (here 1000: the encoder need not start at 0), to the profile's positions."""
+    stream = M.stream_bytes(POSITION_AT, DURATION, 3200, period_us=1000,
+                            drive=M.Drive("velocity"))
+    f = following_error(stream, lagging_replies(stream, 2, origin=1000), period_us=1000)
+    on = f.followed
+    command = f.command[on]
+    # the float32 velocities sent integrate to the move within a millionth of it
+    assert command[-1] == pytest.approx(4200, abs=1e-6 * 3200)
+    samples = M.iter_samples(POSITION_AT, DURATION, 3200, 1e-3, chunk=1 << 20)
+    x = next(samples)
+    # reply 5 + j sees velocity commands 0 … j − 1: the profile at j ms, from 1000
+    assert np.allclose(f.command[5:5 + len(x)], 1000 + x, atol=1e-6 * 3200)
+    lagged = np.floor(f.command[np.maximum(np.arange(f.replies) - 2, 0)])
+    assert np.allclose(f.error[on], (f.command - lagged)[on], atol=1e-9)
+
+
+def test_a_current_stream_commands_no_position() -> None:
+    model = M.CurrentModel.from_motor(load_motor(MOTOR), 0.3)
+    stream = M.stream_bytes(POSITION_AT, DURATION, 3200, period_us=1000,
+                            drive=M.Drive("current", current=model))
+    f = following_error(stream, lagging_replies(stream, 2), period_us=1000)
+    assert not len(f.followed) and f.worst is None and f.move_end is None
+    assert "no reply follows a position" in f.describe()
+    assert f.to_json()["worst"] is None
+
+
+def test_a_capture_that_stops_early_and_one_with_more_replies() -> None:
+    replies = lagging_replies(GUIDE_STREAM, 3)
+    short = following_error(GUIDE_STREAM, replies[:12 * 200], period_us=1000)
+    assert (short.replies, short.packets) == (200, 315)
+    assert "200 replies to 315 packets" in short.describe()
+    assert short.in_position_at is None  # the move had not ended
+    with pytest.raises(FormatError, match="316 replies to a stream of 315 packets"):
+        following_error(GUIDE_STREAM, replies + replies[:12], period_us=1000)
+
+
+def test_alarms_in_the_replies_are_reported() -> None:
+    f = following_error(GUIDE_STREAM, lagging_replies(GUIDE_STREAM, 3, alarm_at=100),
+                        period_us=1000)
+    assert f.alarms == (("alarm", 1, 100),)
+    assert "alarm: 1 replies, the first 100 (100 ms)" in f.describe()
+    assert f.to_json()["alarms"] == {"alarm": {"replies": 1, "first": 100}}
+
+
+def test_what_follow_refuses() -> None:
+    replies = lagging_replies(GUIDE_STREAM, 3)
+    with pytest.raises(FieldRangeError, match=r"period_us \(µs"):
+        following_error(GUIDE_STREAM, replies, period_us=10)
+    bad = bytearray(replies)
+    bad[12 * 7 + 4] ^= 1
+    with pytest.raises(DecodeError, match="block 7, byte 10"):
+        following_error(GUIDE_STREAM, bytes(bad), period_us=1000)
+    with pytest.raises(DecodeError, match="not a whole, non-zero number"):
+        following_error(GUIDE_STREAM, replies[:-1], period_us=1000)
+    with pytest.raises(FormatError, match="is the stream the driver's replies"):
+        following_error(replies, replies, period_us=1000)
+    with pytest.raises(FormatError, match="are they the host's packets"):
+        following_error(GUIDE_STREAM, GUIDE_STREAM, period_us=1000)
+
+
+# --- the example and the command line -------------------------------------------------------------
+def test_the_example_reply_log_is_the_guides_stream_3_packets_behind() -> None:
+    comment = ("# synthetic MC-200 replies to the guide's move.mc200.hex: the encoder 3 packets "
+               "behind the command\n# (tests/test_mc200_follow.py, lagging_replies)\n")
+    want = lagging_replies(GUIDE_STREAM, 3)
+    if os.environ.get("STEPRAMP_WRITE_EXAMPLES") == "1":
+        _write_replies(EXAMPLE_REPLIES, want, comment)
+    from profiles.mc200.formats import parse, payload_of_parsed
+
+    assert payload_of_parsed(parse(EXAMPLE_REPLIES.read_bytes())) == want
+    assert EXAMPLE_REPLIES.read_text().startswith(comment)
+
+
+def test_the_example_stream_is_the_guides(tmp_path: Path) -> None:
+    """examples/move.mc200.hex: what the guide's `mc200 stream` writes (the replies' stream)."""
+    out = tmp_path / "move.mc200.hex"
+    assert main(["mc200", "stream", "--vmax", "20000", "--amax", "200000", "--jmax", "5000000",
+                 "--pulses", "3200", "--period-us", "1000", "-o", str(out)]) == 0
+    assert out.read_bytes() == EXAMPLE_STREAM.read_bytes()
+    assert out.read_text().splitlines()[:-1] == M.render_hex(M.decode_stream(GUIDE_STREAM)
+                                                             ).splitlines()
+
+
+def test_check_names_the_command_that_reads_a_reply_log() -> None:
+    result = check_file(str(EXAMPLE_REPLIES))
+    assert result.error == ("not judged: MC-200 replies (the driver's answers, byte 9 saying "
+                            "the control mode): stepramp mc200 follow STREAM REPLIES reads them")
+    assert M.looks_like_replies(lagging_replies(GUIDE_STREAM, 0))
+    assert not M.looks_like_replies(GUIDE_STREAM)
+    assert check_file(str(EXAMPLE_STREAM)).findings == []
+
+
+def _run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture
+def files(tmp_path: Path) -> tuple[Path, Path]:
+    stream = tmp_path / "move.mc200.json"
+    assert main(["mc200", "stream", "--vmax", "20000", "--amax", "200000", "--jmax",
+                 "5000000", "--pulses", "3200", "--period-us", "1000", "-o", str(stream)]) == 0
+    return stream, EXAMPLE_REPLIES
+
+
+def test_follow_text_json_and_figure(files: tuple[Path, Path], tmp_path: Path,
+                                     capsys: pytest.CaptureFixture[str],
+                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    stream, replies = files
+    code, out, err = _run(capsys, "mc200", "follow", str(stream), str(replies))
+    assert code == 0 and err == ""  # the period is the JSON stream's
+    assert out.splitlines()[:6] == [
+        "following error (command − encoder): 315 replies to 315 packets, one every 1000 µs",
+        "followed: replies 3–314 (a position commanded, the servo on)",
+        "worst: +61 pulses at reply 153 (153 ms): command 1560, encoder 1499",
+        "at the end: 0 pulses (command 3200, encoder 3200)",
+        "the command reaches 3200 pulses at reply 305 (305 ms)",
+        "in position: from reply 308 (308 ms), 3 ms after the command's end, to the log's end"]
+    assert len(out.splitlines()) == 6 + 2 + 20
+    figures: list[Any] = []
+    from matplotlib.figure import Figure
+
+    original = Figure.savefig
+
+    def record(self: Any, *args: Any, **kwargs: Any) -> None:
+        figures.append(self)
+        original(self, *args, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", record)
+    plot = tmp_path / "follow.png"
+    code, out, _ = _run(capsys, "mc200", "follow", str(stream), str(replies), "--format",
+                        "json", "--plot", str(plot))
+    doc = json.loads(out)
+    assert code == 0 and plot.read_bytes()[:4] == b"\x89PNG"
+    assert doc["worst"] == {"reply": 153, "t_ms": 153.0, "error_pulses": 61.0,
+                            "command_pulses": 1560.0, "encoder_pulses": 1499}
+    assert doc["in_position"] == {"reply": 308, "t_ms": 308.0, "after_move_end_ms": 3.0}
+    assert all(len(v) == 315 for v in doc["series"].values())
+    assert doc["series"]["error_pulses"][:3] == [None, None, None]  # the servo still off
+    [fig] = figures
+    assert problems(fig) == []
+    labels = [ax.get_ylabel() for ax in fig.axes]
+    assert labels == ["position [pulses]", "following error [pulses]", "motor current [A]"]
+    assert fig.axes[-1].get_xlabel() == "time [ms]"
+
+
+@pytest.mark.parametrize(("argv", "needle"), [
+    (["S.hex", "R"], "--period-us: S.hex (hex) does not say its packet period; give "
+                     "--period-us [µs]"),
+    (["S", "R", "--period-us", "10"], "--period-us (µs; each packet waits ≥ 15 µs from CS "
+                                      "to CLK, the wiring page): 10.0 is outside"),
+    (["S", "R", "--plot", "f.pdf"], "--plot f.pdf: the figure format is taken from the "
+                                    "extension"),
+    (["S", "S"], "replies: none says the control mode"),
+    (["R", "R", "--period-us", "1000"], "stream packet 0: its reserved bytes"),
+    (["S", "BAD"], "REPLIES BAD: block 7, byte 10: mc200.driver.checksum is"),
+    (["S", "missing.hex"], "missing.hex: no such file"),
+    (["S", "R", "--magic", "1234"], "argument --magic: '1234' is not one of"),
+])
+def test_follow_refuses_in_one_line(files: tuple[Path, Path], tmp_path: Path,
+                                    capsys: pytest.CaptureFixture[str], argv: list[str],
+                                    needle: str) -> None:
+    stream, replies = files
+    hex_stream = tmp_path / "S.hex"
+    hex_stream.write_bytes(render([GUIDE_STREAM[i:i + 12]
+                                   for i in range(0, len(GUIDE_STREAM), 12)], "hex"))
+    bad = bytearray(lagging_replies(GUIDE_STREAM, 3))
+    bad[12 * 7 + 4] ^= 1
+    (tmp_path / "BAD").write_bytes(bytes(bad))
+    paths = {"S": str(stream), "S.hex": str(hex_stream), "R": str(replies),
+             "BAD": str(tmp_path / "BAD"), "f.pdf": "f.pdf",
+             "missing.hex": str(tmp_path / "missing.hex")}
+    code, out, err = _run(capsys, "mc200", "follow", *[paths.get(a, a) for a in argv])
+    err = err.replace(str(tmp_path) + "/", "")
+    assert code == 2 and out == "" and needle in err, err
+    assert err.count("\n") == 1 and "Traceback" not in err
