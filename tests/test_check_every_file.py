@@ -55,6 +55,9 @@ def encoding_commands(out: Path) -> Iterator[list[str]]:
     for fmt in ALINK_FORMATS:
         yield ["alink", "settings", "--start-pps", "500", "--high-pps", "20000",
                "--accel-ms-per-kpps", "2", "--format", fmt, "-o", f"{out}/alink.{fmt}"]
+        yield ["alink", "command", "move-r", "--value", "-1000", "--address", "4", "--format",
+               fmt, "-o", f"{out}/alink-command.{fmt}"]
+    yield ["alink", "homing", "--motor", "nema17-1600", "-o", f"{out}/homing.alink.txt"]
     for fmt in STREAM_FORMATS:
         yield ["mc200", "stream", "--vmax", "5000", "--amax", "5e4", "--jmax", "5e6",
                "--pulses", "800", "--period-us", "1000", "--format", fmt, "-o",
@@ -127,8 +130,10 @@ def test_every_encoded_file_gets_a_verdict(tmp_path: Path,
     assert {f"move.{fmt}" for fmt in UPLOAD_FORMATS} <= set(verdicts)
     assert {"stream.hex", "alink.json", "axis.motor.json", "read.table.json"} <= set(verdicts)
     n = len(UPLOAD_FORMATS)
-    assert len(verdicts) == 4 * n + 2 * (n - 1) + 3 + len(ALINK_FORMATS) + \
+    assert len(verdicts) == 4 * n + 2 * (n - 1) + 3 + 2 * len(ALINK_FORMATS) + 1 + \
         len(STREAM_FORMATS) + 1
+    # a command the unit takes from power on and the homing speeds: no finding
+    assert verdicts["alink-command.hex"] == 0 and verdicts["homing.alink.txt"] == 0
     # what the chip would refuse is a verdict, never "unusable": the held 7-pulse move with
     # an override rate of 300 is legal (exit 0)
     assert verdicts["held.text"] == 0 and verdicts["move.bin"] == 0

@@ -119,7 +119,26 @@ def seeds() -> dict[str, bytes]:
                      "-o", str(target)])
             if target.exists():
                 out[f"alink-{fmt}"] = target.read_bytes()
+        target = Path(tmp) / "homing.txt"
+        run_cli(["alink", "homing", "--motor", str(MOTORS[0]), "-o", str(target)])
+        out["alink-homing"] = target.read_bytes()
+    out["alink-list"] = _alink_list()
     return out
+
+
+def _alink_list() -> bytes:
+    """A command list `check` judges by the unit's answers: homing, a soft limit, moves,
+    a speed change, a delay (the words as `alink command` writes them, in a hex file)."""
+    from profiles.alink import encode_command
+    from profiles.alink.formats import render
+
+    spec = [("ol-speed", 200, None), ("oh-speed", 800, None), ("home", None, 1),
+            ("read-stat", 0, None), ("setting", 10000, 30), ("move-a", 5000, None),
+            ("change-speed", 3000, None), ("read-stat", 9, None), ("delay", 20, None),
+            ("read-stat", 0, None), ("move-r", -1000, None)]
+    commands = [encode_command(name, value, nn, pair=k % 3 + 1)
+                for k, (name, value, nn) in enumerate(spec)]
+    return render(commands, "hex")
 
 
 # --- mutations -----------------------------------------------------------------------
@@ -358,6 +377,9 @@ FILE_COMMANDS: list[tuple[str, str, list[str]]] = [
     ("check", "alink-json", ["check", "FILE"]),
     ("alink read", "alink-text", ["alink", "read", "FILE"]),
     ("alink read", "alink-c", ["alink", "read", "FILE", "--format", "json"]),
+    ("check", "alink-list", ["check", "FILE"]),
+    ("alink read", "alink-homing", ["alink", "read", "FILE"]),
+    ("alink homing", "motor", ["alink", "homing", "--motor", "FILE", "--format", "json"]),
     ("show", "table-free", ["show", "FILE", "--format", "json"]),
     ("show", "table-init", ["show", "FILE", "--format", "csv", "-o", "OUT"]),
     ("show --motor", "motor", ["show", "EXAMPLE", "--motor", "FILE"]),
@@ -402,6 +424,14 @@ ARGV_TEMPLATES: list[tuple[str, list[str]]] = [
     ("move --command", ["move", "--command", "V", "--rate", "V", "--pulses", "V"]),
     ("simulate", ["simulate", "EXAMPLE", "--pulses", "V", "--high-rate", "V"]),
     ("alink decode", ["alink", "decode", "V", "V", "V"]),
+    ("alink decode --command", ["alink", "decode", "--command", "V", "V", "V"]),
+    ("alink command", ["alink", "command", "ALINKCMD", "--value", "V"]),
+    ("alink command", ["alink", "command", "ALINKCMD", "--nn", "V", "--pair", "V"]),
+    ("alink command", ["alink", "command", "ALINKCMD", "--value", "V", "--address", "V",
+                       "--format", "V", "-o", "PATH"]),
+    ("alink homing", ["alink", "homing", "--motor", "PATH", "--max-pps", "V"]),
+    ("alink homing", ["alink", "homing", "--motor", "MOTOR", "--max-pps", "V", "--address",
+                      "V"]),
     ("alink settings", ["alink", "settings", "--start-pps", "V", "--high-pps", "V",
                         "--accel-ms-per-kpps", "V"]),
     # (limits kept where a stream stays small: a slow move at a short period is
@@ -448,6 +478,7 @@ def covered_commands() -> set[str]:
 
 
 _SUFFIX = {"hex": ".hex", "bin": ".bin", "c": ".h", "bus": ".txt", "read": ".hex",
+           "list": ".hex", "homing": ".txt",
            "init": ".hex", "mix": ".csv", "curve": ".csv"}
 
 
@@ -487,6 +518,10 @@ def argv_case(rnd: random.Random, folder: Path, index: int | None = None,
             argv.append(rnd.choice(["16", "99", "-1", "abc", "", "0x100"]))
         elif a == "BADPORT":  # design with a usable port serves until Ctrl-C
             argv.append(rnd.choice(["-1", "65536", "abc", "", "1e3", "0x1FFFF"]))
+        elif a == "ALINKCMD":  # every command of §11 by name, and names that are none
+            from profiles.alink.commands import COMMANDS
+
+            argv.append(rnd.choice([*COMMANDS, "MOVE_A", "move_a", "", "x" * 300]))
         elif a == "VMAX":
             argv.append(rnd.choice(["1e-9", "0", "-1", "nan", "inf", "", "20000", "1e9"]))
         elif a == "PERIOD":

@@ -3,7 +3,11 @@
 - `model`: speeds, the multiplier, settings the unit runs unchanged, the move-time model;
 - `planner`: the fastest stall-safe settings for a motor (`plan_settings`);
 - `codec`: command words, responses and the memory map, each described once as a Frame;
-- `formats`: settings files (text, json, hex, c) with their CRC-32, read back.
+- `commands`: every command of §11 by name (`COMMANDS`), its forms and values;
+  `encode_command`, `decode_command`;
+- `unit`: what the unit answers to a command list from power on (`run_commands`);
+- `homing`: homing speeds whose every stop is safe for a motor (`plan_homing`);
+- `formats`: settings files and command lists (text, json, hex, c) with their CRC-32.
 
 Every public name is importable from `profiles.alink` directly.
 """
@@ -24,6 +28,7 @@ from .codec import (
     READBACK_FRAME,
     READBACK_STATUS_BITS,
     RESPONSE_FRAME,
+    SETTINGS_CMDS,
     STATUS_BITS,
     AlinkResponse,
     Cmd,
@@ -44,7 +49,20 @@ from .codec import (
     settings_from_commands,
     status_address,
 )
+from .commands import (
+    COMMANDS,
+    AlinkCommand,
+    Decoded,
+    Form,
+    Value,
+    cli_name,
+    command_of,
+    decode_command,
+    encode_command,
+    form_of,
+)
 from .formats import SETTINGS_FORMATS, render_settings
+from .homing import HomingSettings, homing_commands, plan_homing
 from .model import (
     BANDS_BY_HIGH,
     BANDS_BY_MAX,
@@ -74,11 +92,13 @@ from .planner import (
     S_CURVE_PEAK_FACTOR,
     plan_settings,
 )
+from .unit import Answer, Issue, UnitRun, run_commands
 
 __all__ = [
     "AXES",
     "BANDS_BY_HIGH",
     "BANDS_BY_MAX",
+    "COMMANDS",
     "COMMAND_FRAME",
     "D0_BASE",
     "DI_BASE",
@@ -100,38 +120,55 @@ __all__ = [
     "READBACK_STATUS_BITS",
     "READ_BACKS",
     "RESPONSE_FRAME",
+    "SETTINGS_CMDS",
     "SETTINGS_FORMATS",
     "SPEED_MAX_PPS",
     "SPEED_MIN_PPS",
     "STATUS_BITS",
     "STEPS_MAX",
     "S_CURVE_PEAK_FACTOR",
+    "AlinkCommand",
     "AlinkResponse",
     "AlinkRun",
     "AlinkSettings",
+    "Answer",
     "Cmd",
     "Command",
     "CommandWriter",
+    "Decoded",
     "Duplex",
+    "Form",
+    "HomingSettings",
+    "Issue",
     "MoveTime",
     "PairCode",
     "Shape",
+    "UnitRun",
+    "Value",
     "accel_pps2",
+    "cli_name",
     "command_address",
     "command_name",
+    "command_of",
     "command_rows",
+    "decode_command",
     "decode_nak_cause",
     "decode_response",
+    "encode_command",
     "form",
+    "form_of",
+    "homing_commands",
     "max_setting",
     "move_time_s",
     "move_times",
     "multiplier",
     "next_pair",
     "parse_command",
+    "plan_homing",
     "plan_settings",
     "quantise_settings",
     "render_settings",
+    "run_commands",
     "settings_commands",
     "settings_document",
     "settings_from_commands",

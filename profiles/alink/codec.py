@@ -111,18 +111,18 @@ def _form_words(cmd: int, func: int, para: int, pair: int) -> tuple[int, int, in
     raw = para & 0x0FFF_FFFF
     data = COMMAND_FRAME.encode(pair0=pair, pair1=pair, pair2=pair, func=func, cmd=int(cmd),
                                 para_hi=raw >> 14, para_lo=raw & 0x3FFF)
-    return _words(data)
+    return words_of(data)
 
 
 def parse_command(w0: int, w1: int, w2: int) -> tuple[int, int, int, int]:
     """Inverse of the command words: (cmd, func, para, pair); refuses unknown codes,
     a set reserved bit 13 and unequal pair codes."""
-    d = COMMAND_FRAME.decode(_pack_words((w0, w1, w2)))
+    d = COMMAND_FRAME.decode(pack_words((w0, w1, w2)))
     command_name(d["cmd"])
     pairs = (d["pair0"], d["pair1"], d["pair2"])
     if len(set(pairs)) != 1:
         raise FormatError(f"pair codes differ across the three words: {pairs}")
-    return d["cmd"], d["func"], _signed28((d["para_hi"] << 14) | d["para_lo"]), pairs[0]
+    return d["cmd"], d["func"], signed28((d["para_hi"] << 14) | d["para_lo"]), pairs[0]
 
 
 class PairCode(IntEnum):
@@ -342,9 +342,9 @@ class AlinkResponse:
         if self.read_back:
             vals.update(extended=self.extended, subcommand=self.subcommand or 0,
                         param0=self.param0 or 0)
-            return _words(READBACK_FRAME.encode(vals))
+            return words_of(READBACK_FRAME.encode(vals))
         vals.update({k: getattr(self, k) for k in _FLAGS})
-        return _words(RESPONSE_FRAME.encode(vals))
+        return words_of(RESPONSE_FRAME.encode(vals))
 
 
 _WORD_NAMES = ("status", "DATA1", "DATA2")
@@ -358,7 +358,7 @@ def decode_response(w0: int, w1: int, w2: int, *, expected_pair: int | None = No
     if expected_pair is not None:
         require_int("expected_pair", expected_pair, 0, 3)
     frame = READBACK_FRAME if read_back else RESPONSE_FRAME
-    d = frame.decode(_pack_words((w0, w1, w2)))
+    d = frame.decode(pack_words((w0, w1, w2)))
     pairs = (d["pair0"], d["pair1"], d["pair2"])
     mismatch = None
     ref = pairs[0] if expected_pair is None else expected_pair
@@ -372,7 +372,7 @@ def decode_response(w0: int, w1: int, w2: int, *, expected_pair: int | None = No
         if d["subcommand"] != expected_cmd & 0xF:
             mismatch = (f"status sub-command {d['subcommand']} ≠ {expected_cmd & 0xF} "
                         f"({command_name(expected_cmd)})")
-    value = _signed28((d["value_hi"] << 14) | d["value_lo"])
+    value = signed28((d["value_hi"] << 14) | d["value_lo"])
     common: dict[str, Any] = dict(ack=bool(d["ack"]), pair_codes=pairs, value=value,
                                   valid=mismatch is None, mismatch=mismatch, read_back=read_back)
     if read_back:
@@ -395,17 +395,20 @@ def decode_nak_cause(param2: int) -> list[str]:
 
 # --- word packing ------------------------------------------------------------------------------
 
-def _words(data: bytes) -> tuple[int, int, int]:
+def words_of(data: bytes) -> tuple[int, int, int]:
+    """Three little-endian 16-bit words of a 6-byte frame."""
     return (int.from_bytes(data[0:2], "little"), int.from_bytes(data[2:4], "little"),
             int.from_bytes(data[4:6], "little"))
 
 
-def _pack_words(words: tuple[int, int, int]) -> bytes:
+def pack_words(words: tuple[int, int, int]) -> bytes:
+    """The 6 bytes of three 16-bit words (each checked), little-endian."""
     for name, w in zip(_WORD_NAMES, words, strict=True):
         require_int(f"{name} word", w, 0, 0xFFFF)
     return b"".join(w.to_bytes(2, "little") for w in words)
 
 
-def _signed28(raw: int) -> int:
+def signed28(raw: int) -> int:
+    """A 28-bit two's complement para as a signed integer."""
     return raw - (1 << 28) if raw & (1 << 27) else raw
 

@@ -1,4 +1,5 @@
-"""`stepramp alink …`: A-Link ALUM settings, their command words, and responses."""
+"""`stepramp alink …`: A-Link ALUM settings, any command of §11 and the homing speeds as
+command words, and the words read back (answers and commands)."""
 
 from __future__ import annotations
 
@@ -57,8 +58,15 @@ def add_subparser(sub: Any) -> None:
                    help="output format (default text)")
     r.set_defaults(func=_do_read)
 
-    d = asub.add_parser("decode", help="decode a status/DATA1/DATA2 triple")
+    _add_command(asub, FORMATS, C_NAME_DEFAULT)
+    _add_homing(asub, FORMATS, C_NAME_DEFAULT)
+    d = asub.add_parser("decode", help="decode an answer (status/DATA1/DATA2) or, with "
+                                       "--command, a command's words")
     d.add_argument("words", nargs=3, metavar="WORD", help="16-bit words, hex (0x…) or decimal")
+    d.add_argument("--command", dest="as_command", action="store_true",
+                   help="the triple is a command (CMD PARAM1 PARAM2, as `alink command` "
+                        "writes it): name it, its nn and value, and what of it §11 does not "
+                        "give")
     d.add_argument("--read-back", action="store_true",
                    help="the triple answers a read-back command (its status layout)")
     d.add_argument("--pair", type=int, choices=(0, 1, 2, 3),
@@ -66,6 +74,66 @@ def add_subparser(sub: Any) -> None:
     d.add_argument("--format", choices=("text", "json"), default="text",
                    help="output format (default text)")
     d.set_defaults(func=_do_decode)
+
+
+def _add_command(asub: Any, formats: Any, c_default: str) -> None:
+    from profiles.alink.commands import COMMANDS
+
+    c = asub.add_parser("command", help="the words of any A-Link command of manual §11")
+    c.add_argument("command_name", metavar="NAME", choices=tuple(COMMANDS),
+                   help="the command, the manual's symbol in lower case with dashes: "
+                        + ", ".join(COMMANDS) + " (`stepramp alink command NAME --help` is "
+                        "this; each NAME's nn and values are listed under --nn)")
+    c.add_argument("--value", type=_integer, metavar="V",
+                   help="its para (pulse, speed, time, type, out, a bit word…), decimal or "
+                        "0x…; commands that take none (stop, home, read-backs…) refuse it")
+    c.add_argument("--nn", type=_integer, metavar="N",
+                   help="its nn where the manual gives several (default the first): "
+                        + "; ".join(f"{k.name} " + ", ".join(
+                            f"{nn} {f.does} [{f.value.shown}]" if f.value.takes else
+                            f"{nn} {f.does}" for nn, f in k.forms.items())
+                                    for k in COMMANDS.values() if len(k.forms) > 1))
+    c.add_argument("--pair", type=int, default=1, metavar="P",
+                   help="the pair code, 1..3 (default 1; the next command takes the next)")
+    c.add_argument("--address", type=positive_int,
+                   help="slave address: adds the command's memory-map offset")
+    c.add_argument("--axis", type=int, choices=(0, 1), default=0,
+                   help="axis of the 2-axis unit (default 0)")
+    c.add_argument("--duplex", choices=("full", "half"), default="full",
+                   help="link duplex, sets the memory map (default full)")
+    add_file_format_options(c, formats, default="text", c_default=c_default)
+    c.add_argument("-o", "--output", metavar="OUT", help="write the file here (default stdout)")
+    c.set_defaults(func=_do_command)
+
+
+def _add_homing(asub: Any, formats: Any, c_default: str) -> None:
+    h = asub.add_parser("homing", help="homing speeds (OL_SPEED, OH_SPEED, O_UPTIME) whose "
+                                       "every stop is safe for a motor")
+    h.add_argument("--motor", metavar="MOTOR", required=True,
+                   help="the motor (a motor file or a name from `stepramp motor list`)")
+    h.add_argument("--max-pps", type=number, default=0.0,
+                   help="the MAX_SPEED the unit holds [pps] (0 = not set, the default): OH "
+                        "stays at or below it")
+    h.add_argument("--address", type=positive_int,
+                   help="slave address: adds each command's memory-map offset")
+    h.add_argument("--axis", type=int, choices=(0, 1), default=0,
+                   help="axis of the 2-axis unit (default 0)")
+    h.add_argument("--duplex", choices=("full", "half"), default="full",
+                   help="link duplex, sets the memory map (default full)")
+    add_file_format_options(h, formats, default="text", c_default=c_default)
+    h.add_argument("-o", "--output", metavar="OUT", help="write the file here (default stdout)")
+    h.set_defaults(func=_do_homing)
+
+
+def _integer(text: str) -> int:
+    """An integer, decimal or with a 0x/0o/0b prefix, negative allowed (a pulse)."""
+    from profiles.errors import echo
+
+    try:
+        return int(text, 0)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{echo(text)} is not an integer (decimal or 0x…)"
+                                         ) from None
 
 
 def _do_settings(args: argparse.Namespace) -> int:
@@ -120,7 +188,7 @@ def _do_settings(args: argparse.Namespace) -> int:
 def _do_read(args: argparse.Namespace) -> int:
     import sys
 
-    from profiles.alink import settings_from_commands
+    from profiles.alink import SETTINGS_CMDS, settings_from_commands
     from profiles.alink.formats import document, parse
     from profiles.errors import StepRampError
     from profiles.reading import json_text, read_bytes
@@ -138,6 +206,9 @@ def _do_read(args: argparse.Namespace) -> int:
                  f"MAX_SPEED {doc['max_pps'] or 'not set'}, multiplier ×{doc['multiplier']}, "
                  f"UP_TIME para {doc['up_time_para']} ({doc['accel_ms_per_kpps']:g} ms/kpps = "
                  f"{doc['accel_pps2']:.6g} pps²), {'S-curve' if doc['s_curve'] else 'linear'}"]
+    elif others := sorted({c.name for c in parsed.items if c.cmd not in SETTINGS_CMDS}):
+        lines = [f"commands: {len(parsed.items)}, a command list ({', '.join(others)}): "
+                 "stepramp check says what the unit answers to each"]
     else:
         try:  # why the commands program no settings the unit runs as given
             settings_from_commands(parsed.items)
@@ -153,6 +224,52 @@ def _do_read(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _do_command(args: argparse.Namespace) -> int:
+    from profiles.alink import command_address, encode_command
+    from profiles.alink.formats import C_NAME_DEFAULT, FORMATS, render
+    from profiles.formats import Provenance
+    from verify.output import write_output
+
+    with fields_as_options(ADDRESSING):
+        address = (None if args.address is None
+                   else command_address(args.address, args.axis, args.duplex))
+    command = encode_command(args.command_name, args.value, args.nn, pair=args.pair,
+                             address=address,
+                             labels={"value": "--value", "nn": "--nn", "pair": "--pair"})
+    fmt, options = file_format(args, FORMATS, Provenance(command_line(args)), default="text",
+                               c_default=C_NAME_DEFAULT)
+    write_output(args.output, render([command], fmt, options))
+    return EXIT_OK
+
+
+def _do_homing(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from profiles.alink import homing_commands, plan_homing
+    from profiles.alink.formats import C_NAME_DEFAULT, FORMATS, render
+    from profiles.formats import Provenance
+    from profiles.motor import load_motor
+    from verify.output import write_output
+
+    motor = load_motor(args.motor)
+    with fields_as_options({"max_pps": "--max-pps"}):
+        plan = plan_homing(motor, max_pps=args.max_pps)
+    with fields_as_options(ADDRESSING):
+        commands = homing_commands(plan.table, slave_address=args.address, axis=args.axis,
+                                   duplex=args.duplex)
+    h = plan.table  # the C comment's line stays ASCII: the model is in text and JSON
+    fmt, options = file_format(args, FORMATS, Provenance(command_line(args), lines=(
+        f"homing: OL {h.ol_pps} pps, OH {h.oh_pps} pps, O_UPTIME para {h.o_uptime_para}; "
+        f"bound by {plan.binds}",)), default="text", c_default=C_NAME_DEFAULT)
+    header = {"homing": {"ol_pps": h.ol_pps, "oh_pps": h.oh_pps,
+                         "o_uptime_para": h.o_uptime_para,
+                         "accel_pps2": h.accel_pps2, "binds": plan.binds,
+                         "model": plan.extras["model"]},
+              "warnings": list(plan.warnings)}
+    write_output(args.output, render(commands, fmt, replace(options, header=header)))
+    return EXIT_OK
+
+
 def _do_decode(args: argparse.Namespace) -> int:
     from dataclasses import asdict
 
@@ -161,6 +278,9 @@ def _do_decode(args: argparse.Namespace) -> int:
     from profiles.reading import json_text
     from verify.output import write_output
 
+    if args.as_command and (args.read_back or args.pair is not None):
+        raise FormatError(f"{'--read-back' if args.read_back else '--pair'}: an answer's; a "
+                          "command's words carry their own pair code")
     words = []
     for i, text in enumerate(args.words):
         try:
@@ -171,6 +291,11 @@ def _do_decode(args: argparse.Namespace) -> int:
     for i, w in enumerate(words):
         if not 0 <= w <= 0xFFFF:
             raise FieldRangeError(f"word {i}", w, 0, 0xFFFF)
+    if args.as_command:
+        decoded = alink.decode_command(*words)
+        write_output(None, json_text(decoded.to_json()) if args.format == "json"
+                     else decoded.describe() + "\n")
+        return EXIT_OK
     resp = alink.decode_response(*words, expected_pair=args.pair, read_back=args.read_back)
     doc = asdict(resp)
     if args.format == "json":

@@ -1,7 +1,9 @@
-"""`stepramp check` for A-Link settings files: the file's CRC-32 (`alink-corrupted` /
-`alink-unchecked`), pair codes that change from command to command, and the settings
-the unit would refuse (Nak) or silently correct (`profiles.alink.unit_applies`); in
-sync's report, each axis's settings against the rule the planner plans by."""
+"""`stepramp check` for A-Link settings files and command lists: the file's CRC-32
+(`alink-corrupted` / `alink-unchecked`), pair codes that change from command to command,
+the settings the unit would silently correct (`profiles.alink.unit_applies`), and what the
+unit answers to each command from power on (`profiles.alink.unit.run_commands`: every Nak
+rule of §11–12, and what it does without one); in sync's report, each axis's settings
+against the rule the planner plans by."""
 
 from __future__ import annotations
 
@@ -10,11 +12,12 @@ from typing import TYPE_CHECKING, Any
 
 from profiles.errors import CorruptedError, StepRampError
 
-from ..findings import Finding
+from ..findings import Finding, Severity
 from .common import device_result, integrity_findings
 
 if TYPE_CHECKING:
     from profiles.alink import Command
+    from profiles.alink.unit import Answer, Issue
 
     from ..check_options import CheckOptions
     from ..report import FileResult
@@ -51,9 +54,41 @@ def findings(raw: bytes, path: str) -> list[Finding]:
 
 
 def command_findings(commands: Sequence[Command]) -> list[Finding]:
-    """The unit's rules on a list of `Command`s: pair codes, then the settings they leave."""
-    from profiles.alink import FUNC_ACCEL_PARA, FUNC_SPEED_PPS, Cmd
+    """The unit's rules on a list of `Command`s: pair codes, the settings they leave, then
+    what the unit answers to each command from power on (`profiles.alink.unit`)."""
+    from profiles.alink.unit import run_commands
 
+    run = run_commands(commands)
+    return (_pair_findings(commands) + _settings_findings(commands, run.end)
+            + answer_findings(run.answers))
+
+
+# What each of the unit model's kinds is in check's report: (severity, rule).
+RULES: dict[str, tuple[Severity, str]] = {
+    "value": ("error", "alink-range"), "busy": ("error", "alink-busy"),
+    "origin": ("error", "alink-origin"), "soft-limit": ("error", "alink-soft-limit"),
+    "speeds": ("error", "alink-nak"), "change-speed": ("error", "alink-change-speed"),
+    "capped": ("warning", "alink-corrected"), "idle": ("warning", "alink-change-speed-idle"),
+    "stale-limits": ("warning", "alink-soft-limit-stale"),
+    "factory": ("warning", "alink-factory"), "clear-el": ("warning", "alink-clear-el")}
+
+
+def answer_findings(answers: Sequence[Answer]) -> list[Finding]:
+    """The unit model's Naks and notes as findings; a settings command's value is judged
+    by the settings rules (`alink-range`, `alink-mode`, `alink-func`) instead."""
+    from profiles.alink import SETTINGS_CMDS
+
+    out = []
+    for a in answers:
+        for issue in (*a.naks, *a.notes):
+            if issue.kind == "value" and a.command.cmd in SETTINGS_CMDS:
+                continue
+            severity, rule = RULES[issue.kind]
+            out.append(Finding(severity, rule, issue.message))
+    return out
+
+
+def _pair_findings(commands: Sequence[Command]) -> list[Finding]:
     out: list[Finding] = []
     previous = None
     for k, c in enumerate(commands):
@@ -67,13 +102,23 @@ def command_findings(commands: Sequence[Command]) -> list[Finding]:
                                "must change it for every command (manual 10-4 (3)); the unit "
                                "cannot tell this one from the one before"))
         previous = c.pair
+    return out
+
+
+def _settings_findings(commands: Sequence[Command], end: Sequence[Issue]) -> list[Finding]:
+    """The five settings commands the list leaves (the last of each), and `end`: the Nak
+    they bring to a drive or homing command when the list has none."""
+    from profiles.alink import FUNC_ACCEL_PARA, FUNC_SPEED_PPS, Cmd
+
+    naks = [Finding("error", "alink-nak", issue.message) for issue in end]
     last: dict[int, Command] = {}
     for c in commands:
         last[c.cmd] = c
     settings = (Cmd.MAX_SPEED, Cmd.MODE, Cmd.H_SPEED, Cmd.L_SPEED, Cmd.UP_TIME)
     present = [Cmd(k).name for k in settings if k in last]
     if not present:
-        return out
+        return naks
+    out: list[Finding] = []
     missing = [Cmd(k).name for k in settings if k not in last]
     if missing:
         out.append(Finding("warning", "alink-incomplete",
@@ -98,14 +143,15 @@ def command_findings(commands: Sequence[Command]) -> list[Finding]:
         out.append(Finding("error", "alink-range",
                            f"UP_TIME func {last[Cmd.UP_TIME].func}: nn is 1 (rate) or 2 (0.01 "
                            "ms per 1000 pps)"))
-        return out
+        return out + naks
+    out += naks
     if {Cmd.L_SPEED, Cmd.H_SPEED, Cmd.UP_TIME} <= set(last):
         out += _unit_findings(last)
     return out
 
 
 def _unit_findings(last: dict[int, Command]) -> list[Finding]:
-    """What the unit makes of the speeds and ramp: Nak, range, silent corrections."""
+    """What the unit makes of the speeds and ramp: range, silent corrections."""
     from profiles.alink import Cmd, unit_applies
 
     max_pps = last[Cmd.MAX_SPEED].para if Cmd.MAX_SPEED in last else 0
@@ -116,10 +162,7 @@ def _unit_findings(last: dict[int, Command]) -> list[Finding]:
     except StepRampError as e:
         return [Finding("error", "alink-range", f"the unit answers Nak (parameter value not "
                                                 f"valid): {e}")]
-    out = []
-    if run.nak:
-        out.append(Finding("error", "alink-nak", f"the unit answers a drive command with Nak: "
-                                                 f"{run.nak}"))
-    out += [Finding("warning", "alink-corrected", f"the unit silently changes it: {note}")
+    # run.nak (start > high, high > MAX_SPEED) is the unit model's `speeds` rule, judged
+    # at the list's drive commands or at its end (`_settings_findings`)
+    return [Finding("warning", "alink-corrected", f"the unit silently changes it: {note}")
             for note in run.corrections]
-    return out
