@@ -112,6 +112,9 @@ def seeds() -> dict[str, bytes]:
                      "-o", str(target)])
             if target.exists():
                 out[f"mc200-{fmt}"] = target.read_bytes()
+        # the guide's stream and the driver's replies to it (mc200 follow)
+        out["mc200-guide"] = (EXAMPLES / "move.mc200.hex").read_bytes()
+        out["mc200-replies"] = (EXAMPLES / "move.mc200.replies.hex").read_bytes()
         for fmt in ("text", "json", "hex", "c"):
             target = Path(tmp) / f"a.{fmt}"
             run_cli(["alink", "settings", "--start-pps", "500", "--high-pps", "10000",
@@ -372,6 +375,10 @@ FILE_COMMANDS: list[tuple[str, str, list[str]]] = [
     ("mc200 decode", "mc200-c", ["mc200", "decode", "FILE"]),
     ("mc200 decode", "mc200-ihex", ["mc200", "decode", "FILE", "--format", "json"]),
     ("check", "mc200-json", ["check", "FILE"]),
+    ("mc200 follow", "mc200-replies", ["mc200", "follow", "MC200STREAM", "FILE", "--period-us",
+                                       "1000"]),
+    ("mc200 follow", "mc200-guide", ["mc200", "follow", "FILE", "MC200REPLIES", "--period-us",
+                                     "1000", "--format", "json"]),
     ("check", "mc200-bin", ["check", "FILE", "--format", "json"]),
     ("check", "alink-hex", ["check", "FILE"]),
     ("check", "alink-json", ["check", "FILE"]),
@@ -438,7 +445,17 @@ ARGV_TEMPLATES: list[tuple[str, list[str]]] = [
     # legitimately millions of packets, a benchmark's job, not a fuzz case's)
     ("mc200 stream", ["mc200", "stream", "--vmax", "VMAX", "--amax", "200000", "--jmax",
                       "5000000", "--pulses", "400", "--period-us", "PERIOD"]),
+    ("mc200 stream", ["mc200", "stream", "--vmax", "20000", "--amax", "200000", "--jmax",
+                      "5000000", "--pulses", "400", "--period-us", "PERIOD", "--mode", "V",
+                      "--din", "V", "--magic", "V"]),
+    ("mc200 stream", ["mc200", "stream", "--motor", "MOTOR", "--vmax", "20000", "--amax",
+                      "200000", "--jmax", "5000000", "--pulses", "400", "--period-us", "1000",
+                      "--mode", "current", "--torque-constant-nm-per-a", "V"]),
     ("mc200 decode", ["mc200", "decode", "PATH"]),
+    ("mc200 decode", ["mc200", "decode", "MC200STREAM", "--magic", "V"]),
+    ("mc200 follow", ["mc200", "follow", "MC200STREAM", "MC200REPLIES", "--period-us", "PERIOD",
+                      "--magic", "V"]),
+    ("mc200 follow", ["mc200", "follow", "PATH", "MC200REPLIES", "--plot", "PATH"]),
     ("usage", ["V", "V"]),
     ("usage", ["check"]),
     ("usage", ["export", "EXAMPLE", "--format", "V"]),
@@ -478,6 +495,7 @@ def covered_commands() -> set[str]:
 
 
 _SUFFIX = {"hex": ".hex", "bin": ".bin", "c": ".h", "bus": ".txt", "read": ".hex",
+           "guide": ".hex", "replies": ".hex",
            "list": ".hex", "homing": ".txt",
            "init": ".hex", "mix": ".csv", "curve": ".csv"}
 
@@ -546,7 +564,9 @@ def _fill(a: str, folder: Path, path: Path | None) -> str:
             "INIT": str(EXAMPLES / "init-linear.json"),
             "READ": str(EXAMPLES / "free-curve-nema17.read.hex"),
             "MOTOR": str(MOTORS[0]), "CURVE": str(EXAMPLES / "curve-example.csv"),
-            "AXES": str(EXAMPLES / "axes-alink.json")}.get(a, a)
+            "AXES": str(EXAMPLES / "axes-alink.json"),
+            "MC200STREAM": str(EXAMPLES / "move.mc200.hex"),
+            "MC200REPLIES": str(EXAMPLES / "move.mc200.replies.hex")}.get(a, a)
 
 
 def _clean(folder: Path) -> None:
