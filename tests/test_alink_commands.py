@@ -8,7 +8,9 @@ word), not from the code."""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import io
 import json
 from pathlib import Path
 from typing import Any
@@ -152,6 +154,28 @@ def test_every_command_round_trips(case: tuple[str, int, int, int]) -> None:
     assert (d.command.name, d.nn, d.value, d.pair, d.problems) == (name, nn, value, pair, ())
     assert A.parse_command(*c.words) == (c.cmd, nn, c.para, pair)  # the one layout
     assert d.describe().startswith(f"{c.name} ({name}, §11")
+
+
+def _cli(argv: list[str]) -> Any:
+    """`stepramp ARGV --format json`'s document (exit 0), in-process."""
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert cli.main([*argv, "--format", "json"]) == 0
+    return json.loads(out.getvalue())
+
+
+@settings(max_examples=100, deadline=None)
+@given(_command())
+def test_every_command_round_trips_through_the_cli(case: tuple[str, int, int, int]) -> None:
+    """`alink command` writes the words, `alink decode --command` names them back."""
+    name, nn, value, pair = case
+    argv = ["alink", "command", name, "--nn", str(nn), "--pair", str(pair)]
+    if COMMANDS[name].forms[nn].value.takes:
+        argv += ["--value", str(value)]
+    [row] = _cli(argv)["commands"]
+    doc = _cli(["alink", "decode", "--command", *row["words"]])
+    assert (doc["name"], doc["nn"], doc["value"], doc["pair"], doc["problems"]) == \
+        (name, nn, value, pair, [])
 
 
 @pytest.mark.parametrize(("words", "problem"), [
