@@ -16,7 +16,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from profiles import mc200 as M
-from profiles.errors import DecodeError, FieldRangeError, FormatError
+from profiles.errors import DecodeError, FieldRangeError, FormatError, StepRampError
 from profiles.motor import load_motor
 from verify.check_file import check_file
 from verify.cli import main
@@ -213,7 +213,10 @@ def test_stream_round_trips(pulses: int, v: float, a: float, period_us: float,
                             mode: M.Mode) -> None:
     """Any ruckig move: the stream decodes back to its commands (float32 of the values),
     and a velocity stream's commands integrate to the move's length."""
-    position_at, duration = M.ruckig_profile(pulses, v, a, 50 * a)
+    try:
+        position_at, duration = M.ruckig_profile(pulses, v, a, 50 * a)
+    except StepRampError:  # a limit ruckig's numerics cannot take: not what is tested here
+        return
     if duration / (period_us * 1e-6) > 50_000:
         return  # keep the test fast
     drive = _drive(mode)

@@ -222,17 +222,21 @@ def following_figure(following: Any) -> Any:
     fig, (ax_x, ax_e, ax_i) = plt.subplots(3, 1, figsize=(8.0, 8.0), sharex=True,
                                            constrained_layout=True,
                                            gridspec_kw={"height_ratios": [3, 3, 2]})
-    t = f.t_s * 1e3
-    shown_x = [ax_x.plot(t, f.command, color="tab:blue", lw=1.4, label="command")[0],
-               ax_x.plot(t, np.where(f.servo_on, f.encoder, np.nan), color="tab:orange",
-                         lw=1.2, ls="--", label="encoder (servo on)")[0]]
+    # ms for a move, s for a log of minutes: the unit the engineer reads the span in
+    long_log = len(f.t_s) > 0 and f.t_s[-1] > 10.0
+    t = f.t_s * (1.0 if long_log else 1e3)
+    shown_x = [ax_x.plot(*envelope(t, f.command), color="tab:blue", lw=1.4,
+                         label="command")[0],
+               ax_x.plot(*envelope(t, np.where(f.servo_on, f.encoder, np.nan)),
+                         color="tab:orange", lw=1.2, ls="--", label="encoder (servo on)")[0]]
     ax_x.set(ylabel="position [pulses]")
-    ax_e.plot(t, f.error, color="tab:red", lw=1.2, label="command − encoder")
+    ax_x.ticklabel_format(axis="y", style="plain", useOffset=False)  # pulses, not ×1e6
+    ax_e.plot(*envelope(t, f.error), color="tab:red", lw=1.2, label="command − encoder")
     ax_e.axhline(0, color="k", lw=0.8, label="no error")
     w, end, inpos = f.worst, f.move_end, f.in_position_at
     if w is not None:
         ax_e.plot([t[w]], [f.error[w]], "o", color="tab:red", ms=6,
-                  label=f"worst {f.error[w]:+g} pulses at {t[w]:g} ms")
+                  label=f"worst {f.error[w]:+g} pulses at {f.t_s[w] * 1e3:g} ms")
     for ax in (ax_x, ax_e, ax_i):  # the same marks on every panel, named once (ax_e)
         if end is not None:
             ax.axvline(t[end], color="0.4", ls=":", lw=1.0, label="the command's end")
@@ -240,15 +244,40 @@ def following_figure(following: Any) -> Any:
             ax.axvline(t[inpos], color="tab:green", ls="-.", lw=1.0, label="in position")
         ax.grid(alpha=0.3)
     ax_e.set(ylabel="following error [pulses]")
-    shown_i = ax_i.plot(t, f.current_a, color="tab:purple", lw=1.0,
+    shown_i = ax_i.plot(*envelope(t, f.current_a), color="tab:purple", lw=1.0,
                         label="motor current (replies)")
-    ax_i.set(xlabel="time [ms]", ylabel="motor current [A]")
+    ax_i.set(xlabel="time [s]" if long_log else "time [ms]", ylabel="motor current [A]")
     settle = ("in position: not by the log's end" if inpos is None or end is None else
               f"in position {(inpos - end) * f.period_us * 1e-3:g} ms after the command's end")
     worst = "no reply follows a position" if w is None else \
-        f"worst {f.error[w]:+g} pulses at {t[w]:g} ms"
+        f"worst {f.error[w]:+g} pulses at {f.t_s[w] * 1e3:g} ms"
     ax_x.set_title(f"MC-200 following error: {worst}; {settle}")
     ax_x.legend(handles=shown_x, fontsize=8, loc="upper left")
     ax_e.legend(fontsize=8, loc="best")
     ax_i.legend(handles=shown_i, fontsize=8, loc="upper right")
     return fig
+
+
+ENVELOPE_BUCKETS = 4000  # a figure is ~1200 px wide: more points draw nothing more
+
+
+def envelope(t: np.ndarray, y: np.ndarray, buckets: int = ENVELOPE_BUCKETS
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """A long series as what a figure can show of it: per bucket of consecutive samples
+    its first time twice and its smallest and largest value, so every peak (a worst
+    following error) is still drawn; a series of ≤ 2·buckets samples unchanged. A log of
+    millions of replies draws in a second, not in minutes."""
+    n = len(y)
+    if n <= 2 * buckets:
+        return t, y
+    size = -(-n // buckets)
+    buckets = -(-n // size)  # only the last bucket is short: every one starts inside
+    pad = size * buckets - n
+    grid = np.concatenate([y.astype(float), np.full(pad, np.nan)]).reshape(buckets, size)
+    seen = ~np.isnan(grid)
+    lo = np.where(seen, grid, np.inf).min(axis=1)
+    hi = np.where(seen, grid, -np.inf).max(axis=1)
+    empty = ~seen.any(axis=1)
+    lo[empty] = hi[empty] = np.nan
+    starts = t[np.arange(buckets) * size]
+    return np.repeat(starts, 2), np.column_stack([lo, hi]).reshape(-1)

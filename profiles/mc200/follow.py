@@ -102,19 +102,19 @@ class Following:
             assert w is not None
             lines += [f"followed: replies {k[0]}–{k[-1]} (a position commanded, the servo on)",
                       f"worst: {_signed(self.error[w])} pulses at reply {w} "
-                      f"({self.ms(w):g} ms): command {_num(self.command[w])}, encoder "
+                      f"({_ms(self.ms(w))} ms): command {_num(self.command[w])}, encoder "
                       f"{self.encoder[w]}",
                       f"at the end: {_signed(self.error[-1])} pulses (command "
                       f"{_num(self.command[-1])}, encoder {self.encoder[-1]})"]
         lines += self._settling() + [f"{name.replace('_', ' ')}: {n} replies, the first "
-                                     f"{first} ({self.ms(first):g} ms)"
+                                     f"{first} ({_ms(self.ms(first))} ms)"
                                      for name, n, first in self.alarms]
         if len(k):
             lines += ["over time:", "  t [ms]  command [pulses]  encoder [pulses]  "
                       "error [pulses]  current [A]  in position"]
             for r in k[np.unique(np.linspace(0, len(k) - 1, TEXT_ROWS).round().astype(int))]:
                 settled = "yes" if self.in_position[r] else "no"
-                lines.append(f"{self.ms(r):8g}  {_num(self.command[r]):>16}  "
+                lines.append(f"{_ms(self.ms(r)):>8}  {_num(self.command[r]):>16}  "
                              f"{self.encoder[r]:>16}  {_signed(self.error[r]):>14}  "
                              f"{self.current_a[r]:>11.4g}  {settled}")
         return "\n".join(lines) + "\n"
@@ -124,12 +124,12 @@ class Following:
         if end is None:
             return []
         out = [f"the command reaches {_num(self.command[end])} pulses at reply {end} "
-               f"({self.ms(end):g} ms)"]
+               f"({_ms(self.ms(end))} ms)"]
         if at is None:
             out.append("in position: not by the log's end (the bit is clear in its last reply)")
         else:
-            out.append(f"in position: from reply {at} ({self.ms(at):g} ms), "
-                       f"{self.ms(at - end):g} ms after the command's end, to the log's end")
+            out.append(f"in position: from reply {at} ({_ms(self.ms(at))} ms), "
+                       f"{_ms(self.ms(at - end))} ms after the command's end, to the log's end")
         return out
 
     def to_json(self) -> dict[str, Any]:
@@ -159,6 +159,12 @@ class Following:
                        "in_position": self.in_position.tolist(),
                        "servo_on": self.servo_on.tolist()},
         }
+
+
+def _ms(x: float) -> str:
+    """A time in ms as the engineer reads it: up to µs, never in powers of ten (a log of
+    an hour is 3600000 ms, not 3.6e+06)."""
+    return f"{x:.3f}".rstrip("0").rstrip(".")
 
 
 def _num(x: float) -> str:
