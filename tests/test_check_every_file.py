@@ -62,6 +62,13 @@ def encoding_commands(out: Path) -> Iterator[list[str]]:
         yield ["mc200", "stream", "--vmax", "5000", "--amax", "5e4", "--jmax", "5e6",
                "--pulses", "800", "--period-us", "1000", "--format", fmt, "-o",
                f"{out}/stream.{fmt}"]
+    # the other control modes (the motor for the current's load, ruckig's move: no plan)
+    yield ["mc200", "stream", "--vmax", "5000", "--amax", "5e4", "--jmax", "5e6", "--pulses",
+           "800", "--period-us", "1000", "--mode", "velocity", "--magic", "F0F0F0F0", "--din",
+           "5", "--spi-error-reset", "-o", f"{out}/velocity.mc200.hex"]
+    yield ["mc200", "stream", "--motor", "nema17-1600", "--vmax", "5000", "--amax", "5e4",
+           "--jmax", "5e6", "--pulses", "800", "--period-us", "1000", "--mode", "current",
+           "--torque-constant-nm-per-a", "0.3", "-o", f"{out}/current.mc200.json"]
     yield ["motor", "new", *DATASHEET, "--name", "axis", "-o", f"{out}/axis.motor.json"]
 
 
@@ -131,7 +138,8 @@ def test_every_encoded_file_gets_a_verdict(tmp_path: Path,
     assert {"stream.hex", "alink.json", "axis.motor.json", "read.table.json"} <= set(verdicts)
     n = len(UPLOAD_FORMATS)
     assert len(verdicts) == 4 * n + 2 * (n - 1) + 3 + 2 * len(ALINK_FORMATS) + 1 + \
-        len(STREAM_FORMATS) + 1
+        len(STREAM_FORMATS) + 2 + 1
+    assert verdicts["velocity.mc200.hex"] == 0 and verdicts["current.mc200.json"] == 0
     # a command the unit takes from power on and the homing speeds: no finding
     assert verdicts["alink-command.hex"] == 0 and verdicts["homing.alink.txt"] == 0
     # what the chip would refuse is a verdict, never "unusable": the held 7-pulse move with
