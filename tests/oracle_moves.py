@@ -1,5 +1,5 @@
-"""Whole moves by the plain-Python oracle (tests/rotor_oracle.py), shared by the tests
-and bench/bench_safety.py: one move of a table integrated from rest until settled, its
+"""Whole moves and decel stops by the plain-Python oracle (tests/rotor_oracle.py), shared by
+the tests and bench/bench_safety.py: one move of a table integrated from rest until settled, its
 worst angle over the directions the verdict judges, and the compiled verdict's RK4 step
 counts (read from its kernel, which reports them only for its step budget)."""
 
@@ -28,6 +28,22 @@ def whole_move(table: FreeCurveTable, motor: Motor, pulses: int, direction: int 
     trace = oracle.follow(rotor, spans_of(simulate_move(table, pulses), rotor, step),
                           step_s=step, trace=oracle.Trace(record=False))
     return math.degrees(rotor.c_e * max(trace.span_max)), trace.steps
+
+
+def whole_stop(table: FreeCurveTable, motor: Motor, stage: int, dwell: int) -> float:
+    """A decel stop (profiles.ppmc312.stops: `dwell` pulses at accel stage `stage`'s rate)
+    integrated whole from rest until settled, its worst |load angle| over the directions
+    the verdict judges."""
+    from profiles.ppmc312.stops import stop_execution
+
+    worst = 0.0
+    for direction in directions(motor):
+        rotor = rotor_of(motor, direction=direction)
+        step = rotor.step_s()
+        trace = oracle.follow(rotor, spans_of(stop_execution(table, stage, dwell), rotor, step),
+                              step_s=step, trace=oracle.Trace(record=False))
+        worst = max(worst, math.degrees(rotor.c_e * max(trace.span_max)))
+    return worst
 
 
 def worst_whole_move(table: FreeCurveTable, motor: Motor, pulses: int) -> float:

@@ -26,10 +26,11 @@ __all__ = ["CheckOptions", "check_file", "dedupe", "judge_file"]
 def check_file(path: str, motor: Motor | None = None, extck_hz: float | None = None, *,
                pulses: Iterable[int] | None = None, physics: bool = True,
                samples: int = DEFAULT_SAMPLES, seed: int = 0, strict: bool = False,
-               clock: str | None = None, progress: Progress | None = None) -> FileResult:
+               clock: str | None = None, progress: Progress | None = None,
+               commands: tuple[str, ...] | None = None) -> FileResult:
     """The verdict on the file at `path` (see `CheckOptions` for the options)."""
     return judge_file(path, CheckOptions(motor, extck_hz, clock, pulses, physics, samples,
-                                         seed, strict, progress))
+                                         seed, strict, progress, commands))
 
 
 def judge_file(path: str, options: CheckOptions) -> FileResult:

@@ -20,8 +20,10 @@ DEFAULT_SAMPLES = 1000
 class CheckOptions:
     """`motor` adds the safety verdict (over every execution; `pulses`: only the moves of
     those lengths; `physics`: the load angle too; `samples`/`seed`: the tolerance box's
-    Monte Carlo; `strict`: resonance dwells are errors). `extck_hz`: the external clock of
-    EXTCK uploads; `clock`: the clock of a table-read answer (which does not carry it)."""
+    Monte Carlo; `strict`: resonance dwells are errors; `commands`: the motion commands
+    judged besides every move, names or hex codes, None: all, verify.command_verdicts).
+    `extck_hz`: the external clock of EXTCK uploads; `clock`: the clock of a table-read
+    answer (which does not carry it)."""
 
     motor: Motor | None = None
     extck_hz: float | None = None
@@ -32,3 +34,4 @@ class CheckOptions:
     seed: int = 0
     strict: bool = False
     progress: Progress | None = None
+    commands: tuple[str, ...] | None = None

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from profiles.motor import Motor
 from profiles.motor.angles import AIM_DEG, PEAK_DEG
@@ -31,6 +31,9 @@ from profiles.progress import Progress
 
 from .check_options import DEFAULT_SAMPLES
 from .findings import Finding
+
+if TYPE_CHECKING:
+    from .command_verdicts import CommandVerdict
 
 
 @dataclass(frozen=True)
@@ -81,10 +84,13 @@ class SafetyVerdict:
     #                                      are out of order: the criterion says why)
     box: Any                             # verify.tolerance_box.BoxVerdict, or None
     resonance: tuple[Finding, ...]       # resonance dwells (errors with `strict`)
+    # the motion commands' own verdicts (verify.command_verdicts), by family name
+    commands: tuple[tuple[str, CommandVerdict], ...] = ()
 
     @property
     def failed(self) -> tuple[str, ...]:
-        """The judges that fail: "criterion", "load angle", "resonance" (strict only)."""
+        """The judges that fail: "criterion", "load angle", "resonance" (strict only), and
+        each command family whose own verdict fails ("decel-stop")."""
         out = []
         if any(f.severity == "error" for f in self.criterion):
             out.append("criterion")
@@ -92,7 +98,7 @@ class SafetyVerdict:
             out.append("load angle")
         if any(f.severity == "error" for f in self.resonance):
             out.append("resonance")
-        return tuple(out)
+        return tuple(out) + tuple(name for name, v in self.commands if not v.safe)
 
     @property
     def safe(self) -> bool:
@@ -100,7 +106,9 @@ class SafetyVerdict:
 
     @property
     def within_aim(self) -> bool:
-        return self.load_angle is not None and self.load_angle.worst_deg <= self.aim_deg
+        """Every move, and every command family judged, within the aim."""
+        return (self.load_angle is not None and self.load_angle.worst_deg <= self.aim_deg
+                and all(v.within_aim for _, v in self.commands))
 
     def findings(self) -> list[Finding]:
         """The verdict as `check` reports it: the criterion's findings, `load-angle`
@@ -116,7 +124,7 @@ class SafetyVerdict:
         elif la is not None and la.worst_deg > self.aim_deg:
             out.append(Finding("warning", "load-angle-margin",
                                la.describe() + f" (stepramp plan aims at ≤ {self.aim_deg:g}°)"))
-        return out + list(self.resonance)
+        return out + list(self.resonance) + [f for _, v in self.commands for f in v.findings()]
 
     def describe(self) -> str:
         """One paragraph: the verdict, which judge fails, the worst angle."""
@@ -130,6 +138,7 @@ class SafetyVerdict:
             parts.append(self.load_angle.describe())
         if self.box is not None:
             parts.append(self.box.describe())
+        parts += [v.describe() for _, v in self.commands]
         return "; ".join(parts)
 
     def to_json(self) -> dict[str, Any]:
@@ -152,26 +161,35 @@ class SafetyVerdict:
             "criterion_findings": [f.to_json() for f in self.criterion],
             "resonance_findings": [f.to_json() for f in self.resonance],
             "tolerance_box": None if self.box is None else self.box.to_json(),
+            "commands": {name: v.to_json() for name, v in self.commands},
         }
 
 
 def judge_safety(table: FreeCurveTable | InitTable, motor: Motor, *,
                  pulses: Iterable[int] | None = None, samples: int = DEFAULT_SAMPLES,
                  seed: int = 0, aim_deg: float = AIM_DEG, strict: bool = False,
-                 load_angle: bool = True, progress: Progress | None = None) -> SafetyVerdict:
+                 load_angle: bool = True, commands: Iterable[str] | None = None,
+                 progress: Progress | None = None) -> SafetyVerdict:
     """The verdict on `table` for `motor` over every execution the chip can run with it
     (`pulses`: only the moves of those lengths). A motor with tolerances is judged over
     its box: the criterion at the box's worst case, the load angle at every corner and
     over `samples` Monte Carlo samples (`seed`). `load_angle=False` judges the criterion
-    and resonance only."""
+    and resonance only. Besides every move (82), each motion command family with a
+    verdict of its own (`verify.command_verdicts.FAMILIES`: a decel stop (81) at every
+    pulse of the ramp under every reading) is judged alike; `commands` (names or hex
+    codes of `motion.COMMANDS`; None: all) narrows them for a machine that never runs
+    the others. A decel stop may come during any move, or a continuous run (85): its
+    stops are judged over the whole ramp whatever `pulses` says."""
     from profiles.errors import FieldRangeError
     from profiles.ppmc312.init_model import as_free_curve
     from profiles.ppmc312.load_angle import worst_load_angle
 
+    from .command_verdicts import FAMILIES, judged_families
     from .resonance import resonance_findings
 
     if not 1.0 <= aim_deg <= PEAK_DEG:
         raise FieldRangeError("load angle aim [°]", aim_deg, 1, PEAK_DEG)
+    families = judged_families(commands)  # an unknown command is refused before any work
     stages = as_free_curve(table)
     moves = None if pulses is None else tuple(sorted({int(n) for n in pulses}))
     criterion = _criterion(stages, motor, moves)
@@ -191,7 +209,13 @@ def judge_safety(table: FreeCurveTable | InitTable, motor: Motor, *,
             la = LoadAngle(w.worst_angle_deg, w.worst_pulses, w.worst_direction, "nominal",
                            w.first_unstable_pulses, w.slipped, w.executions)
     resonance = resonance_findings(stages, motor, strict=strict)
-    return SafetyVerdict(moves, aim_deg, tuple(criterion), la, box, tuple(resonance))
+    ordered = not any(f.rule == "stall-order" for f in criterion)
+    verdicts = tuple((name, FAMILIES[name](stages, motor, aim_deg=aim_deg,
+                                           load_angle=load_angle, samples=samples, seed=seed,
+                                           moves=moves, progress=progress))
+                     for name in families if ordered)
+    return SafetyVerdict(moves, aim_deg, tuple(criterion), la, box, tuple(resonance),
+                         verdicts)
 
 
 def _criterion(table: FreeCurveTable, motor: Motor,

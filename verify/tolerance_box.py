@@ -11,7 +11,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,7 +20,7 @@ from profiles.motor import Motor
 from profiles.motor.angles import PEAK_DEG
 from profiles.motor.rotor import Rotors, rotors
 from profiles.motor.tolerance import clopper_pearson_upper, corners, sample_params
-from profiles.ppmc312.execution import moves
+from profiles.ppmc312.execution import MoveBatch, moves
 from profiles.ppmc312.load_angle import judge, worst_load_angles
 from profiles.ppmc312.table import FreeCurveTable
 from profiles.progress import Progress, report
@@ -119,14 +119,34 @@ def sample_peaks(table: FreeCurveTable, motor: Motor, lengths: Iterable[int], sa
     """Each sample's worst |load angle| over the moves of `lengths` (both directions when
     the box or the motor has a load torque), the move length and the direction where it
     is worst: sample i judged exactly as the motor `tolerance.samples(motor, …)[i]`."""
+    runs = moves(table, sorted({int(n) for n in lengths}))
+    peaks, which, way = batch_sample_peaks(runs, table.clock.hz, motor, samples, seed)
+    return peaks, runs.pulses[which], way
+
+
+def stop_sample_peaks(table: FreeCurveTable, motor: Motor, stops: Sequence[tuple[int, int]],
+                      samples: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """`sample_peaks` on decel stops (profiles.ppmc312.stops: (stage, dwell) each): each
+    sample's worst angle, the index into `stops` and the direction where it is worst."""
+    from profiles.ppmc312.stops import stop_batch
+
+    pairs = np.asarray(stops, dtype=np.int64).reshape(-1, 2)
+    return batch_sample_peaks(stop_batch(table, pairs[:, 0], pairs[:, 1]), table.clock.hz,
+                              motor, samples, seed)
+
+
+def batch_sample_peaks(runs: MoveBatch, hz: float, motor: Motor, samples: int, seed: int
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each Monte Carlo sample's worst |load angle| over the executions of `runs` (both
+    directions when the box or the motor has a load torque), the execution and the
+    direction where it is worst."""
     params = sample_params(motor, samples, seed)
     lo, hi = motor.tolerance("load_torque_nm")
     ways = (1, -1) if (lo or hi) else (1,)
-    runs = moves(table, sorted({int(n) for n in lengths}))
     rot = Rotors.stack([rotors(motor, params, direction=d) for d in ways])
-    lag, _ = judge(runs, table.clock.hz, rot)
+    lag, _ = judge(runs, hz, rot)
     deg = np.degrees(lag * rot.c_e).reshape(len(ways), samples, len(runs))
-    flat = deg.transpose(1, 0, 2).reshape(samples, -1)       # (samples, ways × moves)
+    flat = deg.transpose(1, 0, 2).reshape(samples, -1)       # (samples, ways × runs)
     best = np.argmax(flat, axis=1)
-    return (flat[np.arange(samples), best], runs.pulses[best % len(runs)],
+    return (flat[np.arange(samples), best], best % len(runs),
             np.asarray(ways)[best // len(runs)])

@@ -40,7 +40,7 @@ from ..remembered import Remembered
 from .criterion import StepProblem, runs_problems
 from .execution import Execution, MoveBatch, Phase, Segment
 from .init_model import as_free_curve
-from .load_angle import directions, dwell_sampling, judge, refine
+from .load_angle import directions, dwell_sampling, judge
 from .table import FreeCurveTable, InitTable
 
 READINGS = ("a", "b", "c")
@@ -53,6 +53,12 @@ READING_TEXT = {
 LOW_TEXT = ("slower than the stop rate: the chip stops at once (E0 cause bit LOW), "
             "under every reading")
 DECEL_STOP_CODE = 0x81
+# Ranges whose worst sample is this close to the worst of all are judged at every dwell
+# around it. Sampled every eighth of a natural period, a stop's peak between samples was
+# at most 1.0° above the samples' on the bundled motors' plans (bench/bench_stops.py
+# checks the sampled verdict against every dwell); the moves' 3° (load_angle.REFINE_DEG)
+# would refine most stages of a tightened table, whose stops all come near the aim.
+STOP_REFINE_DEG = 1.5
 Runs = list[tuple[Phase, int, int]]
 
 
@@ -134,6 +140,18 @@ def ramp_pulse(table: FreeCurveTable | InitTable, stage: int, pulses_into_stage:
     `stage` takes effect (the pulses of the slower stages, plus those)."""
     _, acc, _ = _sides(table)
     return int(sum(acc[stage + 1:]) + pulses_into_stage)
+
+
+def dwell_of(table: FreeCurveTable | InitTable, stage: int, pulses_into_stage: int,
+             reading: str) -> int:
+    """The pulses a stop `pulses_into_stage` into accel stage `stage` under `reading`
+    dwells at the stage's rate (`stop_runs`'s segments at that rate, together)."""
+    stop_runs(table, stage, pulses_into_stage, reading)  # refuses what is no stop
+    _, acc, dec = _sides(table)
+    if stage >= len(dec):
+        return int(pulses_into_stage)  # LOW
+    return int({"a": dec[stage] + pulses_into_stage, "b": acc[stage],
+                "c": pulses_into_stage}[reading])
 
 
 def readings_of(table: FreeCurveTable | InitTable, stage: int, dwell: int
@@ -237,27 +255,49 @@ class Dwells:
         return self.stage[f], key - self.base[f]
 
 
-def dwell_ranges(table: FreeCurveTable | InitTable) -> Dwells:
-    """Every dwell a decel stop of `table` runs, stage by stage (module docstring)."""
+def dwell_ranges(table: FreeCurveTable | InitTable, ramp_limit: int | None = None) -> Dwells:
+    """Every dwell a decel stop of `table` runs, stage by stage (module docstring); with
+    `ramp_limit`, of the stops that come at most that many pulses up the ramp (the ramp
+    the moves of some lengths run: `ramp_reach`)."""
     _, acc, dec = _sides(table)
     a = np.asarray(acc, dtype=np.int64)
     d = np.zeros(len(a), np.int64)
     shared = min(len(a), len(dec))
     d[:shared] = np.asarray(dec[:shared], dtype=np.int64)
     low = np.arange(len(a)) >= len(dec)
-    has = a > 0
-    # (c) and (b): 1..A[i]; (a): D[i] + 1..D[i] + A[i], unless LOW; joined when they touch
-    joined = low | (d <= a)
-    stage_c = np.flatnonzero(has)
-    stage_a = np.flatnonzero(has & ~joined)
-    lo = np.concatenate((np.ones(len(stage_c), np.int64), d[stage_a] + 1))
-    hi = np.concatenate((np.where(joined[stage_c], np.where(low[stage_c], 0, d[stage_c]), 0)
-                         + a[stage_c], d[stage_a] + a[stage_a]))
-    stage = np.concatenate((stage_c, stage_a))
+    before = np.concatenate((np.cumsum(a[::-1])[::-1][1:], [0]))  # ramp pulses before i
+    reach = a if ramp_limit is None else np.clip(ramp_limit - before, 0, a)  # p ≤ reach
+    has = reach > 0
+    # (c): 1..p; (b): A[i] wherever it comes; (a): D[i] + 1..D[i] + p, unless LOW
+    s_c, s_b, s_a = np.flatnonzero(has), np.flatnonzero(has & (reach < a) & ~low), \
+        np.flatnonzero(has & ~low)
+    stage = np.concatenate((s_c, s_b, s_a))
+    lo = np.concatenate((np.ones(len(s_c), np.int64), a[s_b], d[s_a] + 1))
+    hi = np.concatenate((reach[s_c], a[s_b], d[s_a] + reach[s_a]))
+    # ranges of one stage that overlap or touch are one: sorted by stage then start, a
+    # range starts a new one past the furthest end before it (stages kept apart by `gap`)
     order = np.lexsort((lo, stage))
     stage, lo, hi = stage[order], lo[order], hi[order]
+    gap = int(hi.max(initial=0)) + 2
+    reach_end = np.maximum.accumulate(hi + stage * gap)
+    new = np.ones(len(stage), bool)
+    new[1:] = lo[1:] + stage[1:] * gap > reach_end[:-1] + 1
+    heads = np.flatnonzero(new)
+    stage, lo = stage[heads], lo[heads]
+    hi = np.maximum.reduceat(hi, heads) if len(heads) else hi
     base = np.concatenate(([0], np.cumsum(hi + 1)[:-1])).astype(np.int64)
     return Dwells(stage, lo, hi, base)
+
+
+def ramp_reach(table: FreeCurveTable | InitTable, lengths: Sequence[int]) -> int:
+    """The furthest pulse of the ramp the moves of `lengths` run (their accel pulses):
+    a decel stop during one of them comes at most there."""
+    from .execution import moves
+
+    runs = moves(table, np.asarray(lengths, dtype=np.int64))
+    accel = np.where(runs.phase == 0, runs.count, 0)
+    per_move = np.add.reduceat(accel, runs.offsets[:-1]) if len(accel) else accel
+    return int(np.where(np.diff(runs.offsets) > 0, per_move, 0).max(initial=0))
 
 
 # --- the load angle over every stop of a table ------------------------------------------
@@ -325,26 +365,27 @@ _verdicts: Remembered[StopAngles] = Remembered(STOP_VERDICTS_KEPT)
 
 
 def stop_angles(table: FreeCurveTable | InitTable, motors: Sequence[Motor], *,
-                stops: Sequence[tuple[int, int]] | None = None,
+                stops: Sequence[tuple[int, int]] | None = None, ramp_limit: int | None = None,
                 max_step_s: float | None = None) -> StopAngles:
-    """The load angle of every decel stop of `table` (every pulse of the ramp, every
-    reading: sampled, then refined around the worst, as move lengths are) for every motor
-    and direction, or of the given (stage, dwell) stops. Judged through
-    `load_angle.judge` (shared prefixes and tails). The last STOP_VERDICTS_KEPT
-    every-stop verdicts are remembered by table and motor values, read-only (tightening
-    judges a table, then the safety verdict asks again)."""
+    """The load angle of every decel stop of `table` (every pulse of the ramp, or of its
+    first `ramp_limit` pulses; every reading: sampled, then refined around the worst, as
+    move lengths are) for every motor and direction, or of the given (stage, dwell)
+    stops. Judged through `load_angle.judge` (shared prefixes and tails). The last
+    STOP_VERDICTS_KEPT verdicts over every stop are remembered by table, limit and motor
+    values, read-only (tightening judges a table, then the safety verdict asks again)."""
     free = as_free_curve(table)
     if stops is not None or max_step_s is not None:
-        return _stop_angles(free, motors, stops, max_step_s)
+        return _stop_angles(free, motors, stops, ramp_limit, max_step_s)
 
     def judged() -> StopAngles:
-        found = _stop_angles(free, motors, None, None)
+        found = _stop_angles(free, motors, None, ramp_limit, None)
         for a in vars(found).values():
             if isinstance(a, np.ndarray):
                 a.flags.writeable = False
         return found
 
-    return _verdicts.get((free, tuple(m.values_key() for m in motors)), judged)[0]
+    key = (free, ramp_limit, tuple(m.values_key() for m in motors))
+    return _verdicts.get(key, judged)[0]
 
 
 def forget_stop_verdicts() -> None:
@@ -353,8 +394,8 @@ def forget_stop_verdicts() -> None:
 
 
 def _stop_angles(free: FreeCurveTable, motors: Sequence[Motor],
-                 stops: Sequence[tuple[int, int]] | None, max_step_s: float | None
-                 ) -> StopAngles:
+                 stops: Sequence[tuple[int, int]] | None, ramp_limit: int | None,
+                 max_step_s: float | None) -> StopAngles:
     owner = np.asarray([m for m, motor in enumerate(motors) for _ in directions(motor)])
     rot = Rotors.stack([rotors(motor, direction=d) for motor in motors
                         for d in directions(motor)])
@@ -371,11 +412,11 @@ def _stop_angles(free: FreeCurveTable, motors: Sequence[Motor],
         stage, dwell = pairs[:, 0], pairs[:, 1]
         lag, slipped = run(stage, dwell)
     else:
-        ranges = dwell_ranges(free)
-        keys, family, spacing = stop_samples(free, motors, ranges)
+        ranges = dwell_ranges(free, ramp_limit)
+        keys, family, _ = stop_samples(free, motors, ranges)
         stage, dwell = ranges.of_key(keys)
         lag, slipped = run(stage, dwell)
-        extra = (refine(keys, family, spacing, np.degrees(lag.max(axis=0) * rot.c_e))
+        extra = (refine_toward(keys, family, np.degrees(lag.max(axis=0) * rot.c_e))
                  if len(keys) else keys)
         if len(extra):
             more = ranges.of_key(extra)
@@ -412,16 +453,49 @@ def stop_samples(table: FreeCurveTable, motors: Sequence[Motor], ranges: Dwells
     return keys, family[first], spacing
 
 
-def stop_problems(table: FreeCurveTable | InitTable, motor: Motor) -> list[tuple[int,
-                                                                               StepProblem]]:
-    """The criterion on every decel stop's speed changes, as (stage, problem): per stage
-    one stop stands for all (a dwell is the fastest segment of its stop, so both of its
-    speed changes are judged on their neighbours' dwells, which no reading changes). A
-    LOW stop ends slower than the stop rate: allowed as the stop rate is (the move
-    verdict judges that one)."""
-    free, acc, dec = _sides(table)
+def refine_toward(keys: np.ndarray, family: np.ndarray, worst_deg: np.ndarray) -> np.ndarray:
+    """The dwells still to judge (`Dwells` keys), as `load_angle.refine` finds them for
+    move lengths, but on one side of each range's worst sample: the worst angle varies with
+    the dwell as the ringing's phase at the step down, smooth over the eighth of a period
+    between samples, so its peak lies between the worst sample and the larger of its two
+    neighbours (both sides when they are not equally far), for the ranges within
+    STOP_REFINE_DEG of the worst; and every dwell before a range's first sample past the
+    90° peak. (Half of `refine`'s dwells, on fewer ranges: after tightening, most
+    stages' stops come near the aim.)"""
+    best = float(worst_deg.max())
+    extra: list[np.ndarray] = []
+    starts = np.flatnonzero(np.diff(family, prepend=-1))
+    ends = np.append(starts[1:], len(family))
+    top = np.maximum.reduceat(worst_deg, starts)
+    wanted = (top >= best - STOP_REFINE_DEG) | (top >= PEAK_DEG)
+    for a, b in zip(starts[wanted].tolist(), ends[wanted].tolist(), strict=True):
+        w, at = worst_deg[a:b], keys[a:b]
+        k = int(np.argmax(w))
+        if w[k] >= best - STOP_REFINE_DEG:
+            left = float(w[k - 1]) if k > 0 else -np.inf
+            right = float(w[k + 1]) if k + 1 < len(w) else -np.inf
+            even = 0 < k < len(w) - 1 and at[k] - at[k - 1] == at[k + 1] - at[k]
+            lo = at[k - 1] + 1 if k > 0 and (left >= right or not even) else at[k]
+            hi = at[k + 1] - 1 if k + 1 < len(w) and (right > left or not even) else at[k]
+            extra.append(np.arange(lo, hi + 1))
+        unstable = np.flatnonzero(w >= PEAK_DEG)
+        if len(unstable) and unstable[0] > 0:
+            extra.append(np.arange(at[unstable[0] - 1] + 1, at[unstable[0]]))
+    if not extra:
+        return np.zeros(0, dtype=np.int64)
+    return np.setdiff1d(np.concatenate(extra), keys)
+
+
+def stop_problems(table: FreeCurveTable | InitTable, motor: Motor,
+                  ramp_limit: int | None = None) -> list[tuple[int, StepProblem]]:
+    """The criterion on every decel stop's speed changes (of the stops on the first
+    `ramp_limit` pulses of the ramp), as (stage, problem): per stage one stop stands for
+    all (a dwell is the fastest segment of its stop, so both of its speed changes are
+    judged on their neighbours' dwells, which no reading changes). A LOW stop ends slower
+    than the stop rate: allowed as the stop rate is (the move verdict judges that one)."""
+    free, _, dec = _sides(table)
     out: list[tuple[int, StepProblem]] = []
-    for stage in np.flatnonzero(np.asarray(acc) > 0).tolist():
+    for stage in np.unique(dwell_ranges(free, ramp_limit).stage).tolist():
         runs = stop_runs(free, stage, 1, "c")
         # the dwell as a cruise: the steps into and out of it are the trapezoid's accel
         # and decel steps, not a triangle's switch

@@ -40,6 +40,12 @@ def add_subparser(sub: Any) -> None:
     c.add_argument("--pulses", type=pulse_list, metavar="N[,M…]",
                    help="with --motor: judge only the moves of these lengths [pulses] "
                         "(default: every length 1..0xFFFFFFFF)")
+    c.add_argument("--commands", type=lambda text: tuple(text.split(",")),
+                   metavar="CODE|NAME[,…]",
+                   help="with --motor: the motion commands the machine runs, by code or name "
+                        "(82,81 or accel,decel-stop): besides every move (82), the verdict "
+                        "judges a decel stop (81) at every pulse of the ramp under every "
+                        "reading; leave out a command the machine never uses (default: all)")
     c.add_argument("--no-physics", dest="physics", action="store_false",
                    help="with --motor: skip the load-angle judge (the criterion only)")
     add_sample_options(c, "with --motor: ")
@@ -63,16 +69,22 @@ def _do_check(args: argparse.Namespace) -> int:
 
     if args.motor is None:  # options that judge with a motor are errors without one
         for option, given in (("--pulses", args.pulses is not None),
+                              ("--commands", args.commands is not None),
                               ("--no-physics", not args.physics), ("--strict", args.strict)):
             if given:
                 raise FormatError(f"{option} applies to the stall verdict: it needs --motor")
     # `is not None`: --motor '' is a wrong path, not "no motor" (the stall check would
     # silently not run and the table pass).
     motor = load_motor(args.motor) if args.motor is not None else None
+    if args.commands is not None:
+        from verify.command_verdicts import command_names
+
+        command_names(args.commands)  # an unknown one: one line, before any file is read
     with progress_bar("check over the tolerance box", unit="part") as progress:
         results = [check_file(path, motor, args.extck_hz, pulses=args.pulses,
                               physics=args.physics, samples=args.samples, seed=args.seed,
-                              strict=args.strict, clock=args.clock, progress=progress)
+                              strict=args.strict, clock=args.clock, progress=progress,
+                              commands=args.commands)
                    for path in args.files]
     write_output(args.output, render(results, args.format, verbose=args.verbose))
     if any(r.error for r in results):

@@ -279,7 +279,8 @@ def safety_findings(table: FreeCurveTable | InitTable, options: CheckOptions,
         return []
     verdict = judge_safety(stages, options.motor, pulses=options.pulses,
                            samples=options.samples, seed=options.seed, strict=options.strict,
-                           load_angle=options.physics, progress=options.progress)
+                           load_angle=options.physics, commands=options.commands,
+                           progress=options.progress)
     found = verdict.findings()
     details["safety"] = verdict.to_json()
     if not any(f.rule.startswith("load-angle") for f in found) and \
@@ -287,6 +288,9 @@ def safety_findings(table: FreeCurveTable | InitTable, options: CheckOptions,
         notes.append(verdict.load_angle.describe())
     if verdict.box is not None:
         notes.append(verdict.box.describe())
+    # a command family's verdict is a note when it has nothing to find (its findings say it)
+    notes.extend(v.describe() for _, v in verdict.commands
+                 if options.physics and not v.findings())
     return found
 
 

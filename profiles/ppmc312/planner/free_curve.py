@@ -167,13 +167,15 @@ def _plan(motor: Motor, clock: Clock, max_stages: int, pulses: int | None, kinds
 def plan_free_curve(motor: Motor, *, clock: Clock | None = None, max_stages: int = 127,
                     pulses: int | None = None, separate_decel: bool | None = None,
                     load_angle_deg: float | None = None,
-                    start_shaping: Shaping | None = None) -> Plan:
+                    start_shaping: Shaping | None = None, decel_stops: bool = True) -> Plan:
     """The stall-safe free curve that minimises the move time of `pulses` (None: the
     reference move of `reference_pulses(motor)`); separate_decel None picks LE=1 only
     when it is faster. The table passes the criterion for every move length the chip
     can run with it. With `load_angle_deg` (e.g. 75) the plan is also judged by the
     load-angle model on every execution and tightened where the rotor rings until its
-    worst angle is within that (`tightening.tighten`). A motor with `tolerances` gets one
+    worst angle is within that (`tightening.tighten`): every move and (`decel_stops`, the
+    default) a decel stop (81) at every pulse of the ramp under every reading the manual
+    leaves open (profiles.ppmc312.stops). A motor with `tolerances` gets one
     table safe over its whole box: the criterion on the box's worst-case capability
     (exact over the box, profiles.motor.tolerance), the load angle judged at every
     corner."""
@@ -208,7 +210,8 @@ def plan_free_curve(motor: Motor, *, clock: Clock | None = None, max_stages: int
         # cycle, which starts tightening from a shaping, planned it already: remembered)
         with contextlib.suppress(PlanError):
             make(planned)
-    return tighten(planned, make, load_angle_deg, judges=judges, start=start_shaping)
+    return tighten(planned, make, load_angle_deg, judges=judges, start=start_shaping,
+                   stops=decel_stops)
 
 
 def plan_baseline(motor: Motor, *, clock: Clock | None = None, max_stages: int = 127,

@@ -10,7 +10,10 @@ the aim is traced to the command's speed steps within the last natural period be
 its worst angle, and only those speed bands (`Shaping`: the capability share and the
 jump limit there, and the start speed when the jump from rest is among them) are
 planned again more gently, until every execution is within the aim. A long move then
-pays only for the bands its own ramp shares with the short moves that rang.
+pays only for the bands its own ramp shares with the short moves that rang. The
+executions are the moves' and, by default, a decel stop's (81) at every pulse of the
+ramp under every reading (profiles.ppmc312.stops): a stop that rings is traced alike
+and blames the stages just before its worst angle (where it comes and the decel below).
 
 Once within the aim, two bisections back towards the last shaping past it buy speed;
 such a step only asks within-or-not, so its plan is judged first at the move lengths
@@ -28,6 +31,7 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -35,8 +39,17 @@ from ...errors import FieldRangeError, PlanError
 from ...motor import Motor
 from ...motor.angles import PEAK_DEG
 from ...motor.rotor import Rotor, follow, rotor_of
-from ..execution import simulate_moves
+from ..execution import Execution, simulate_moves
 from ..load_angle import Angles, angles, spans_of
+from ..stops import (
+    StopAngles,
+    dwell_of,
+    locate,
+    ramp_pulse,
+    readings_of,
+    stop_angles,
+    stop_execution,
+)
 from ..table import FreeCurveTable
 from .free_curve import Plan
 from .problem import Shaping
@@ -55,10 +68,38 @@ TIGHTEN_ROUNDS = 8
 TIGHTEN_BISECT = 2
 
 
+class Judged(NamedTuple):
+    """A table's load angle over every move (`moves`) and, unless not asked, every decel
+    stop (`stops`)."""
+
+    moves: Angles
+    stops: StopAngles | None
+
+    def worst(self) -> float:
+        return max(float(self.moves.deg.max()),
+                   0.0 if self.stops is None else self.stops.worst_deg())
+
+
+class Screen(NamedTuple):
+    """Where a shaping past the aim was worst: the move lengths and the decel stops, each
+    as (pulse of the ramp, reading): where it comes, which a gentler table runs too."""
+
+    lengths: np.ndarray
+    stops: list[tuple[int, str]]
+
+
+def judged(table: FreeCurveTable, judges: Sequence[Motor], stops: bool = True) -> Judged:
+    """Every move and (`stops`) every decel stop of `table` on `judges`, both remembered:
+    the safety verdict asks again."""
+    return Judged(angles(table, judges), stop_angles(table, judges) if stops else None)
+
+
 def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
-            judges: Sequence[Motor] | None = None, start: Shaping | None = None) -> Plan:
+            judges: Sequence[Motor] | None = None, start: Shaping | None = None,
+            stops: bool = True) -> Plan:
     """Plan with `make`, judge the table's load angle over every execution on `judges`
-    (default: `motor`; a tolerance box's corners), and while some execution exceeds
+    (default: `motor`; a tolerance box's corners): every move and (`stops`) a decel stop
+    at every pulse of the ramp under every reading, and while some execution exceeds
     `load_angle_deg`, plan again more gently in the speed bands that drove it (module
     docstring). Refuses when nothing gets below the 90° peak. The plan's
     `extras["worst_load_angle_deg"]` and `extras["shaping"]` say what was reached,
@@ -77,14 +118,13 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
     shaping = start if warm and start is not None else plain
     tried: list[Plan] = []
     failed: Shaping | None = None   # the last shaping past the aim
-    failed_at = np.zeros(0, dtype=np.int64)  # the move lengths where it was worst
+    failed_at = Screen(np.zeros(0, dtype=np.int64), [])  # where it was worst
     made = [0]                                # plans tried
 
-    def attempt(shaping: Shaping, screen: np.ndarray | None = None
-                ) -> tuple[Plan, Angles] | None:
+    def attempt(shaping: Shaping, screen: Screen | None = None) -> tuple[Plan, Judged] | None:
         """The plan and its verdict; None when there is no table, or when it is past the
-        aim at one of the `screen` lengths (a relax step: only within-or-not matters, and
-        failing there spares the all-length verdict)."""
+        aim at one of the `screen` executions (a relax step: only within-or-not matters,
+        and failing there spares the every-execution verdict)."""
         made[0] += 1
         try:
             plan = make(motor, None if shaping.plain else shaping)
@@ -92,12 +132,11 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
             if not tried and shaping.plain:
                 raise  # the plain criterion has no table: nothing gentler has one either
             return None  # too gentle for the move: the bands went too far
-        if screen is not None and len(screen) and float(angles(
-                plan.table, judges, pulses=screen.tolist()).deg.max()) \
-                > load_angle_deg + SCREEN_MARGIN_DEG:
+        if screen is not None and _screened_out(plan.table, judges, screen,
+                                                load_angle_deg + SCREEN_MARGIN_DEG):
             return None
-        found = angles(plan.table, judges)  # remembered: the verdict asks again
-        plan = _annotated(plan, float(found.deg.max()), shaping, len(judges), t0)
+        found = judged(plan.table, judges, stops)  # remembered: the verdict asks again
+        plan = _annotated(plan, found.worst(), shaping, len(judges), t0, stops)
         tried.append(plan)
         return plan, found
 
@@ -124,11 +163,11 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
                         failed_at = _worst_lengths(again[1], load_angle_deg)
             return _counted(_best(tried, load_angle_deg), made[0])
         failed, failed_at = shaping, _worst_lengths(found, load_angle_deg)
-        blame = culprits(plan.table, judges, found, load_angle_deg, shaping)
+        blame = culprits(plan.table, judges, found.moves, load_angle_deg, shaping, found.stops)
         shaping = shaping.scaled({b: _factor(w, load_angle_deg) for b, w in blame.bands.items()},
                                  _factor(blame.start, load_angle_deg) if blame.start else 1.0)
     try:
-        uniform = tighten_uniform(motor, make, load_angle_deg, judges=judges)
+        uniform = tighten_uniform(motor, make, load_angle_deg, judges=judges, stops=stops)
         tried.append(uniform)
         made[0] += uniform.extras["plans"]
     except PlanError:
@@ -155,11 +194,39 @@ def _best(plans: list[Plan], aim_deg: float) -> Plan:
     return replace(best, info=best.info + f" (aim ≤ {aim_deg:g}° not reached)")
 
 
-def _worst_lengths(found: Angles, aim_deg: float) -> np.ndarray:
-    """The SCREEN move lengths furthest past the aim (the worst first)."""
-    per_move = found.deg.max(axis=0)
+def _worst_lengths(found: Judged, aim_deg: float) -> Screen:
+    """The SCREEN move lengths and the SCREEN decel stops furthest past the aim (the worst
+    first)."""
+    per_move = found.moves.deg.max(axis=0)
     over = np.flatnonzero(per_move > aim_deg)
-    return found.lengths[over[np.argsort(per_move[over])[::-1]][:SCREEN]]
+    lengths = found.moves.lengths[over[np.argsort(per_move[over])[::-1]][:SCREEN]]
+    st = found.stops
+    if st is None or not st.deg.size:
+        return Screen(lengths, [])
+    per_stop = st.deg.max(axis=0)
+    over = np.flatnonzero(per_stop > aim_deg)
+    stops = []
+    for e in over[np.argsort(per_stop[over])[::-1]][:SCREEN].tolist():
+        stage, dwell = int(st.stage[e]), int(st.dwell[e])
+        reading, p = readings_of(st.table, stage, dwell)[0]
+        p = st.table.accel_pulses[stage] if p is None else p
+        stops.append((ramp_pulse(st.table, stage, p), "c" if reading == "LOW" else reading))
+    return Screen(lengths, stops)
+
+
+def _screened_out(table: FreeCurveTable, judges: Sequence[Motor], screen: Screen,
+                  limit_deg: float) -> bool:
+    """Whether `table` is past `limit_deg` on a move or a stop of `screen` (a stop at a
+    pulse past this table's ramp is left out)."""
+    if len(screen.lengths) and float(angles(table, judges, pulses=screen.lengths.tolist())
+                                     .deg.max()) > limit_deg:
+        return True
+    pairs = []
+    for pulse, reading in screen.stops:
+        where = locate(table, pulse)
+        if where is not None:
+            pairs.append((where[0], dwell_of(table, where[0], where[1], reading)))
+    return bool(pairs) and stop_angles(table, judges, stops=pairs).worst_deg() > limit_deg
 
 
 class Blame:
@@ -175,36 +242,49 @@ class Blame:
 
 
 def culprits(table: FreeCurveTable, judges: Sequence[Motor], found: Angles, aim_deg: float,
-             shaping: Shaping) -> Blame:
-    """Trace the worst executions past the aim (at most CULPRITS move lengths, each on the
-    motor and direction where it is worst) and blame the speed bands of the command's
-    segments within WINDOW_PERIODS natural periods before the worst angle."""
+             shaping: Shaping, stops: StopAngles | None = None) -> Blame:
+    """Trace the worst executions past the aim (at most CULPRITS of the moves and the
+    decel stops `stops`, each on the motor and direction where it is worst) and blame the
+    speed bands of the command's segments within WINDOW_PERIODS natural periods before
+    the worst angle."""
     blame = Blame()
-    per_move = found.deg.max(axis=0)
-    over = np.flatnonzero(per_move > aim_deg)
-    worst = over[np.argsort(per_move[over])[::-1]][:CULPRITS].tolist()
-    runs = simulate_moves(table, [int(found.lengths[e]) for e in worst])
-    rotor_list: dict[int, Rotor] = {}  # by row of `found` (a motor and a direction)
-    for e, run in zip(worst, runs, strict=True):
-        row = int(np.argmax(found.deg[:, e]))
-        if row not in rotor_list:
-            rotor_list[row] = rotor_of(judges[int(found.owner[row])],
-                                       direction=int(found.direction[row]))
-        rotor = rotor_list[row]
-        step = rotor.step_s()
-        trace = follow(rotor, spans_of(run, rotor, step), step_s=step)
-        t_worst = float(trace.t_s[int(np.argmax(np.abs(trace.lag)))])
-        speed = float(run.speed_at(min(t_worst, run.duration_s * (1 - 1e-12))))
-        period = rotor.natural_period_s(speed)
-        since = t_worst - WINDOW_PERIODS * (period if math.isfinite(period) else 0.0)
-        deg = float(per_move[e])
-        hz = table.clock.hz
-        for seg in run.segments:
-            if seg.start_tick / hz <= t_worst and seg.end_tick / hz >= since:
-                blame.add(shaping.band(hz / seg.rate), deg)
-        if since <= 0.0:
-            blame.start = max(blame.start, deg)  # the jump from rest is in the window
+    pools = [(found.deg, found.owner, found.direction, "move")]
+    if stops is not None and stops.deg.size:
+        pools.append((stops.deg, stops.owner, stops.direction, "stop"))
+    past = [(float(deg[:, e].max()), k, e) for k, (deg, _, _, _) in enumerate(pools)
+            for e in np.flatnonzero(deg.max(axis=0) > aim_deg).tolist()]
+    worst = sorted(past, reverse=True)[:CULPRITS]
+    lengths = [int(found.lengths[e]) for _, k, e in worst if pools[k][3] == "move"]
+    moves = iter(simulate_moves(table, lengths) if lengths else [])
+    rotor_list: dict[tuple[int, int], Rotor] = {}  # by (pool, row): a motor and a direction
+    for deg, k, e in worst:
+        rows, owner, direction, kind = pools[k]
+        run = (next(moves) if kind == "move" else
+               stop_execution(table, int(stops.stage[e]), int(stops.dwell[e])))  # type: ignore[union-attr]
+        row = int(np.argmax(rows[:, e]))
+        if (k, row) not in rotor_list:
+            rotor_list[k, row] = rotor_of(judges[int(owner[row])],
+                                          direction=int(direction[row]))
+        _blame_run(blame, table, run, rotor_list[k, row], deg, shaping)
     return blame
+
+
+def _blame_run(blame: Blame, table: FreeCurveTable, run: Execution, rotor: Rotor, deg: float,
+               shaping: Shaping) -> None:
+    """Blame the bands of `run`'s segments within WINDOW_PERIODS natural periods before
+    its worst angle (`deg`), and the start when the jump from rest is in that window."""
+    step = rotor.step_s()
+    trace = follow(rotor, spans_of(run, rotor, step), step_s=step)
+    t_worst = float(trace.t_s[int(np.argmax(np.abs(trace.lag)))])
+    speed = float(run.speed_at(min(t_worst, run.duration_s * (1 - 1e-12))))
+    period = rotor.natural_period_s(speed)
+    since = t_worst - WINDOW_PERIODS * (period if math.isfinite(period) else 0.0)
+    hz = table.clock.hz
+    for seg in run.segments:
+        if seg.start_tick / hz <= t_worst and seg.end_tick / hz >= since:
+            blame.add(shaping.band(hz / seg.rate), deg)
+    if since <= 0.0:
+        blame.start = max(blame.start, deg)  # the jump from rest is in the window
 
 
 def _factor(worst_deg: float, aim_deg: float) -> float:
@@ -213,8 +293,10 @@ def _factor(worst_deg: float, aim_deg: float) -> float:
     return float(np.clip(aim_deg / worst_deg, 0.6, 0.95))
 
 
-def _annotated(plan: Plan, worst: float, shaping: Shaping, judges: int, t0: float) -> Plan:
+def _annotated(plan: Plan, worst: float, shaping: Shaping, judges: int, t0: float,
+               stops: bool) -> Plan:
     note = (f"; worst load angle {worst:.1f}° electrical over every move length"
+            + (" and every decel stop" if stops else "")
             + (f" at {judges} tolerance corners" if judges > 1 else ""))
     if not shaping.plain:
         gentler = [f"{lo:.0f}–{hi:.0f} pps ×{s:.3g}" for lo, hi, s in
@@ -229,11 +311,11 @@ def _annotated(plan: Plan, worst: float, shaping: Shaping, judges: int, t0: floa
 
 
 def tighten_uniform(motor: Motor, make: Make, load_angle_deg: float, *,
-                    judges: Sequence[Motor] | None = None) -> Plan:
+                    judges: Sequence[Motor] | None = None, stops: bool = True) -> Plan:
     """The whole table tightened alike: the safety factor, the largest jump and the start
-    speed scaled by 0.85 a round until the worst angle is within `load_angle_deg`, then
-    bisected back towards the last scale that failed (`extras["plans"]`: how many plans
-    it made)."""
+    speed scaled by 0.85 a round until the worst angle (every move and, with `stops`,
+    every decel stop) is within `load_angle_deg`, then bisected back towards the last
+    scale that failed (`extras["plans"]`: how many plans it made)."""
     _check_aim(load_angle_deg)
     t0 = time.perf_counter()
     judges = list(judges or [motor])
@@ -242,8 +324,8 @@ def tighten_uniform(motor: Motor, make: Make, load_angle_deg: float, *,
     def attempt(scale: float) -> tuple[float, Plan]:
         shaping = Shaping.uniform(scale)
         plan = make(motor, None if shaping.plain else shaping)
-        worst = float(angles(plan.table, judges).deg.max())
-        plan = _annotated(plan, worst, shaping, len(judges), t0)
+        worst = judged(plan.table, judges, stops).worst()
+        plan = _annotated(plan, worst, shaping, len(judges), t0, stops)
         tried.append(plan)
         return worst, plan
 
