@@ -50,8 +50,10 @@ def test_rows_are_the_plans_and_verdicts(local_rows: list[dict[str, Any]]) -> No
     for r, (_, obj) in zip(local_rows, catalogue(), strict=True):
         assert set(r) == set(COLUMNS) and r["error"] == ""
         from profiles.motor import Motor
+        from profiles.motor.reserve import CruiseReserve
         motor = Motor.from_json(obj)
-        plan = plan_free_curve(motor, pulses=3000)
+        # planned to the default cruise reserve's top speed, as `stepramp plan` does
+        plan = plan_free_curve(CruiseReserve().applied(motor), pulses=3000)
         assert r["move_time_s"] == plan.duration_s and r["stages"] == len(plan.table.rates)
         assert r["binds"] == plan.binds
         criterion_ok = not all_length_problems(plan.table, worst_case_motor(motor))

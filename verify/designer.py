@@ -66,6 +66,8 @@ class Settings:
     friction_torque_nm: float | None = None
     load_angle_aim_deg: float = AIM_DEG
     plan_to_aim: bool = True
+    # the torque reserve at the top speed, as `plan --cruise-reserve` takes it (no slider)
+    cruise_reserve: str = "2x,10%"
 
 
 @dataclass(frozen=True)
@@ -218,17 +220,20 @@ def loaded_motor(motor: Motor, settings: Settings) -> Motor:
 
 def design(motor: Motor, settings: Settings, *, load_angle: bool = True) -> Design:
     """Plan and judge one setting (what every slider change runs)."""
+    from profiles.motor.reserve import parse_cruise_reserve
     from verify.criterion import stall_margins
     from verify.references import exact_optimum
 
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
     loaded = loaded_motor(motor, settings)
+    reserve = parse_cruise_reserve(settings.cruise_reserve)
     clock = None if settings.clock == AUTO_CLOCK else Clock.internal(settings.clock)
     lo, hi = AIM_RANGE_DEG
     if not lo <= settings.load_angle_aim_deg <= hi:
         raise FieldRangeError("load_angle_aim_deg", settings.load_angle_aim_deg, lo, hi)
-    plan = plan_free_curve(loaded, clock=clock, max_stages=settings.max_stages,
+    # planned to the reserve's top speed (the load sliders move it), judged as loaded
+    plan = plan_free_curve(reserve.applied(loaded), clock=clock, max_stages=settings.max_stages,
                            pulses=settings.pulses, load_angle_deg=(
                                settings.load_angle_aim_deg if settings.plan_to_aim else None))
     execution = simulate_move(plan.table, settings.pulses)

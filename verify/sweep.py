@@ -63,19 +63,23 @@ class Job:
     samples: int
     seed: int
     load_angle_deg: float | None
+    cruise_reserve: str = "2x,10%"   # the torque reserve at the top speed (`plan`'s option)
 
 
 def run_job(job: Job) -> dict[str, Any]:
     """One row: the plan and both verdicts for one motor and move length. A request no
     table can meet is a row with `error` set and `safe` False, not an exception."""
     from profiles.motor import Motor
+    from profiles.motor.reserve import parse_cruise_reserve
     from profiles.ppmc312.planner import plan_free_curve
 
     row: dict[str, Any] = dict.fromkeys(COLUMNS)
     row.update(motor=job.motor, pulses=job.pulses, safe=False, error="")
     try:
         motor = Motor.from_json(job.motor_json)
-        plan = plan_free_curve(motor, pulses=job.pulses, load_angle_deg=job.load_angle_deg)
+        # planned to the reserve's top speed, judged on the motor as it is
+        plan = plan_free_curve(parse_cruise_reserve(job.cruise_reserve).applied(motor),
+                               pulses=job.pulses, load_angle_deg=job.load_angle_deg)
     except StepRampError as e:
         row["error"] = str(e)
         return row
@@ -113,11 +117,16 @@ def judge(table: Any, motor: Any, samples: int, seed: int,
 
 
 def jobs_of(motors: Sequence[tuple[str, dict[str, Any]]], pulses: Sequence[int], *,
-            samples: int, seed: int = 0, load_angle_deg: float | None = 75.0) -> list[Job]:
-    """One job per motor and move length, motors outermost. The load-angle target is
-    checked here, once: past the planner's range every job would fail alike."""
+            samples: int, seed: int = 0, load_angle_deg: float | None = 75.0,
+            cruise_reserve: str = "2x,10%") -> list[Job]:
+    """One job per motor and move length, motors outermost. The load-angle target and
+    the cruise reserve are checked here, once: past their range every job would fail
+    alike."""
+    from profiles.motor.reserve import parse_cruise_reserve
+
     check_options(load_angle_deg=load_angle_deg)
-    return [Job(name, obj, int(n), samples, seed, load_angle_deg)
+    parse_cruise_reserve(cruise_reserve)
+    return [Job(name, obj, int(n), samples, seed, load_angle_deg, cruise_reserve)
             for name, obj in motors for n in pulses]
 
 

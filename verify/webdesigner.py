@@ -15,6 +15,7 @@ the others. Panel is imported only when a page is built or served.
 
 from __future__ import annotations
 
+import dataclasses
 import html
 import io
 import signal
@@ -62,10 +63,13 @@ class DesignPage:
     the `verdict`, `summary` and `figure` panes; `result` is the latest `Design`. Setting a
     control's value from Python recomputes as moving it in the browser does."""
 
-    def __init__(self, motor: Motor, *, pulses: int = OPENING_PULSES, motor_name: str = "") -> None:
-        """`motor_name`: the short name the downloaded files carry (default: the motor's)."""
+    def __init__(self, motor: Motor, *, pulses: int = OPENING_PULSES, motor_name: str = "",
+                 cruise_reserve: str = "2x,10%") -> None:
+        """`motor_name`: the short name the downloaded files carry (default: the motor's);
+        `cruise_reserve`: the torque reserve every plan keeps at its top speed."""
         pn = require_panel()
         self.motor = motor
+        self.cruise_reserve = cruise_reserve
         self.motor_name = motor_name or motor.name or "motor"
         self.result: Design | None = None
         self.recompute_ms = 0.0
@@ -103,7 +107,9 @@ class DesignPage:
 
     @property
     def settings(self) -> Settings:
-        return settings_from({key: c.value for key, c in self.controls.items()})
+        return dataclasses.replace(settings_from({key: c.value for key, c in
+                                                  self.controls.items()}),
+                                   cruise_reserve=self.cruise_reserve)
 
     def recompute(self) -> None:
         """Replan, judge and redraw for the controls' current values (one at a time)."""
@@ -195,7 +201,8 @@ def free_port(host: str) -> int:
 
 
 def serve(motor: Motor, *, port: int, open_browser: bool, pulses: int = OPENING_PULSES,
-          motor_name: str = "", say: Callable[[str], None] = print) -> None:
+          motor_name: str = "", say: Callable[[str], None] = print,
+          cruise_reserve: str = "2x,10%") -> None:
     """Serve the designer for `motor` on 127.0.0.1:`port` (0: a free port) until Ctrl-C or
     SIGTERM; `say` is told the address once the server listens."""
     pn = require_panel()
@@ -204,8 +211,8 @@ def serve(motor: Motor, *, port: int, open_browser: bool, pulses: int = OPENING_
     host = "127.0.0.1"
     port = port or free_port(host)
     try:  # the port is taken now, so a clash is said before the seconds of warming
-        server = pn.serve({"/": lambda: DesignPage(motor, pulses=pulses,
-                                                   motor_name=motor_name).view()},
+        server = pn.serve({"/": lambda: DesignPage(motor, pulses=pulses, motor_name=motor_name,
+                                                   cruise_reserve=cruise_reserve).view()},
                           port=port, address=host, show=False, start=False,
                           title=f"stepramp design: {motor.name or motor_name}", verbose=False,
                           websocket_origin=[f"{host}:{port}", f"localhost:{port}"])

@@ -14,11 +14,12 @@ What fits the wire but breaks a chip rule (rate 1, 200 stages, a stage of
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 from ..errors import FieldRangeError, FormatError, StepRampError, echo, is_number
+from ..provenance import PlanProvenance
 from ..reading import display_path, read_json
 from .clock import Clock
 
@@ -42,6 +43,9 @@ class FreeCurveTable:
     rates: tuple[int, ...]
     accel_pulses: tuple[int, ...]
     decel_pulses: tuple[int, ...] | None = None
+    # where a planned table came from (profiles/provenance.py): informative, so two tables
+    # with the same stages are the same table whatever planned them
+    provenance: PlanProvenance | None = field(default=None, compare=False, repr=False)
 
     kind = "free_curve"
 
@@ -110,6 +114,8 @@ class FreeCurveTable:
                                "accel_pulses": list(self.accel_pulses)}
         if self.decel_pulses is not None:
             out["decel_pulses"] = list(self.decel_pulses)
+        if self.provenance is not None:
+            out["provenance"] = self.provenance.to_json()
         return out
 
 
@@ -122,6 +128,7 @@ class InitTable:
     accel_pulses: int
     stop_rate: int | None = None
     decel_pulses: int | None = None
+    provenance: PlanProvenance | None = field(default=None, compare=False, repr=False)
 
     kind = "init"
 
@@ -157,6 +164,8 @@ class InitTable:
         if self.stop_rate is not None:
             out["stop_rate"] = self.stop_rate
             out["decel_pulses"] = self.decel_pulses
+        if self.provenance is not None:
+            out["provenance"] = self.provenance.to_json()
         return out
 
 
@@ -164,9 +173,9 @@ Table = FreeCurveTable | InitTable
 
 _COMMON = {"format", "device", "kind", "clock"}
 _KEYS = {
-    "free_curve": (_COMMON | {"rates", "accel_pulses"}, {"decel_pulses"}),
+    "free_curve": (_COMMON | {"rates", "accel_pulses"}, {"decel_pulses", "provenance"}),
     "init": (_COMMON | {"shape", "start_rate", "high_rate", "accel_pulses"},
-             {"stop_rate", "decel_pulses"}),
+             {"stop_rate", "decel_pulses", "provenance"}),
 }
 
 
@@ -194,16 +203,18 @@ def table_from_json(obj: Any) -> Table:
     if missing:
         raise FormatError(f"missing key(s) for a {kind} table: {', '.join(sorted(missing))}")
     clock = Clock.from_json(obj["clock"])
+    provenance = None if "provenance" not in obj else PlanProvenance.from_json(obj["provenance"])
     if kind == "free_curve":
         decel = obj.get("decel_pulses")
         return FreeCurveTable(clock, tuple(_list(obj, "rates")), tuple(_list(obj, "accel_pulses")),
-                              None if decel is None else tuple(_list(obj, "decel_pulses")))
+                              None if decel is None else tuple(_list(obj, "decel_pulses")),
+                              provenance)
     if ("stop_rate" in obj) != ("decel_pulses" in obj):
         raise FormatError("stop_rate and decel_pulses go together (both give LE=1)")
     return InitTable(clock, obj["shape"], _int(obj, "start_rate"), _int(obj, "high_rate"),
                      _int(obj, "accel_pulses"),
                      _int(obj, "stop_rate") if "stop_rate" in obj else None,
-                     _int(obj, "decel_pulses") if "decel_pulses" in obj else None)
+                     _int(obj, "decel_pulses") if "decel_pulses" in obj else None, provenance)
 
 
 def load_table(path: str | Path) -> Table:

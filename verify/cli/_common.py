@@ -77,6 +77,41 @@ def number(text: str) -> float:
         raise argparse.ArgumentTypeError(f"{echo(text)} is not a number") from None
 
 
+def add_cruise_reserve_option(p: argparse.ArgumentParser, what: str = "plan") -> None:
+    """`--cruise-reserve`: the torque reserve a plan keeps at its top speed
+    (profiles/motor/reserve.py), parsed where it is used (the parser needs no numpy)."""
+    p.add_argument("--cruise-reserve", default="2x,10%", metavar="Nx,S%|off",
+                   help=f"{what} with this torque reserve at the top speed: the pull-out "
+                        "torque there ≥ N × what cruising needs (friction + load torque) and "
+                        "≥ S %% of the standstill pull-out torque (default 2x,10%%; 3x or 15%% "
+                        "sets one, off: none, the curve's top)")
+
+
+def cruise_reserve(args: argparse.Namespace) -> Any:
+    """The `CruiseReserve` of `--cruise-reserve` (one line naming the option when wrong)."""
+    from profiles.motor.reserve import parse_cruise_reserve
+
+    return parse_cruise_reserve(args.cruise_reserve)
+
+
+def planned_for(spec: str, motor: Any, *, pulses: tuple[int, ...] | None,
+                aim_deg: float | None, reserve: Any, moves_file: Any = None) -> Any:
+    """The `PlanProvenance` of a planned file (profiles/provenance.py): the motor as typed
+    (`spec`) and the hash of its content, the move lengths, the aim, its safety factor,
+    the cruise reserve, this version and the date (SOURCE_DATE_EPOCH when set: the
+    reproducible-builds convention, so a planned file can be rebuilt byte for byte)."""
+    import os
+    from datetime import UTC, datetime
+
+    from profiles.provenance import FileRef, PlanProvenance, content_sha256
+
+    epoch = os.environ.get("SOURCE_DATE_EPOCH", "")
+    when = datetime.fromtimestamp(int(epoch), UTC) if epoch.isdigit() else datetime.now(UTC)
+    return PlanProvenance(FileRef(spec, content_sha256(motor.to_json())), version(),
+                          when.strftime("%Y-%m-%dT%H:%M:%SZ"), pulses, moves_file, aim_deg,
+                          motor.safety_factor, reserve.spec)
+
+
 def internal_clock(text: str) -> Clock:
     """An internal PPMC-312 clock by name, any case ("8mhz")."""
     from profiles.errors import FormatError

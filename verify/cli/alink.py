@@ -8,11 +8,14 @@ from typing import Any
 
 from ._common import (
     EXIT_OK,
+    add_cruise_reserve_option,
     add_file_format_options,
     command_line,
+    cruise_reserve,
     fields_as_options,
     file_format,
     number,
+    planned_for,
     positive_int,
 )
 
@@ -39,6 +42,7 @@ def add_subparser(sub: Any) -> None:
     s.add_argument("--max-pps", type=number, default=0.0,
                    help="MAX_SPEED [pps] (0 = not set, the default)")
     s.add_argument("--s-curve", action="store_true", help="S-curve ramps (default linear)")
+    add_cruise_reserve_option(s, "with --motor: plan")
     s.add_argument("--address", type=positive_int,
                    help="slave address: adds each command's memory-map offset")
     s.add_argument("--axis", type=int, choices=(0, 1), default=0,
@@ -151,17 +155,23 @@ def _do_settings(args: argparse.Namespace) -> int:
         from profiles.motor import load_motor
         from verify.references import exact_optimum
 
+        reserve = cruise_reserve(args)
         motor = load_motor(args.motor)
         with fields_as_options({"pulses": "--pulses", "max_pps": "--max-pps"}):
-            plan = alink.plan_settings(motor, pulses=args.pulses, max_pps=args.max_pps,
-                                       s_curve=args.s_curve)
+            # the high speed is chosen from the motor's top: capped, it keeps the reserve
+            plan = alink.plan_settings(reserve.applied(motor), pulses=args.pulses,
+                                       max_pps=args.max_pps, s_curve=args.s_curve)
         settings = plan.table
         # verify judges the plan: its time against the continuous optimum
         ratio = (None if plan.duration_s is None or args.pulses is None
                  else plan.duration_s / exact_optimum(motor, args.pulses).duration_s)
         summary = {"predicted_time_s": plan.duration_s, "shape": plan.extras["shape"],
                    "ratio_to_optimum": ratio,
-                   "accel_limit_pps2": plan.extras["accel_limit_pps2"]}
+                   "accel_limit_pps2": plan.extras["accel_limit_pps2"],
+                   # what it was planned for, as a planned table carries it (JSON only)
+                   "provenance": planned_for(
+                       args.motor, motor, aim_deg=None, reserve=reserve,
+                       pulses=None if args.pulses is None else (args.pulses,)).to_json()}
         # No S-curve-vs-linear time beside it: the unit's move-time model does not depend on
         # the ramp shape (profiles.alink.model.move_time_s), so that comparison is equal by
         # construction.

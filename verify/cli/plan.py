@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 from typing import Any
 
 from profiles.motor.angles import AIM_DEG
@@ -12,9 +13,12 @@ from ._common import (
     CLOCK_NAMES,
     EXIT_FINDINGS,
     EXIT_OK,
+    add_cruise_reserve_option,
+    cruise_reserve,
     fields_as_options,
     internal_clock,
     number,
+    planned_for,
     positive_int,
     progress_bar,
 )
@@ -56,6 +60,7 @@ def add_subparser(sub: Any) -> None:
                    help="free curve: tighten the table until its worst load angle over every "
                         f"move length is at most this [°] (electrical degrees; default "
                         f"{AIM_DEG:g}; 90 is the torque peak)")
+    add_cruise_reserve_option(p)
     p.add_argument("--format", choices=("text", "json"), default="text",
                    help="the summary's format (the table itself is always JSON)")
     p.add_argument("-o", "--output", metavar="TABLE", help="write the table here (default stdout)")
@@ -84,16 +89,21 @@ def _do_plan(args: argparse.Namespace) -> int:
         if args.pulses is None:
             raise FormatError(f"--kind {args.kind} needs --pulses: an init table is chosen "
                               "for the move it runs")
+    reserve = cruise_reserve(args)
     motor = load_motor(args.motor)
+    # every planner takes its top speed from the motor: capped, they all keep the reserve
+    planned = reserve.applied(motor)
     with fields_as_options(OPTIONS):
         if args.kind != "free":
-            table, summary = _init(args, motor)
+            table, summary = _init(args, planned)
         elif args.source:
-            table, summary = _from_reference(args, motor)
+            table, summary = _from_reference(args, planned)
         elif args.moves is not None:
-            table, summary = _duty_cycle(args, motor)
+            table, summary = _duty_cycle(args, planned)
         else:
-            table, summary = _free(args, motor)
+            table, summary = _free(args, planned)
+    kept = reserve.at(motor, top_pps(table))
+    summary["cruise_reserve"] = kept.to_json()
     verdict = judge_safety(table, motor, aim_deg=min(args.load_angle, PEAK_DEG))
     if not verdict.safe:
         # never write a table that is unsafe for some move length the chip can run
@@ -101,6 +111,7 @@ def _do_plan(args: argparse.Namespace) -> int:
               f"{verdict.describe()}", file=sys.stderr)
         return EXIT_FINDINGS
     summary["safety"] = verdict.to_json()
+    table = replace(table, provenance=plan_provenance(args, motor))
     write_output(args.output, dump_table(table))
     # The table owns stdout when no -o is given; the summary then goes to stderr.
     stream = sys.stdout if args.output else sys.stderr
@@ -108,8 +119,10 @@ def _do_plan(args: argparse.Namespace) -> int:
         print(json_text(summary, indent=None), end="", file=stream)
     else:
         summary.pop("safety")
+        summary.pop("cruise_reserve")
         print(", ".join(f"{k}: {_fmt(v)}" for k, v in summary.items() if v not in (None, "")),
               file=stream)
+        print(kept.describe(), file=stream)
         print(f"verdict: {verdict.describe()}", file=stream)
     return EXIT_OK
 
@@ -260,6 +273,35 @@ def _init(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, Any]]:
                    "clock": table.clock.name, "separate_decel": table.separate,
                    "pulses": plan.pulses, "move_time_s": plan.duration_s,
                    "run": plan.extras["shape_run"], "info": plan.info}
+
+
+def plan_provenance(args: argparse.Namespace, motor: Any) -> Any:
+    """What the table was planned for (profiles/provenance.py): the motor as typed and
+    its hash, the move lengths (a mix: its lengths and its file), the aim, the safety
+    factor, the cruise reserve, this version and the date."""
+    import hashlib
+
+    from profiles.motor.angles import PEAK_DEG
+    from profiles.provenance import PULSES_LISTED_MAX, FileRef
+    from profiles.reading import display_path, read_bytes
+
+    pulses: tuple[int, ...] | None = None if args.pulses is None else (args.pulses,)
+    moves = None
+    if args.moves is not None:
+        lengths = sorted({n for n, _ in read_mix(args.moves)})
+        pulses = tuple(lengths) if len(lengths) <= PULSES_LISTED_MAX else None
+        moves = FileRef(display_path(args.moves),
+                        hashlib.sha256(read_bytes(args.moves)).hexdigest())
+    return planned_for(args.motor, motor, pulses=pulses, moves_file=moves,
+                       aim_deg=min(args.load_angle, PEAK_DEG),
+                       reserve=cruise_reserve(args))
+
+
+def top_pps(table: Any) -> float:
+    """The fastest speed a table runs [pps]: its first rate (a free curve) or its high
+    rate (an init table)."""
+    rate = table.rates[0] if table.kind == "free_curve" else table.high_rate
+    return float(table.clock.hz / rate)
 
 
 def _max_stages(args: argparse.Namespace) -> int:

@@ -12,7 +12,9 @@ from profiles.motor.angles import AIM_DEG
 from ._common import (
     EXIT_FINDINGS,
     EXIT_OK,
+    add_cruise_reserve_option,
     add_sample_options,
+    cruise_reserve,
     fields_as_options,
     number,
     positive_int,
@@ -37,6 +39,7 @@ def add_subparser(sub: Any) -> None:
     s.add_argument("--load-angle", type=number, default=AIM_DEG, metavar="DEG",
                    help="tighten each table until its worst load angle is at most this [°] "
                         f"(electrical; default {AIM_DEG:g})")
+    add_cruise_reserve_option(s, "plan each table")
     s.add_argument("--workers", type=positive_int, default=1, metavar="N",
                    help="local worker processes (default 1: in this process)")
     s.add_argument("--scheduler", metavar="ADDRESS",
@@ -80,6 +83,7 @@ def _do_sweep(args: argparse.Namespace) -> int:
     timeout_s = TIMEOUT_S if args.timeout is None else args.timeout
     with fields_as_options(OPTIONS):
         check_options(workers=args.workers, timeout_s=timeout_s, load_angle_deg=args.load_angle)
+    cruise_reserve(args)
     motors = []
     stems = [Path(p).stem for p in args.motors]
     for path, stem in zip(args.motors, stems, strict=True):
@@ -87,7 +91,7 @@ def _do_sweep(args: argparse.Namespace) -> int:
         # rows name a motor by its file's stem, by its path where two stems are the same
         motors.append((stem if stems.count(stem) == 1 else path, motor.to_json()))
     jobs = jobs_of(motors, args.pulses, samples=args.samples, seed=args.seed,
-                   load_angle_deg=args.load_angle)
+                   load_angle_deg=args.load_angle, cruise_reserve=args.cruise_reserve)
     with progress_bar("sweep", unit="job") as progress:
         rows = run_sweep(jobs, workers=args.workers, scheduler=args.scheduler,
                          timeout_s=timeout_s, progress=progress)

@@ -258,9 +258,33 @@ def table_verdict(table: FreeCurveTable | InitTable, options: CheckOptions) -> V
     from verify.chip_rules import check_table
 
     out = Verdict(check_table(table))
+    out.findings += provenance_findings(table, options, out.notes)
     if options.motor is not None:
         out.findings += safety_findings(table, options, out.notes, out.details)
     return out
+
+
+def provenance_findings(table: FreeCurveTable | InitTable, options: CheckOptions,
+                        notes: list[str]) -> list[Finding]:
+    """A planned table names the motor it was planned for (a note); judged with a motor
+    whose content differs, a `motor-mismatch` warning: its verdict is on another machine
+    (issue 32 item 4)."""
+    planned = table.provenance
+    if planned is None:
+        return []
+    notes.append(planned.describe())
+    if options.motor is None:
+        return []
+    from profiles.provenance import content_sha256
+
+    digest = content_sha256(options.motor.to_json())
+    if digest == planned.motor.sha256:
+        return []
+    judged = options.motor.name or "the --motor file"
+    return [Finding("warning", "motor-mismatch",
+                    f"planned for motor {planned.motor.short}, judged with {judged} (sha256 "
+                    f"{digest[:12]}): another motor, or the same one changed since; re-plan "
+                    "for this motor or judge with the one it was planned for")]
 
 
 def safety_findings(table: FreeCurveTable | InitTable, options: CheckOptions,
