@@ -421,3 +421,146 @@ def test_every_code_byte_is_read_as_the_manual_draws_it() -> None:
         found = command_of(code)
         assert (found[1] if found else None) == (drawn[0][1] if drawn else None), \
             (hex(code), drawn, found)
+
+
+# --- every serial motion command (§16-1…16-11, §15-5) -----------------------------------
+# TABLE runs 8 MHz / rate: rate 1000 is 8000 pps; its rates are 400 (high) … 10 000 (start).
+
+def send(chip: SerialChip, name: str, **params: object) -> bytes:
+    from profiles.ppmc312.motion import encode_command
+
+    return chip.receive(encode_command(name, to="ascii", address=ADDRESS, **params))
+
+
+def stop_report(code: int) -> bytes:
+    return encode_frame("data", ADDRESS, bytes([code]))
+
+
+def position(chip: SerialChip) -> int:
+    reply = command(chip, SERIAL_POSITION_READ.encode(encoder=0))
+    return int(POSITION_REPLY.decode(decode_frame(reply, from_slave=True).payload)["position"])
+
+
+def run_out(chip: SerialChip, clock: Clock_, report: int, step_s: float = 0.01,
+            limit_s: float = 30.0) -> None:
+    """Poll every `step_s` of emulated time until the stop report comes: it is `report`."""
+    for _ in range(int(limit_s / step_s)):
+        clock.t += step_s
+        got = poll(chip)
+        if got != BUSY:
+            assert got == stop_report(report), chip.log[-3:]
+            assert poll(chip) == READY   # the report comes once (§19-14)
+            return
+    raise AssertionError("still busy")
+
+
+@pytest.mark.parametrize(("name", "params"), [
+    ("accel", {"pulses": 3000}), ("constant", {"pulses": 200, "rate": 1000}),
+    ("step", {}), ("continuous", {"rate": 0}), ("continuous-constant", {"rate": 2000}),
+    ("origin-search", {"rate": 1000}), ("origin-return", {"rate": 0}),
+])
+def test_every_start_command_is_taken_then_runs_busy(chip: SerialChip, clock: Clock_,
+                                                     name: str, params: dict[str, int]) -> None:
+    init(chip, clock)
+    assert send(chip, name, **params) == READY
+    assert poll(chip) == BUSY
+    assert send(chip, name, **params) == special(0x43)     # a start while moving (§19-5)
+    assert chip.log[-1].startswith("refused 0x43:") and "during pulse output" in chip.log[-1]
+    assert send(chip, "stop") == READY
+    assert poll(chip) == stop_report(0x37)
+
+
+def test_a_constant_run_advances_the_position_by_its_pulses(chip: SerialChip,
+                                                           clock: Clock_) -> None:
+    init(chip, clock)
+    assert send(chip, "constant", rate=1000, pulses=500, ccw=True) == READY
+    clock.t += 400e-6 + 250 / 8000   # §8-4's 400 µs, then 250 pulses at 8000 pps
+    assert poll(chip) == BUSY and position(chip) == (-250) % (1 << 32)
+    run_out(chip, clock, 0x38)
+    assert position(chip) == (-500) % (1 << 32)
+    assert send(chip, "constant", rate=1000, pulses=500) == READY   # taken again at rest
+    run_out(chip, clock, 0x38)
+    assert position(chip) == 0
+
+
+def test_a_continuous_run_runs_until_a_decel_stop(chip: SerialChip, clock: Clock_) -> None:
+    init(chip, clock)
+    assert send(chip, "continuous", rate=0) == READY
+    for _ in range(5):
+        clock.t += 1.0
+        assert poll(chip) == BUSY
+    before = position(chip)
+    assert before > 5 * 8000        # past the ramp, at the high rate (20 000 pps)
+    assert send(chip, "decel-stop") == READY
+    assert send(chip, "decel-stop") == READY          # ignored while decelerating (§8-2)
+    assert "already stopping" in chip.log[-1]
+    run_out(chip, clock, 0x36)
+    assert position(chip) > before
+
+
+def test_speed_changes_run_only_during_a_motion(chip: SerialChip, clock: Clock_) -> None:
+    init(chip, clock)
+    for name in ("change-speed", "set-speed"):
+        assert send(chip, name, rate=1000) == special(0x43)
+        assert "no pulse output" in chip.log[-1]
+    assert send(chip, "continuous-constant", rate=2000) == READY
+    clock.t += 0.1
+    assert send(chip, "set-speed", rate=1000) == READY   # 4000 → 8000 pps at once
+    clock.t += 0.1
+    at = position(chip)
+    clock.t += 0.1
+    assert position(chip) - at == 800
+    assert send(chip, "change-speed", rate=500) == READY
+    assert send(chip, "stop") == READY
+    assert poll(chip) == stop_report(0x37)
+
+
+@pytest.mark.parametrize(("name", "params"), [
+    ("constant", {"rate": 300, "pulses": 10}), ("constant", {"rate": 10_001, "pulses": 10}),
+    ("continuous", {"rate": 399}), ("continuous-constant", {"rate": 20_000}),
+    ("origin-search", {"rate": 10_001}), ("accel", {"pulses": 10, "rate": 300}),
+])
+def test_a_rate_outside_the_table_is_a_parameter_error(chip: SerialChip, clock: Clock_,
+                                                       name: str, params: dict[str, int]
+                                                       ) -> None:
+    init(chip, clock)
+    assert send(chip, name, **params) == special(0x42)
+    assert chip.log[-1].startswith("refused 0x42:") and chip.log[-1].endswith("(§11-6 0x20)")
+    assert poll(chip) == READY
+    assert command(chip, SERIAL_ERROR_CODE_READ.encode()) == encode_frame(
+        "ready", ADDRESS, bytes([0x42]))
+
+
+def test_a_speed_change_outside_the_table_is_a_parameter_error(chip: SerialChip,
+                                                               clock: Clock_) -> None:
+    init(chip, clock)
+    assert send(chip, "continuous-constant", rate=2000) == READY
+    assert send(chip, "change-speed", rate=200) == special(0x42)
+    assert chip.log[-1].endswith("(§11-6 0x20)")
+    assert poll(chip) == BUSY
+
+
+@pytest.mark.parametrize(("name", "rate"), [("origin-search", 1000), ("origin-return", 0)])
+@pytest.mark.parametrize("ccw", [False, True])
+def test_origin_search_and_return_stop_on_org(clock: Clock_, name: str, rate: int,
+                                              ccw: bool) -> None:
+    chip = SerialChip(ADDRESS, clock_s=clock, origin_at=5000)
+    init(chip, clock)
+    if ccw:  # /ORG lies the way the search runs
+        assert command(chip, SERIAL_POSITION_SET.encode(encoder=0, position=9000)) == READY
+    assert send(chip, name, rate=rate, ccw=ccw) == READY
+    run_out(chip, clock, 0x32)
+    assert position(chip) == 5000
+    assert send(chip, name, rate=rate) == READY    # on /ORG: found before a pulse
+    assert poll(chip) == stop_report(0x32) and position(chip) == 5000
+
+
+def test_a_step_outputs_one_pulse_and_05_is_taken_at_rest(chip: SerialChip,
+                                                          clock: Clock_) -> None:
+    init(chip, clock)
+    assert send(chip, "high-speed-limit", rate=1000) == READY and chip.limit_rate == 1000
+    assert send(chip, "step", ccw=True) == READY
+    run_out(chip, clock, 0x38, step_s=0.001)
+    assert position(chip) == 0xFFFFFFFF
+    assert send(chip, "continuous", rate=0) == READY
+    assert send(chip, "high-speed-limit", rate=1000) == special(0x43)

@@ -532,3 +532,61 @@ class _Run:
             rate = out[-1].rate if out else m.done[-1].rate
             out += self.stairs.walk_down(rate, m.total - m.decel_at, m.command)
         return out
+
+
+class LiveMotion:
+    """One motion as a chip runs it while commands come (the serial emulator,
+    `serial_chip.SerialChip`): `start` starts it; `issue` takes a command during it, `at`
+    the pulses output by then; `origin` is /ORG found. The same model as `run_program`;
+    a command it would refuse raises `MotionRefused`. `pieces` ends with a cruise of
+    FOREVER pulses while the motion runs until something stops it."""
+
+    def __init__(self, table: FreeCurveTable | InitTable, start: ProgramCommand, *,
+                 reading: str = "a") -> None:
+        if start.name not in STARTS:
+            raise FormatError(f"{start.title} does not start a motion")
+        self._run = _Run(Stairs(table), reading)
+        # Started without its /ORG: the caller says when the search finds it (`origin`).
+        self._run.now = self._run.start(0, dataclasses.replace(start, at=None))
+        self._count = 1
+        self.start = start
+
+    @property
+    def _motion(self) -> _Motion:
+        m = self._run.now
+        assert m is not None
+        return m
+
+    @property
+    def pieces(self) -> tuple[Piece, ...]:
+        m = self._motion
+        return tuple(p for p in (*m.done, *m.plan) if p.pulses != 0)
+
+    @property
+    def stopping(self) -> bool:
+        """A stop (80, 81, /ORG) is under way: nothing but its end comes next."""
+        return self._motion.stopping is not None
+
+    @property
+    def cause(self) -> str:
+        """E0's cause (CAUSES) the motion ends with, as things stand."""
+        return self._motion.cause
+
+    def issue(self, c: ProgramCommand) -> list[str]:
+        """Command `c` (stop, decel-stop, change-speed, set-speed) at `c.at` pulses; the
+        notes it leaves (a decel stop ignored while decelerating, §8-2)."""
+        seen = len(self._run.notes)
+        try:
+            self._run.during(self._count, c)
+        except _Refused as e:
+            raise MotionRefused(str(e)) from None
+        self._count += 1
+        return self._run.notes[seen:]
+
+    def origin(self, at: int) -> None:
+        """/ORG found after `at` pulses (§8-10: stop at once; §8-11: decel, then back)."""
+        self._run.origin(0, at, self.start.name == "origin-return")
+
+
+class MotionRefused(FormatError):
+    """A command the running motion does not take where it stands (one line)."""

@@ -8,13 +8,19 @@ chip models:
   from the command code (`command_size`, every §15–18 command);
 - the checksum of every frame, and the error counter the master reads with
   command 4C (framing, overrun and checksum errors);
-- init (§15-1), accel/decel move (§16-3, timed by `execution.simulate_move`; refused
-  with the state error B0 43 inside the window after an init, `timing.motion_window`),
-  immediate stop (§16-1), position read/set (§18-1/2: the 32-bit counter, 0…0xFFFFFFFF,
+- init (§15-1); every motion command of `motion.COMMANDS` that starts at once (§16-1…
+  §16-11, §15-5), run in emulated time by the model of `command_runs` (serial_motion.py:
+  82 timed as `execution.simulate_move` times it; a start refused with the state error
+  B0 43 while a motion runs, with no table or inside the window after an init,
+  `timing.motion_window`; a speed change with nothing running B0 43; a rate outside the
+  table's B0 42, §11-6's 0x20 named in the log; an origin search or return meets /ORG at
+  `origin_at`), position read/set (§18-1/2: the 32-bit counter, 0…0xFFFFFFFF,
   wrapping past 0 and past 0xFFFFFFFF, §2-1.6), end status (§18-6),
   error code (§18-10), error count (§18-11), and polls (§19): busy while the
-  simulated move runs, then once the stop report (A0 + end code), then ready.
-Documented commands outside that list are answered with the command error
+  simulated motion runs, then once the stop report (A0 + end code: 38 its pulses done,
+  37 stop, 36 decel stop, 32 /ORG, 39 nothing slower to decelerate along), then ready.
+Documented commands outside that list (the override and event forms of 80, 81, 87, 88
+among them) are answered with the command error
 (B0 47, "not modelled"); no part of the chip is faked.
 
 Our readings where the manual is silent (docs/manual-notes.md, "Serial link"):
@@ -41,7 +47,6 @@ import threading
 import time
 import tty
 from collections.abc import Callable
-from dataclasses import dataclass
 
 from serial.urlhandler import protocol_loop
 
@@ -56,7 +61,6 @@ from .ascii import (
     POSITION_MODULUS,
     POSITION_REPLY,
     SERIAL_INIT,
-    SERIAL_MOVE,
     SERIAL_POSITION_READ,
     SERIAL_POSITION_SET,
     SPECIAL_REPLY,
@@ -64,8 +68,10 @@ from .ascii import (
     encode_frame,
 )
 from .clock import Clock
-from .execution import Execution, simulate_move
+from .command_runs import MotionRefused, ProgramCommand
 from .init_model import init_stage_problem
+from .motion import NOW, Command, read_fields, serial_form
+from .serial_motion import ChipRefusal, Running, rate_problem, start_motion
 from .table import InitTable
 from .timing import Window, motion_window, ms
 
@@ -124,7 +130,7 @@ COMMANDS: tuple[tuple[str, int, int, int], ...] = (
 )
 
 PARAMETER_ERROR, STATE_ERROR, COMMAND_ERROR = 0x42, 0x43, 0x47
-END_NORMAL, END_IMMEDIATE_STOP = 0x38, 0x37
+END_IMMEDIATE_STOP, END_ORIGIN = 0x37, 0x32
 COUNT_MAX = 0xFFFF
 _HEX = frozenset(string.hexdigits.encode())
 
@@ -137,31 +143,18 @@ def command_of(code: int) -> tuple[str, int] | None:
     return None
 
 
-@dataclass
-class _Move:
-    execution: Execution
-    start_s: float        # when the first pulse period starts (after the latency)
-    sign: int             # +1 CW, −1 CCW
-    origin: int           # position counter when the move started
-
-    def pulses_at(self, now_s: float) -> int:
-        return int(self.execution.position_at(max(0.0, now_s - self.start_s)))
-
-    def counter(self, pulses: int) -> int:
-        """The position counter after `pulses` of this move: modulo 2³² (§2-1.6)."""
-        return (self.origin + self.sign * pulses) % POSITION_MODULUS
-
-    def done_at(self, now_s: float) -> bool:
-        return now_s - self.start_s >= self.execution.duration_s
-
-
 class SerialChip:
     """One PPMC-312 slave at `address` (0–15). `clock_s` gives the time in seconds
-    (time.monotonic by default; tests pass their own)."""
+    (time.monotonic by default; tests pass their own). `origin_at`: the position counter
+    value where /ORG is low, met by an origin search or return (None: nowhere, so they
+    run until stopped)."""
 
     def __init__(self, address: int, *, clock_s: Callable[[], float] = time.monotonic,
-                 extck_hz: float | None = None) -> None:
+                 extck_hz: float | None = None, origin_at: int | None = None) -> None:
         self.address = require_int("address", address, 0, MAX_ADDRESS)
+        self.origin_at = None if origin_at is None else \
+            require_int("origin_at", origin_at, 0, POSITION_MODULUS - 1)
+        self.limit_rate: int | None = None  # the high-speed limit's rate (05), once set
         self._now = clock_s
         self._extck_hz = extck_hz
         self.table: InitTable | None = None
@@ -172,7 +165,7 @@ class SerialChip:
         self.end_code = 0x00          # §18-6: why the last pulse output stopped
         self.log: list[str] = []      # one line per frame handled, for a console
         self._position = 0
-        self._move: _Move | None = None
+        self._move: Running | None = None
         # The last init taken: when (clock_s time) and the window that followed it.
         self._init_at: tuple[float, Window] | None = None
         self._report: int | None = None   # the stop report the next poll carries
@@ -198,15 +191,16 @@ class SerialChip:
         self._settle()
         if self._move is None:
             return self._position
-        return self._move.counter(self._move.pulses_at(self._now()))
+        return self._move.counter(self._now())
 
     def _settle(self) -> None:
-        """Finish a move whose last pulse is out: the counter holds, the report waits."""
-        move = self._move
-        if move is not None and move.done_at(self._now()):
-            self._position = move.counter(move.execution.pulses)
+        """Meet /ORG when a search reaches it; finish a motion whose last pulse is out:
+        the counter holds, the report waits."""
+        move, now = self._move, self._now()
+        if move is not None and move.settle(now):
+            self._position = move.counter(now)
             self._move = None
-            self.end_code = self._report = END_NORMAL
+            self.end_code = self._report = move.end_code
 
     # --- the byte stream ---------------------------------------------------------------
     def receive(self, data: bytes) -> bytes:
@@ -290,6 +284,9 @@ class SerialChip:
 
     def _command(self, payload: bytes) -> bytes:
         code = payload[0]
+        found = serial_form(payload)
+        if found is not None and found[1] == NOW and found[0].name != "stop":
+            return self._motion(found[0], payload)
         name, _ = command_of(code) or ("?", 0)
         handler = _HANDLERS.get(name)
         if handler is None:
@@ -330,26 +327,82 @@ class SerialChip:
         return self._ready(f"init: {table.shape}, start {table.start_rate}, high "
                            f"{table.high_rate}, {table.accel_pulses} pulses")
 
-    def _accel_move(self, payload: bytes) -> bytes:
+    def _motion(self, command: Command, payload: bytes) -> bytes:
+        """Every motion command that starts at once (§16, §15-5), but 80 (`_stop`)."""
+        fields = read_fields(command.serial[NOW], payload)
+        try:
+            if command.name == "high-speed-limit":
+                return self._limit(command, fields)
+            if command.name in ("decel-stop", "change-speed", "set-speed"):
+                return self._during(command, fields)
+            return self._start(command, fields)
+        except ChipRefusal as refusal:
+            detail = "" if refusal.detail is None else f" (§11-6 0x{refusal.detail:02X})"
+            return self._refuse(refusal.code, f"{refusal}{detail}")
+
+    def _start(self, command: Command, fields: dict[str, int]) -> bytes:
+        what = "move" if command.name == "accel" else command.label  # 82: the link's word
         if self.busy:
-            return self._refuse(STATE_ERROR, "move during pulse output")
+            raise ChipRefusal(STATE_ERROR, f"{what} during pulse output")
         if self.table is None:
-            return self._refuse(STATE_ERROR, "move with no table (send init first)")
+            raise ChipRefusal(STATE_ERROR, f"{what} with no table (send init first)")
         early = self._too_early()
         if early is not None:
-            return self._refuse(STATE_ERROR, f"move {early}")
+            raise ChipRefusal(STATE_ERROR, f"{what} {early}")
         try:
-            f = SERIAL_MOVE.decode(payload)
-            execution = simulate_move(self.table, f["pulses"], high_rate=f["high_rate"])
-        except StepRampError as e:
-            return self._refuse(PARAMETER_ERROR, f"move: {e}")
-        now = self._now()
-        sign = -1 if f["dir"] else 1
-        self._move = _Move(execution, now + execution.first_pulse_latency_s, sign,
-                           self._position)
-        self._report = None
-        return self._ready(f"move: {f['pulses']} pulses {'CCW' if f['dir'] else 'CW'}, "
-                           f"{execution.duration_s:.6f} s")
+            move = start_motion(command, fields, self.table, now_s=self._now(),
+                                position=self._position, origin_at=self.origin_at)
+        except StepRampError as e:  # 82's high rate, as `simulate_move` checks it
+            raise ChipRefusal(PARAMETER_ERROR, f"{what}: {e}", 0x20) from None
+        way = "CCW" if fields.get("dir") else "CW"
+        if move is None:  # §8-10: /ORG is low where it starts: found before a pulse
+            self.end_code = self._report = END_ORIGIN
+            return self._ready(f"{what}: {way}, on /ORG at {self._position}: stopped")
+        self._move, self._report = move, None
+        pulses = f"{fields['pulses']} pulses " if "pulses" in fields else ""
+        rate = f", rate {fields[command.rate_field]}" if command.rate is not None else ""
+        return self._ready(f"{what}: {pulses}{way}{rate}")
+
+    def _during(self, command: Command, fields: dict[str, int]) -> bytes:
+        """81, 87, 88 during a motion; a decel stop at rest stops nothing (as 80)."""
+        what, move = command.label, self._move if self.busy else None
+        rate = fields.get("rate", 0)
+        if move is None:
+            if command.name == "decel-stop":
+                return self._ready(f"{what}: no pulse output")
+            raise ChipRefusal(STATE_ERROR, f"{what} with no pulse output (§8-8: it changes "
+                                           "the rate of the pulses being output)")
+        if command.rate is not None:
+            assert self.table is not None
+            why = rate_problem(command, rate, self.table)
+            if why is not None:
+                raise ChipRefusal(PARAMETER_ERROR, f"{what}: {why}", 0x20)
+        out, _ = move.output(self._now())
+        at, end = max(out, 1), move.end  # before the first pulse: with it
+        decel = command.name == "decel-stop"
+        if end is not None and at >= end:
+            if decel:
+                return self._ready(f"{what}: ignored, the motion ends with pulse {end}")
+            raise ChipRefusal(STATE_ERROR, f"{what}: the motion ends with pulse {end}")
+        if decel and move.live.stopping:
+            return self._ready(f"{what}: ignored, the motion is already stopping (§8-2)")
+        try:
+            notes = move.live.issue(ProgramCommand(command.name, rate=rate, at=at))
+        except MotionRefused as e:
+            raise ChipRefusal(STATE_ERROR, f"{what} at pulse {at}: {e}") from None
+        move.refresh()
+        return self._ready("; ".join([f"{what}: at pulse {at}", *notes]))
+
+    def _limit(self, command: Command, fields: dict[str, int]) -> bytes:
+        """05 (§15-5, §7-6): taken at rest only (as every setting); kept, since no
+        /FHL, /BHL input is modelled."""
+        if self.busy:
+            raise ChipRefusal(STATE_ERROR, f"{command.label} during pulse output")
+        why = rate_problem(command, fields["rate"], self.table)  # its figure's range only
+        if why is not None:
+            raise ChipRefusal(PARAMETER_ERROR, f"{command.label}: {why}", 0x20)
+        self.limit_rate = fields["rate"]
+        return self._ready(f"{command.label}: rate {self.limit_rate}")
 
     def _too_early(self) -> str | None:
         """Why a motion command now comes too early (inside the window after the last
@@ -399,7 +452,6 @@ class SerialChip:
 
 _HANDLERS: dict[str, Callable[[SerialChip, bytes], bytes]] = {
     "init": SerialChip._init,
-    "accel/decel move": SerialChip._accel_move,
     "immediate stop": SerialChip._stop,
     "position read": SerialChip._position_read,
     "position set": SerialChip._position_set,
