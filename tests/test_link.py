@@ -677,3 +677,133 @@ def test_cli_emulate_serves_a_pty_until_sigterm(tmp_path: Path,
         code = proc.wait(timeout=10)
     assert code == 0
     assert not link_path.exists()
+
+
+# --- every serial motion command through the link (§16, the emulator's model) ---------------
+
+def motion_link(fake: FakeTime, origin_at: int | None = None, on_reply: Any = None
+                ) -> tuple[SerialChip, Link]:
+    chip = SerialChip(ADDRESS, clock_s=fake.now, origin_at=origin_at)
+    link = Link(LoopSerial(chip), ADDRESS, clock_s=fake.now, sleep_s=fake.sleep,
+                on_reply=on_reply)
+    link.init(TABLE)
+    return chip, link
+
+
+def poll_until_stopped(link: Link, fake: FakeTime, step_s: float = 0.05) -> Any:
+    for _ in range(2000):
+        fake.t += step_s
+        reply = link.poll()
+        if reply.state != "busy":
+            return reply
+    raise AssertionError("still busy")
+
+
+@pytest.mark.parametrize(("name", "params"), [
+    ("accel", {"pulses": 3000}), ("constant", {"pulses": 200, "rate": 1000}),
+    ("step", {"ccw": True}), ("continuous", {}), ("continuous-constant", {"rate": 2000}),
+    ("origin-search", {"rate": 1000, "index": True}), ("origin-return", {"rate": 0}),
+])
+def test_every_start_command_is_sent_answered_and_stopped(name: str, params: dict[str, Any]
+                                                          ) -> None:
+    fake = FakeTime()
+    heard: list[Exchange] = []
+    _, link = motion_link(fake, on_reply=heard.append)
+    link.motion(name, **params)     # waits out the window after the init (§7-1)
+    assert heard[-1].what == name and heard[-1].reply_to == "command"
+    assert fake.slept == [pytest.approx(0.115, abs=1e-12)]
+    assert link.poll().state == "busy" or name == "step"
+    link.motion("stop")
+    reply = poll_until_stopped(link, fake)
+    assert reply.state == "stopped" and reply.code in (0x37, 0x38)
+
+
+def test_a_constant_run_then_poll_until_stopped_advances_by_its_pulses() -> None:
+    fake = FakeTime()
+    _, link = motion_link(fake)
+    link.motion("constant", rate=1000, pulses=4000)   # 8000 pps: half a second
+    assert poll_until_stopped(link, fake, 0.1) == PollReply(
+        "stopped", 0x38, "normal stop at the commanded position")
+    assert link.position() == 4000
+    link.motion("constant", rate=1000, pulses=1000, ccw=True)
+    poll_until_stopped(link, fake)
+    assert link.position() == 3000
+
+
+def test_continuous_then_decel_stop_and_the_speed_changes_while_it_runs() -> None:
+    fake = FakeTime()
+    _, link = motion_link(fake)
+    link.motion("continuous", rate=0)
+    fake.t += 2.0
+    assert link.poll().state == "busy"
+    link.motion("change-speed", rate=1000)
+    link.motion("set-speed", rate=800)
+    fake.t += 1.0
+    at = link.position()
+    link.motion("decel-stop")
+    assert poll_until_stopped(link, fake).code == 0x36
+    assert link.position() > at
+
+
+def test_the_chips_refusals_name_the_command() -> None:
+    fake = FakeTime()
+    chip, link = motion_link(fake)
+    link.wait_until_motion_accepted()
+    with pytest.raises(ChipRefused, match=r"^slave 5: change-speed: the chip refused it: "
+                                          r"state error \(B5 43\)$"):
+        link.motion("change-speed", rate=1000)
+    with pytest.raises(ChipRefused, match=r"^slave 5: constant: the chip refused it: "
+                                          r"parameter error \(B5 42\)$") as refused:
+        link.motion("constant", rate=300, pulses=10)   # the table's rates: 400..10 000
+    assert refused.value.code == 0x42
+    assert chip.log[-1] == ("refused 0x42: constant (83): rate 300 is not within the "
+                            "rates of the table it holds (400..10000) (§11-6 0x20)")
+
+
+def test_origin_search_meets_org_where_the_emulator_puts_it() -> None:
+    fake = FakeTime()
+    _, link = motion_link(fake, origin_at=1500)
+    link.motion("origin-search", rate=1000)
+    assert poll_until_stopped(link, fake) == PollReply("stopped", 0x32,
+                                                       "stopped at the origin input")
+    assert link.position() == 1500
+
+
+def test_cli_link_move_sends_any_motion_command(capsys: pytest.CaptureFixture[str]) -> None:
+    from unittest import mock
+
+    fake = FakeTime()
+    chip = SerialChip(ADDRESS, clock_s=fake.now)
+    chip.table = TABLE   # as if an init had gone long ago
+    base = ["link", "--port", "loop://", "--address", str(ADDRESS)]
+    opened: list[Any] = []
+
+    class LoopLink(Link):
+        def __init__(self, port: Any, address: int, **kw: Any) -> None:
+            super().__init__(LoopSerial(chip), address, **kw)
+            opened.append(self)
+
+    with mock.patch("profiles.ppmc312.link.Link", LoopLink):
+        assert run_cli([*base, "move", "--command", "continuous-constant", "--rate", "2000",
+                        "--ccw"], capsys) == (
+            0, "slave 5: continuous-constant (86) started: rate 2000, CCW\n", "")
+        assert run_cli([*base, "move", "--command", "decel-stop"], capsys) == (
+            0, "slave 5: decel-stop (81) taken\n", "")
+        code, out, err = run_cli([*base, "move", "--command", "set-speed", "--rate", "500"],
+                                 capsys)
+        assert (code, out) == (1, "")
+        assert err == ("stepramp link: slave 5: set-speed: the chip refused it: state error "
+                       "(B5 43)\n")
+        code, out, err = run_cli([*base, "-v", "move", "--command", "change-speed",
+                                  "--rate", "500"], capsys)
+        assert code == 1 and "  reply B5 34 33 " in out and "state error" in out
+        # an unusable request: refused before the port is opened, one line, exit 2
+        n = len(opened)
+        for argv, message in (
+                (["--command", "origin-search"], "the following arguments are required by "
+                 "--command origin-search: --rate (see stepramp link move --help)"),
+                (["--command", "stop", "--rate", "3"], "--rate: stop (80) does not take it"),
+                (["--command", "constant", "--pulses", "5", "--rate", "1"], "--rate: 1 ")):
+            code, out, err = run_cli([*base, "move", *argv], capsys)
+            assert (code, out) == (2, "") and message in err and err.count("\n") == 1, err
+        assert len(opened) == n

@@ -73,6 +73,8 @@ from .ascii import (
     encode_serial_init,
     encode_serial_move,
 )
+from .command_runs import STARTS  # the commands that start pulse output
+from .motion import COMMANDS, command_named, encode_command
 from .table import FreeCurveTable, InitTable
 from .timing import Window, motion_window, ms
 
@@ -90,7 +92,7 @@ END_STATUS = {"data": 1, "special": 1}
 # its keys): a data reply carries no code, so its reader needs the command.
 REPLY_TO = {"init": "command", "move": "command", "stop": "command", "poll": "poll",
             "position": "position", "end status": "end-status", "error count": "error-count",
-            "error code": "error-code"}
+            "error code": "error-code", **{name: "command" for name in COMMANDS}}
 
 
 class SerialPort(Protocol):
@@ -235,6 +237,22 @@ class Link:
         before = self.position()
         self.wait_until_motion_accepted()
         self._command(frame, "move", lost=lambda: self._move_started(before))
+        self._move_running = True
+
+    def motion(self, name: str, **params: Any) -> None:
+        """Send the motion command `name` of `motion.COMMANDS` with `params` (its §16 frame,
+        started at once: the serial forms with a position or an event are not sent here).
+        A start waits out the window after an init and, its reply lost, is resent only
+        when it did not start (as `move`); a stop or a speed change is never delayed and
+        resent as it is (taking it twice does what taking it once does)."""
+        command = command_named(name)
+        frame = encode_command(command.name, to="ascii", address=self.address, **params)
+        if command.name not in STARTS:
+            self._command(frame, command.name)
+            return
+        before = self.position()
+        self.wait_until_motion_accepted()
+        self._command(frame, command.name, lost=lambda: self._move_started(before))
         self._move_running = True
 
     def stop(self) -> None:

@@ -68,7 +68,7 @@ def rate_problem(command: Command, rate: int, table: InitTable | None) -> str | 
     if command.name == "origin-search":
         hi = min(stairs.start_rate, stairs.stop_rate)
     if not lo <= rate <= hi:
-        return f"rate {rate} is outside {allowed.table} ({lo}..{hi})"
+        return f"rate {rate} is not {allowed.table} ({lo}..{hi})"
     return None
 
 

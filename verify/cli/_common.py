@@ -49,15 +49,6 @@ def positive_int(text: str) -> int:
     return value
 
 
-def add_move_options(p: argparse.ArgumentParser) -> None:
-    """The accel/decel move command's own options (82): `move` and `link move` share them."""
-    p.add_argument("--pulses", type=positive_int, required=True,
-                   help="move length [pulses], 1..0xFFFFFFFF")
-    p.add_argument("--ccw", action="store_true", help="direction CCW (default CW)")
-    p.add_argument("--high-rate", type=positive_int, default=0,
-                   help="high-rate override, a rate divisor (0 = the table's)")
-
-
 def pulse_list(text: str) -> list[int]:
     """Move lengths "N[,M…]", each 1..0xFFFFFFFF."""
     out = []

@@ -30,6 +30,10 @@ def add_subparser(sub: Any) -> None:
     e.add_argument("--link", metavar="PATH",
                    help="with --pty: also make a symbolic link PATH to the terminal (removed "
                         "on exit)")
+    e.add_argument("--origin-at", type=positive_int, metavar="POS",
+                   help="with --pty: /ORG is low where the position counter reads POS "
+                        "(0..0xFFFFFFFF): an origin search (10) or high-speed origin return "
+                        "(11) meets it there; without it they run until stopped")
     e.add_argument("--log", action="store_true",
                    help="with --pty: print one line per frame the slave handles")
     e.set_defaults(func=_do_emulate)
@@ -41,6 +45,7 @@ def _do_emulate(args: argparse.Namespace) -> int:
     if args.bus is not None:
         serial_only = [name for name, given in (("--address", args.address is not None),
                                                 ("--link", args.link is not None),
+                                                ("--origin-at", args.origin_at is not None),
                                                 ("--log", args.log)) if given]
         if serial_only:
             raise FormatError(f"{', '.join(serial_only)}: for --pty (the serial slave); "
@@ -75,7 +80,7 @@ def _serve_pty(args: argparse.Namespace) -> int:
     from profiles.ppmc312.serial_chip import PtyServer, SerialChip
 
     address = 0 if args.address is None else args.address
-    chip = SerialChip(address)
+    chip = SerialChip(address, origin_at=args.origin_at)
     server = PtyServer(chip, link=args.link,
                        on_log=(lambda line: print(line, flush=True)) if args.log else None)
     where = server.path + (f" (link {args.link})" if args.link else "")

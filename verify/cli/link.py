@@ -6,7 +6,7 @@ import argparse
 import sys
 from typing import Any
 
-from ._common import EXIT_FINDINGS, EXIT_OK, add_move_options, number, positive_int
+from ._common import EXIT_FINDINGS, EXIT_OK, fields_as_options, number, positive_int
 
 
 def add_subparser(sub: Any) -> None:
@@ -30,8 +30,7 @@ def add_subparser(sub: Any) -> None:
     lsub = link.add_subparsers(dest="link_command", required=True, metavar="COMMAND")
     init = lsub.add_parser("init", help="send an init table (linear or S-curve, LE=0)")
     init.add_argument("table", metavar="TABLE", help="an init table file (stepramp.table/1)")
-    move = lsub.add_parser("move", help="start an accel/decel move")
-    add_move_options(move)
+    _add_move(lsub)
     lsub.add_parser("poll", help="busy, ready, or why pulse output stopped")
     lsub.add_parser("position", help="the pulse position counter [pulses]")
     lsub.add_parser("errors", help="the line error count and the last error code")
@@ -39,8 +38,46 @@ def add_subparser(sub: Any) -> None:
     link.set_defaults(func=_do_link)
 
 
+def _add_move(lsub: Any) -> None:
+    """`link move`: the accel/decel move (82) by default, or any serial motion command of
+    the registry that starts at once (`--command NAME`; `stepramp move`'s options)."""
+    from profiles.ppmc312.motion import COMMANDS
+
+    move = lsub.add_parser("move", help="start an accel/decel move, or send any motion "
+                                        "command (--command NAME)")
+    move.add_argument("--command", dest="motion", choices=tuple(COMMANDS), default=None,
+                      metavar="NAME",
+                      help="the motion command (its §16 frame, started at once): " + ", ".join(
+                          f"{c.name} ({c.code:02X})" for c in COMMANDS.values())
+                      + " (default accel)")
+    move.add_argument("--pulses", type=positive_int,
+                      help="move length [pulses] (accel, constant: required), 1..0xFFFFFFFF")
+    move.add_argument("--ccw", action="store_true", help="direction CCW (default CW)")
+    move.add_argument("--rate", type=positive_int, metavar="R",
+                      help="a rate divisor; 0 = the table's high rate where the manual allows "
+                           "it; required by change-speed, set-speed, origin-search and "
+                           "high-speed-limit")
+    move.add_argument("--high-rate", type=positive_int, metavar="R",
+                      help="accel's high-rate override (its name for --rate; 0 = the table's)")
+    move.add_argument("--index", action="store_true",
+                      help="origin search/return: find /ORG and /INDEX low together (IDX = 1)")
+
+
 def _do_link(args: argparse.Namespace) -> int:
     from profiles.ppmc312.link import ChipRefused, Exchange, Link
+
+    if args.link_command == "move":
+        # An unusable request is refused before the port is opened.
+        from profiles.ppmc312.motion import COMMANDS, DEFAULT, encode_command
+
+        from .move import motion_params
+
+        command = COMMANDS[args.motion or DEFAULT]
+        args.params, typed = motion_params(args, command, "stepramp link move")
+        with fields_as_options({"rate": typed.get("rate", "--rate"),
+                                "high_rate": typed.get("rate", "--rate"),
+                                "pulses": "--pulses"}):
+            encode_command(command.name, to="ascii", address=args.address, **args.params)
 
     def note(text: str) -> None:
         print(f"slave {args.address}: {text}", flush=True)
@@ -93,8 +130,7 @@ def _run(link: Any, args: argparse.Namespace) -> str:
         return (f"init accepted: {table.shape}, start rate {table.start_rate}, high rate "
                 f"{table.high_rate}, {table.accel_pulses} accel/decel pulses")
     if command == "move":
-        link.move(args.pulses, ccw=args.ccw, high_rate=args.high_rate)
-        return f"move of {args.pulses} pulses {'CCW' if args.ccw else 'CW'} started"
+        return _move(link, args)
     if command == "poll":
         return str(link.poll())
     if command == "position":
@@ -106,3 +142,21 @@ def _run(link: Any, args: argparse.Namespace) -> str:
                 f"last error code 0x{report.error_code:02X} ({report.error_text})")
     link.stop()
     return "pulse output stopped"
+
+
+def _move(link: Any, args: argparse.Namespace) -> str:
+    from profiles.ppmc312.command_runs import STARTS
+    from profiles.ppmc312.motion import COMMANDS
+
+    params = args.params
+    if args.motion is None:  # the accel/decel move as `link move` always sent it
+        link.move(params["pulses"], ccw=bool(params.get("ccw")),
+                  high_rate=params.get("rate", 0))
+        return f"move of {args.pulses} pulses {'CCW' if args.ccw else 'CW'} started"
+    link.motion(args.motion, **params)
+    shown = [f"{params['pulses']} pulses" if "pulses" in params else "",
+             f"rate {params['rate']}" if "rate" in params else "",
+             "CCW" if params.get("ccw") else "", "with /INDEX" if params.get("index") else ""]
+    what = ", ".join(part for part in shown if part)
+    done = "started" if args.motion in STARTS else "taken"
+    return f"{COMMANDS[args.motion].label} {done}" + (f": {what}" if what else "")

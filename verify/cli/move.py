@@ -65,7 +65,7 @@ def _do_move(args: argparse.Namespace) -> int:
     from verify.output import write_output
 
     command = COMMANDS[args.motion or DEFAULT]
-    params, typed = _params(args, command)
+    params, typed = motion_params(args, command)
     options = {**{p: typed.get(p, OPTIONS[p]) for p in OPTIONS}, "address": "--address"}
     with fields_as_options({**options, "position": options["override_at"],
                             "high_rate": options["rate"]}):
@@ -74,16 +74,19 @@ def _do_move(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _params(args: argparse.Namespace, command: Any) -> tuple[dict[str, Any], dict[str, str]]:
+def motion_params(args: argparse.Namespace, command: Any, usage: str = "stepramp move"
+                  ) -> tuple[dict[str, Any], dict[str, str]]:
     """The registry's parameters the options give, and the option that gave each; an
     option the command does not take, two options for one parameter or a missing one is
-    one line naming the option."""
+    one line naming the option (and `usage`, whose help lists them). `stepramp link move`
+    shares it; an option its parser lacks counts as not given."""
     from profiles.errors import FormatError
 
     given = {"--pulses": args.pulses, "--ccw": args.ccw or None, "--rate": args.rate,
              "--high-rate": args.high_rate, "--index": args.index or None,
-             "--override-at": args.override_at, "--on": args.on,
-             "--override": TRIGGERS.get(args.override)}
+             "--override-at": getattr(args, "override_at", None),
+             "--on": getattr(args, "on", None),
+             "--override": TRIGGERS.get(getattr(args, "override", None) or 0)}
     params: dict[str, Any] = {}
     typed: dict[str, str] = {}
     for option, value in given.items():
@@ -104,7 +107,7 @@ def _params(args: argparse.Namespace, command: Any) -> tuple[dict[str, Any], dic
     if missing:
         scope = "" if args.motion is None else f" by --command {command.name}"
         raise FormatError(f"the following arguments are required{scope}: "
-                          f"{', '.join(missing)} (see stepramp move --help)")
+                          f"{', '.join(missing)} (see {usage} --help)")
     return params, typed
 
 
