@@ -471,8 +471,14 @@ ARGV_TEMPLATES: list[tuple[str, list[str]]] = [
     ("motor check", ["motor", "check", "PATH"]),
     ("link", ["link", "--port", "V", "--address", "V", "--timeout-s", "0.01", "--retries",
               "0", "poll"]),
+    # no chip on the loop port: a good request times out (exit 2), a bad one is refused first
+    ("link move --command", ["link", "--port", "loop://", "--address", "1", "--timeout-s",
+                             "0.01", "--retries", "0", "move", "--command", "V", "--rate", "V",
+                             "--pulses", "V"]),
     ("emulate", ["emulate", "--address", "V"]),           # without --pty: a usage error
     ("emulate", ["emulate", "--pty", "--address", "BADADDR"]),
+    ("emulate", ["emulate", "--pty", "--origin-at", "V", "--address", "BADADDR"]),
+    ("emulate", ["emulate", "--bus", "PATH", "--origin-at", "V"]),  # --pty's option
     # design serves until Ctrl-C once its options are good: the port is never a usable one
     ("design", ["design", "--motor", "PATH", "--pulses", "V", "--port", "BADPORT",
                 "--no-browser"]),
