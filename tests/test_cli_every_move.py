@@ -100,7 +100,8 @@ def test_compare_exits_1_on_an_unsafe_move(tmp_path: Path,
     example = Path(__file__).resolve().parent.parent / "examples" / "free-curve-nema17.json"
     code, out, _ = run(capsys, "compare", example, "--motor", NEMA23, "--pulses", "5000",
                        "--references", "ruckig")
-    assert code == 1 and "verdict: UNSAFE (failed: criterion, load angle, decel-stop)" in out
+    assert code == 1 and ("verdict: UNSAFE (failed: criterion, load angle, decel-stop, "
+                          "constant, origin-search, origin-return, stop, set-speed)") in out
 
 
 @pytest.mark.slow  # end-to-end; CI runs it

@@ -12,6 +12,9 @@ executions worst at some corner), findings past the 90° peak (errors) and past 
   stop at every pulse of the ramp under every reading the manual leaves open
   (profiles/ppmc312/stops.py: (a) at once, same stage; (b) finish the stage; (c) at
   once, one stage down; LOW). The verdict is the worst reading, named.
+- **constant**, **origin-search**, **origin-return**, **stop** (80, /FL, /BL),
+  **change-speed**, **set-speed**: each a safe use the table leaves and the envelope the
+  user needs (verify/command_families.py).
 """
 
 from __future__ import annotations
@@ -28,6 +31,8 @@ from profiles.motor.angles import PEAK_DEG
 from profiles.ppmc312.table import FreeCurveTable
 from profiles.progress import Progress
 
+from .command_families import CODES as ENVELOPE_FAMILIES
+from .command_families import family_judge
 from .findings import Finding
 
 DECEL_STOP = "decel-stop"
@@ -253,7 +258,8 @@ class CommandVerdict(Protocol):
 
 
 Judge = Callable[..., CommandVerdict]
-FAMILIES: dict[str, Judge] = {DECEL_STOP: judge_decel_stops}
+FAMILIES: dict[str, Judge] = {DECEL_STOP: judge_decel_stops,
+                              **{name: family_judge(name) for name in ENVELOPE_FAMILIES}}
 
 
 def command_names(items: Iterable[str] | None) -> tuple[str, ...]:
