@@ -26,8 +26,8 @@ def test_new_from_datasheet_with_a_lead_screw(tmp_path: Path,
                                               capsys: pytest.CaptureFixture[str]) -> None:
     out_file = tmp_path / "m.json"
     code, out, err = run(["motor", "new", *DATASHEET, "--load",
-                          "screw:lead_mm=8,mass_kg=2,screw_diameter_mm=8,screw_length_mm=300",
-                          "--name", "axis", "-o", str(out_file)], capsys)
+                          "screw:lead_mm=8,mass_kg=2,screw_diameter_mm=8,screw_length_mm=300,"
+                          "friction_coeff=0", "--name", "axis", "-o", str(out_file)], capsys)
     assert (code, err) == (0, "")
     assert out.startswith(f"{out_file}: 1600 steps/rev")
     motor = load_motor(out_file)
@@ -45,7 +45,8 @@ def test_new_from_a_vendor_curve(tmp_path: Path, capsys: pytest.CaptureFixture[s
     csv.write_text("speed_rpm,torque_ozin\n30,60\n300,50\n900,20\n1500,8\n")
     code, out, err = run(["motor", "new", "--curve", str(csv), "--speed-unit", "rpm",
                           "--torque-unit", "oz-in", "--microstep", "8",
-                          "--rotor-inertia-gcm2", "57", "--start-pps", "500"], capsys)
+                          "--rotor-inertia-gcm2", "57", "--start-pps", "500",
+                          "--detent-torque-nm", "0"], capsys)
     assert (code, err) == (0, "")
     obj = json.loads(out)
     # 30 rpm × 1600 / 60 = 800 pps; 60 oz·in = 0.42369 N·m; a point at 0 takes it too

@@ -161,7 +161,8 @@ def test_curve_never_above_the_model_and_close_to_it() -> None:
 
 def test_motor_file_from_datasheet_and_lead_screw() -> None:
     drive = Drive(24, 1.5, 8)
-    screw = lead_screw(0.008, 2.0, screw_diameter_m=0.008, screw_length_m=0.3, efficiency=0.9)
+    screw = lead_screw(0.008, 2.0, screw_diameter_m=0.008, screw_length_m=0.3, efficiency=0.9,
+                       friction_coeff=0.0)  # no guide friction: nothing assumed
     obj = motor_from_datasheet(NEMA17, drive, screw, safety_factor=0.6)
     assert schema_problems(obj) == []
     motor = Motor.from_json(json.loads(json.dumps(obj)))   # no load torque: loads today

@@ -45,6 +45,12 @@ def run(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, str, str]:
     return code, out, err
 
 
+def said_only_assumptions(err: str) -> bool:
+    """stderr holds only what `motor new` assumed (issue 32 item 1: the detent torque
+    these datasheets leave out) and the friction range it writes."""
+    return all(line.startswith("stepramp motor: friction") for line in err.splitlines())
+
+
 def refused(capsys: pytest.CaptureFixture[str], *args: str) -> str:
     code, out, err = run(capsys, *args)
     assert code == 2 and out == "" and err.count("\n") == 1, err
@@ -53,7 +59,7 @@ def refused(capsys: pytest.CaptureFixture[str], *args: str) -> str:
 
 def test_the_new_users_motor_is_accepted(capsys: pytest.CaptureFixture[str]) -> None:
     code, out, err = run(capsys, *argv())
-    assert (code, err) == (0, "")
+    assert code == 0 and said_only_assumptions(err), err
     obj = json.loads(out)
     assert obj["holding_torque_nm"] == 0.59 and obj["steps_per_rev"] == 1600
     assert obj["pullout_torque"][0][1] == pytest.approx(0.59 * 1.5 / 2, rel=1e-3)
@@ -114,7 +120,7 @@ def test_near_zero_blames_the_right_input(capsys: pytest.CaptureFixture[str]) ->
 
 def test_overcurrent_when_allowed(capsys: pytest.CaptureFixture[str]) -> None:
     code, out, err = run(capsys, *argv(current_a="2.5"), "--allow-overcurrent")
-    assert (code, err) == (0, "")
+    assert code == 0 and said_only_assumptions(err), err
     assert json.loads(out)["pullout_torque"][0][1] == pytest.approx(0.59 * 2.5 / 2, rel=1e-3)
 
 
@@ -155,7 +161,7 @@ def test_a_holding_torque_goes_with_a_curve(tmp_path: Path,
     csv = tmp_path / "curve.csv"
     csv.write_text("speed_rpm,torque_ncm\n30,55\n300,45\n900,20\n1500,8\n")
     code, out, err = run(capsys, *curve_args(csv, "N·cm", "--holding-torque-ncm", "59"))
-    assert (code, err) == (0, "")
+    assert code == 0 and said_only_assumptions(err), err
     obj = json.loads(out)
     assert obj["holding_torque_nm"] == 0.59 and obj["pullout_torque"][0][1] == 0.55
     # the same curve declared in N·m: 100× the holding torque

@@ -212,10 +212,16 @@ def loaded_motor(motor: Motor, settings: Settings) -> Motor:
     load = motor.load_torque_nm if settings.load_torque_nm is None else settings.load_torque_nm
     friction = (motor.friction_torque_nm if settings.friction_torque_nm is None
                 else settings.friction_torque_nm)
+    # a slider sets its value exactly: the file's range for it (`motor new` writes one for
+    # assumed friction) no longer applies, and would refuse a value outside it
+    slid = {name for name, value in (("load_torque_nm", settings.load_torque_nm),
+                                     ("friction_torque_nm", settings.friction_torque_nm))
+            if value is not None}
     return dataclasses.replace(
         motor, safety_factor=settings.safety_factor,
         inertia_kgm2=motor.inertia_kgm2 + settings.load_inertia_kgm2, load_torque_nm=load,
-        friction_torque_nm=friction)
+        friction_torque_nm=friction,
+        tolerances=tuple(t for t in motor.tolerances if t[0] not in slid))
 
 
 def design(motor: Motor, settings: Settings, *, load_angle: bool = True) -> Design:

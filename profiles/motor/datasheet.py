@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import FieldRangeError, FormatError, echo, is_number, require_int
-from .loads import Contribution, combine
+from .loads import ASSUMED, Contribution, combine
 from .model import FORMAT
 
 SQRT2 = math.sqrt(2.0)
@@ -284,6 +284,10 @@ def motor_object(speeds: np.ndarray, torques: np.ndarray, mech: Mechanics, micro
             "friction_torque_nm", mech.detent_torque_nm,
             f"detent torque (datasheet): {mech.detent_torque_nm:.4g}"))
     totals = combine([*contributions, *loads])
+    # friction resting on an assumption is planned over a range: the most where it slows
+    # the ramps up, the least where it would help them stop (loads.py's docstring)
+    friction_range = ([totals.friction_low_nm, totals.friction_torque_nm]
+                      if totals.friction_low_nm < totals.friction_torque_nm else None)
     if start_pps is None:
         start_pps = start_pps_estimate(
             safety_factor * float(torques[0]), totals.inertia_kgm2,
@@ -307,7 +311,22 @@ def motor_object(speeds: np.ndarray, torques: np.ndarray, mech: Mechanics, micro
         obj["holding_torque_nm"] = holding_torque_nm
     obj["sources"] = {**totals.sources, "pullout_torque": [
         {"value": round(float(np.max(torques)), 6), "from": curve_from}]}
+    if friction_range is not None:
+        obj["tolerances"] = {"friction_torque_nm": friction_range}
     return obj
+
+
+DETENT_SHARE_ASSUMED = 0.05  # of the holding torque: the low end of hybrid steppers' 5–10 %
+
+
+def assumed_detent(holding_nm: float, what: str = "holding torque") -> Contribution:
+    """The detent torque a datasheet that gives none is assumed to have (counted as
+    friction, as a given one is; `low` 0: it may be less)."""
+    value = DETENT_SHARE_ASSUMED * holding_nm
+    return Contribution("friction_torque_nm", value,
+                        f"detent torque ({ASSUMED}: {DETENT_SHARE_ASSUMED * 100:g} % of the "
+                        f"{what} {holding_nm:.4g} N·m, the low end of a hybrid stepper's "
+                        f"5–10 %; give --detent-torque-nm): {value:.4g}", low=0.0)
 
 
 def _round_pps(speed: float) -> float:

@@ -142,9 +142,36 @@ def _do_new(args: argparse.Namespace) -> int:
         assert isinstance(curve, list)
         print(f"{args.output}: {obj['steps_per_rev']} steps/rev, {len(curve)} curve points up to "
               f"{curve[-1][0]:g} pps, inertia {obj['inertia_kgm2']:.4g} kg·m², friction "
-              f"{obj['friction_torque_nm']:.4g} N·m, load torque "
+              f"{_friction_text(obj)} N·m, load torque "
               f"{obj.get('load_torque_nm', 0.0):.4g} N·m, start {obj['start_pps']:g} pps")
+    say_assumed(obj)
     return EXIT_OK
+
+
+def _friction_text(obj: dict[str, Any]) -> str:
+    """The friction as written: its range when it rests on an assumption."""
+    lo_hi = obj.get("tolerances", {}).get("friction_torque_nm")
+    return (f"{obj['friction_torque_nm']:.4g}" if lo_hi is None
+            else f"{lo_hi[0]:.4g}..{lo_hi[1]:.4g}")
+
+
+def say_assumed(obj: dict[str, Any]) -> None:
+    """Each value the file assumes (its sources say "assumed"), on stderr, and the
+    friction range it plans over: a user sees what to measure and give."""
+    import sys
+
+    from profiles.motor.loads import ASSUMED
+
+    for field, entries in obj.get("sources", {}).items():
+        for entry in entries:
+            if f"({ASSUMED}:" in entry["from"]:
+                print(f"stepramp motor: {field} {entry['value']:.4g}: {entry['from']}",
+                      file=sys.stderr)
+    lo_hi = obj.get("tolerances", {}).get("friction_torque_nm")
+    if lo_hi is not None:
+        print(f"stepramp motor: friction {lo_hi[0]:.4g}..{lo_hi[1]:.4g} N·m planned over that "
+              "range (tolerances): the most where it slows the ramps up, the least where it "
+              "would help them stop; give the values to narrow it", file=sys.stderr)
 
 
 def _torque(args: argparse.Namespace, what: str) -> tuple[float | None, Any]:
@@ -183,7 +210,7 @@ def _refuse_implausible(args: argparse.Namespace, holding: float | None, label: 
 def _motor_object(args: argparse.Namespace) -> dict[str, Any]:
     """The motor file's object from the datasheet or the vendor curve, and the loads."""
     from profiles.errors import FormatError, require_int
-    from profiles.motor.datasheet import MICROSTEP_MAX
+    from profiles.motor.datasheet import MICROSTEP_MAX, assumed_detent
     from profiles.motor.loads import loads_from_specs
 
     # first: the curve's speeds are converted with it (a 0 would be blamed on the curve)
@@ -193,7 +220,8 @@ def _motor_object(args: argparse.Namespace) -> dict[str, Any]:
         raise FormatError(f"--step-angle [°]: {args.step_angle:g} does not divide 360° "
                           "(1.8, 0.9, 0.72, 0.36, …; at most 90)")
     holding, label = _torque(args, "holding")
-    detent = _torque(args, "detent")[0] or 0.0
+    given_detent = _torque(args, "detent")[0]
+    detent = given_detent or 0.0
     given = [o for f, o in _DATASHEET_OPTS.items() if f != "holding_torque_nm"
              and getattr(args, f) is not None]
     if args.curve is None:
@@ -207,9 +235,13 @@ def _motor_object(args: argparse.Namespace) -> dict[str, Any]:
             given + ["--current-a"] * (args.current_a is not None)))
     _refuse_implausible(args, holding, label)
     loads = loads_from_specs(args.load)
+    if given_detent is None and holding is not None:
+        # no datasheet value: a share of the holding torque, said and written as assumed
+        loads.insert(0, assumed_detent(holding))
     if args.curve is None:
         return _datasheet_motor(args, holding, detent, loads)
-    return _curve_motor(args, (holding, label), detent, loads)
+    return _curve_motor(args, (holding, label), detent, loads,
+                        assume_detent=given_detent is None and holding is None)
 
 
 def _datasheet_motor(args: argparse.Namespace, holding: Any, detent: float,
@@ -228,11 +260,19 @@ def _datasheet_motor(args: argparse.Namespace, holding: Any, detent: float,
 
 
 def _curve_motor(args: argparse.Namespace, holding: tuple[float | None, Any], detent: float,
-                 loads: Any) -> dict[str, Any]:
+                 loads: Any, *, assume_detent: bool) -> dict[str, Any]:
     """A motor from a vendor curve; a holding torque given beside it is written to the file
-    and the curve is checked against it (a torque unit slip shows as a curve far above)."""
+    and the curve is checked against it (a torque unit slip shows as a curve far above);
+    without a detent torque or a holding torque, the detent is assumed from the curve's
+    torque at standstill."""
     from profiles.errors import FormatError
-    from profiles.motor.datasheet import Mechanics, curve_from_csv, full_steps_per_rev, motor_object
+    from profiles.motor.datasheet import (
+        Mechanics,
+        assumed_detent,
+        curve_from_csv,
+        full_steps_per_rev,
+        motor_object,
+    )
     from profiles.motor.plausible import Label, curve_problem, ratio_problem
     from profiles.reading import read_bytes, utf8_text
 
@@ -253,6 +293,8 @@ def _curve_motor(args: argparse.Namespace, holding: tuple[float | None, Any], de
                                          inertia)
     if found:
         raise FormatError(found)
+    if assume_detent:
+        loads = [assumed_detent(float(torques[0]), "curve's torque at standstill"), *loads]
     return motor_object(speeds, torques, mech, args.microstep, loads,
                         safety_factor=args.safety_factor, start_pps=args.start_pps,
                         name=args.name, holding_torque_nm=value,

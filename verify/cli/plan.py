@@ -71,6 +71,7 @@ def _do_plan(args: argparse.Namespace) -> int:
     from profiles.errors import FormatError, require_number
     from profiles.motor import load_motor
     from profiles.motor.angles import PEAK_DEG
+    from profiles.motor.loads import friction_warning
     from profiles.ppmc312.table import dump_table
     from profiles.reading import json_text
     from verify.output import write_output
@@ -91,6 +92,10 @@ def _do_plan(args: argparse.Namespace) -> int:
                               "for the move it runs")
     reserve = cruise_reserve(args)
     motor = load_motor(args.motor)
+    warned = friction_warning(motor.friction_torque_nm,
+                              motor.tolerance("friction_torque_nm")[1])
+    if warned:
+        print(f"stepramp plan: warning: {args.motor}: {warned}", file=sys.stderr)
     # every planner takes its top speed from the motor: capped, they all keep the reserve
     planned = reserve.applied(motor)
     with fields_as_options(OPTIONS):

@@ -266,25 +266,34 @@ def table_verdict(table: FreeCurveTable | InitTable, options: CheckOptions) -> V
 
 def provenance_findings(table: FreeCurveTable | InitTable, options: CheckOptions,
                         notes: list[str]) -> list[Finding]:
-    """A planned table names the motor it was planned for (a note); judged with a motor
-    whose content differs, a `motor-mismatch` warning: its verdict is on another machine
-    (issue 32 item 4)."""
+    """A motor without friction draws `motor-friction-zero` (issue 32 item 1); a planned
+    table names the motor it was planned for (a note) and, judged with a motor whose
+    content differs, warns `motor-mismatch`: its verdict is on another machine (item 4)."""
+    found = [] if options.motor is None else friction_findings(options.motor)
     planned = table.provenance
     if planned is None:
-        return []
+        return found
     notes.append(planned.describe())
     if options.motor is None:
-        return []
+        return found
     from profiles.provenance import content_sha256
 
     digest = content_sha256(options.motor.to_json())
     if digest == planned.motor.sha256:
-        return []
+        return found
     judged = options.motor.name or "the --motor file"
-    return [Finding("warning", "motor-mismatch",
-                    f"planned for motor {planned.motor.short}, judged with {judged} (sha256 "
-                    f"{digest[:12]}): another motor, or the same one changed since; re-plan "
-                    "for this motor or judge with the one it was planned for")]
+    return [*found, Finding(
+        "warning", "motor-mismatch",
+        f"planned for motor {planned.motor.short}, judged with {judged} (sha256 "
+        f"{digest[:12]}): another motor, or the same one changed since; re-plan for this "
+        "motor or judge with the one it was planned for")]
+
+
+def friction_findings(motor: Any) -> list[Finding]:
+    from profiles.motor.loads import friction_warning
+
+    warned = friction_warning(motor.friction_torque_nm, motor.tolerance("friction_torque_nm")[1])
+    return [Finding("warning", "motor-friction-zero", warned)] if warned else []
 
 
 def safety_findings(table: FreeCurveTable | InitTable, options: CheckOptions,
