@@ -96,7 +96,8 @@ def motion_params(args: argparse.Namespace, command: Any, usage: str = "stepramp
                                                                  .replace("-", "_"))
         if param not in command.takes or (option == "--high-rate"
                                           and command.rate_field != "high_rate"):
-            raise FormatError(f"{option}: {command.label} does not take it ({_takes(command)})")
+            raise FormatError(f"{option}: {command.label} does not take it "
+                              f"({_takes(command, args)})")
         exclusive = {"on": "override_at", "override_at": "on"}.get(param, param)
         clash = typed.get(param) or typed.get(exclusive)
         if clash:
@@ -111,6 +112,7 @@ def motion_params(args: argparse.Namespace, command: Any, usage: str = "stepramp
     return params, typed
 
 
-def _takes(command: Any) -> str:
-    options = [OPTIONS[p] for p in OPTIONS if p in command.takes]
+def _takes(command: Any, args: argparse.Namespace) -> str:
+    # only the options this parser has (`link move` sends no override or event form)
+    options = [OPTIONS[p] for p in OPTIONS if p in command.takes and hasattr(args, p)]
     return f"it takes {', '.join(options)}" if options else "it takes no option"
