@@ -138,6 +138,11 @@ class UnknownReply(LinkError):
     """A valid frame whose meaning no table of the manual gives."""
 
 
+class MotionRefused(FormatError):
+    """A motion command the running motion does not take where it stands (the serial
+    emulator's and a program's refusal; one line)."""
+
+
 class ChipRefused(LinkError):
     """The chip answered a special reply refusing the command (`code`, e.g. 0x43)."""
 

@@ -43,7 +43,7 @@ from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from ..errors import FieldRangeError, FormatError
+from ..errors import FieldRangeError, FormatError, MotionRefused
 from .clock import Clock
 from .execution import (
     PULSE_TIMES_CSV_MAX,
@@ -586,7 +586,3 @@ class LiveMotion:
     def origin(self, at: int) -> None:
         """/ORG found after `at` pulses (§8-10: stop at once; §8-11: decel, then back)."""
         self._run.origin(0, at, self.start.name == "origin-return")
-
-
-class MotionRefused(FormatError):
-    """A command the running motion does not take where it stands (one line)."""

@@ -50,7 +50,7 @@ from collections.abc import Callable
 
 from serial.urlhandler import protocol_loop
 
-from ..errors import StepRampError, require_int
+from ..errors import MotionRefused, StepRampError, require_int
 from ..fields import Frame
 from .ascii import (
     CONTROL,
@@ -68,7 +68,7 @@ from .ascii import (
     encode_frame,
 )
 from .clock import Clock
-from .command_runs import MotionRefused, ProgramCommand
+from .command_runs import ProgramCommand
 from .init_model import init_stage_problem
 from .motion import NOW, Command, read_fields, serial_form
 from .serial_motion import ChipRefusal, Running, rate_problem, start_motion

@@ -324,3 +324,55 @@ def render_upload(args: argparse.Namespace, blocks: list[bytes], table: Any = No
     fmt, options = file_format(args, FORMATS, provenance(table, command=command_line(args),
                                                          motor=motor))
     return FORMATS.render(blocks, fmt, options)
+
+
+# --- motion commands (stepramp move, stepramp link move) ---------------------------
+# The option that sets each of the registry's parameters (`--high-rate` and `--override`
+# are the accel move's older spellings of `--rate` and `--on`).
+MOTION_OPTIONS = {"rate": "--rate", "pulses": "--pulses", "ccw": "--ccw", "index": "--index",
+           "override_at": "--override-at", "on": "--on"}
+MOTION_TRIGGERS = {1: "evt1", 3: "evt2"}  # --override TRG: the TRG bits of an event trigger
+
+
+def motion_params(args: argparse.Namespace, command: Any, usage: str = "stepramp move"
+                  ) -> tuple[dict[str, Any], dict[str, str]]:
+    """The registry's parameters the options give, and the option that gave each; an
+    option the command does not take, two options for one parameter or a missing one is
+    one line naming the option (and `usage`, whose help lists them). `stepramp link move`
+    shares it; an option its parser lacks counts as not given."""
+    from profiles.errors import FormatError
+
+    given = {"--pulses": args.pulses, "--ccw": args.ccw or None, "--rate": args.rate,
+             "--high-rate": args.high_rate, "--index": args.index or None,
+             "--override-at": getattr(args, "override_at", None),
+             "--on": getattr(args, "on", None),
+             "--override": MOTION_TRIGGERS.get(getattr(args, "override", None) or 0)}
+    params: dict[str, Any] = {}
+    typed: dict[str, str] = {}
+    for option, value in given.items():
+        if value is None:
+            continue
+        param = {"--high-rate": "rate", "--override": "on"}.get(option, option[2:]
+                                                                 .replace("-", "_"))
+        if param not in command.takes or (option == "--high-rate"
+                                          and command.rate_field != "high_rate"):
+            raise FormatError(f"{option}: {command.label} does not take it "
+                              f"({motion_takes(command, args)})")
+        exclusive = {"on": "override_at", "override_at": "on"}.get(param, param)
+        clash = typed.get(param) or typed.get(exclusive)
+        if clash:
+            raise FormatError(f"{option}: give {clash} or {option}, not both")
+        params[param] = value
+        typed[param] = option
+    missing = [MOTION_OPTIONS[p] for p in command.needs if p not in params]
+    if missing:
+        scope = "" if args.motion is None else f" by --command {command.name}"
+        raise FormatError(f"the following arguments are required{scope}: "
+                          f"{', '.join(missing)} (see {usage} --help)")
+    return params, typed
+
+
+def motion_takes(command: Any, args: argparse.Namespace) -> str:
+    # only the options this parser has (`link move` sends no override or event form)
+    options = [MOTION_OPTIONS[p] for p in MOTION_OPTIONS if p in command.takes and hasattr(args, p)]
+    return f"it takes {', '.join(options)}" if options else "it takes no option"

@@ -6,7 +6,14 @@ import argparse
 import sys
 from typing import Any
 
-from ._common import EXIT_FINDINGS, EXIT_OK, fields_as_options, number, positive_int
+from ._common import (
+    EXIT_FINDINGS,
+    EXIT_OK,
+    fields_as_options,
+    motion_params,
+    number,
+    positive_int,
+)
 
 
 def add_subparser(sub: Any) -> None:
@@ -69,8 +76,6 @@ def _do_link(args: argparse.Namespace) -> int:
     if args.link_command == "move":
         # An unusable request is refused before the port is opened.
         from profiles.ppmc312.motion import COMMANDS, DEFAULT, encode_command
-
-        from .move import motion_params
 
         command = COMMANDS[args.motion or DEFAULT]
         args.params, typed = motion_params(args, command, "stepramp link move")
