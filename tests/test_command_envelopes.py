@@ -77,7 +77,8 @@ def test_the_immediate_speed_change_envelope_is_bracketed(nema17: Motor) -> None
         return down + up
 
     assert worst(TABLE, nema17, jumps(to)) <= AIM_DEG + SLACK
-    assert worst(TABLE, nema17, jumps(to + 1)) > AIM_DEG - SLACK
+    # found to 1 % of the rate (SET_SPEED_CLOSE): past that, the aim is passed
+    assert worst(TABLE, nema17, jumps(to + max(1, int(0.01 * to)) + 1)) > AIM_DEG - SLACK
 
 
 def test_a_speed_up_to_the_top_stops_from_the_top_at_the_old_decel_point(nema17: Motor

@@ -23,10 +23,11 @@ The model is `profiles.motor.rotor` (electrical degrees: the restoring torque pe
   - change-speed (87): a move whose high rate is a slower stage, sped up to the top in
     its cruise: the old decel point (§8-8) leaves it stopping from the speed the walk
     down reaches; the worst such stop;
-  - origin-return (11): at the table's high rate, /ORG anywhere in the cruise, the decel
-    stop and the reversal at the start rate.
+  - origin-return (11): at the table's high rate, /ORG as the cruise starts and once it
+    has settled, the decel stop and the reversal at the start rate.
   The stops at any pulse are sampled as move lengths are (`load_angle.dwell_sampling`:
-  every 1/8 natural period, until ten periods have settled the dwell).
+  every 1/8 natural period over the first, where a cruise rings most, and once ten
+  periods have settled the dwell).
 """
 
 from __future__ import annotations
@@ -49,6 +50,7 @@ from .table import FreeCurveTable, InitTable
 GRID = 12           # rates judged across a range before the bisection
 PHASE_PERIODS = 1   # natural periods of a dwell sampled at every phase (then it only decays)
 AFTER_JUMP_PERIODS = 3   # natural periods followed at a new rate before its decel
+SET_SPEED_CLOSE = 0.01   # the largest immediate change is found to 1 % of its rate
 Runs = Sequence[tuple[Phase, int, int]]
 
 
@@ -191,9 +193,10 @@ def _batch(runs: Sequence[Runs]) -> MoveBatch:
                      np.asarray([r for _, r, _ in flat], np.int64), count, offsets)
 
 
-def _reach(x0: int, x1: int, safe: Callable[[int], bool]) -> int | None:
+def _reach(x0: int, x1: int, safe: Callable[[int], bool], close: float = 0.0) -> int | None:
     """The furthest x from x0 towards x1 such that it and every grid point before it are
-    safe (None: x0 is not): a geometric grid of GRID points, then bisection."""
+    safe (None: x0 is not): a geometric grid of GRID points, then bisection to one, or to
+    within `close` of x (a fraction)."""
     if not safe(x0):
         return None
     grid = np.unique(np.rint(np.geomspace(x0, x1, GRID)).astype(np.int64))
@@ -202,7 +205,7 @@ def _reach(x0: int, x1: int, safe: Callable[[int], bool]) -> int | None:
     for x in grid.tolist()[1:]:
         if not safe(x):
             lo, hi = prev, x
-            while abs(hi - lo) > 1:
+            while abs(hi - lo) > max(1, close * lo):
                 mid = (lo + hi) // 2
                 lo, hi = (mid, hi) if safe(mid) else (lo, mid)
             return lo
@@ -280,7 +283,8 @@ def _set_speed(j: _Judge, aim: float) -> Family:
         return max(j.worst(("jump", s.top, rate), lambda: runs(s.top, rate))[0],
                    j.worst(("jump", rate, s.top), lambda: runs(rate, s.top))[0])
 
-    to = _reach(s.top, s.hi, lambda r: worst(r) <= aim)
+    # to 1 % of the rate: a jump is given in pps, and the top speed's rates are close
+    to = _reach(s.top, s.hi, lambda r: worst(r) <= aim, SET_SPEED_CLOSE)
     still = worst(s.top)   # no change at all: the ramp, the cruise and the decel
     step = s.table.rates[1] if len(s.table.rates) > 1 else s.top
     deg = worst(step)
@@ -327,11 +331,15 @@ def _change_speed(j: _Judge, table: FreeCurveTable, motor: Motor) -> Family:
 
 
 def _origin_return(j: _Judge, table: FreeCurveTable, motors: Sequence[Motor]) -> Family:
-    """11 at the table's high rate: /ORG at any pulse of the cruise, then the reversal."""
+    """11 at the table's high rate: /ORG as the cruise starts and once it has settled,
+    then the decel and the reversal. What the reversal meets comes after the whole decel,
+    whose gentle steps leave little of the cruise's ringing (a stop on the ramp is the
+    decel stop's verdict)."""
     s = j.stairs
     ramp = sum(p.pulses for p in s.up(None, s.top, 0))
     best: tuple[float, int] = (-1.0, 0)
-    for n in j.counts(s.top).tolist():
+    counts = j.counts(s.top)
+    for n in sorted({int(counts[0]), int(counts[-1])}):
         run = run_program(table, [ProgramCommand("origin-return", 0, at=ramp + n)])
         deg = motion_angle(run.motions[0], motors).worst_deg
         best = max(best, (deg, ramp + n))
