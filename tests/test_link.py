@@ -807,3 +807,10 @@ def test_cli_link_move_sends_any_motion_command(capsys: pytest.CaptureFixture[st
             code, out, err = run_cli([*base, "move", *argv], capsys)
             assert (code, out) == (2, "") and message in err and err.count("\n") == 1, err
         assert len(opened) == n
+
+
+def test_cli_emulate_input_options_are_for_the_pty(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, err = run_cli(["emulate", "--bus", "x.bus", "--event-at", "0:5"], capsys)
+    assert (code, out) == (2, "") and "--event-at: for --pty" in err
+    code, out, err = run_cli(["emulate", "--pty", "--event-at", "2:5"], capsys)
+    assert (code, out) == (2, "") and "NAME one of 0, 1" in err

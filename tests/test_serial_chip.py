@@ -564,3 +564,71 @@ def test_a_step_outputs_one_pulse_and_05_is_taken_at_rest(chip: SerialChip,
     assert position(chip) == 0xFFFFFFFF
     assert send(chip, "continuous", rate=0) == READY
     assert send(chip, "high-speed-limit", rate=1000) == special(0x43)
+
+
+# --- the override buffer: the forms started at a position or by an event (§5-2, §16) ----
+
+def test_an_override_at_a_position_takes_effect_there(chip: SerialChip, clock: Clock_) -> None:
+    init(chip, clock)
+    assert send(chip, "stop", override_at=4000) == special(0x43)   # nothing runs (§19-5)
+    assert send(chip, "continuous-constant", rate=2000) == READY   # 4000 pps
+    assert send(chip, "set-speed", rate=1000, override_at=2000) == READY   # registered
+    assert send(chip, "stop", override_at=6000) == READY                   # behind it
+    assert "2 in the override buffer" in chip.log[-1]
+    clock.t += 400e-6 + 0.25
+    assert poll(chip) == BUSY and position(chip) == 1000   # 400 µs, then 1000 pulses
+    clock.t += 0.25 + 0.25  # 1000 more at 4000 pps, then 2000 at 8000 pps (§8-9: a jump)
+    assert position(chip) == 4000
+    clock.t += 1.0
+    assert poll(chip) == special(0x21) and poll(chip) == special(0x21)   # §19-9, each
+    assert poll(chip) == stop_report(0x37) and poll(chip) == READY
+    assert position(chip) == 6000
+    assert [line for line in chip.log if line.startswith("override:")] == [
+        "override: set-speed (88) at position 2000 at pulse 2000",
+        "override: stop (80) at position 6000 at pulse 6000"]
+
+
+def test_an_override_the_motion_never_reaches_is_aborted(chip: SerialChip,
+                                                         clock: Clock_) -> None:
+    init(chip, clock)
+    assert send(chip, "constant", rate=1000, pulses=500) == READY
+    assert send(chip, "decel-stop", override_at=800) == READY
+    clock.t += 1.0
+    assert poll(chip) == special(0x49)   # §19-10: dropped when the motion ends first
+    assert poll(chip) == stop_report(0x38) and poll(chip) == READY
+    assert any(line.startswith("override aborted (1 command(s) dropped): the motion ended "
+                               "first") for line in chip.log)
+    # One the model refuses where it fires (a speed change while decelerating) aborts it too
+    assert send(chip, "accel", pulses=3000) == READY
+    assert send(chip, "change-speed", rate=1000, override_at=2900) == READY  # in the decel
+    assert send(chip, "change-speed", rate=100, override_at=20) == special(0x42)
+    assert chip.log[-1].endswith("(§11-6 0x20)")
+    # 8D (88 at a position) at 5: below §16-9's 0xA (encode_command refuses to write it)
+    assert command(chip, bytes([0x8D, 0x03, 0xE8, 0, 0, 0, 5])) == special(0x42)
+    assert poll(chip) == BUSY
+    clock.t += 2.0
+    assert poll(chip) == special(0x49) and "decelerating there" in chip.log[-2]
+    assert poll(chip) == stop_report(0x38)
+
+
+def test_an_event_fires_the_head_that_waits_for_it(clock: Clock_) -> None:
+    chip = SerialChip(ADDRESS, clock_s=clock, events_at=[(0, 3000)])
+    init(chip, clock)
+    assert send(chip, "continuous-constant", rate=2000) == READY
+    assert send(chip, "decel-stop", on="evt2") == READY    # /EVT1 (code BC)
+    assert send(chip, "stop", on="evt1") == READY          # /EVT0, behind it
+    clock.t += 1.0
+    chip.event(0)                                          # the head waits for /EVT1
+    assert chip.log[-1] == "/EVT0: nothing waits for it" and poll(chip) == BUSY
+    chip.event(1)
+    assert poll(chip) == special(0x21)
+    assert chip.log[-2] == "override: decel-stop (81) on /EVT1 at pulse 3998"  # 400 µs late
+    clock.t += 1.0   # /EVT0 waits behind it, where the counter does not pass 3000 again
+    assert poll(chip) == special(0x49) and poll(chip) == stop_report(0x36)
+    # --event-at: /EVT0 fires where the counter passes 3000 + the start
+    start = position(chip)
+    assert send(chip, "continuous-constant", rate=2000, ccw=True) == READY
+    assert send(chip, "stop", on="evt1") == READY
+    clock.t += 10.0
+    assert poll(chip) == special(0x21) and poll(chip) == stop_report(0x37)
+    assert position(chip) == 3000 and start > 3000

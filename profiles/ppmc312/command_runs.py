@@ -538,14 +538,17 @@ class LiveMotion:
     """One motion as a chip runs it while commands come (the serial emulator,
     `serial_chip.SerialChip`): `start` starts it; `issue` takes a command during it, `at`
     the pulses output by then; `origin` is /ORG found. The same model as `run_program`;
-    a command it would refuse raises `MotionRefused`. `pieces` ends with a cruise of
-    FOREVER pulses while the motion runs until something stops it."""
+    a command it would refuse raises `MotionRefused`; a limit input (`SIGNALS`) is issued
+    as a command. `pieces` ends with a cruise of FOREVER pulses while the motion runs until
+    something stops it. `limit_rate`: 05's rate (None: the table's high rate, §7-6)."""
 
     def __init__(self, table: FreeCurveTable | InitTable, start: ProgramCommand, *,
-                 reading: str = "a") -> None:
+                 reading: str = "a", limit_rate: int | None = None) -> None:
         if start.name not in STARTS:
             raise FormatError(f"{start.title} does not start a motion")
         self._run = _Run(Stairs(table), reading)
+        if limit_rate is not None:
+            self._run.limit_rate = limit_rate
         # Started without its /ORG: the caller says when the search finds it (`origin`).
         self._run.now = self._run.start(0, dataclasses.replace(start, at=None))
         self._count = 1
@@ -582,6 +585,14 @@ class LiveMotion:
             raise MotionRefused(str(e)) from None
         self._count += 1
         return self._run.notes[seen:]
+
+    def halt(self, at: int) -> None:
+        """An immediate stop (80) at `at` pulses, even while a stop is under way: the chip
+        stops pulse output there (§8-1 「即停止します」)."""
+        m = self._motion
+        m.advance(at)
+        m.plan, m.cause, m.ended_by, m.stopping = [], "STP", self._count, self._count
+        self._count += 1
 
     def origin(self, at: int) -> None:
         """/ORG found after `at` pulses (§8-10: stop at once; §8-11: decel, then back)."""

@@ -19,8 +19,12 @@ chip models:
   error code (§18-10), error count (§18-11), and polls (§19): busy while the
   simulated motion runs, then once the stop report (A0 + end code: 38 its pulses done,
   37 stop, 36 decel stop, 32 /ORG, 39 nothing slower to decelerate along), then ready.
-Documented commands outside that list (the override and event forms of 80, 81, 87, 88
-among them) are answered with the command error
+The forms of 80, 81, 87, 88 started at a position or by an event input (8B…8E, 9B…9E,
+BB…BE) go into the override buffer (§5-2: 8 deep, FIFO, only its head armed) and take
+effect, through the same model, where the counter reaches the position or when the input
+fires (`event(n)`, `events_at`): reported B0 21 on the next poll (§19-9); the buffer is
+emptied, reported B0 49 (§19-10), when the motion ends first or the model refuses one.
+Documented commands outside that list are answered with the command error
 (B0 47, "not modelled"); no part of the chip is faked.
 
 Our readings where the manual is silent (docs/manual-notes.md, "Serial link"):
@@ -46,7 +50,7 @@ import string
 import threading
 import time
 import tty
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 from serial.urlhandler import protocol_loop
 
@@ -70,8 +74,17 @@ from .ascii import (
 from .clock import Clock
 from .command_runs import ProgramCommand
 from .init_model import init_stage_problem
-from .motion import NOW, Command, read_fields, serial_form
-from .serial_motion import ChipRefusal, Running, rate_problem, start_motion
+from .motion import AT, EVENTS, NOW, Command, field_range, read_fields, serial_form
+from .serial_motion import (
+    OVERRIDE_ABORTED,
+    OVERRIDE_DEPTH,
+    OVERRIDE_DONE,
+    ChipRefusal,
+    Override,
+    Running,
+    rate_problem,
+    start_motion,
+)
 from .table import InitTable
 from .timing import Window, motion_window, ms
 
@@ -147,13 +160,20 @@ class SerialChip:
     """One PPMC-312 slave at `address` (0–15). `clock_s` gives the time in seconds
     (time.monotonic by default; tests pass their own). `origin_at`: the position counter
     value where /ORG is low, met by an origin search or return (None: nowhere, so they
-    run until stopped)."""
+    run until stopped). `events_at`: (n, counter value) where the event input /EVTn
+    fires as a motion passes it (`event(n)` fires it at once)."""
 
     def __init__(self, address: int, *, clock_s: Callable[[], float] = time.monotonic,
-                 extck_hz: float | None = None, origin_at: int | None = None) -> None:
+                 extck_hz: float | None = None, origin_at: int | None = None,
+                 events_at: Sequence[tuple[int, int]] = ()) -> None:
         self.address = require_int("address", address, 0, MAX_ADDRESS)
         self.origin_at = None if origin_at is None else \
             require_int("origin_at", origin_at, 0, POSITION_MODULUS - 1)
+        self.events_at = tuple((require_int("event input", n, 0, 1),
+                                require_int("event position", at, 0, POSITION_MODULUS - 1))
+                               for n, at in events_at)
+        self._overrides: list[Override] = []   # the override buffer (§5-2), head first
+        self._notices: list[int] = []   # special replies (§19-9, §19-10) the polls carry
         self.limit_rate: int | None = None  # the high-speed limit's rate (05), once set
         self._now = clock_s
         self._extck_hz = extck_hz
@@ -194,13 +214,90 @@ class SerialChip:
         return self._move.counter(self._now())
 
     def _settle(self) -> None:
-        """Meet /ORG when a search reaches it; finish a motion whose last pulse is out:
-        the counter holds, the report waits."""
+        """Meet what the motion has reached by now, in the order it reached them (/ORG, the
+        override buffer's head at its position or event); finish a motion whose last pulse
+        is out: the counter holds, the report waits."""
         move, now = self._move, self._now()
-        if move is not None and move.settle(now):
+        if move is None:
+            return
+        while (hit := self._next_hit(move, now)) is not None:
+            hit[1](hit[0])
+            move.refresh()
+        if move.settle(now):
             self._position = move.counter(now)
             self._move = None
             self.end_code = self._report = move.end_code
+            self._drop_overrides("the motion ended first")
+
+    def _next_hit(self, move: Running, now: float) -> tuple[int, Callable[[int], None]] | None:
+        """(pulses, what happens there) of the first thing the motion has met by `now`."""
+        out, _ = move.output(now)
+        end = move.end
+        hits: list[tuple[int, Callable[[int], None]]] = []
+        if move.origin_at is not None and not move.live.stopping:
+            hits.append((move.origin_at, lambda at: self._meet_origin(move, at)))
+        head = self._overrides[0] if self._overrides else None
+        if head is not None:
+            if head.start == AT:
+                assert head.position is not None
+                spots = [head.position]
+            else:
+                spots = [pos for n, pos in self.events_at if tuple(EVENTS)[n] == head.start]
+            fire: Callable[[int], None] = lambda at: self._fire(move, head, at)  # noqa: E731
+            hits += [(at, fire) for at in map(move.reach, spots) if at >= head.armed_from]
+        hits = [h for h in hits if h[0] <= out and (end is None or h[0] < end)]
+        return min(hits, key=lambda h: h[0]) if hits else None
+
+    @staticmethod
+    def _meet_origin(move: Running, at: int) -> None:
+        move.live.origin(at)
+        move.origin_at = None
+
+    def _fire(self, move: Running, entry: Override, at: int) -> None:
+        """The override buffer's head takes effect after `at` pulses (§5-2): reported 21 on
+        the next poll (§19-9); one the model refuses there aborts the buffer (§19-10)."""
+        self._overrides.pop(0)
+        at = max(at, 1)  # before the first pulse: with it
+        name = entry.command.name
+        notes: list[str] = []
+        if name == "stop" and move.live.stopping:
+            move.live.halt(at)
+        elif name == "decel-stop" and move.live.stopping:
+            notes = ["ignored, the motion is already stopping (§8-2)"]
+        else:
+            try:
+                notes = move.live.issue(ProgramCommand(name, rate=entry.rate, at=at))
+            except MotionRefused as e:
+                self._drop_overrides(f"{entry.what} at pulse {at}: {e}", entry)
+                return
+        move.refresh()
+        if self._overrides:
+            self._overrides[0].armed_from = at
+        self._notices.append(OVERRIDE_DONE)
+        self.log.append("; ".join([f"override: {entry.what} at pulse {at}", *notes]))
+
+    def _drop_overrides(self, why: str, failed: Override | None = None) -> None:
+        """The override buffer emptied (§5-2 「登録された命令は全て削除されます」), reported
+        49 on the next poll (§19-10); nothing when it holds nothing."""
+        if failed is None and not self._overrides:
+            return
+        count = len(self._overrides) + (failed is not None)
+        self._overrides.clear()
+        self._notices.append(OVERRIDE_ABORTED)
+        self.log.append(f"override aborted ({count} command(s) dropped): {why}")
+
+    def event(self, n: int) -> None:
+        """The event input /EVTn (0, 1) fires now: the override buffer's head takes effect
+        when it waits for it; nothing happens otherwise (§5-2: the head only is armed)."""
+        key = tuple(EVENTS)[require_int("event input", n, 0, 1)]
+        self._settle()
+        move, head = self._move, self._overrides[0] if self._overrides else None
+        if move is None or head is None or head.start != key:
+            self.log.append(f"/EVT{n}: nothing waits for it")
+            return
+        out, _ = move.output(self._now())
+        self._fire(move, head, out)
+        self._settle()
 
     # --- the byte stream ---------------------------------------------------------------
     def receive(self, data: bytes) -> bytes:
@@ -272,6 +369,10 @@ class SerialChip:
 
     def _poll(self) -> bytes:
         self._settle()
+        if self._notices:  # an override's report first (§19-9, §19-10), oldest first
+            code = self._notices.pop(0)
+            self.log.append(f"poll: report 0x{code:02X}")
+            return self._reply("special", SPECIAL_REPLY, code=code)
         if self._move is not None:
             self.log.append("poll: busy")
             return encode_frame("busy", self.address, b"")
@@ -287,6 +388,8 @@ class SerialChip:
         found = serial_form(payload)
         if found is not None and found[1] == NOW and found[0].name != "stop":
             return self._motion(found[0], payload)
+        if found is not None and found[1] != NOW:
+            return self._register(found[0], found[1], payload)
         name, _ = command_of(code) or ("?", 0)
         handler = _HANDLERS.get(name)
         if handler is None:
@@ -393,6 +496,39 @@ class SerialChip:
         move.refresh()
         return self._ready("; ".join([f"{what}: at pulse {at}", *notes]))
 
+    def _register(self, command: Command, start: str, payload: bytes) -> bytes:
+        """A serial form of 80, 81, 87, 88 started at a position or by an event: into the
+        override buffer (§5-2), answered ready (命令受付レスポンス, §16) once taken."""
+        frame = command.serial[start]
+        fields = read_fields(frame, payload)
+        entry = Override(command, start, fields.get("rate", 0), fields.get("position"))
+        what = entry.what
+        try:
+            if not self.busy:
+                raise ChipRefusal(STATE_ERROR, f"{what} with no pulse output (it acts on the "
+                                                "motion under way)")
+            assert self._move is not None and self.table is not None
+            if command.rate is not None:
+                why = rate_problem(command, entry.rate, self.table)
+                if why is not None:
+                    raise ChipRefusal(PARAMETER_ERROR, f"{what}: {why}", 0x20)
+            if entry.position is not None:
+                lo, _ = field_range(frame, "position")
+                if entry.position < lo:
+                    raise ChipRefusal(PARAMETER_ERROR, f"{what}: position {entry.position} is "
+                                      f"below {command.serial_section}'s 0x{lo:X}")
+            if len(self._overrides) >= OVERRIDE_DEPTH:
+                raise ChipRefusal(STATE_ERROR, f"{what}: the override buffer holds "
+                                               f"{OVERRIDE_DEPTH} commands (§5-2)")
+        except ChipRefusal as refusal:
+            detail = "" if refusal.detail is None else f" (§11-6 0x{refusal.detail:02X})"
+            return self._refuse(refusal.code, f"{refusal}{detail}")
+        if not self._overrides:
+            entry.armed_from, _ = self._move.output(self._now())
+        self._overrides.append(entry)
+        return self._ready(f"{what}: registered ({len(self._overrides)} in the override "
+                           "buffer)")
+
     def _limit(self, command: Command, fields: dict[str, int]) -> bytes:
         """05 (§15-5, §7-6): taken at rest only (as every setting); kept, since no
         /FHL, /BHL input is modelled."""
@@ -420,6 +556,7 @@ class SerialChip:
             self._position = self.position
             self._move = None
             self.end_code = self._report = END_IMMEDIATE_STOP
+            self._drop_overrides("stopped (80) first")
             return self._ready(f"stop: held at {self._position}")
         return self._ready("stop: no pulse output")
 

@@ -26,7 +26,7 @@ from typing import Any
 from .ascii import POSITION_MODULUS
 from .command_runs import FOREVER, LiveMotion, Piece, ProgramCommand, Stairs
 from .execution import simulate_move
-from .motion import Command
+from .motion import AT, Command
 from .table import InitTable
 
 RATE_OUT_OF_RANGE, BAD_PULSE_COUNT = 0x20, 0x23   # §11-6
@@ -130,6 +130,11 @@ class Running:
             ticks -= span
         return out, back
 
+    def reach(self, position: int) -> int:
+        """The pulses the motion outputs until its counter reads `position` the way it
+        runs (modulo 2³², §2-1.6; 0: it reads it now)."""
+        return (self.sign * (position - self.origin)) % POSITION_MODULUS
+
     def counter(self, now_s: float) -> int:
         out, back = self.output(now_s)
         return (self.origin + self.sign * (out - 2 * back)) % POSITION_MODULUS
@@ -150,8 +155,35 @@ class Running:
         return END_CODES[self.live.cause]
 
 
+OVERRIDE_DEPTH = 8   # §5-2 「8個のコマンドバッファが有り、FIFO」
+OVERRIDE_DONE, OVERRIDE_ABORTED = 0x21, 0x49   # §19-9, §19-10
+# How a registered form starts → what the emulator's log calls it (the pins of §5-2).
+TRIGGERS = {AT: "at position", "evt1": "on /EVT0", "evt2": "on /EVT1"}
+
+
+@dataclass
+class Override:
+    """A serial form of 80, 81, 87, 88 registered in the override buffer (§5-2): `start`
+    AT (at counter value `position`) or an event input (`motion.EVENTS`'s key: "evt1" is
+    /EVT0, "evt2" /EVT1); `armed_from`: the pulses the motion had output when it became the
+    buffer's head (only the head waits for its trigger: 「実行された命令は破棄され、次の
+    命令が起動待ち状態になります」)."""
+
+    command: Command
+    start: str
+    rate: int = 0
+    position: int | None = None
+    armed_from: int = 0
+
+    @property
+    def what(self) -> str:
+        where = f" {self.position}" if self.position is not None else ""
+        return f"{self.command.label} {TRIGGERS[self.start]}{where}"
+
+
 def start_motion(command: Command, fields: Mapping[str, Any], table: InitTable, *,
-                 now_s: float, position: int, origin_at: int | None) -> Running | None:
+                 now_s: float, position: int, origin_at: int | None,
+                 limit_rate: int | None = None) -> Running | None:
     """A start command taken at `now_s` with the counter at `position`; `origin_at` the
     counter value where /ORG is low (None: nowhere). None: an origin search or return
     that starts on /ORG, which stops before a pulse (the caller reports 0x32)."""
@@ -170,9 +202,10 @@ def start_motion(command: Command, fields: Mapping[str, Any], table: InitTable, 
         found = (sign * (origin_at - position)) % POSITION_MODULUS
         if found == 0:
             return None
-    return Running(LiveMotion(table, start), now_s + latency, sign, position,
+    return Running(LiveMotion(table, start, limit_rate=limit_rate), now_s + latency, sign, position,
                    table.clock.hz, origin_at=found)
 
 
-__all__ = ["END_CODES", "FIRST_PULSE_S", "ChipRefusal", "Running", "check_start",
+__all__ = ["END_CODES", "FIRST_PULSE_S", "OVERRIDE_ABORTED", "OVERRIDE_DEPTH",
+           "OVERRIDE_DONE", "TRIGGERS", "ChipRefusal", "Override", "Running", "check_start",
            "rate_problem", "start_motion"]

@@ -9,6 +9,22 @@ from typing import Any
 
 from ._common import EXIT_FINDINGS, EXIT_OK, positive_int
 
+POSITION_MAX = 0xFFFFFFFF
+
+
+def _input_at(names: tuple[str, ...]) -> Any:
+    """An argparse type: "NAME:POS", NAME one of `names`, POS a counter value."""
+    def parse(text: str) -> tuple[str, int]:
+        name, sep, pos = text.partition(":")
+        if not sep or name.upper() not in names:
+            raise argparse.ArgumentTypeError(
+                f"{text!r}: give NAME:POS, NAME one of {', '.join(names)}")
+        value = positive_int(pos)
+        if value > POSITION_MAX:
+            raise argparse.ArgumentTypeError(f"{text!r}: POS is 0..0xFFFFFFFF")
+        return name.upper(), value
+    return parse
+
 
 def add_subparser(sub: Any) -> None:
     e = sub.add_parser("emulate", help="an emulated PPMC-312: a serial slave to talk to "
@@ -34,6 +50,11 @@ def add_subparser(sub: Any) -> None:
                    help="with --pty: /ORG is low where the position counter reads POS "
                         "(0..0xFFFFFFFF): an origin search (10) or high-speed origin return "
                         "(11) meets it there; without it they run until stopped")
+    e.add_argument("--event-at", type=_input_at(("0", "1")), action="append", default=[],
+                   metavar="N:POS",
+                   help="with --pty: the event input /EVTN (0 or 1) fires where a motion's "
+                        "counter passes POS: an override registered on it (9B…9E: /EVT0, "
+                        "BB…BE: /EVT1) takes effect there; repeatable")
     e.add_argument("--log", action="store_true",
                    help="with --pty: print one line per frame the slave handles")
     e.set_defaults(func=_do_emulate)
@@ -46,6 +67,7 @@ def _do_emulate(args: argparse.Namespace) -> int:
         serial_only = [name for name, given in (("--address", args.address is not None),
                                                 ("--link", args.link is not None),
                                                 ("--origin-at", args.origin_at is not None),
+                                                ("--event-at", bool(args.event_at)),
                                                 ("--log", args.log)) if given]
         if serial_only:
             raise FormatError(f"{', '.join(serial_only)}: for --pty (the serial slave); "
@@ -80,7 +102,8 @@ def _serve_pty(args: argparse.Namespace) -> int:
     from profiles.ppmc312.serial_chip import PtyServer, SerialChip
 
     address = 0 if args.address is None else args.address
-    chip = SerialChip(address, origin_at=args.origin_at)
+    chip = SerialChip(address, origin_at=args.origin_at,
+                      events_at=[(int(n), pos) for n, pos in args.event_at])
     server = PtyServer(chip, link=args.link,
                        on_log=(lambda line: print(line, flush=True)) if args.log else None)
     where = server.path + (f" (link {args.link})" if args.link else "")
