@@ -814,3 +814,7 @@ def test_cli_emulate_input_options_are_for_the_pty(capsys: pytest.CaptureFixture
     assert (code, out) == (2, "") and "--event-at: for --pty" in err
     code, out, err = run_cli(["emulate", "--pty", "--event-at", "2:5"], capsys)
     assert (code, out) == (2, "") and "NAME one of 0, 1" in err
+    code, out, err = run_cli(["emulate", "--bus", "x.bus", "--limit-at", "fl:5"], capsys)
+    assert (code, out) == (2, "") and "--limit-at: for --pty" in err
+    code, out, err = run_cli(["emulate", "--pty", "--limit-at", "XL:5"], capsys)
+    assert (code, out) == (2, "") and "NAME one of FL, BL, FHL, BHL" in err

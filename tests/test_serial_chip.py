@@ -632,3 +632,42 @@ def test_an_event_fires_the_head_that_waits_for_it(clock: Clock_) -> None:
     clock.t += 10.0
     assert poll(chip) == special(0x21) and poll(chip) == stop_report(0x37)
     assert position(chip) == 3000 and start > 3000
+
+
+# --- the limit inputs (§7-6): /FL, /BL stop at once; /FHL, /BHL decelerate from 05's speed ---
+
+def test_fl_and_bl_stop_at_once_where_the_motion_meets_them(clock: Clock_) -> None:
+    chip = SerialChip(ADDRESS, clock_s=clock, limits_at=[("FL", 3000), ("BL", 1000)])
+    init(chip, clock)
+    assert send(chip, "continuous-constant", rate=2000) == READY   # CW: /BL not watched
+    assert send(chip, "set-speed", rate=1000, override_at=5000) == READY   # never reached
+    clock.t += 2.0
+    assert poll(chip) == special(0x49) and poll(chip) == stop_report(0x33)  # §19-14 33
+    assert position(chip) == 3000 and "/FL at pulse 3000: STL" in chip.log
+    assert send(chip, "constant", rate=1000, pulses=10) == special(0x44)   # §19-6
+    assert "/FL is low at 3000" in chip.log[-1]
+    assert send(chip, "continuous", rate=0, ccw=True) == READY   # away from it: taken
+    run_out(chip, clock, 0x33)
+    assert position(chip) == 1000
+
+
+@pytest.mark.parametrize(("limit", "rate", "report"), [
+    (None, 0, 0x34),       # 05 not given: the table's high rate (§7-6): decelerates
+    (1000, 0, 0x34),       # faster than 05's 1000: decelerates
+    (1000, 2000, None),    # slower than it: ignored, runs on
+])
+def test_fhl_decelerates_at_or_above_the_05_speed(clock: Clock_, limit: int | None, rate: int,
+                                                  report: int | None) -> None:
+    chip = SerialChip(ADDRESS, clock_s=clock, limits_at=[("FHL", 12_000)])
+    init(chip, clock)
+    if limit is not None:
+        assert send(chip, "high-speed-limit", rate=limit) == READY
+    assert send(chip, "continuous", rate=rate) == READY
+    clock.t += 5.0
+    if report is None:
+        assert poll(chip) == BUSY and "ignored, slower than" in chip.log[-2]
+        assert send(chip, "stop") == READY and poll(chip) == stop_report(0x37)
+        return
+    run_out(chip, clock, report)
+    assert position(chip) > 12_000 and any(
+        line.startswith("/FHL at pulse 12000: DEL") for line in chip.log)

@@ -586,12 +586,13 @@ class LiveMotion:
         self._count += 1
         return self._run.notes[seen:]
 
-    def halt(self, at: int) -> None:
-        """An immediate stop (80) at `at` pulses, even while a stop is under way: the chip
-        stops pulse output there (§8-1 「即停止します」)."""
+    def halt(self, at: int, cause: str = "STP") -> None:
+        """An immediate stop (80; /FL, /BL: `cause` STL) at `at` pulses, even while a stop
+        is under way: the chip stops pulse output there (§8-1 「即停止します」, §7-6
+        「パルスを即停止します」)."""
         m = self._motion
         m.advance(at)
-        m.plan, m.cause, m.ended_by, m.stopping = [], "STP", self._count, self._count
+        m.plan, m.cause, m.ended_by, m.stopping = [], cause, self._count, self._count
         self._count += 1
 
     def origin(self, at: int) -> None:

@@ -24,6 +24,9 @@ BB…BE) go into the override buffer (§5-2: 8 deep, FIFO, only its head armed) 
 effect, through the same model, where the counter reaches the position or when the input
 fires (`event(n)`, `events_at`): reported B0 21 on the next poll (§19-9); the buffer is
 emptied, reported B0 49 (§19-10), when the motion ends first or the model refuses one.
+The limit inputs (`limits_at`) are met where the counter reads their position: /FL, /BL
+stop at once (33), /FHL, /BHL decelerate at or above 05's speed (34), §7-6; a start the
+way one guards from where it is low is refused B0 44 (§19-6).
 Documented commands outside that list are answered with the command error
 (B0 47, "not modelled"); no part of the chip is faked.
 
@@ -72,7 +75,7 @@ from .ascii import (
     encode_frame,
 )
 from .clock import Clock
-from .command_runs import ProgramCommand
+from .command_runs import SIGNALS, ProgramCommand
 from .init_model import init_stage_problem
 from .motion import AT, EVENTS, NOW, Command, field_range, read_fields, serial_form
 from .serial_motion import (
@@ -142,7 +145,7 @@ COMMANDS: tuple[tuple[str, int, int, int], ...] = (
     ("reset", 0xFF, 0xFF, 1),
 )
 
-PARAMETER_ERROR, STATE_ERROR, COMMAND_ERROR = 0x42, 0x43, 0x47
+PARAMETER_ERROR, STATE_ERROR, LIMIT_ERROR, COMMAND_ERROR = 0x42, 0x43, 0x44, 0x47
 END_IMMEDIATE_STOP, END_ORIGIN = 0x37, 0x32
 COUNT_MAX = 0xFFFF
 _HEX = frozenset(string.hexdigits.encode())
@@ -161,17 +164,29 @@ class SerialChip:
     (time.monotonic by default; tests pass their own). `origin_at`: the position counter
     value where /ORG is low, met by an origin search or return (None: nowhere, so they
     run until stopped). `events_at`: (n, counter value) where the event input /EVTn
-    fires as a motion passes it (`event(n)` fires it at once)."""
+    fires as a motion passes it (`event(n)` fires it at once). `limits_at`: (signal, counter
+    value) where the limit input (`command_runs.SIGNALS`: FL, BL, FHL, BHL) is low: a motion
+    the way it guards meets it there (/FL, /BL stop at once; /FHL, /BHL decelerate at or
+    above 05's speed, §7-6), and a start that way from there is refused B0 44 (§19-6)."""
 
     def __init__(self, address: int, *, clock_s: Callable[[], float] = time.monotonic,
                  extck_hz: float | None = None, origin_at: int | None = None,
-                 events_at: Sequence[tuple[int, int]] = ()) -> None:
+                 events_at: Sequence[tuple[int, int]] = (),
+                 limits_at: Sequence[tuple[str, int]] = ()) -> None:
         self.address = require_int("address", address, 0, MAX_ADDRESS)
         self.origin_at = None if origin_at is None else \
             require_int("origin_at", origin_at, 0, POSITION_MODULUS - 1)
         self.events_at = tuple((require_int("event input", n, 0, 1),
                                 require_int("event position", at, 0, POSITION_MODULUS - 1))
                                for n, at in events_at)
+        for signal, _ in limits_at:
+            if signal not in SIGNALS:
+                raise StepRampError(f"limit input {signal!r} is not one of "
+                                    f"{', '.join(SIGNALS)}")
+        self.limits_at = tuple((signal, require_int("limit position", at, 0,
+                                                    POSITION_MODULUS - 1))
+                               for signal, at in limits_at)
+        self._met: set[int] = set()   # the limits the running motion has met
         self._overrides: list[Override] = []   # the override buffer (§5-2), head first
         self._notices: list[int] = []   # special replies (§19-9, §19-10) the polls carry
         self.limit_rate: int | None = None  # the high-speed limit's rate (05), once set
@@ -236,6 +251,9 @@ class SerialChip:
         hits: list[tuple[int, Callable[[int], None]]] = []
         if move.origin_at is not None and not move.live.stopping:
             hits.append((move.origin_at, lambda at: self._meet_origin(move, at)))
+        for i, (signal, pos) in enumerate(self.limits_at):
+            if i not in self._met and SIGNALS[signal][0] == (move.sign < 0):
+                hits.append((move.reach(pos), self._limit_hit(move, i, signal)))
         head = self._overrides[0] if self._overrides else None
         if head is not None:
             if head.start == AT:
@@ -247,6 +265,28 @@ class SerialChip:
             hits += [(at, fire) for at in map(move.reach, spots) if at >= head.armed_from]
         hits = [h for h in hits if h[0] <= out and (end is None or h[0] < end)]
         return min(hits, key=lambda h: h[0]) if hits else None
+
+    def _limit_hit(self, move: Running, i: int, signal: str) -> Callable[[int], None]:
+        return lambda at: self._meet_limit(move, i, signal, at)
+
+    def _meet_limit(self, move: Running, i: int, signal: str, at: int) -> None:
+        """Limit input `signal` met after `at` pulses (§7-6, `command_runs`' model)."""
+        self._met.add(i)
+        at = max(at, 1)
+        if move.live.stopping:
+            if SIGNALS[signal][1]:  # a stop is under way: nothing to decelerate
+                self.log.append(f"/{signal} at pulse {at}: ignored, the motion is stopping")
+                return
+            move.live.halt(at, "STL")
+            notes: list[str] = []
+        else:
+            try:
+                notes = move.live.issue(ProgramCommand(signal, at=at))
+            except MotionRefused as e:  # the way back of 11: not the way it guards
+                self.log.append(f"/{signal} at pulse {at}: ignored: {e}")
+                return
+        cause = f": {move.live.cause}" if move.live.stopping else ""
+        self.log.append("; ".join([f"/{signal} at pulse {at}{cause}", *notes]))
 
     @staticmethod
     def _meet_origin(move: Running, at: int) -> None:
@@ -426,6 +466,7 @@ class SerialChip:
             self.table = None  # §7-1: a refused table command destroys the table
             return self._refuse(PARAMETER_ERROR, f"init: {problem[1]}")
         self.table = table
+        self.limit_rate = None  # §7-6: the table's high rate after an init
         self._init_at = (self._now(), motion_window(table))
         return self._ready(f"init: {table.shape}, start {table.start_rate}, high "
                            f"{table.high_rate}, {table.accel_pulses} pulses")
@@ -452,16 +493,22 @@ class SerialChip:
         early = self._too_early()
         if early is not None:
             raise ChipRefusal(STATE_ERROR, f"{what} {early}")
+        ccw = bool(fields.get("dir"))
+        for signal, pos in self.limits_at:
+            if pos == self._position and SIGNALS[signal][0] == ccw:
+                raise ChipRefusal(LIMIT_ERROR, f"{what}: /{signal} is low at {pos}, the way "
+                                               "it runs (§19-6)")
         try:
             move = start_motion(command, fields, self.table, now_s=self._now(),
-                                position=self._position, origin_at=self.origin_at)
+                                position=self._position, origin_at=self.origin_at,
+                                limit_rate=self.limit_rate)
         except StepRampError as e:  # 82's high rate, as `simulate_move` checks it
             raise ChipRefusal(PARAMETER_ERROR, f"{what}: {e}", 0x20) from None
         way = "CCW" if fields.get("dir") else "CW"
         if move is None:  # §8-10: /ORG is low where it starts: found before a pulse
             self.end_code = self._report = END_ORIGIN
             return self._ready(f"{what}: {way}, on /ORG at {self._position}: stopped")
-        self._move, self._report = move, None
+        self._move, self._report, self._met = move, None, set()
         pulses = f"{fields['pulses']} pulses " if "pulses" in fields else ""
         rate = f", rate {fields[command.rate_field]}" if command.rate is not None else ""
         return self._ready(f"{what}: {pulses}{way}{rate}")
@@ -530,8 +577,8 @@ class SerialChip:
                            "buffer)")
 
     def _limit(self, command: Command, fields: dict[str, int]) -> bytes:
-        """05 (§15-5, §7-6): taken at rest only (as every setting); kept, since no
-        /FHL, /BHL input is modelled."""
+        """05 (§15-5, §7-6): taken at rest only (as every setting); the speed from which
+        /FHL, /BHL decelerate (`limits_at`)."""
         if self.busy:
             raise ChipRefusal(STATE_ERROR, f"{command.label} during pulse output")
         why = rate_problem(command, fields["rate"], self.table)  # its figure's range only

@@ -55,6 +55,12 @@ def add_subparser(sub: Any) -> None:
                    help="with --pty: the event input /EVTN (0 or 1) fires where a motion's "
                         "counter passes POS: an override registered on it (9B…9E: /EVT0, "
                         "BB…BE: /EVT1) takes effect there; repeatable")
+    e.add_argument("--limit-at", type=_input_at(("FL", "BL", "FHL", "BHL")), action="append",
+                   default=[], metavar="SIGNAL:POS",
+                   help="with --pty: the limit input SIGNAL (FL, FHL: CW; BL, BHL: CCW) is low "
+                        "where the counter reads POS: /FL, /BL stop at once (end code 33), "
+                        "/FHL, /BHL decelerate at or above 05's speed (34) (§7-6); a start "
+                        "that way from POS is refused B0 44; repeatable")
     e.add_argument("--log", action="store_true",
                    help="with --pty: print one line per frame the slave handles")
     e.set_defaults(func=_do_emulate)
@@ -68,6 +74,7 @@ def _do_emulate(args: argparse.Namespace) -> int:
                                                 ("--link", args.link is not None),
                                                 ("--origin-at", args.origin_at is not None),
                                                 ("--event-at", bool(args.event_at)),
+                                                ("--limit-at", bool(args.limit_at)),
                                                 ("--log", args.log)) if given]
         if serial_only:
             raise FormatError(f"{', '.join(serial_only)}: for --pty (the serial slave); "
@@ -103,7 +110,8 @@ def _serve_pty(args: argparse.Namespace) -> int:
 
     address = 0 if args.address is None else args.address
     chip = SerialChip(address, origin_at=args.origin_at,
-                      events_at=[(int(n), pos) for n, pos in args.event_at])
+                      events_at=[(int(n), pos) for n, pos in args.event_at],
+                      limits_at=args.limit_at)
     server = PtyServer(chip, link=args.link,
                        on_log=(lambda line: print(line, flush=True)) if args.log else None)
     where = server.path + (f" (link {args.link})" if args.link else "")
