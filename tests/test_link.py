@@ -818,3 +818,75 @@ def test_cli_emulate_input_options_are_for_the_pty(capsys: pytest.CaptureFixture
     assert (code, out) == (2, "") and "--limit-at: for --pty" in err
     code, out, err = run_cli(["emulate", "--pty", "--limit-at", "XL:5"], capsys)
     assert (code, out) == (2, "") and "NAME one of FL, BL, FHL, BHL" in err
+
+
+def test_cli_link_move_registers_the_override_forms(capsys: pytest.CaptureFixture[str]) -> None:
+    from unittest import mock
+
+    fake = FakeTime()
+    chip = SerialChip(ADDRESS, clock_s=fake.now)
+    chip.table = TABLE   # as if an init had gone long ago
+    base = ["link", "--port", "loop://", "--address", str(ADDRESS)]
+
+    class LoopLink(Link):
+        def __init__(self, port: Any, address: int, **kw: Any) -> None:
+            super().__init__(LoopSerial(chip), address, **kw)
+
+    with mock.patch("profiles.ppmc312.link.Link", LoopLink):
+        code, out, err = run_cli([*base, "move", "--command", "stop", "--override-at", "3000"],
+                                 capsys)
+        assert (code, out) == (1, "") and "stop: the chip refused it: state error" in err
+        assert run_cli([*base, "move", "--command", "continuous-constant", "--rate", "2000"],
+                       capsys)[0] == 0
+        code, out, err = run_cli([*base, "-v", "move", "--command", "set-speed", "--rate",
+                                  "1000", "--override-at", "2000"], capsys)
+        assert (code, err) == (0, "")
+        sent, reply, *_, said = out.splitlines()
+        assert sent.startswith("slave 5: set-speed: sent 95 38 44 ")   # 8D (§16-9)
+        assert reply.startswith("  reply 95 36 41: ready")
+        assert said == "slave 5: set-speed (88) registered: rate 1000, at position 2000"
+        assert run_cli([*base, "move", "--command", "decel-stop", "--on", "evt2"], capsys) == (
+            0, "slave 5: decel-stop (81) registered: on /EVT1\n", "")
+        fake.t += 1.0
+        code, out, _ = run_cli([*base, "poll"], capsys)
+        assert code == 0 and "override command executed" in out and "0x21" in out
+        chip.event(1)
+        assert "override command executed" in run_cli([*base, "poll"], capsys)[1]
+        fake.t += 2.0
+        assert run_cli([*base, "poll"], capsys)[1].startswith("slave 5: stopped: ")
+        for argv, message in (
+                (["--command", "accel", "--pulses", "9", "--override-at", "5"],
+                 "--override-at: accel (82) does not take it"),
+                (["--command", "set-speed", "--rate", "500", "--override-at", "5"],
+                 "--override-at: 5 "),
+                (["--command", "stop", "--override-at", "5", "--on", "evt1"], "not both")):
+            code, out, err = run_cli([*base, "move", *argv], capsys)
+            assert (code, out) == (2, "") and message in err and err.count("\n") == 1, err
+
+
+def test_a_registration_whose_reply_is_lost_is_not_resent() -> None:
+    from profiles.errors import LinkTimeout
+
+    fake = FakeTime()
+    chip = SerialChip(ADDRESS, clock_s=fake.now)
+    chip.table = TABLE
+
+    class Swallow(LoopSerial):  # type: ignore[misc]
+        drop = False
+
+        def write(self, data: bytes) -> int:
+            replies = self.chip.receive(bytes(data))
+            if replies and not self.drop:
+                protocol_loop.Serial.write(self, replies)
+            return len(data)
+
+    from serial.urlhandler import protocol_loop
+
+    port = Swallow(chip)
+    link = Link(port, ADDRESS, clock_s=fake.now, sleep_s=fake.sleep, timeout_s=0.02)
+    link.motion("continuous-constant", rate=2000)
+    port.drop = True
+    with pytest.raises(LinkTimeout, match="may be registered in the override buffer; not "
+                                          "resent"):
+        link.motion("stop", override_at=5000)
+    assert len(chip._overrides) == 1 and link.stats["resends"] == 0

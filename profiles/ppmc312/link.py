@@ -240,13 +240,19 @@ class Link:
         self._move_running = True
 
     def motion(self, name: str, **params: Any) -> None:
-        """Send the motion command `name` of `motion.COMMANDS` with `params` (its §16 frame,
-        started at once: the serial forms with a position or an event are not sent here).
+        """Send the motion command `name` of `motion.COMMANDS` with `params` (its §16 frame:
+        with `override_at` or `on`, the form the chip registers in its override buffer, whose
+        effect a later poll reports, B0 21 executed or B0 49 aborted, §19-9/§19-10).
         A start waits out the window after an init and, its reply lost, is resent only
         when it did not start (as `move`); a stop or a speed change is never delayed and
         resent as it is (taking it twice does what taking it once does)."""
         command = command_named(name)
         frame = encode_command(command.name, to="ascii", address=self.address, **params)
+        if params.get("override_at") is not None or params.get("on") is not None:
+            # Registered twice it would take effect twice, and the chip tells no registration
+            # apart: a lost reply is not resent (`_registration_lost`).
+            self._command(frame, command.name, lost=lambda: self._registration_lost(command.name))
+            return
         if command.name not in STARTS:
             self._command(frame, command.name)
             return
@@ -321,6 +327,11 @@ class Link:
         text = _special_text(self, what, code)
         return ChipRefused(f"slave {self.address}: {what}: the chip refused it: {text} "
                            f"(B{self.address:X} {code:02X})", code)
+
+    def _registration_lost(self, what: str) -> bool:
+        raise LinkTimeout(f"slave {self.address}: {what}: no whole reply: it may be registered "
+                          "in the override buffer; not resent (taken twice, it would take "
+                          "effect twice): poll, or stop the motion to empty the buffer")
 
     def _move_started(self, before: int) -> bool:
         """After a move's reply was lost: did the chip take the move? Busy, or the counter

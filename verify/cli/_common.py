@@ -373,6 +373,6 @@ def motion_params(args: argparse.Namespace, command: Any, usage: str = "stepramp
 
 
 def motion_takes(command: Any, args: argparse.Namespace) -> str:
-    # only the options this parser has (`link move` sends no override or event form)
+    # only the options this parser has
     options = [MOTION_OPTIONS[p] for p in MOTION_OPTIONS if p in command.takes and hasattr(args, p)]
     return f"it takes {', '.join(options)}" if options else "it takes no option"

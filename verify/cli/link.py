@@ -47,14 +47,17 @@ def add_subparser(sub: Any) -> None:
 
 def _add_move(lsub: Any) -> None:
     """`link move`: the accel/decel move (82) by default, or any serial motion command of
-    the registry that starts at once (`--command NAME`; `stepramp move`'s options)."""
+    the registry (`--command NAME`; `stepramp move`'s options), at once or, for stop,
+    decel-stop, change-speed and set-speed, registered to start at a position or on an event
+    input (`--override-at`, `--on`: their §16 forms 8B…8E, 9B…9E, BB…BE)."""
     from profiles.ppmc312.motion import COMMANDS
 
     move = lsub.add_parser("move", help="start an accel/decel move, or send any motion "
                                         "command (--command NAME)")
     move.add_argument("--command", dest="motion", choices=tuple(COMMANDS), default=None,
                       metavar="NAME",
-                      help="the motion command (its §16 frame, started at once): " + ", ".join(
+                      help="the motion command (its §16 frame; started at once unless "
+                           "--override-at or --on): " + ", ".join(
                           f"{c.name} ({c.code:02X})" for c in COMMANDS.values())
                       + " (default accel)")
     move.add_argument("--pulses", type=positive_int,
@@ -68,6 +71,15 @@ def _add_move(lsub: Any) -> None:
                       help="accel's high-rate override (its name for --rate; 0 = the table's)")
     move.add_argument("--index", action="store_true",
                       help="origin search/return: find /ORG and /INDEX low together (IDX = 1)")
+    move.add_argument("--override-at", type=positive_int, metavar="POS",
+                      help="stop, decel-stop, change-speed, set-speed: registered in the "
+                           "override buffer, taking effect where the position counter reaches "
+                           "POS (8B, 8C, 8E, 8D); a later poll reports it (override command "
+                           "executed, B0 21, or aborted, B0 49)")
+    move.add_argument("--on", choices=("evt1", "evt2"),
+                      help="stop, decel-stop, change-speed, set-speed: registered, taking "
+                           "effect when event input /EVT0 (evt1: 9B…9E) or /EVT1 (evt2: BB…BE) "
+                           "fires")
 
 
 def _do_link(args: argparse.Namespace) -> int:
@@ -81,7 +93,7 @@ def _do_link(args: argparse.Namespace) -> int:
         args.params, typed = motion_params(args, command, "stepramp link move")
         with fields_as_options({"rate": typed.get("rate", "--rate"),
                                 "high_rate": typed.get("rate", "--rate"),
-                                "pulses": "--pulses"}):
+                                "pulses": "--pulses", "position": "--override-at"}):
             encode_command(command.name, to="ascii", address=args.address, **args.params)
 
     def note(text: str) -> None:
@@ -149,6 +161,9 @@ def _run(link: Any, args: argparse.Namespace) -> str:
     return "pulse output stopped"
 
 
+_EVENT_PINS = {"evt1": "/EVT0", "evt2": "/EVT1"}   # the serial forms' イベント入力0, 1
+
+
 def _move(link: Any, args: argparse.Namespace) -> str:
     from profiles.ppmc312.command_runs import STARTS
     from profiles.ppmc312.motion import COMMANDS
@@ -161,7 +176,10 @@ def _move(link: Any, args: argparse.Namespace) -> str:
     link.motion(args.motion, **params)
     shown = [f"{params['pulses']} pulses" if "pulses" in params else "",
              f"rate {params['rate']}" if "rate" in params else "",
-             "CCW" if params.get("ccw") else "", "with /INDEX" if params.get("index") else ""]
+             "CCW" if params.get("ccw") else "", "with /INDEX" if params.get("index") else "",
+             f"at position {params['override_at']}" if "override_at" in params else "",
+             f"on {_EVENT_PINS[params['on']]}" if "on" in params else ""]
     what = ", ".join(part for part in shown if part)
-    done = "started" if args.motion in STARTS else "taken"
+    registered = "override_at" in params or "on" in params
+    done = "registered" if registered else "started" if args.motion in STARTS else "taken"
     return f"{COMMANDS[args.motion].label} {done}" + (f": {what}" if what else "")
