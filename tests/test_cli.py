@@ -276,3 +276,18 @@ def test_unrecognized_arguments_name_the_command(argv: list[str], named: str,
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert err.startswith(named) and "unrecognized arguments" in err and err.count("\n") == 1
+
+
+def test_plan_moves_from_stdin_carries_the_mix_hash(tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    # --moves - is read once: the plan and its provenance (the file's hash) both need it
+    import hashlib
+    import io
+
+    mix = b"pulses,weight\n2000,1\n"
+    monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(mix)))
+    out = tmp_path / "t.json"
+    assert main(["plan", "--motor", "nema17-1600", "--moves", "-", "-o", str(out)]) == 0
+    provenance = json.loads(out.read_text())["provenance"]
+    assert provenance["pulses"] == [2000]
+    assert hashlib.sha256(mix).hexdigest() in json.dumps(provenance)

@@ -148,7 +148,7 @@ def _duty_cycle(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, An
     from profiles.ppmc312.planner import plan_duty_cycle
     from profiles.reading import display_path
 
-    mix = read_mix(args.moves)
+    mix = read_mix(args.moves, mix_bytes(args))
     with progress_bar("plan --moves", unit="table") as progress:
         plan, times = plan_duty_cycle(motor, mix, clock=args.clock,
                                       max_stages=_max_stages(args),
@@ -171,7 +171,18 @@ def _duty_cycle(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, An
                    "solve_s": plan.solve_s, "info": plan.info}
 
 
-def read_mix(path: str) -> list[tuple[int, float]]:
+def mix_bytes(args: argparse.Namespace) -> bytes:
+    """The move-mix file's bytes, read once: `--moves -` is standard input, which the
+    plan and its provenance (the file's hash) both need."""
+    from profiles.reading import read_bytes
+
+    raw: bytes | None = getattr(args, "moves_raw", None)
+    if raw is None:
+        raw = args.moves_raw = read_bytes(args.moves)
+    return raw
+
+
+def read_mix(path: str, raw: bytes) -> list[tuple[int, float]]:
     """A duty-cycle CSV: header `pulses,weight`, then a row per move length (a length
     may repeat: the planner sums its weights). Bounded: the file by the input cap, each
     field by the characters a number may have, the rows and distinct lengths by the
@@ -181,10 +192,10 @@ def read_mix(path: str) -> list[tuple[int, float]]:
 
     from profiles.errors import FormatError
     from profiles.ppmc312.planner.duty_cycle import MIX_LENGTHS_MAX, MIX_ROWS_MAX
-    from profiles.reading import display_path, read_bytes, utf8_text
+    from profiles.reading import display_path, utf8_text
 
     name = display_path(path)
-    text = utf8_text(read_bytes(path), path, encoding="utf-8-sig")  # a spreadsheet's BOM too
+    text = utf8_text(raw, path, encoding="utf-8-sig")  # a spreadsheet's BOM too
     reader = csv.reader(io.StringIO(text))
     mix: list[tuple[int, float]] = []
     try:
@@ -288,15 +299,15 @@ def plan_provenance(args: argparse.Namespace, motor: Any) -> Any:
 
     from profiles.motor.angles import PEAK_DEG
     from profiles.provenance import PULSES_LISTED_MAX, FileRef
-    from profiles.reading import display_path, read_bytes
+    from profiles.reading import display_path
 
     pulses: tuple[int, ...] | None = None if args.pulses is None else (args.pulses,)
     moves = None
     if args.moves is not None:
-        lengths = sorted({n for n, _ in read_mix(args.moves)})
+        raw = mix_bytes(args)
+        lengths = sorted({n for n, _ in read_mix(args.moves, raw)})
         pulses = tuple(lengths) if len(lengths) <= PULSES_LISTED_MAX else None
-        moves = FileRef(display_path(args.moves),
-                        hashlib.sha256(read_bytes(args.moves)).hexdigest())
+        moves = FileRef(display_path(args.moves), hashlib.sha256(raw).hexdigest())
     return planned_for(args.motor, motor, pulses=pulses, moves_file=moves,
                        aim_deg=min(args.load_angle, PEAK_DEG),
                        reserve=cruise_reserve(args))
