@@ -376,3 +376,33 @@ def motion_takes(command: Any, args: argparse.Namespace) -> str:
     # only the options this parser has
     options = [MOTION_OPTIONS[p] for p in MOTION_OPTIONS if p in command.takes and hasattr(args, p)]
     return f"it takes {', '.join(options)}" if options else "it takes no option"
+
+
+def add_motion_options(p: argparse.ArgumentParser, *, command_help: str, override_at_help: str,
+                       on_help: str) -> None:
+    """The options that choose a PPMC-312 motion command and its parameters, shared by
+    `stepramp move` (its bytes) and `stepramp link move` (sent); `motion_params` reads
+    them. The helps that differ say what each command does with a registered form."""
+    from profiles.ppmc312.motion import COMMANDS, DEFAULT
+
+    p.add_argument("--command", dest="motion", choices=tuple(COMMANDS), default=None,
+                   metavar="NAME",
+                   help=f"the motion command{command_help}: " + ", ".join(
+                       f"{c.name} ({c.code:02X})" for c in COMMANDS.values())
+                   + f" (default {DEFAULT})")
+    p.add_argument("--pulses", type=positive_int,
+                   help="the move length [pulses] (accel, constant: required), 1..0xFFFFFFFF")
+    p.add_argument("--ccw", action="store_true", help="direction CCW (default CW)")
+    p.add_argument("--rate", type=positive_int, metavar="R",
+                   help="a rate divisor; 0 = the table's high rate where the manual allows "
+                        "it (accel, constant, continuous, continuous-constant, origin-return:"
+                        " the default there); required by change-speed, set-speed, "
+                        "origin-search and high-speed-limit")
+    p.add_argument("--high-rate", type=positive_int, metavar="R",
+                   help="accel's high-rate override (its name for --rate; 0 = the table's)")
+    p.add_argument("--index", action="store_true",
+                   help="origin search/return: find /ORG and /INDEX low together (IDX = 1)")
+    p.add_argument("--override-at", type=positive_int, metavar="POS",
+                   help="stop, decel-stop, change-speed, set-speed: " + override_at_help)
+    p.add_argument("--on", choices=("evt1", "evt2"),
+                   help="stop, decel-stop, change-speed, set-speed: " + on_help)

@@ -9,6 +9,7 @@ from typing import Any
 from ._common import (
     EXIT_FINDINGS,
     EXIT_OK,
+    add_motion_options,
     fields_as_options,
     motion_params,
     number,
@@ -50,36 +51,16 @@ def _add_move(lsub: Any) -> None:
     the registry (`--command NAME`; `stepramp move`'s options), at once or, for stop,
     decel-stop, change-speed and set-speed, registered to start at a position or on an event
     input (`--override-at`, `--on`: their §16 forms 8B…8E, 9B…9E, BB…BE)."""
-    from profiles.ppmc312.motion import COMMANDS
-
     move = lsub.add_parser("move", help="start an accel/decel move, or send any motion "
                                         "command (--command NAME)")
-    move.add_argument("--command", dest="motion", choices=tuple(COMMANDS), default=None,
-                      metavar="NAME",
-                      help="the motion command (its §16 frame; started at once unless "
-                           "--override-at or --on): " + ", ".join(
-                          f"{c.name} ({c.code:02X})" for c in COMMANDS.values())
-                      + " (default accel)")
-    move.add_argument("--pulses", type=positive_int,
-                      help="move length [pulses] (accel, constant: required), 1..0xFFFFFFFF")
-    move.add_argument("--ccw", action="store_true", help="direction CCW (default CW)")
-    move.add_argument("--rate", type=positive_int, metavar="R",
-                      help="a rate divisor; 0 = the table's high rate where the manual allows "
-                           "it; required by change-speed, set-speed, origin-search and "
-                           "high-speed-limit")
-    move.add_argument("--high-rate", type=positive_int, metavar="R",
-                      help="accel's high-rate override (its name for --rate; 0 = the table's)")
-    move.add_argument("--index", action="store_true",
-                      help="origin search/return: find /ORG and /INDEX low together (IDX = 1)")
-    move.add_argument("--override-at", type=positive_int, metavar="POS",
-                      help="stop, decel-stop, change-speed, set-speed: registered in the "
-                           "override buffer, taking effect where the position counter reaches "
-                           "POS (8B, 8C, 8E, 8D); a later poll reports it (override command "
-                           "executed, B0 21, or aborted, B0 49)")
-    move.add_argument("--on", choices=("evt1", "evt2"),
-                      help="stop, decel-stop, change-speed, set-speed: registered, taking "
-                           "effect when event input /EVT0 (evt1: 9B…9E) or /EVT1 (evt2: BB…BE) "
-                           "fires")
+    add_motion_options(move, command_help=" (its §16 frame; started at once unless "
+                                           "--override-at or --on)",
+                       override_at_help="registered in the override buffer, taking effect "
+                                        "where the position counter reaches POS [pulses] (8B, "
+                                        "8C, 8E, 8D); a later poll reports it (override "
+                                        "command executed, B0 21, or aborted, B0 49)",
+                       on_help="registered, taking effect when event input /EVT0 (evt1: "
+                               "9B…9E) or /EVT1 (evt2: BB…BE) fires")
 
 
 def _do_link(args: argparse.Namespace) -> int:

@@ -10,6 +10,7 @@ from ._common import (
     EXIT_OK,
     MOTION_OPTIONS,
     add_file_format_options,
+    add_motion_options,
     fields_as_options,
     motion_params,
     positive_int,
@@ -18,33 +19,13 @@ from ._common import (
 
 
 def add_subparser(sub: Any) -> None:
-    from profiles.ppmc312.motion import COMMANDS, DEFAULT
-
     m = sub.add_parser("move", help="a motion command's bytes (default the accel/decel move, "
                                     "82)")
-    m.add_argument("--command", dest="motion", choices=tuple(COMMANDS), default=None,
-                   metavar="NAME",
-                   help="the motion command: " + ", ".join(
-                       f"{c.name} ({c.code:02X})" for c in COMMANDS.values())
-                   + f" (default {DEFAULT})")
-    m.add_argument("--pulses", type=positive_int,
-                   help="the move length [pulses] (accel, constant: required), 1..0xFFFFFFFF")
-    m.add_argument("--ccw", action="store_true", help="direction CCW (default CW)")
-    m.add_argument("--rate", type=positive_int, metavar="R",
-                   help="a rate divisor; 0 = the table's high rate where the manual allows "
-                        "it (accel, constant, continuous, continuous-constant, origin-return:"
-                        " the default there); required by change-speed, set-speed, "
-                        "origin-search and high-speed-limit")
-    m.add_argument("--high-rate", type=positive_int, metavar="R",
-                   help="accel's high-rate override (its name for --rate; 0 = the table's)")
-    m.add_argument("--index", action="store_true",
-                   help="origin search/return: find /ORG and /INDEX low together (IDX = 1)")
-    m.add_argument("--override-at", type=positive_int, metavar="POS",
-                   help="stop, decel-stop, change-speed, set-speed: wait in the override "
-                        "buffer until the position counter reaches POS [pulses] (OV = 1, TRG 00)")
-    m.add_argument("--on", choices=("evt1", "evt2"),
-                   help="wait in the override buffer for event input 1 or 2 (OV = 1, "
-                        "TRG 01 or 11)")
+    add_motion_options(m, command_help="",
+                       override_at_help="wait in the override buffer until the position "
+                                        "counter reaches POS [pulses] (OV = 1, TRG 00)",
+                       on_help="wait in the override buffer for event input 1 or 2 (OV = 1, "
+                               "TRG 01 or 11)")
     m.add_argument("--override", type=int, choices=(1, 3), metavar="TRG",
                    help="--on's older spelling: TRG 1 (evt1) or 3 (evt2)")
     m.add_argument("--to", choices=("parallel", "ascii"), default="parallel",
