@@ -43,12 +43,7 @@ def add_subparser(sub: Any) -> None:
                    help="MAX_SPEED [pps] (0 = not set, the default)")
     s.add_argument("--s-curve", action="store_true", help="S-curve ramps (default linear)")
     add_cruise_reserve_option(s, "with --motor: plan")
-    s.add_argument("--address", type=positive_int,
-                   help="slave address: adds each command's memory-map offset")
-    s.add_argument("--axis", type=int, choices=(0, 1), default=0,
-                   help="axis of the 2-axis unit (default 0)")
-    s.add_argument("--duplex", choices=("full", "half"), default="full",
-                   help="link duplex, sets the memory map (default full)")
+    _add_unit_options(s)
     add_file_format_options(s, FORMATS, default="text", c_default=C_NAME_DEFAULT)
     s.add_argument("-o", "--output", metavar="OUT", help="write the output here (default stdout)")
     s.set_defaults(func=_do_settings)
@@ -99,12 +94,7 @@ def _add_command(asub: Any, formats: Any, c_default: str) -> None:
                                     for k in COMMANDS.values() if len(k.forms) > 1))
     c.add_argument("--pair", type=int, default=1, metavar="P",
                    help="the pair code, 1..3 (default 1; the next command takes the next)")
-    c.add_argument("--address", type=positive_int,
-                   help="slave address: adds the command's memory-map offset")
-    c.add_argument("--axis", type=int, choices=(0, 1), default=0,
-                   help="axis of the 2-axis unit (default 0)")
-    c.add_argument("--duplex", choices=("full", "half"), default="full",
-                   help="link duplex, sets the memory map (default full)")
+    _add_unit_options(c)
     add_file_format_options(c, formats, default="text", c_default=c_default)
     c.add_argument("-o", "--output", metavar="OUT", help="write the file here (default stdout)")
     c.set_defaults(func=_do_command)
@@ -118,12 +108,7 @@ def _add_homing(asub: Any, formats: Any, c_default: str) -> None:
     h.add_argument("--max-pps", type=number, default=0.0,
                    help="the MAX_SPEED the unit holds [pps] (0 = not set, the default): OH "
                         "stays at or below it")
-    h.add_argument("--address", type=positive_int,
-                   help="slave address: adds each command's memory-map offset")
-    h.add_argument("--axis", type=int, choices=(0, 1), default=0,
-                   help="axis of the 2-axis unit (default 0)")
-    h.add_argument("--duplex", choices=("full", "half"), default="full",
-                   help="link duplex, sets the memory map (default full)")
+    _add_unit_options(h)
     add_file_format_options(h, formats, default="text", c_default=c_default)
     h.add_argument("-o", "--output", metavar="OUT", help="write the file here (default stdout)")
     h.set_defaults(func=_do_homing)
@@ -316,3 +301,13 @@ def _do_decode(args: argparse.Namespace) -> int:
                            f"{resp.pair_codes} ({'valid' if resp.valid else resp.mismatch})"
                            + (f", flags: {', '.join(flags)}" if flags else "") + "\n")
     return EXIT_OK
+
+
+def _add_unit_options(p: Any) -> None:
+    """Where the words go on the unit: its slave address, axis and link duplex."""
+    p.add_argument("--address", type=positive_int,
+                   help="slave address: adds each command's memory-map offset")
+    p.add_argument("--axis", type=int, choices=(0, 1), default=0,
+                   help="axis of the 2-axis unit (default 0)")
+    p.add_argument("--duplex", choices=("full", "half"), default="full",
+                   help="link duplex, sets the memory map (default full)")
