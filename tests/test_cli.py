@@ -291,3 +291,28 @@ def test_plan_moves_from_stdin_carries_the_mix_hash(tmp_path: Path,
     provenance = json.loads(out.read_text())["provenance"]
     assert provenance["pulses"] == [2000]
     assert hashlib.sha256(mix).hexdigest() in json.dumps(provenance)
+
+
+@pytest.mark.parametrize("motor", ["nema17-1600", "nema23-heavy", "pk566-5phase-half"])
+def test_plan_summary_is_short_lines_each_said_once(motor: str, tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    # issue 32 item 10: what was planned, what holds it back, the reserve, the verdict,
+    # the other commands: a few lines of at most 120 characters, no reason said twice
+    from verify.cli.plan_text import LINE_MAX
+
+    monkeypatch.chdir(tmp_path)  # the last line names the table as given: a short path
+    out = "t.json"
+    assert main(["plan", "--motor", motor, "--pulses", "2000", "-o", out]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert 4 <= len(lines) <= 8
+    assert all(len(line) <= LINE_MAX for line in lines), lines
+    assert lines[0].startswith("planned: ") and " pps; a move of 2000 pulses takes " in lines[0]
+    assert any(line.startswith("cruise reserve at the top speed kept (") for line in lines)
+    assert any(line.startswith("verdict: SAFE for every move length: worst load angle ")
+               for line in lines)
+    assert lines[-1].strip() == f"stepramp check {out} --motor {motor}"
+    clauses = [c.strip() for line in lines for c in line.split(";")]
+    assert len(clauses) == len(set(clauses)), lines
+    # the planner's jargon stays in --format json ("info")
+    assert not any(word in "\n".join(lines) for word in ("info:", "×0.", "tightened where"))

@@ -11,6 +11,7 @@ from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.planner import plan_free_curve
 from verify.compare import compare_table
+from verify.report import FileResult, file_lines
 
 MOTOR = load_motor(bundled_motor_paths()[0])
 PLAN = plan_free_curve(MOTOR, pulses=4000)
@@ -47,8 +48,35 @@ def test_numbers_are_the_chip_time_against_the_best_reference() -> None:
     assert f"smallest stall margin: {cmp.stall_margin:.3f} (capability / need; ≥ 1 is " \
            "stall-safe)" in text
     assert "criterion: passes" in text
-    assert f"this move: {cmp.move_verdict.describe()}" in text
-    assert f"every move the table can run: {cmp.every_verdict.describe()}" in text
+    la = cmp.move_verdict.load_angle
+    assert la is not None and f"this move: SAFE; {la.describe()}" in text
+    # every move as check reports it (verify.report): the findings, then the notes, each once
+    every_lines = [line for line in text if line.startswith("every move: ")]
+    assert every_lines == file_lines(FileResult("every move", True,
+                                                cmp.every_verdict.findings(),
+                                                notes=cmp.every_verdict.notes()))[0]
+    worst = cmp.every_verdict.load_angle.describe()  # in a finding or a note, once
+    assert sum(worst in line for line in every_lines) == 1
+    assert len(set(text)) == len(text)  # no line said twice
+
+
+def test_compare_reports_every_move_as_check_does(tmp_path: Path,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    # the same findings and notes, in the same order, as `check --motor` prints for the table
+    from profiles.ppmc312.table import dump_table
+    from verify.cli import main
+
+    path = tmp_path / "t.json"
+    path.write_text(dump_table(PLAN.table))
+    motor = str(bundled_motor_paths()[0])
+    assert main(["check", str(path), "--motor", motor]) == 0
+    checked = [line.split(": ", 1)[1] for line in capsys.readouterr().out.splitlines()
+               if line.startswith(str(path) + ": ")]
+    assert main(["compare", str(path), "--motor", motor, "--pulses", "4000",
+                 "--references", "ruckig"]) == 0
+    compared = [line.split(": ", 1)[1] for line in capsys.readouterr().out.splitlines()
+                if line.startswith("every move: ")]
+    assert checked and compared == checked
 
 
 def test_staircase_edges_cover_the_move() -> None:

@@ -20,6 +20,8 @@ from profiles.ppmc312.table import FreeCurveTable, Table
 from verify.references import SOLVERS as DEFAULT_REFERENCES
 from verify.safety import SafetyVerdict
 
+EVERY_MOVE = "every move"  # the every-move lines' prefix, where check names the file
+
 
 @dataclass
 class Comparison:
@@ -107,11 +109,29 @@ class Comparison:
         lines.append("criterion: " + ("passes" if not self.criterion else
                                       f"FAILS ({len(self.criterion)} finding(s))"))
         lines += [f"  [{f.rule}] {f.message}" for f in self.criterion]
-        lines.append(f"this move: {self.move_verdict.describe()}")
-        lines.append(f"every move the table can run: {self.every_verdict.describe()}")
+        lines.append(f"this move: {self.move_summary()}")
+        lines += self.every_move_lines()
         verdict = "SAFE" if self.safe else "UNSAFE (failed: " + ", ".join(self.failed_judges) + ")"
         lines.append(f"verdict: {verdict}")
         return "\n".join(lines) + "\n"
+
+    def move_summary(self) -> str:
+        """The move asked for in one line: safe or not, its worst load angle (its decel
+        stops are every move's: the lines of `every_move_lines` say them)."""
+        v = self.move_verdict
+        head = "SAFE" if v.safe else "UNSAFE (failed: " + ", ".join(v.failed) + ")"
+        return head + ("" if v.load_angle is None else f"; {v.load_angle.describe()}")
+
+    def every_move_lines(self) -> list[str]:
+        """Every move the table can run, reported as `stepramp check --motor` reports it
+        (verify.report): the findings, a rule's many folded, then the notes."""
+        from verify.report import FileResult, file_lines
+
+        v = self.every_verdict
+        found = v.findings()
+        result = FileResult(EVERY_MOVE, not any(f.severity == "error" for f in found),
+                            found, notes=v.notes())
+        return file_lines(result)[0]
 
     def figure(self) -> Any:
         from verify.plot import comparison_figure

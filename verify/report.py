@@ -85,19 +85,11 @@ def _text(results: Sequence[FileResult], verbose: bool = False) -> str:
     lines: list[str] = []
     errors = warnings = folded = 0
     for r in results:
-        name = display_path(r.path)
-        if r.error is not None:
-            lines.append(f"{name}: unusable: {_one_line(r.error)}")
-        groups = [r.findings] if verbose else list(_by_rule(r.findings).values())
-        for group in groups:
-            if verbose or len(group) <= FOLD_OVER:
-                lines += [finding_line(r.path, f) for f in group]
-            else:
-                lines += _summary_lines(name, group)
-                folded += len(group)
+        own, n = file_lines(r, verbose)
+        lines += own
+        folded += n
         errors += sum(1 for f in r.findings if f.severity == "error")
         warnings += sum(1 for f in r.findings if f.severity != "error")
-        lines += [f"{name}: note: {_one_line(n)}" for n in _own_notes(r)]
     failed = sum(1 for r in results if not r.ok)
     unusable = sum(1 for r in results if r.error is not None)
     summary = (f"{len(results)} file{_s(len(results))} checked: {len(results) - failed} ok, "
@@ -107,6 +99,24 @@ def _text(results: Sequence[FileResult], verbose: bool = False) -> str:
         summary += f"; {folded} findings summarised by rule (--verbose lists each)"
     lines.append(summary)
     return "\n".join(lines) + "\n"
+
+
+def file_lines(r: FileResult, verbose: bool = False) -> tuple[list[str], int]:
+    """One file's lines of the text report (its findings, a rule's many folded, then the
+    notes no finding says), and how many findings were folded. `compare` reports the
+    verdict on every move the table can run with these lines, as `check` does."""
+    name = display_path(r.path)
+    lines = [] if r.error is None else [f"{name}: unusable: {_one_line(r.error)}"]
+    folded = 0
+    groups = [r.findings] if verbose else list(_by_rule(r.findings).values())
+    for group in groups:
+        if verbose or len(group) <= FOLD_OVER:
+            lines += [finding_line(r.path, f) for f in group]
+        else:
+            lines += _summary_lines(name, group)
+            folded += len(group)
+    lines += [f"{name}: note: {_one_line(n)}" for n in _own_notes(r)]
+    return lines, folded
 
 
 def _by_rule(findings: Sequence[Finding]) -> dict[tuple[str, str], list[Finding]]:

@@ -126,6 +126,20 @@ class SafetyVerdict:
                                la.describe() + f" (stepramp plan aims at ≤ {self.aim_deg:g}°)"))
         return out + list(self.resonance) + [f for _, v in self.commands for f in v.findings()]
 
+    def notes(self) -> list[str]:
+        """What `check` notes beside the findings: the worst load angle (when no
+        load-angle finding says it), the tolerance box's summary, and each command family
+        with nothing to find (its findings say it otherwise), when the load angle was judged."""
+        out = []
+        if self.load_angle is not None and \
+                not any(f.rule.startswith("load-angle") for f in self.findings()):
+            out.append(self.load_angle.describe())
+        if self.box is not None:
+            out.append(self.box.describe())
+        if self.load_angle is None:  # judged without the load angle: the criterion's alone
+            return out
+        return out + [v.describe() for _, v in self.commands if not v.findings()]
+
     def describe(self) -> str:
         """One paragraph: the verdict, which judge fails, the worst angle."""
         head = "SAFE" if self.safe else "UNSAFE (failed: " + ", ".join(self.failed) + ")"

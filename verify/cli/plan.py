@@ -27,7 +27,6 @@ OPTIONS = {"pulses": "--pulses", "max_stages": "--max-stages",
            "load angle target [°]": "--load-angle"}
 
 KINDS = ("free", "linear", "s-curve")
-SUMMARY_ITEMS_MAX = 20  # the text summary lists at most this many items of a mapping
 MAX_STAGES_DEFAULT = 127
 
 
@@ -77,6 +76,8 @@ def _do_plan(args: argparse.Namespace) -> int:
     from verify.output import write_output
     from verify.safety import judge_safety
 
+    from .plan_text import plain_summary
+
     with fields_as_options(OPTIONS):  # NaN, ±inf and negatives stop here, before any work
         require_number("load angle target [°]", args.load_angle, 1.0, PEAK_DEG)
     if args.moves is not None and (args.pulses is not None or args.source):
@@ -107,6 +108,7 @@ def _do_plan(args: argparse.Namespace) -> int:
             table, summary = _duty_cycle(args, planned)
         else:
             table, summary = _free(args, planned)
+    made = summary.pop("_plan")
     kept = reserve.at(motor, top_pps(table))
     summary["cruise_reserve"] = kept.to_json()
     verdict = judge_safety(table, motor, aim_deg=min(args.load_angle, PEAK_DEG))
@@ -123,12 +125,10 @@ def _do_plan(args: argparse.Namespace) -> int:
     if args.format == "json":
         print(json_text(summary, indent=None), end="", file=stream)
     else:
-        summary.pop("safety")
-        summary.pop("cruise_reserve")
-        print(", ".join(f"{k}: {_fmt(v)}" for k, v in summary.items() if v not in (None, "")),
-              file=stream)
-        print(kept.describe(), file=stream)
-        print(f"verdict: {verdict.describe()}", file=stream)
+        lines = plain_summary(summary, made, table, planned, kept, verdict,
+                              aim_deg=min(args.load_angle, PEAK_DEG),
+                              check=f"stepramp check {args.output or 'TABLE'} --motor {args.motor}")
+        print("\n".join(lines), file=stream)
     return EXIT_OK
 
 
@@ -141,7 +141,8 @@ def _free(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, Any]]:
     table = plan.table
     return table, {"stages": len(table.rates), "clock": table.clock.name,
                    "separate_decel": table.separate, "pulses": plan.pulses,
-                   "move_time_s": plan.duration_s, "solve_s": plan.solve_s, "info": plan.info}
+                   "move_time_s": plan.duration_s, "solve_s": plan.solve_s, "info": plan.info,
+                   "_plan": plan}
 
 
 def _duty_cycle(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, Any]]:
@@ -168,7 +169,7 @@ def _duty_cycle(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, An
     return table, {"stages": len(table.rates), "clock": table.clock.name,
                    "separate_decel": table.separate, "weighted_time_s": plan.duration_s,
                    "move_times_s": {str(n): t for n, t in times.items()},
-                   "solve_s": plan.solve_s, "info": plan.info}
+                   "solve_s": plan.solve_s, "info": plan.info, "_plan": plan}
 
 
 def mix_bytes(args: argparse.Namespace) -> bytes:
@@ -272,7 +273,7 @@ def _from_reference(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str
     return table, {**followed.summary(), "stages": len(table.rates),
                    "clock": table.clock.name, "separate_decel": table.separate,
                    "pulses": args.pulses, "solve_s": followed.plan.solve_s,
-                   "info": followed.plan.info}
+                   "info": followed.plan.info, "_plan": followed.plan}
 
 
 def _init(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, Any]]:
@@ -288,7 +289,7 @@ def _init(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, Any]]:
     return table, {"kind": args.kind, "modelled_stages": len(plan.extras["stages"].rates),
                    "clock": table.clock.name, "separate_decel": table.separate,
                    "pulses": plan.pulses, "move_time_s": plan.duration_s,
-                   "run": plan.extras["shape_run"], "info": plan.info}
+                   "run": plan.extras["shape_run"], "info": plan.info, "_plan": plan}
 
 
 def plan_provenance(args: argparse.Namespace, motor: Any) -> Any:
@@ -322,11 +323,3 @@ def top_pps(table: Any) -> float:
 
 def _max_stages(args: argparse.Namespace) -> int:
     return MAX_STAGES_DEFAULT if args.max_stages is None else args.max_stages
-
-
-def _fmt(v: Any) -> str:
-    if isinstance(v, float):
-        return f"{v:.6g}"
-    if isinstance(v, dict) and len(v) > SUMMARY_ITEMS_MAX:  # a long mix's move times
-        return f"{len(v)} values (--format json lists them)"
-    return str(v)

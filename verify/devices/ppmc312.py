@@ -316,14 +316,7 @@ def safety_findings(table: FreeCurveTable | InitTable, options: CheckOptions,
                            progress=options.progress)
     found = verdict.findings()
     details["safety"] = verdict.to_json()
-    if not any(f.rule.startswith("load-angle") for f in found) and \
-            verdict.load_angle is not None:
-        notes.append(verdict.load_angle.describe())
-    if verdict.box is not None:
-        notes.append(verdict.box.describe())
-    # a command family's verdict is a note when it has nothing to find (its findings say it)
-    notes.extend(v.describe() for _, v in verdict.commands
-                 if options.physics and not v.findings())
+    notes.extend(verdict.notes())
     return found
 
 

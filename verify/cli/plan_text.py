@@ -1,0 +1,148 @@
+"""`stepramp plan`'s text summary: a few short lines a user reads at a glance.
+
+What was planned (stages, top speed, move time), what holds it back or what the
+load-angle tightening gave up (profiles.ppmc312.planner: `Plan.binds` and
+`extras["shaping"]`) in plain words, the cruise reserve, the verdict in one line, and one
+line pointing at `check --motor` for what the other motion commands may run. Each line
+is at most LINE_MAX characters and says what no other line says; `--format json` keeps
+every number.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+LINE_MAX = 120   # characters a summary line may have
+LENGTHS_SHOWN = 4  # a mix's move lengths named before "…"
+
+
+def pps(x: float) -> str:
+    """A speed as the user reads it: `2 840 pps` (whole pulses, thousands spaced)."""
+    return f"{x:,.0f}".replace(",", " ") + " pps"
+
+
+def ms(seconds: float) -> str:
+    return f"{seconds * 1e3:.4g} ms"
+
+
+def plain_summary(summary: dict[str, Any], plan: Any, table: Any, motor: Any, kept: Any,
+                  verdict: Any, *, aim_deg: float, check: str) -> list[str]:
+    """The text summary of a plan: `summary` is what `--format json` prints, `plan` the
+    planner's Plan, `motor` the motor planned for, `kept` the cruise reserve at the top
+    speed (profiles.motor.reserve.ReserveAt), `verdict` the safety verdict, `check` the
+    command that lists the command families' limits."""
+    lines = [_planned(summary, table)]
+    lines += _held_back(plan, motor, aim_deg)
+    lines.append(_reserve(kept))
+    lines.append(_verdict(verdict))
+    lines += _commands(verdict, check)
+    return lines
+
+
+def _planned(summary: dict[str, Any], table: Any) -> str:
+    from .plan import top_pps
+
+    stages = summary.get("stages", summary.get("modelled_stages"))
+    kind = summary.get("kind")
+    article = "an" if kind == "s-curve" else "a"
+    what = (f"{article} {kind} init table ({stages} modelled stages)" if kind
+            else f"{stages} stages")
+    side = "separate decel (LE=1)" if summary.get("separate_decel") else "shared decel (LE=0)"
+    head = f"planned: {what}, {side}, top {pps(top_pps(table))}"
+    if "weighted_time_s" in summary:
+        lengths = list(summary.get("move_times_s", {}))
+        shown = ", ".join(lengths[:LENGTHS_SHOWN]) + (", …" if len(lengths) > LENGTHS_SHOWN
+                                                      else "")
+        return (f"{head}; weighted move time {ms(summary['weighted_time_s'])} over "
+                f"{len(lengths)} lengths ({shown} pulses)")
+    move = f"{head}; a move of {summary['pulses']} pulses takes {ms(summary['move_time_s'])}"
+    if "source" in summary:
+        move += (f", {summary['table/reference']:.3g}× the {summary['source']} reference "
+                 f"it follows")
+    return move
+
+
+_BINDS = {
+    "stage budget": "all {stages} stages are used: --max-stages with more would go faster",
+    "move length": "the move is short: its ramps use every pulse before the top speed",
+    "top speed": "it reaches the top speed the motor keeps its cruise reserve at",
+    "stall criterion (capability and jump limit)": "the motor's torque sets the ramp "
+                                                   "(the stall criterion)",
+}
+
+
+def _held_back(plan: Any, motor: Any, aim_deg: float) -> list[str]:
+    """What limits the table, and what the tightening for the load angle changed."""
+    extras = getattr(plan, "extras", {}) or {}
+    shaping = extras.get("shaping")
+    lines = []
+    binds = str(getattr(plan, "binds", "") or "")
+    if binds in _BINDS:
+        stages = len(plan.table.rates) if hasattr(plan.table, "rates") else "the"
+        lines.append("limited by: " + _BINDS[binds].format(stages=stages))
+    if shaping is not None and not shaping.plain:
+        why = f"to keep the rotor within {aim_deg:g}°"
+        if shaping.start_scale < 1.0:
+            lines.append(f"start speed lowered to {pps(motor.start_pps * shaping.start_scale)} "
+                         f"(from {pps(motor.start_pps)}) {why} on short moves")
+        gentler = [(lo, hi, s) for lo, hi, s in
+                   zip((0.0, *shaping.edges_pps), (*shaping.edges_pps, math.inf),
+                       shaping.scale, strict=True) if s < 1.0]
+        if gentler and not shaping.edges_pps:
+            lines.append(f"the whole ramp made gentler (×{gentler[0][2]:.2g} of the torque "
+                         f"used) {why}")
+        elif gentler:
+            lo, hi = gentler[0][0], gentler[-1][1]
+            least = min(s for _, _, s in gentler)
+            span = (f"from {pps(lo)} up" if not math.isfinite(hi)
+                    else f"between {pps(lo)[:-4]} and {pps(hi)}")
+            lines.append(f"ramp made gentler {span} (down to {least:.0%} of the torque) {why}")
+    worst = extras.get("worst_load_angle_deg")
+    if worst is not None and worst > aim_deg:
+        lines.append(f"the {aim_deg:g}° aim was not reached: the closest table reaches "
+                     f"{worst:.1f}°")
+    return lines
+
+
+def _reserve(kept: Any) -> str:
+    if kept.reserve.is_off:
+        return f"cruise reserve: off (--cruise-reserve off); top {pps(kept.speed_pps)}"
+    times = ("nothing to carry" if kept.need_nm == 0
+             else f"{kept.times_need:.3g}× the cruising need")
+    asked = kept.reserve
+    return ("cruise reserve at the top speed " + ("kept" if kept.kept else "NOT kept")
+            + f" (≥ {asked.need_factor:g}×, ≥ {asked.standstill_share * 100:g} %): pull-out "
+            f"{kept.pullout_nm:.3g} N·m, {times}, {kept.share * 100:.3g} % of standstill")
+
+
+def _verdict(verdict: Any) -> str:
+    """`verdict: SAFE for every move length: worst load angle 70.0° (a decel stop, stage
+    89), margin +5.0° to the 75° aim` (the 90° peak is beyond the aim)."""
+    from verify.command_verdicts import DECEL_STOP
+
+    head = "SAFE" if verdict.safe else "UNSAFE (failed: " + ", ".join(verdict.failed) + ")"
+    scope = ("every move length" if verdict.moves is None
+             else "moves of " + ", ".join(map(str, verdict.moves)) + " pulses")
+    la = verdict.load_angle
+    if la is None:
+        return f"verdict: {head} for {scope}; the load angle not judged"
+    worst, where = la.worst_deg, f"a move of {la.worst_pulses} pulses"
+    stop = dict(verdict.commands).get(DECEL_STOP)
+    if stop is not None and stop.worst_deg is not None and stop.worst_deg > worst:
+        worst, where = stop.worst_deg, f"a decel stop, stage {stop.stage}"
+    return (f"verdict: {head} for {scope}: worst load angle {worst:.1f}° ({where}), "
+            f"margin {verdict.aim_deg - worst:+.1f}° to the {verdict.aim_deg:g}° aim")
+
+
+def _commands(verdict: Any, check: str) -> list[str]:
+    """The other motion commands (their codes) have their own speed limits: one line, and
+    the command that lists each one's limit."""
+    from verify.command_families import CODES
+    from verify.command_verdicts import DECEL_STOP
+
+    codes = [CODES.get(name, name) for name, _ in verdict.commands if name != DECEL_STOP]
+    if not codes:
+        return []
+    return [f"other motion commands ({', '.join(codes)}) have their own speed limits, listed by:",
+            f"  {check}"]
