@@ -82,27 +82,39 @@ def _held_back(plan: Any, motor: Any, aim_deg: float) -> list[str]:
         stages = len(plan.table.rates) if hasattr(plan.table, "rates") else "the"
         lines.append("limited by: " + _BINDS[binds].format(stages=stages))
     if shaping is not None and not shaping.plain:
-        why = f"to keep the rotor within {aim_deg:g}°"
-        if shaping.start_scale < 1.0:
-            lines.append(f"start speed lowered to {pps(motor.start_pps * shaping.start_scale)} "
-                         f"(from {pps(motor.start_pps)}) {why} on short moves")
-        gentler = [(lo, hi, s) for lo, hi, s in
-                   zip((0.0, *shaping.edges_pps), (*shaping.edges_pps, math.inf),
-                       shaping.scale, strict=True) if s < 1.0]
-        if gentler and not shaping.edges_pps:
-            lines.append(f"the whole ramp made gentler (×{gentler[0][2]:.2g} of the torque "
-                         f"used) {why}")
-        elif gentler:
-            lo, hi = gentler[0][0], gentler[-1][1]
-            least = min(s for _, _, s in gentler)
-            span = (f"from {pps(lo)} up" if not math.isfinite(hi)
-                    else f"between {pps(lo)[:-4]} and {pps(hi)}")
-            lines.append(f"ramp made gentler {span} (down to {least:.0%} of the torque) {why}")
+        lines += _tightening(shaping, motor, aim_deg)
     worst = extras.get("worst_load_angle_deg")
     if worst is not None and worst > aim_deg:
         lines.append(f"the {aim_deg:g}° aim was not reached: the closest table reaches "
                      f"{worst:.1f}°")
     return lines
+
+
+def _tightening(shaping: Any, motor: Any, aim_deg: float) -> list[str]:
+    """What the load-angle tightening changed (profiles.ppmc312.planner.problem.Shaping),
+    in one line when it fits: the start speed lowered, the ramp made gentler (where)."""
+    parts = []
+    if shaping.start_scale < 1.0:
+        parts.append(f"start speed lowered to {pps(motor.start_pps * shaping.start_scale)} "
+                     f"(from {pps(motor.start_pps)})")
+    gentler = [(lo, hi, s) for lo, hi, s in
+               zip((0.0, *shaping.edges_pps), (*shaping.edges_pps, math.inf), shaping.scale,
+                   strict=True) if s < 1.0]
+    if gentler and not shaping.edges_pps:
+        parts.append(f"ramp made gentler everywhere ({gentler[0][2]:.0%} of the torque it "
+                     f"could use)")
+    elif gentler:
+        lo, hi = gentler[0][0], gentler[-1][1]
+        least = min(s for _, _, s in gentler)
+        span = (f"from {pps(lo)} up" if not math.isfinite(hi)
+                else f"between {pps(lo)[:-4]} and {pps(hi)}")
+        parts.append(f"ramp made gentler {span} (down to {least:.0%} of the torque it could "
+                     f"use)")
+    why = f" to keep the rotor within {aim_deg:g}°"
+    line = ", ".join(parts) + why
+    if len(line) <= LINE_MAX:
+        return [line]
+    return [*parts[:-1], parts[-1] + why]
 
 
 def _reserve(kept: Any) -> str:
