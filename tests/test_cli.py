@@ -299,7 +299,7 @@ def test_plan_summary_is_short_lines_each_said_once(motor: str, tmp_path: Path,
                                                     capsys: pytest.CaptureFixture[str]) -> None:
     # issue 32 item 10: what was planned, what holds it back, the reserve, the verdict,
     # the other commands: a few lines of at most 120 characters, no reason said twice
-    from verify.cli.plan_text import LINE_MAX
+    from verify.plan_text import LINE_MAX
 
     monkeypatch.chdir(tmp_path)  # the last line names the table as given: a short path
     out = "t.json"
@@ -323,7 +323,7 @@ def test_plan_says_what_the_tightening_changed_in_plain_words() -> None:
     from types import SimpleNamespace
 
     from profiles.ppmc312.planner.problem import Shaping
-    from verify.cli.plan_text import LINE_MAX, _tightening
+    from verify.plan_text import LINE_MAX, _tightening
 
     motor = SimpleNamespace(start_pps=5880.0)
     assert _tightening(Shaping.uniform(0.483), motor, 75.0) == [

@@ -18,7 +18,7 @@ from profiles.motor.catalogue import resolve
 from profiles.motor.reserve import CruiseReserve, parse_cruise_reserve
 from profiles.ppmc312.table import load_table
 from verify import cli
-from verify.cli.plan_text import pps
+from verify.plan_text import pps
 
 NEMA23 = load_motor(resolve("nema23-heavy"))
 NEMA23_CAP = 10666.6667  # where its curve falls to 2 × its 0.2 N·m friction (0.4 N·m)

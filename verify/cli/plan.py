@@ -74,9 +74,8 @@ def _do_plan(args: argparse.Namespace) -> int:
     from profiles.ppmc312.table import dump_table
     from profiles.reading import json_text
     from verify.output import write_output
+    from verify.plan_text import plain_summary, top_pps
     from verify.safety import judge_safety
-
-    from .plan_text import plain_summary
 
     with fields_as_options(OPTIONS):  # NaN, ±inf and negatives stop here, before any work
         require_number("load angle target [°]", args.load_angle, 1.0, PEAK_DEG)
@@ -312,13 +311,6 @@ def plan_provenance(args: argparse.Namespace, motor: Any) -> Any:
     return planned_for(args.motor, motor, pulses=pulses, moves_file=moves,
                        aim_deg=min(args.load_angle, PEAK_DEG),
                        reserve=cruise_reserve(args))
-
-
-def top_pps(table: Any) -> float:
-    """The fastest speed a table runs [pps]: its first rate (a free curve) or its high
-    rate (an init table)."""
-    rate = table.rates[0] if table.kind == "free_curve" else table.high_rate
-    return float(table.clock.hz / rate)
 
 
 def _max_stages(args: argparse.Namespace) -> int:

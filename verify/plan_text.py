@@ -41,7 +41,6 @@ def plain_summary(summary: dict[str, Any], plan: Any, table: Any, motor: Any, ke
 
 
 def _planned(summary: dict[str, Any], table: Any) -> str:
-    from .plan import top_pps
 
     stages = summary.get("stages", summary.get("modelled_stages"))
     kind = summary.get("kind")
@@ -158,3 +157,10 @@ def _commands(verdict: Any, check: str) -> list[str]:
         return []
     return [f"other motion commands ({', '.join(codes)}) have their own speed limits, listed by:",
             f"  {check}"]
+
+
+def top_pps(table: Any) -> float:
+    """The fastest speed a table runs [pps]: its first rate (a free curve) or its high
+    rate (an init table)."""
+    rate = table.rates[0] if table.kind == "free_curve" else table.high_rate
+    return float(table.clock.hz / rate)
