@@ -204,14 +204,22 @@ def samples(table: FreeCurveTable, motors: Sequence[Motor]
     spacing[at], dense[at] = dwell_sampling(rotor_list, hz / slowest[at].astype(float),
                                             lo[at], hi[at], np.where(trapezoid[at], 1, 2))
     hi = np.where(trapezoid, dense, hi)  # a longer cruise repeats the settled one
+    lengths, family = sample_grid(lo, spacing, dense, hi)
+    lengths, first = np.unique(lengths, return_index=True)
+    return lengths, family[first], spacing
+
+
+def sample_grid(lo: np.ndarray, spacing: np.ndarray, dense: np.ndarray, hi: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Every range k's samples lo[k], lo[k] + spacing[k], … up to dense[k], then dense[k]
+    and hi[k] themselves: (the values, the range of each), in that order, repeats kept
+    (the caller makes them unique, by what it keys them on)."""
     count = (dense - lo) // spacing + 1
     family = np.repeat(np.arange(len(lo)), count)
     within = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
-    lengths = np.concatenate((np.minimum(lo[family] + within * spacing[family], dense[family]),
-                              dense, hi))
-    family = np.concatenate((family, np.arange(len(lo)), np.arange(len(lo))))
-    lengths, first = np.unique(lengths, return_index=True)
-    return lengths, family[first], spacing
+    values = np.concatenate((np.minimum(lo[family] + within * spacing[family], dense[family]),
+                             dense, hi))
+    return values, np.concatenate((family, np.arange(len(lo)), np.arange(len(lo))))
 
 
 def dwell_sampling(rotor_list: Sequence[Rotor], speed: np.ndarray, lo: np.ndarray,

@@ -40,7 +40,7 @@ from ..remembered import Remembered
 from .criterion import StepProblem, runs_problems
 from .execution import Execution, MoveBatch, Phase, Segment
 from .init_model import as_free_curve
-from .load_angle import directions, dwell_sampling, judge
+from .load_angle import directions, dwell_sampling, judge, sample_grid
 from .table import FreeCurveTable, InitTable
 
 READINGS = ("a", "b", "c")
@@ -443,12 +443,7 @@ def stop_samples(table: FreeCurveTable, motors: Sequence[Motor], ranges: Dwells
     speed = table.clock.hz / np.asarray(table.rates, dtype=float)[ranges.stage]
     lo, hi = ranges.lo, ranges.hi
     spacing, dense = dwell_sampling(rotor_list, speed, lo, hi, 1)
-    count = (dense - lo) // spacing + 1
-    family = np.repeat(np.arange(len(lo)), count)
-    within = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)
-    dwell = np.concatenate((np.minimum(lo[family] + within * spacing[family], dense[family]),
-                            dense, hi))
-    family = np.concatenate((family, np.arange(len(lo)), np.arange(len(lo))))
+    dwell, family = sample_grid(lo, spacing, dense, hi)
     keys, first = np.unique(ranges.base[family] + dwell, return_index=True)
     return keys, family[first], spacing
 
