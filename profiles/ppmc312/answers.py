@@ -14,7 +14,7 @@ with the bytes, an unknown response code, a value no table of the manual gives.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -94,10 +94,16 @@ def decode_answer(data: bytes) -> Answer:
 def decode_answers(capture: bytes) -> list[Answer]:
     """Answers read back to back (a capture), split by their length bytes; an error
     names the block (counted from 0) and its byte."""
+    return decode_each(split_answers(capture), decode_answer)
+
+
+def decode_each(blocks: Sequence[bytes], decode: Callable[[bytes], Answer]) -> list[Answer]:
+    """`decode` of every block of a capture; an error is placed at its block (counted from
+    0) and its byte within it."""
     out = []
-    for index, block in enumerate(split_answers(capture)):
+    for index, block in enumerate(blocks):
         try:
-            out.append(decode_answer(block))
+            out.append(decode(block))
         except DecodeError as e:
             raise DecodeError(without_where(str(e)), block=index, byte=e.byte) from None
     return out

@@ -22,7 +22,7 @@ from typing import Any
 from ..errors import DecodeError, FormatError, echo
 from ..fields import Frame
 from .answer_kinds import BY_KEY, Kind
-from .answers import Answer, decode_fields, require_choices, without_where
+from .answers import Answer, decode_each, decode_fields, require_choices, without_where
 from .ascii import (
     END_CODE_REPLY,
     END_CODES,
@@ -124,13 +124,7 @@ def decode_reply(frame: bytes, *, reply_to: str | None = None) -> Answer:
 def decode_replies(capture: bytes, *, reply_to: str | None = None) -> list[Answer]:
     """Replies back to back, each starting at its control byte (the only bytes with bit 7
     set: the rest is ASCII); an error names the reply (counted from 0)."""
-    out = []
-    for index, frame in enumerate(split_replies(capture)):
-        try:
-            out.append(decode_reply(frame, reply_to=reply_to))
-        except DecodeError as e:
-            raise DecodeError(without_where(str(e)), block=index, byte=e.byte) from None
-    return out
+    return decode_each(split_replies(capture), lambda f: decode_reply(f, reply_to=reply_to))
 
 
 def split_replies(capture: bytes) -> list[bytes]:
