@@ -127,18 +127,22 @@ def file_verdict(raw: bytes, path: str, options: CheckOptions) -> Verdict:
     if not is_table_read(blocks):  # a capture from the bus carries no check: none expected
         verdict.findings[:0] = integrity_findings("upload", parsed.format, parsed.integrity,
                                                   parsed.detail)
-    verdict.notes += handshake_note(blocks, parsed.format, answers)
+    # a refused upload has its finding already (the emulator ran): its answers would be
+    # the refusal
+    refused = any(f.rule == "chip-rejects-upload" for f in verdict.findings)
+    verdict.notes += handshake_note(blocks, parsed.format, answers, refused)
     return verdict
 
 
-def handshake_note(blocks: list[bytes], fmt: str, answers: list[bytes] | None) -> list[str]:
-    """A note for a table upload in a format with room for the chip's answers that lists
-    none (written before stepramp carried them): a host must still read each answer
-    before the next block (manual §5-4, §5-8), and the file cannot say what to expect."""
-    from profiles.ppmc312.emulator import expected_answers
+def handshake_note(blocks: list[bytes], fmt: str, answers: list[bytes] | None,
+                   refused: bool) -> list[str]:
+    """A note for a table upload the chip accepts, in a format with room for its answers,
+    that lists none (written before stepramp carried them): a host must still read each
+    answer before the next block (manual §5-4, §5-8), and the file cannot say what to
+    expect."""
+    from profiles.ppmc312.emulator import is_table_upload
 
-    # a refused upload has its finding already; its answers would be the refusal
-    if answers is not None or fmt in ("bin", "ihex") or expected_answers(blocks) is None:
+    if answers is not None or refused or fmt in ("bin", "ihex") or not is_table_upload(blocks):
         return []
     return ["the file lists no expected answers: the chip answers every block and raises "
             "alarm F4 01 when a block is written over an unread answer (§5-4, §7-2); "
