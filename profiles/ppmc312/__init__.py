@@ -1,11 +1,24 @@
-"""PPMC-312 codecs: parallel blocks, ASCII frames, upload files and a chip emulator.
+"""PPMC-312 pulse-controller LSI, split by role.
 
-`upload` turns tables into the bytes the chip takes (and back), `ascii` the
-serial frames, `formats` the upload file formats, `emulator` answers each block
-as the chip would. Frame layouts live once in `frames`.
+- `table`: free-curve and init tables (`FreeCurveTable`, `InitTable`, `load_table`);
+- `planner`: the fastest stall-safe free curve (`plan_free_curve`); `init_planner` the
+  best init table (`plan_init`);
+- `upload`: tables and motion commands into the bytes the chip takes and back (the
+  codec below); `motion` every motion command by name (`encode_command`); `ascii` the
+  serial frames; `formats` the upload file formats (`render`, `parse`);
+- `execution`: what the chip runs for a move (`simulate_move`); `init_model` the free
+  curve an init table becomes (`expand_init`);
+- `emulator` answers each block as the chip would (`accept_upload`); `answers` decodes
+  what it answered; `program` reads command programs; `link` talks to a slave.
+
+Frame layouts live once in `frames`. Every public name is importable from
+`profiles.ppmc312` directly: the upload codec at once, the rest on first use (the
+planners need numpy and numba, which reading and checking a table never does).
 """
 
-# The package's public API is upload's codec, named here one by one.
+from typing import TYPE_CHECKING
+
+from ..lazy import lazy_exports
 from .upload import (
     bus_writes,
     decode_free_curve,
@@ -20,16 +33,60 @@ from .upload import (
     encode_table_read_response,
 )
 
+if TYPE_CHECKING:
+    from .answers import decode_answer, decode_answers
+    from .clock import Clock
+    from .emulator import ChipEmulator, accept_upload
+    from .execution import simulate_move
+    from .formats import parse, render
+    from .init_model import expand_init
+    from .init_planner import plan_init
+    from .link import Link
+    from .motion import decode_command, encode_command
+    from .planner import plan_free_curve
+    from .program import load_program
+    from .table import FreeCurveTable, InitTable, Table, load_table
+
+__getattr__ = lazy_exports(__name__, {
+    "decode_answer": ".answers", "decode_answers": ".answers", "Clock": ".clock",
+    "ChipEmulator": ".emulator", "accept_upload": ".emulator",
+    "simulate_move": ".execution", "parse": ".formats", "render": ".formats",
+    "expand_init": ".init_model", "plan_init": ".init_planner", "Link": ".link",
+    "decode_command": ".motion", "encode_command": ".motion",
+    "plan_free_curve": ".planner", "load_program": ".program",
+    "FreeCurveTable": ".table", "InitTable": ".table", "Table": ".table",
+    "load_table": ".table",
+})
+
 __all__ = [
+    "ChipEmulator",
+    "Clock",
+    "FreeCurveTable",
+    "InitTable",
+    "Link",
+    "Table",
+    "accept_upload",
     "bus_writes",
+    "decode_answer",
+    "decode_answers",
+    "decode_command",
     "decode_free_curve",
     "decode_init",
     "decode_move",
     "decode_table_read",
     "decode_upload",
+    "encode_command",
     "encode_free_curve",
     "encode_init",
     "encode_move",
     "encode_table",
     "encode_table_read_response",
+    "expand_init",
+    "load_program",
+    "load_table",
+    "parse",
+    "plan_free_curve",
+    "plan_init",
+    "render",
+    "simulate_move",
 ]
