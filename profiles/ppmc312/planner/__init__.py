@@ -33,8 +33,8 @@ subset elsewhere; the result is then refined over exact integer rates.
 
 from ..criterion import switch_safe
 from .duty_cycle import plan_duty_cycle
-from .free_curve import Plan, plan, plan_baseline, plan_free_curve, plan_staircase, table_of
-from .problem import Shaping, check_plan_args, choose_clock, make_problem, reference_pulses
+from .free_curve import plan, plan_baseline, plan_free_curve, plan_staircase, table_of
+from .problem import Plan, Shaping, check_plan_args, choose_clock, make_problem, reference_pulses
 from .tightening import tighten, tighten_uniform
 
 __all__ = ["Plan", "Shaping", "check_plan_args", "choose_clock", "make_problem", "plan",

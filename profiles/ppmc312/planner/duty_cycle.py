@@ -24,8 +24,8 @@ from ...threads import pool
 from ..clock import Clock
 from ..execution import MOVE_PULSES_MAX, MoveBatch, moves
 from ..table import FreeCurveTable
-from .free_curve import Plan, plan_free_curve
-from .problem import check_plan_args
+from .free_curve import plan_free_curve
+from .problem import Plan, check_plan_args
 
 MIX_PULSES_MIN = 8          # planner.check_plan_args: the shortest move a table is planned for
 MIX_WEIGHT_MAX = 1e12

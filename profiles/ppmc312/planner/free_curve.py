@@ -13,17 +13,15 @@ import numpy as np
 from ...errors import PlanError
 from ...motor import Motor
 from ...remembered import Remembered
-from ...result import PlanResult
 from ...threads import pool
 from ..clock import MAX_OUTPUT_PPS, Clock
 from ..table import FreeCurveTable
-from .problem import Shaping, check_plan_args, choose_clock, make_problem, reference_pulses
+from .problem import Plan, Shaping, check_plan_args, choose_clock, make_problem, reference_pulses
 from .refine import Staircase, jerk_counts, own_decel_counts, refine_rates, switch_safe_decel
 from .search import GRID_TARGET, graph, grid_rates, search
+from .tightening import tighten
 
 BASELINE_POINTS = 600
-
-Plan = PlanResult[FreeCurveTable]  # what every free-curve planner here returns
 
 
 def plan_staircase(motor: Motor, clock: Clock, max_stages: int, budget: int, separate: bool,
@@ -179,8 +177,6 @@ def plan_free_curve(motor: Motor, *, clock: Clock | None = None, max_stages: int
     table safe over its whole box: the criterion on the box's worst-case capability
     (exact over the box, profiles.motor.tolerance), the load angle judged at every
     corner."""
-    from .tightening import tighten
-
     chosen: list[str] = []  # the variant the plain criterion picked
 
     def make(m: Motor, shaping: Shaping | None = None) -> Plan:

@@ -51,8 +51,7 @@ from ..stops import (
     stop_execution,
 )
 from ..table import FreeCurveTable
-from .free_curve import Plan
-from .problem import Shaping
+from .problem import Plan, Shaping
 
 Make = Callable[[Motor, Shaping | None], Plan]
 
