@@ -123,24 +123,14 @@ def _count_py(r_slow: float, r_fast: float, hz: float, v: np.ndarray, t: np.ndar
               base_ticks: float, most: float) -> tuple[float, float, bool]:
     """One step's (accel count, decel count, valid): `Problem.counts` (the method and its
     comments are there)."""
+    c_acc = (friction + load) * k
+    c_dec = (load - friction) * k
     f_slow = hz / r_slow
     f_fast = hz / (r_fast if r_fast > 0 else 1.0)
+    delta = f_fast - f_slow
     # a_acc and a_dec grow with the torque, and rounding keeps that order: the least
     # capability is the capability of the least torque, to the bit
     torque = _least_torque(f_slow, f_fast, v, t)
-    return _counts_of(torque, r_slow, r_fast, f_slow, f_fast, sf, friction, load, k, edges,
-                      scale, plain, jump, separate, bands, base_ticks, most)
-
-
-@nb.njit(cache=True, nogil=True, inline="always")
-def _counts_of(torque: float, r_slow: float, r_fast: float, f_slow: float, f_fast: float,
-               sf: float, friction: float, load: float, k: float, edges: np.ndarray,
-               scale: np.ndarray, plain: bool, jump: float, separate: bool, bands: np.ndarray,
-               base_ticks: float, most: float) -> tuple[float, float, bool]:
-    """A step's counts and validity from the least torque over it (`_count_py`)."""
-    c_acc = (friction + load) * k
-    c_dec = (load - friction) * k
-    delta = f_fast - f_slow
     a_acc = (sf * torque - friction - load) * k
     a_dec = (sf * torque + friction - load) * k
     jump_e = jump
@@ -184,55 +174,6 @@ def stage_counts(rs: np.ndarray, rf: np.ndarray, hz: float, v: np.ndarray, t: np
         n[e], d[e], valid[e] = _count_inline(rs[e], rf[e], hz, v, t, sf, friction, load, k,
                                              edges, scale, plain, jump, separate, bands,
                                              base_ticks, most)
-
-
-@nb.njit(cache=True, nogil=True)
-def graph_counts(rates: np.ndarray, width: int, hz: float, v: np.ndarray, t: np.ndarray,
-                 sf: float, friction: float, load: float, k: float, edges: np.ndarray,
-                 scale: np.ndarray, plain: bool, jump: float, separate: bool,
-                 bands: np.ndarray, base_ticks: float, most: float, n: np.ndarray,
-                 d: np.ndarray, valid: np.ndarray) -> None:
-    """`stage_counts` over the planner's whole graph (`search.graph`: node j's
-    predecessors are j − 1 … j − width, `rates` slowest first), to the bit, without
-    interpolating the curve at every step: the torque at each node once, and the least
-    torque over the curve's breakpoints inside each step carried from one predecessor to
-    the next slower one (a step [f_i, f_j] holds those of [f_(i+1), f_j] and those in
-    [... f_(i+1)]; the minimum of the same values in another order is the same). A motor
-    whose jump limit is large against the grid's spacing (a datasheet motor starts fast:
-    hundreds of predecessors a node) spent most of each plan interpolating. Entries with
-    no predecessor (w ≥ j) are invalid."""
-    g = len(rates)
-    last = len(v) - 1
-    f = np.empty(g)
-    at = np.empty(g)
-    for i in range(g):
-        f[i] = hz / float(rates[i])
-        at[i] = _torque(f[i], v, t)
-    for j in range(g):
-        f_fast = f[j]
-        r_fast = float(rates[j])
-        b = last - 1  # the highest inner breakpoint below f_fast
-        while b >= 1 and not v[b] < f_fast:
-            b -= 1
-        inner = math.inf  # the least torque of the breakpoints strictly inside the step
-        for w in range(width):
-            i = j - 1 - w
-            if i < 0:
-                n[j, w] = 0.0
-                d[j, w] = 0.0
-                valid[j, w] = False
-                continue
-            f_slow = f[i]
-            while b >= 1 and f_slow < v[b]:
-                if t[b] < inner:
-                    inner = t[b]
-                b -= 1
-            torque = min(at[i], at[j])
-            if inner < torque:
-                torque = inner
-            n[j, w], d[j, w], valid[j, w] = _counts_of(
-                torque, float(rates[i]), r_fast, f_slow, f_fast, sf, friction, load, k,
-                edges, scale, plain, jump, separate, bands, base_ticks, most)
 
 
 @nb.njit(cache=True, nogil=True)

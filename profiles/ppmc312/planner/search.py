@@ -97,7 +97,8 @@ def graph(pb: Problem, rates: np.ndarray) -> Graph:
     pred = j - 1 - np.arange(width)[None, :]
     ok = pred >= 0
     pred = np.where(ok, pred, 0)
-    n, d, valid = pb.graph_counts(rates, width)  # pb.counts(rates[pred], rates[j]) & ok
+    n, d, valid = pb.counts(rates[pred], np.broadcast_to(rates[:, None], pred.shape))
+    valid &= ok
     base = base_pulses(rates)
     return Graph(rates, f, pred, valid, np.where(valid, n + d, 0.0), np.where(valid, n, 0.0),
                   f <= pb.start, 2 * base, base)
