@@ -6,7 +6,7 @@
   criterion and the load angle over every move length; goal ≤ 25 ms): the bundled
   motors' 10 000-pulse plans (tightened to 75°, as `stepramp plan` writes them) and a
   random uneven LE=1 table over the NEMA17's speed range; the executions and the RK4
-  steps the compiled model took, against the plain-Python oracle (tests/rotor_oracle.py)
+  steps the compiled model took, against the plain-Python oracle (tests/support/rotor_oracle.py)
   integrating the same executions each from rest (a sample of them, timed and scaled to
   all), which also checks the worst angles agree on that sample;
 - 1 000 Monte Carlo samples of a tolerance box (`verify.tolerance_box.sample_peaks` on
@@ -39,11 +39,9 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tests"))  # the oracle lives with the tests
 
 import numpy as np  # noqa: E402
 from benchlib import Results, forget, timed, verdict  # noqa: E402
-from oracle_moves import kernel_step_counts, whole_move  # noqa: E402
 
 from profiles.errors import StepRampError  # noqa: E402
 from profiles.motor import Motor, bundled_motor_paths, load_motor  # noqa: E402
@@ -56,6 +54,7 @@ from profiles.ppmc312.load_angle import (  # noqa: E402
 )
 from profiles.ppmc312.planner import choose_clock, plan_free_curve  # noqa: E402
 from profiles.ppmc312.table import FreeCurveTable  # noqa: E402
+from tests.support.oracle_moves import kernel_step_counts, whole_move  # noqa: E402
 from verify.safety import judge_safety  # noqa: E402
 from verify.tolerance_box import sample_peaks  # noqa: E402
 

@@ -12,7 +12,7 @@ the chip's execution of that move (`simulate_move`):
 - the price of physical safety: the planned table / the criterion-only plan
   (`plan_free_curve` without a load-angle aim); goal ≤ 1.02 at ≥ 10 000 pulses;
 - every planned table's worst load angle over every move length by the compiled model
-  (≤ 75°), and by the plain-Python oracle (tests/rotor_oracle.py) on the three moves the
+  (≤ 75°), and by the plain-Python oracle (tests/support/rotor_oracle.py) on the three moves the
   model finds worst, each integrated whole.
 
 The bench motors: the three bundled ones, and three defined here from them:

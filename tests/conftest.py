@@ -54,8 +54,9 @@ def _bundled_motors_only() -> Iterator[None]:
                     os.environ[key] = value
 
 
-# The session fails when it leaves a new or changed file in the checkout (tests/repo_clean.py).
-pytest_plugins = ["repo_clean"]
+# The session fails when it leaves a new or changed file in the checkout
+# (tests/support/repo_clean.py).
+pytest_plugins = ["tests.support.repo_clean"]
 
 
 @pytest.fixture

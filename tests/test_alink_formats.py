@@ -8,7 +8,6 @@ import zlib
 from pathlib import Path
 
 import pytest
-from file_checks import assert_one_line_error, compile_and_run, flip_verdicts, needs_cc
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
@@ -26,6 +25,12 @@ from profiles.alink.formats import (
 )
 from profiles.errors import FormatError, StepRampError
 from profiles.formats import Provenance, RenderOptions
+from tests.support.file_checks import (
+    assert_one_line_error,
+    compile_and_run,
+    flip_verdicts,
+    needs_cc,
+)
 
 SETTINGS = settings(max_examples=80, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])

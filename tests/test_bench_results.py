@@ -13,9 +13,10 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from test_readme import bench_readme
 
-ROOT = Path(__file__).resolve().parents[1]
+from tests.support.bench_readme import bench_readme
+from tests.support.paths import ROOT
+
 gen = bench_readme()
 benchlib = sys.modules["benchlib"]
 benchfigures = sys.modules["benchfigures"]

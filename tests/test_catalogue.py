@@ -20,9 +20,9 @@ from profiles.motor.catalogue import (
     motor_name,
     resolve,
 )
+from tests.support.paths import ROOT
 from verify import cli
 
-ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
 NEMA17 = ROOT / "profiles" / "data" / "motor-nema17-1600.json"
 

@@ -20,9 +20,9 @@ import pytest
 from profiles.alink.formats import FORMATS as ALINK_TABLE
 from profiles.mc200.formats import FORMATS as MC200_TABLE
 from profiles.ppmc312.formats import FORMATS as PPMC_FORMATS
+from tests.support.paths import ROOT
 from verify import cli
 
-ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
 TABLE = str(EXAMPLES / "free-curve-nema17.json")
 INIT = str(EXAMPLES / "init-linear.json")

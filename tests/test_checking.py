@@ -9,11 +9,11 @@ from profiles.motor import load_motor
 from profiles.ppmc312.formats import render
 from profiles.ppmc312.table import load_table
 from profiles.ppmc312.upload import encode_table
+from tests.support.paths import ROOT
 from verify.check_file import check_file, dedupe
 from verify.devices.ppmc312 import load_checkable, looks_like_table_json
 from verify.findings import Finding
 
-ROOT = Path(__file__).resolve().parent.parent
 GOOD = ROOT / "examples" / "free-curve-nema17.json"
 BAD = ROOT / "examples" / "free-curve-bad.json"
 INIT = ROOT / "examples" / "init-linear.json"

@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import replace
-from pathlib import Path
 
 import pytest
 from hypothesis import given, settings
@@ -14,10 +13,11 @@ from hypothesis import strategies as st
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.init_model import init_stage_problem
 from profiles.ppmc312.table import FreeCurveTable, InitTable, load_table
+from tests.support.paths import ROOT
 from verify.chip_rules import check_table
 from verify.findings import Finding
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = ROOT / "examples"
 C8 = Clock.internal("8MHz")
 
 

@@ -29,12 +29,13 @@ from typing import Any
 
 import pytest
 import yaml
-from subprocess_env import checkout_env
 
-REPO = Path(__file__).resolve().parents[1]
-README = REPO / "README.md"
-GOOD = REPO / "examples" / "free-curve-nema17.json"
-BAD = REPO / "examples" / "free-curve-bad.json"
+from tests.support.paths import ROOT
+from tests.support.subprocess_env import checkout_env
+
+README = ROOT / "README.md"
+GOOD = ROOT / "examples" / "free-curve-nema17.json"
+BAD = ROOT / "examples" / "free-curve-bad.json"
 HOOK_ID = "stepramp-check"
 PRE_COMMIT_TIMEOUT_S = 1200  # the first run pip-installs numpy, toppra, casadi, …
 
@@ -89,11 +90,11 @@ def test_readme_section_has_both_snippets() -> None:
 
 
 def test_hook_definition() -> None:
-    hooks = yaml.safe_load((REPO / ".pre-commit-hooks.yaml").read_text(encoding="utf-8"))
+    hooks = yaml.safe_load((ROOT / ".pre-commit-hooks.yaml").read_text(encoding="utf-8"))
     [hook] = [h for h in hooks if h["id"] == HOOK_ID]
     assert hook["language"] == "python"
     assert hook["entry"] == "stepramp check"
-    pyproject = (REPO / "pyproject.toml").read_text(encoding="utf-8")
+    pyproject = (ROOT / "pyproject.toml").read_text(encoding="utf-8")
     assert re.search(r'^stepramp = "verify\.cli:main"$', pyproject, re.M), \
         "the hook's entry needs the `stepramp` console script"
     files = re.compile(hook["files"])
@@ -117,9 +118,9 @@ def test_override_example_selects_its_files() -> None:
 
 
 def test_workflow_file_is_the_readme_job() -> None:
-    path = REPO / "docs" / "ci" / "github-actions.yml"
+    path = ROOT / "docs" / "ci" / "github-actions.yml"
     assert path.read_text(encoding="utf-8") == workflow_text(), \
-        f"{path.relative_to(REPO)} differs from the README's job; copy one into the other"
+        f"{path.relative_to(ROOT)} differs from the README's job; copy one into the other"
 
 
 def test_workflow_publishes_the_report_it_writes() -> None:
@@ -223,7 +224,7 @@ def _pre_commit(cwd: Path, home: Path) -> subprocess.CompletedProcess[str]:
 def _local_config(config: dict[str, Any], rev: str) -> str:
     """The README's config with `repo:` this checkout and `rev:` its HEAD commit."""
     config = yaml.safe_load(yaml.safe_dump(config))
-    config["repos"][0]["repo"] = str(REPO)
+    config["repos"][0]["repo"] = str(ROOT)
     config["repos"][0]["rev"] = rev
     return yaml.safe_dump(config, sort_keys=False)
 
@@ -237,7 +238,7 @@ def pre_commit_home() -> Iterator[Path]:
 
 @pytest.fixture
 def firmware_repo(tmp_path: Path) -> Path:
-    if shutil.which("git") is None or not (REPO / ".git").exists():
+    if shutil.which("git") is None or not (ROOT / ".git").exists():
         pytest.skip("needs git and this repository's git checkout")
     _git(["init", "-q"], tmp_path)
     return tmp_path
@@ -245,7 +246,7 @@ def firmware_repo(tmp_path: Path) -> Path:
 
 @pytest.mark.slow
 def test_pre_commit_hook(firmware_repo: Path, pre_commit_home: Path) -> None:
-    rev = _git(["rev-parse", "HEAD"], REPO)
+    rev = _git(["rev-parse", "HEAD"], ROOT)
     config = pre_commit_configs()[0]
     assert "files" not in config["repos"][0]["hooks"][0], "the first snippet is the plain one"
     (firmware_repo / ".pre-commit-config.yaml").write_text(_local_config(config, rev))
@@ -272,13 +273,13 @@ def test_pre_commit_hook(firmware_repo: Path, pre_commit_home: Path) -> None:
 
 @pytest.mark.slow
 def test_pre_commit_files_override(firmware_repo: Path, pre_commit_home: Path) -> None:
-    rev = _git(["rev-parse", "HEAD"], REPO)
+    rev = _git(["rev-parse", "HEAD"], ROOT)
     [config] = [c for c in pre_commit_configs() if "files" in c["repos"][0]["hooks"][0]]
     hook = config["repos"][0]["hooks"][0]
     (firmware_repo / ".pre-commit-config.yaml").write_text(_local_config(config, rev))
     motor_arg = hook["args"][hook["args"].index("--motor") + 1]
     (firmware_repo / motor_arg).parent.mkdir(parents=True)
-    shutil.copy(REPO / "profiles" / "data" / "motor-nema17-1600.json", firmware_repo / motor_arg)
+    shutil.copy(ROOT / "profiles" / "data" / "motor-nema17-1600.json", firmware_repo / motor_arg)
     (firmware_repo / "ramps").mkdir()
     shutil.copy(GOOD, firmware_repo / "ramps" / "x.json")
     shutil.copy(BAD, firmware_repo / "ramps" / "y.json")

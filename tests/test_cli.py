@@ -14,9 +14,9 @@ from profiles.ppmc312.emulator import expected_answers
 from profiles.ppmc312.formats import parse_upload
 from profiles.ppmc312.table import load_table
 from profiles.ppmc312.upload import decode_move, decode_upload, encode_table
+from tests.support.paths import ROOT
 from verify.cli import main
 
-ROOT = Path(__file__).resolve().parent.parent
 GOOD = ROOT / "examples" / "free-curve-nema17.json"
 BAD = ROOT / "examples" / "free-curve-bad.json"
 INIT = ROOT / "examples" / "init-linear.json"

@@ -14,6 +14,7 @@ from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.table import FreeCurveTable, dump_table, load_table
+from tests.support.paths import ROOT
 from verify.cli import main
 from verify.safety import judge_safety
 
@@ -97,7 +98,7 @@ def test_compare_exits_1_on_an_unsafe_move(tmp_path: Path,
     doc = json.loads(out)
     assert code == (0 if doc["safe"] else 1)
     assert doc["failed_judges"] == ([] if doc["safe"] else doc["failed_judges"])
-    example = Path(__file__).resolve().parent.parent / "examples" / "free-curve-nema17.json"
+    example = ROOT / "examples" / "free-curve-nema17.json"
     code, out, _ = run(capsys, "compare", example, "--motor", NEMA23, "--pulses", "5000",
                        "--references", "ruckig")
     assert code == 1 and ("verdict: UNSAFE (failed: criterion, load angle, decel-stop, "

@@ -20,8 +20,8 @@ from profiles.motor import load_motor
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.execution import pulse_times_csv, samples_csv, simulate_move
 from profiles.ppmc312.table import FreeCurveTable
+from tests.support.paths import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 MOTOR = ROOT / "profiles" / "data" / "motor-nema17-1600.json"
 MHZ1 = Clock.internal("1MHz")
 TABLE = FreeCurveTable(MHZ1, (100, 200, 300, 400), (10, 20, 30, 40))

@@ -11,10 +11,10 @@ from typing import Any
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from test_ppmc312_motion import FIGURES, by_hand
 
 from profiles.ppmc312.motion import COMMANDS, encode_command
 from profiles.ppmc312.upload import encode_move
+from tests.support.ascii_frames import FIGURES, by_hand
 from verify.cli import main
 
 OPTION = {"rate": "--rate", "pulses": "--pulses", "override_at": "--override-at",

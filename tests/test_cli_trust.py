@@ -19,10 +19,10 @@ from profiles.ppmc312.ascii import decode_serial_init
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.init_model import expand_init
 from profiles.ppmc312.table import FreeCurveTable, InitTable, load_table
+from tests.support.paths import ROOT
 from verify import cli
 from verify.cli import _common
 
-ROOT = Path(__file__).resolve().parent.parent
 MOTOR = ROOT / "profiles" / "data" / "motor-nema17-1600.json"
 INIT = ROOT / "examples" / "init-linear.json"
 

@@ -5,8 +5,6 @@ stays within the aim at every count tried, one rate faster does not."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
 from profiles.motor import Motor, load_motor
@@ -15,8 +13,8 @@ from profiles.ppmc312.command_angles import command_envelopes, motion_angle
 from profiles.ppmc312.command_runs import ProgramCommand as C
 from profiles.ppmc312.command_runs import run_program
 from profiles.ppmc312.table import FreeCurveTable, load_table
+from tests.support.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 TABLE = load_table(ROOT / "examples" / "free-curve-nema17.json")
 RAMP = sum(TABLE.accel_pulses)   # the table's whole ramp (85 at its high rate)
 SLACK = 0.05                     # the two integrators agree far closer than this

@@ -4,15 +4,13 @@ command-envelope finding when no use of a family is safe."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
 from profiles.motor import load_motor
 from profiles.ppmc312.table import load_table
+from tests.support.paths import ROOT
 from verify.command_families import CODES, judge_family
 
-ROOT = Path(__file__).resolve().parents[1]
 TABLE = load_table(ROOT / "examples" / "free-curve-nema17.json")
 NEMA17 = load_motor(ROOT / "profiles" / "data" / "motor-nema17-1600.json")
 HEAVY = load_motor(ROOT / "profiles" / "data" / "motor-nema23-heavy.json")

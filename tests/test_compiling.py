@@ -13,6 +13,7 @@ import numba as nb
 import pytest
 
 from profiles import compiling
+from tests.support.paths import ROOT
 
 
 def _kernel(module: str) -> Any:
@@ -68,7 +69,7 @@ def test_a_fresh_process_says_it_once() -> None:
         "    exec('def f(x):\\n    return x + 1\\n', scope)\n"
         "    assert numba.njit(scope['f'])(n) == n + 1\n")
     run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
-                         timeout=300, cwd=Path(__file__).resolve().parent.parent,
+                         timeout=300, cwd=ROOT,
                          env={**os.environ, compiling.QUIET_ENV: "1"})
     assert run.returncode == 0, run.stderr
     assert run.stdout.splitlines() == [compiling.NOTICE]

@@ -11,7 +11,7 @@ REL_TOL) passes, the next float above it fails.
 
 from __future__ import annotations
 
-from dataclasses import astuple, dataclass, replace
+from dataclasses import astuple, replace
 from typing import cast
 
 import numpy as np
@@ -20,7 +20,6 @@ import pytest
 from profiles.motor import Motor, bundled_motor_paths, load_motor
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.criterion import (
-    REL_TOL,
     StepProblem,
     _same_stages_switch_safe,
     all_length_problems,
@@ -33,30 +32,16 @@ from profiles.ppmc312.criterion import (
 )
 from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.table import FreeCurveTable
+from tests.support.stand_ins import StandIn, exact_limit
 
 HZ = 1e6
 RATES = (250, 500, 1000)  # fastest first: 4000, 2000, 1000 pps
 
 
-@dataclass(frozen=True)
-class StandIn:
-    """The motor attributes the criterion reads, with hand-checkable values."""
-
-    start_pps: float = 1000.0
-    top_pps: float = 4000.0
-    jump_pps: float = 1500.0
-    acc_k: float = 50.0  # a_acc over [lo, hi] = acc_k · lo  (pps²)
-    dec_k: float = 40.0  # a_dec over [lo, hi] = dec_k · hi
-    max_jerk_pps3: float | None = None
-
-    def min_a_acc_pps2(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-        return self.acc_k * np.asarray(lo, dtype=float)
-
-    def min_a_dec_pps2(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-        return self.dec_k * np.asarray(hi, dtype=float)
+STAND_IN = StandIn()
 
 
-def judge(runs: list[tuple[str, int, int]], motor: StandIn = StandIn(), *, hz: float = HZ,
+def judge(runs: list[tuple[str, int, int]], motor: StandIn = STAND_IN, *, hz: float = HZ,
           rates: tuple[int, ...] = RATES, pulses: int = 77,
           family: tuple[int, int] | None = None) -> list[tuple[object, ...]]:
     problems = runs_problems(runs, hz, pulses, cast(Motor, motor), rates, family)
@@ -75,17 +60,6 @@ def P(rule: str, kind: str, stages: tuple[int | None, int | None], v: tuple[floa
 # move can start on a decel stage or stop on an accel one (verify.criterion words its fix).
 SIDE: dict[str, tuple[None, None, str]] = {k: (None, None, k) for k in ("accel", "cruise",
                                                                         "decel")}
-
-
-def exact_limit(v: float) -> float:
-    """The limit L with L · (1 + REL_TOL) == v exactly (a float search around v / tol)."""
-    tol = 1 + REL_TOL
-    lim = v / tol
-    for _ in range(50):
-        if lim * tol == v:
-            return lim
-        lim = float(np.nextafter(lim, v if lim * tol < v else 0.0))
-    raise AssertionError(f"no exact limit for {v}")
 
 
 def below(limit: float) -> float:

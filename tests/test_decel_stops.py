@@ -12,8 +12,6 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from oracle_moves import whole_stop
-from test_rotor_kernel import motors, tables
 
 from profiles.errors import FieldRangeError, FormatError
 from profiles.motor import Motor, bundled_motor_paths, load_motor
@@ -34,6 +32,9 @@ from profiles.ppmc312.stops import (
     stop_runs_at,
 )
 from profiles.ppmc312.table import FreeCurveTable
+from tests.support.oracle_moves import whole_stop
+from tests.support.strategies import rotor_motors as motors
+from tests.support.strategies import rotor_tables as tables
 
 MHZ1 = Clock.internal("1MHz")
 AGREE_DEG = 0.1

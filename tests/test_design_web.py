@@ -20,15 +20,15 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from subprocess_env import checkout_env
 
 from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312 import decode_upload
 from profiles.ppmc312.formats import parse_upload
 from profiles.ppmc312.table import load_table
+from tests.support.paths import ROOT
+from tests.support.subprocess_env import checkout_env
 from verify.cli import main
 
-ROOT = Path(__file__).resolve().parents[1]
 NEMA17_PATH = next(p for p in bundled_motor_paths() if "nema17" in p.name)
 NEMA17 = load_motor(NEMA17_PATH)
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",

@@ -16,13 +16,14 @@ from typing import Any
 import ipywidgets  # noqa: F401  (a [dev] dependency: missing, the suite fails)
 import numpy as np
 import pytest
-from subprocess_env import checkout_env
 
 from profiles.errors import StepRampError
 from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312 import decode_upload
 from profiles.ppmc312.formats import parse_upload
 from profiles.ppmc312.table import load_table
+from tests.support.paths import ROOT
+from tests.support.subprocess_env import checkout_env
 from verify.designer import (
     Designer,
     Settings,
@@ -33,7 +34,6 @@ from verify.designer import (
     verdict,
 )
 
-ROOT = Path(__file__).resolve().parents[1]
 NEMA17 = load_motor(next(p for p in bundled_motor_paths() if "nema17" in p.name))
 
 
@@ -255,7 +255,7 @@ def execute_notebook(tmp_path: Path, extra: list[str], kernel: tuple[str, Any]) 
 
 @pytest.fixture(scope="module")
 def kernel(tmp_path_factory: pytest.TempPathFactory) -> tuple[str, Any]:
-    from test_notebooks import kernel_for_this_interpreter
+    from tests.support.notebooks import kernel_for_this_interpreter
 
     return kernel_for_this_interpreter(tmp_path_factory.mktemp("kernelspec"))
 

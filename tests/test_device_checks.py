@@ -18,6 +18,7 @@ from profiles.errors import StepRampError
 from profiles.formats import RenderOptions
 from profiles.mc200.formats import render as render_stream
 from profiles.mc200.model import read_stream
+from tests.support.paths import ROOT
 from verify.check_file import check_file
 from verify.cli import main
 from verify.devices import detect
@@ -287,7 +288,7 @@ def test_ppmc312_uploads_are_never_claimed(rates: list[int], fmt: str, max_data:
 
 
 def test_examples_are_told_apart() -> None:
-    root = Path(__file__).resolve().parents[1] / "examples"
+    root = ROOT / "examples"
     for path in root.iterdir():
         want = ("mc200" if ".mc200." in path.name else "alink" if ".alink." in path.name
                 else "ppmc312")
@@ -331,7 +332,7 @@ def test_check_reads_stdin_once(kind: str, monkeypatch: pytest.MonkeyPatch,
     import io
     import sys
 
-    root = Path(__file__).resolve().parents[1] / "examples"
+    root = ROOT / "examples"
     data = {"table": (root / "free-curve-nema17.json").read_bytes(),
             "upload": (root / "free-curve-nema17.json").read_bytes(),
             "stream": render_stream(_packets(STREAM), "hex")}[kind]
@@ -357,7 +358,7 @@ def _nema17_upload(tmp_path: Path, max_data: int | None, fmt: str = "text") -> P
     from profiles.ppmc312.table import load_table
     from profiles.ppmc312.upload import encode_free_curve
 
-    table = load_table(Path(__file__).resolve().parents[1] / "examples"
+    table = load_table(ROOT / "examples"
                        / "free-curve-nema17.json")
     blocks = (encode_free_curve(table) if max_data is None
               else encode_free_curve(table, max_data=max_data))

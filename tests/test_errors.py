@@ -4,15 +4,13 @@ from __future__ import annotations
 
 import ast
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from profiles import errors as E
 from profiles.errors import FieldRangeError, is_number, require_int, require_number
-
-ROOT = Path(__file__).resolve().parents[1]
+from tests.support.paths import ROOT
 
 
 @pytest.mark.parametrize(("value", "number", "integral", "finite"), [

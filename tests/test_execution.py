@@ -25,8 +25,9 @@ from profiles.ppmc312.execution import (
     to_csv,
 )
 from profiles.ppmc312.table import FreeCurveTable, InitTable
+from tests.support.strategies import MHZ1
+from tests.support.strategies import stage_tables as tables
 
-MHZ1 = Clock.internal("1MHz")
 # LE=0, four stages fastest first: 10/20/30/40 pulses at rates 100/200/300/400.
 COMMON = FreeCurveTable(MHZ1, (100, 200, 300, 400), (10, 20, 30, 40))
 # LE=1, accel 5 stages (start rate 500), decel 3 stages (stop rate 300):
@@ -272,19 +273,6 @@ def test_init_table_support() -> None:
 
 
 # --- properties over random tables -------------------------------------------
-
-@st.composite
-def tables(draw: st.DrawFn) -> FreeCurveTable:
-    n_acc = draw(st.integers(1, 8))
-    n_dec = draw(st.integers(1, 8))
-    n = max(n_acc, n_dec)
-    rates = sorted(draw(st.lists(st.integers(2, 5000), min_size=n, max_size=n, unique=True)))
-    counts = st.integers(0, 300)
-    acc = draw(st.lists(counts, min_size=n_acc, max_size=n_acc))
-    if draw(st.booleans()) and n_acc == n:
-        return FreeCurveTable(MHZ1, tuple(rates), tuple(acc))
-    dec = draw(st.lists(counts, min_size=n_dec, max_size=n_dec))
-    return FreeCurveTable(MHZ1, tuple(rates), tuple(acc), tuple(dec))
 
 
 @settings(max_examples=200, deadline=None)

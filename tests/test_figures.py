@@ -16,10 +16,11 @@ from typing import Any
 import pytest
 from matplotlib.figure import Figure
 
+from tests.support.figures import problems
+from tests.support.paths import ROOT
 from verify import cli
 from verify.plot import fit_texts, texts_outside
 
-ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "examples"
 
 
@@ -35,17 +36,6 @@ def saved(monkeypatch: pytest.MonkeyPatch) -> Iterator[list[Any]]:
 
     monkeypatch.setattr(Figure, "savefig", record)
     yield figures
-
-
-def problems(fig: Any) -> list[str]:
-    """Texts past the canvas and lines without a legend entry."""
-    out = [f"outside the canvas: {t.get_text()!r}" for t in texts_outside(fig)]
-    legends = [ax.get_legend() for ax in fig.axes] + list(fig.legends)
-    entries = {t.get_text() for lg in legends if lg is not None for t in lg.get_texts()}
-    for ax in fig.axes:
-        out += [f"line without a legend entry: {line.get_label()!r}"
-                for line in ax.get_lines() if line.get_label() not in entries]
-    return out
 
 
 def run_cli(argv: list[str], tmp_path: Path, exit_codes: tuple[int, ...] = (0,)) -> None:

@@ -30,6 +30,7 @@ from profiles.motor.loads import (
 )
 from profiles.motor.reserve import CruiseReserve
 from profiles.ppmc312.table import load_table
+from tests.support.paths import ROOT
 from verify import cli
 
 G = 9.80665
@@ -177,7 +178,7 @@ def test_without_friction_the_same_table_fails_on_the_real_screw(
 
 def test_a_motor_without_friction_draws_a_warning(tmp_path: Path,
                                                   capsys: pytest.CaptureFixture[str]) -> None:
-    root = Path(__file__).resolve().parents[1]
+    root = ROOT
     obj = json.loads((root / "profiles/data/motor-nema17-1600.json").read_text("utf-8"))
     zero = tmp_path / "zero.json"
     zero.write_text(json.dumps({**obj, "friction_torque_nm": 0}), encoding="utf-8")

@@ -33,8 +33,8 @@ from profiles.ppmc312.formats import parse_upload
 from profiles.ppmc312.table import table_from_json
 from profiles.ppmc312.upload import decode_table_read, decode_upload
 from profiles.reading import parse_json
+from tests.support.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 _spec = importlib.util.spec_from_file_location("stepramp_fuzz", ROOT / "tools" / "fuzz.py")
 assert _spec is not None and _spec.loader is not None
 fuzz = importlib.util.module_from_spec(_spec)

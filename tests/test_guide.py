@@ -37,18 +37,18 @@ from glob import glob
 from pathlib import Path
 
 import pytest
-from subprocess_env import checkout_env
 
 from profiles.motor import OPTIONAL_KEYS as MOTOR_OPTIONAL
 from profiles.motor import REQUIRED_KEYS as MOTOR_REQUIRED
 from profiles.motor import Motor, load_motor
 from profiles.ppmc312.table import _KEYS as TABLE_KEYS
 from profiles.ppmc312.table import table_from_json
+from tests.support.paths import ROOT
+from tests.support.subprocess_env import checkout_env
 from verify import cli
 
 LINK_COMMANDS = ("init", "move", "poll", "position", "errors", "stop")
-REPO = Path(__file__).resolve().parents[1]
-GUIDE = REPO / "docs" / "guide.md"
+GUIDE = ROOT / "docs" / "guide.md"
 ELLIPSIS = "…"
 _EXIT = re.compile(r"\s+#\s*exit\s+(\d+)\s*$")
 
@@ -174,9 +174,9 @@ def workdir() -> Iterator[Path]:
 
     with tempfile.TemporaryDirectory(prefix="stepramp-guide-") as tmp:
         root = Path(tmp)
-        shutil.copytree(REPO / "examples", root / "examples")
+        shutil.copytree(ROOT / "examples", root / "examples")
         (root / "profiles" / "data").mkdir(parents=True)
-        for motor in (REPO / "profiles" / "data").glob("motor-*.json"):
+        for motor in (ROOT / "profiles" / "data").glob("motor-*.json"):
             shutil.copy(motor, root / "profiles" / "data" / motor.name)
         (root / "motors").mkdir()
         saved = os.environ.get("STEPRAMP_MOTORS")
@@ -350,7 +350,7 @@ def test_every_file_key_is_documented() -> None:
 
 def test_every_rule_is_documented() -> None:
     rules: set[str] = set()
-    for path in sorted((REPO / "verify").rglob("*.py")):
+    for path in sorted((ROOT / "verify").rglob("*.py")):
         source = path.read_text(encoding="utf-8")
         # the severity may be a literal or an expression ("error" if strict else "warning")
         rules |= set(re.findall(r'Finding\(\s*[^,()]+,\s*"([a-z0-9-]+)"', source))
@@ -375,7 +375,7 @@ def test_json_examples_load() -> None:
             table = table_from_json(obj)
             import jsonschema
 
-            schema = json.loads((REPO / "profiles/data/table.schema.json").read_text())
+            schema = json.loads((ROOT / "profiles/data/table.schema.json").read_text())
             jsonschema.validate(obj, schema)
             assert table.kind == obj["kind"], line
         elif obj["format"] == "stepramp.axes/1":
@@ -383,16 +383,16 @@ def test_json_examples_load() -> None:
 
             from profiles.axes import axes_from_json
             from verify.devices import axes_entries
-            schema = json.loads((REPO / "profiles/data/axes.schema.json").read_text())
+            schema = json.loads((ROOT / "profiles/data/axes.schema.json").read_text())
             jsonschema.validate(obj, schema)
             assert axes_from_json(obj, axes_entries(), None, load_motors=False).axes, line
         elif obj["format"] == "stepramp.program/1":
             import jsonschema
 
             from profiles.ppmc312.program import program_from_json
-            schema = json.loads((REPO / "profiles/data/program.schema.json").read_text())
+            schema = json.loads((ROOT / "profiles/data/program.schema.json").read_text())
             jsonschema.validate(obj, schema)
-            assert program_from_json(obj, REPO / "examples").commands, line
+            assert program_from_json(obj, ROOT / "examples").commands, line
         else:
             assert Motor.from_json(obj).to_json()["format"] == "stepramp.motor/1", line
 
@@ -412,7 +412,7 @@ def test_le1_example_is_what_the_guide_says() -> None:
 
 def test_capability_numbers_are_the_motors() -> None:
     text = guide_text()
-    motor = load_motor(REPO / "profiles" / "data" / "motor-nema17-1600.json")
+    motor = load_motor(ROOT / "profiles" / "data" / "motor-nema17-1600.json")
     rows = re.findall(r"^\| (\d+) \| ([\d.]+) \| ([\d.e+]+) \| ([\d.e+]+) \|$", text, re.M)
     assert len(rows) >= 3
     for v, torque, acc, dec in rows:

@@ -15,9 +15,9 @@ import pytest
 
 from profiles.errors import FieldRangeError, bounded, echo
 from profiles.motor import bundled_motor_paths
+from tests.support.paths import ROOT
 from verify.cli import main
 
-ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "free-curve-nema17.json"
 INIT = ROOT / "examples" / "init-linear.json"
 

@@ -32,9 +32,9 @@ import pytest
 from profiles import compiling
 from profiles.errors import ClusterError
 from profiles.motor import load_motor
+from tests.support.paths import ROOT
 from verify.cli import main
 
-ROOT = Path(__file__).resolve().parents[1]
 NEMA17 = ROOT / "profiles" / "data" / "motor-nema17-1600.json"
 
 

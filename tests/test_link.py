@@ -12,7 +12,6 @@ from typing import Any
 
 import pytest
 import serial
-from subprocess_env import checkout_env
 
 from profiles.errors import FieldChoiceError, UnsupportedError
 from profiles.ppmc312.ascii import encode_frame
@@ -32,6 +31,8 @@ from profiles.ppmc312.link import (
 from profiles.ppmc312.replies import REPLY_TO, decode_reply
 from profiles.ppmc312.serial_chip import LoopSerial, PtyServer, SerialChip
 from profiles.ppmc312.table import FreeCurveTable, InitTable
+from tests.support.paths import ROOT
+from tests.support.subprocess_env import checkout_env
 
 ADDRESS = 5
 TABLE = InitTable(Clock.internal("8MHz"), "linear", 10_000, 400, 2000)
@@ -645,7 +646,7 @@ def test_cli_link_v_shows_a_reply_no_reading_fits_then_the_link_s_error(
 def test_cli_link_bad_input_is_one_line_exit_2(pty_chip: tuple[SerialChip, str], argv: list[str],
                                                message: str,
                                                capsys: pytest.CaptureFixture[str]) -> None:
-    examples = str(Path(__file__).resolve().parents[1] / "examples")
+    examples = str(ROOT / "examples")
     argv = [a.replace("{examples}", examples) for a in argv]
     code, out, err = run_cli(["link", "--port", pty_chip[1], *argv], capsys)
     assert (code, out) == (2, "")

@@ -19,17 +19,17 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from test_figures import problems
 
 from profiles import mc200 as M
 from profiles.errors import DecodeError, FieldRangeError, FormatError, StepRampError
 from profiles.mc200.follow import Following, commanded_positions, following_error
 from profiles.mc200.formats import render
 from profiles.motor import load_motor
+from tests.support.figures import problems
+from tests.support.paths import ROOT
 from verify.check_file import check_file
 from verify.cli import main
 
-ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE_REPLIES = ROOT / "examples" / "move.mc200.replies.hex"
 EXAMPLE_STREAM = ROOT / "examples" / "move.mc200.hex"
 MOTOR = ROOT / "profiles" / "data" / "motor-nema17-1600.json"

@@ -11,7 +11,6 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
-from file_checks import assert_one_line_error, compile_and_run, flip_verdicts, needs_cc
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from intelhex import IntelHex
@@ -20,6 +19,12 @@ from profiles import mc200 as M
 from profiles.errors import CorruptedError, FormatError, StepRampError
 from profiles.formats import Provenance, RenderOptions
 from profiles.mc200.formats import FORMATS, is_stream_file, parse, render, render_chunks
+from tests.support.file_checks import (
+    assert_one_line_error,
+    compile_and_run,
+    flip_verdicts,
+    needs_cc,
+)
 
 SETTINGS = settings(max_examples=60, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])

@@ -18,10 +18,10 @@ from hypothesis import strategies as st
 from profiles import mc200 as M
 from profiles.errors import DecodeError, FieldRangeError, FormatError, StepRampError
 from profiles.motor import load_motor
+from tests.support.paths import ROOT
 from verify.check_file import check_file
 from verify.cli import main
 
-ROOT = Path(__file__).resolve().parents[1]
 MOTOR = ROOT / "profiles" / "data" / "motor-nema17-1600.json"
 POSITION_AT, DURATION = M.ruckig_profile(3200, 20000.0, 2e5, 5e6)
 

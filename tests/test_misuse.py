@@ -4,13 +4,13 @@ command prints a comparison that cannot differ."""
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import pytest
 
+from tests.support.paths import ROOT
 from verify import cli
 
-TABLE = str(Path(__file__).resolve().parents[1] / "examples" / "free-curve-nema17.json")
+TABLE = str(ROOT / "examples" / "free-curve-nema17.json")
 
 
 @pytest.mark.parametrize("option", [["--strict"], ["--no-physics"], ["--pulses", "100"]])

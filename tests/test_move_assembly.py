@@ -9,10 +9,11 @@ from __future__ import annotations
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from test_execution import MHZ1, tables
 
 from profiles.ppmc312.execution import MOVE_PULSES_MAX, MoveBatch, move_families, moves
 from profiles.ppmc312.table import FreeCurveTable
+from tests.support.strategies import MHZ1
+from tests.support.strategies import stage_tables as tables
 
 FIELDS = ("pulses", "shape", "phase", "rate", "count", "offsets")
 

@@ -10,11 +10,12 @@ import subprocess
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from tests.support.paths import ROOT
+
 sys.path.insert(0, str(ROOT / "tools"))
 
-import mutants  # noqa: E402
-from mutation_config import equivalents, excluded, load_config, module_path, modules  # noqa: E402
+import mutants
+from mutation_config import equivalents, excluded, load_config, module_path, modules
 
 CONFIG = load_config()
 

@@ -12,20 +12,23 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
-import sys
 import time
 from pathlib import Path
 from typing import Any
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+from tests.support.notebooks import (
+    FALLBACK_KERNEL,
+    kernel_for_this_interpreter,
+    runs_this_interpreter,
+)
+from tests.support.paths import ROOT
+
 NOTEBOOK_DIR = ROOT / "notebooks"
 NOTEBOOKS = ("design-free-curve", "linear-vs-free-curve", "upload-files", "two-axis-move",
              "machine-to-table", "design-interactive")
 CELL_TIMEOUT_S = 120
-FALLBACK_KERNEL = "stepramp-python3"
 
 
 def _load_build() -> Any:
@@ -92,36 +95,6 @@ def test_readme_figure_is_committed_and_small() -> None:
 
 # --- the kernel ------------------------------------------------------------------------------
 
-def _runs_this_interpreter(argv: list[str]) -> bool:
-    if not argv:
-        return False
-    major, minor = sys.version_info[:2]
-    # jupyter_client launches these names as sys.executable (format_kernel_cmd).
-    if argv[0] in ("python", f"python{major}", f"python{major}.{minor}"):
-        return True
-    found = shutil.which(argv[0])
-    return found is not None and Path(found).resolve() == Path(sys.executable).resolve()
-
-
-def kernel_for_this_interpreter(fallback_dir: Path, *, manager: Any = None) -> tuple[str, Any]:
-    """(kernel name, KernelSpecManager) that launch a kernel of sys.executable: `python3`
-    if `manager` (default: the standard search path) has a spec that does, otherwise a
-    spec registered into `fallback_dir` (nothing is installed anywhere else)."""
-    from jupyter_client.kernelspec import KernelSpecManager, NoSuchKernel
-
-    ksm = manager if manager is not None else KernelSpecManager()
-    try:
-        if _runs_this_interpreter(ksm.get_kernel_spec("python3").argv):
-            return "python3", ksm
-    except NoSuchKernel:
-        pass
-    from ipykernel.kernelspec import install
-
-    install(prefix=str(fallback_dir), kernel_name=FALLBACK_KERNEL,
-            display_name=f"stepramp ({sys.executable})")
-    kernels = fallback_dir / "share" / "jupyter" / "kernels"
-    return FALLBACK_KERNEL, KernelSpecManager(kernel_dirs=[str(kernels)])
-
 
 def test_kernel_spec_of_this_interpreter_is_used_as_is(tmp_path: Path) -> None:
     from jupyter_client.kernelspec import KernelSpecManager
@@ -144,11 +117,11 @@ def test_kernel_fallback_registers_this_interpreter(tmp_path: Path) -> None:
                  "-f", "{connection_file}"],
         "display_name": "another Python", "language": "python"}))
     shadowed = KernelSpecManager(kernel_dirs=[str(tmp_path / "kernels")])
-    assert not _runs_this_interpreter(shadowed.get_kernel_spec("python3").argv)
+    assert not runs_this_interpreter(shadowed.get_kernel_spec("python3").argv)
     name, ksm = kernel_for_this_interpreter(tmp_path / "prefix", manager=shadowed)
     assert name == FALLBACK_KERNEL
     spec = ksm.get_kernel_spec(name)
-    assert _runs_this_interpreter(spec.argv)
+    assert runs_this_interpreter(spec.argv)
     assert "ipykernel_launcher" in spec.argv
     assert (tmp_path / "prefix" / "share" / "jupyter" / "kernels" / FALLBACK_KERNEL).is_dir()
 

@@ -17,10 +17,10 @@ import pytest
 from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312.table import dump_table, load_table
+from tests.support.paths import ROOT
 from verify import cli
 from verify.safety import judge_safety
 
-ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "examples"
 NEMA17 = next(p for p in bundled_motor_paths() if "nema17" in p.name)
 NEMA23 = next(p for p in bundled_motor_paths() if "nema23" in p.name)

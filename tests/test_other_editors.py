@@ -13,9 +13,9 @@ import pytest
 from profiles.errors import FormatError
 from profiles.motor.catalogue import ENV_VAR, resolve
 from profiles.reading import parse_json, read_bytes, utf8_text, wide_text_encoding
+from tests.support.paths import ROOT
 from verify.cli import main
 
-ROOT = Path(__file__).resolve().parents[1]
 TABLE = ROOT / "examples" / "free-curve-nema17.json"
 MOTOR = ROOT / "profiles" / "data" / "motor-nema17-1600.json"
 BOM = b"\xef\xbb\xbf"

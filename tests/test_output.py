@@ -13,10 +13,9 @@ from pathlib import Path
 
 import pytest
 
+from tests.support.paths import ROOT
 from verify import output
 from verify.output import OutputError, OutputInterrupted, write_output, write_outputs
-
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def _leftovers(folder: Path) -> list[str]:

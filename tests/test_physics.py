@@ -14,6 +14,7 @@ from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.execution import move_families, simulate_move
 from profiles.ppmc312.load_angle import worst_load_angle
 from profiles.ppmc312.table import FreeCurveTable
+from tests.support.paths import ROOT
 from verify.load_angle import trace_load_angle
 from verify.safety import judge_safety
 
@@ -235,11 +236,10 @@ def test_a_trace_runs_forward_unless_told_otherwise() -> None:
 def test_past_the_aim_below_the_peak_is_a_warning_naming_the_aim() -> None:
     """A table whose worst angle lies between the aim and 90°: stall-safe, with a
     `load-angle-margin` warning that says what `stepramp plan` aims at."""
-    from pathlib import Path
 
     from profiles.ppmc312.table import load_table
 
-    root = Path(__file__).resolve().parents[1]
+    root = ROOT
     table = load_table(root / "examples" / "free-curve-nema17.json")
     motor = load_motor(root / "profiles" / "data" / "motor-nema17-1600.json")
     worst = judge_safety(table, motor).load_angle.worst_deg  # type: ignore[union-attr]

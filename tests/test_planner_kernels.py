@@ -11,7 +11,6 @@ from dataclasses import replace
 import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from test_stage_counts import motors
 
 from profiles.motor import Motor
 from profiles.ppmc312.criterion import switch_safe_rows
@@ -21,6 +20,7 @@ from profiles.ppmc312.planner.dp_kernel import switch_safe_tops
 from profiles.ppmc312.planner.problem import Problem
 from profiles.ppmc312.planner.refine import OFFSETS, Staircase, _refine_inner, evaluate
 from profiles.ppmc312.planner.search import GRID_TARGET, graph, grid_rates, run_dp
+from tests.support.strategies import curve_motors as motors
 
 SETTINGS = settings(max_examples=40, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])

@@ -20,9 +20,9 @@ from profiles.motor.plausible import (
     value_problem,
 )
 from profiles.motor.units import torque_to_nm
+from tests.support.paths import ROOT
 from verify import cli
 
-ROOT = Path(__file__).resolve().parents[1]
 # 0.59 N·m, 2 A, 1.4 Ω, 3.0 mH, 82 g·cm², at 24 V, 1/8 step, 1.5 A
 NEMA17 = {"--holding-torque-nm": "0.59", "--rated-current-a": "2", "--resistance-ohm": "1.4",
           "--inductance-mh": "3.0", "--rotor-inertia-gcm2": "82", "--supply-v": "24",

@@ -29,6 +29,7 @@ from profiles.ppmc312.replies import (
     decode_reply,
     encode_reply,
 )
+from tests.support.paths import ROOT
 
 
 def answer(hexed: str) -> Answer:
@@ -415,13 +416,12 @@ def test_the_kinds_are_the_manual_s() -> None:
                                      "free-curve-bad.json"])
 def test_every_answer_the_emulator_gives_decodes(example: str) -> None:
     # the chip model's answer to each block of an upload (refusals included) is an answer
-    from pathlib import Path
 
     from profiles.ppmc312.emulator import chip_answers
     from profiles.ppmc312.table import load_table
     from profiles.ppmc312.upload import encode_table
 
-    table = load_table(Path(__file__).resolve().parents[1] / "examples" / example)
+    table = load_table(ROOT / "examples" / example)
     answers = chip_answers(encode_table(table))
     assert answers
     decoded = [decode_answer(a) for a in answers]

@@ -9,7 +9,6 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from test_ppmc312_handshake import accepted_tables
 
 from profiles.errors import CorruptedError, DecodeError
 from profiles.ppmc312.bus import (
@@ -23,6 +22,8 @@ from profiles.ppmc312.emulator import expected_answers
 from profiles.ppmc312.formats import parse, render
 from profiles.ppmc312.table import FreeCurveTable, InitTable
 from profiles.ppmc312.upload import bus_writes, encode_free_curve, encode_init
+from tests.support.paths import ROOT
+from tests.support.strategies import accepted_tables
 from verify import cli
 
 SETTINGS = settings(max_examples=40, deadline=None,
@@ -241,7 +242,7 @@ def test_the_bus_format_checks_its_answers(change: object, error: type[Exception
 
 
 # --- the command: `stepramp emulate --bus SCRIPT` ------------------------------------------------
-EXAMPLE = str(Path(__file__).resolve().parents[1] / "examples" / "free-curve-nema17.json")
+EXAMPLE = str(ROOT / "examples" / "free-curve-nema17.json")
 
 
 def emulate_bus(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:

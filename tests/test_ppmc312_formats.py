@@ -10,13 +10,6 @@ import zlib
 from pathlib import Path
 
 import pytest
-from file_checks import (
-    assert_one_line_error,
-    compile_and_run,
-    flip_verdicts,
-    flips,
-    needs_cc,
-)
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from intelhex import IntelHex
@@ -37,6 +30,13 @@ from profiles.ppmc312.formats import (
 )
 from profiles.ppmc312.table import FreeCurveTable, InitTable
 from profiles.ppmc312.upload import bus_writes, decode_upload, encode_free_curve, encode_init
+from tests.support.file_checks import (
+    assert_one_line_error,
+    compile_and_run,
+    flip_verdicts,
+    flips,
+    needs_cc,
+)
 
 SETTINGS = settings(max_examples=100, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])

@@ -9,14 +9,13 @@ import re
 from pathlib import Path
 
 import pytest
-from file_checks import compile_and_run, needs_cc
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from profiles.errors import CorruptedError, DecodeError, FormatError
 from profiles.formats import RenderOptions
 from profiles.ppmc312.ascii import encode_serial_init
-from profiles.ppmc312.clock import INTERNAL_HZ, Clock
+from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.emulator import (
     ChipEmulator,
     accept_upload,
@@ -37,29 +36,14 @@ from profiles.ppmc312.upload import (
     encode_move,
     encode_table_read_response,
 )
+from tests.support.file_checks import compile_and_run, needs_cc
+from tests.support.strategies import accepted_tables
 
 SETTINGS = settings(max_examples=60, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])
 CLOCK = Clock.internal("8MHz")
 WITH_ANSWERS = ("text", "json", "c", "bus")
 ALL = (*WITH_ANSWERS, "bin", "ihex")
-
-
-@st.composite
-def accepted_tables(draw: st.DrawFn, separate: bool | None = None) -> FreeCurveTable:
-    """Free curves the chip accepts, LE=0 or LE=1 (unequal stage counts allowed)."""
-    clock = draw(st.sampled_from(list(INTERNAL_HZ)).map(Clock.internal))
-
-    def side(n: int) -> list[int]:
-        return draw(st.lists(st.integers(2, 0xFFFFF // n), min_size=n, max_size=n))
-
-    accel = side(draw(st.integers(2, 40)))
-    le = draw(st.booleans()) if separate is None else separate
-    decel = side(draw(st.integers(2, 40))) if le else None
-    n_rates = max(len(accel), len(decel or ()))
-    rates = draw(st.lists(st.integers(2, 0xFFFF), min_size=n_rates, max_size=n_rates))
-    return FreeCurveTable(clock, tuple(rates), tuple(accel),
-                          None if decel is None else tuple(decel))
 
 
 def answers_by_hand(table: FreeCurveTable, blocks: list[bytes]) -> list[bytes]:

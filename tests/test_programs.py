@@ -13,15 +13,15 @@ from typing import Any
 
 import numpy as np
 import pytest
-from rotor_oracle import follow as oracle_follow
 
 from profiles.motor import load_motor
 from profiles.motor.rotor import rotor_of, settle_s
 from profiles.ppmc312.command_angles import motion_angle
 from profiles.ppmc312.program import load_program
+from tests.support.paths import ROOT
+from tests.support.rotor_oracle import follow as oracle_follow
 from verify.cli import main
 
-ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "program-home-and-jog.json"
 TABLE = ROOT / "examples" / "free-curve-nema17.json"
 NEMA17 = "nema17-1600"   # start speed 800 pps: the example table's start rate 10000

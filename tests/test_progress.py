@@ -2,16 +2,15 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 
 from profiles import mc200 as M
 from profiles.motor import load_motor
 from profiles.ppmc312.init_planner import init_candidates
 from profiles.progress import Progress, chunks, track
+from tests.support.paths import ROOT
 
-MOTOR = Path(__file__).resolve().parent.parent / "profiles" / "data" / "motor-nema17-1600.json"
+MOTOR = ROOT / "profiles" / "data" / "motor-nema17-1600.json"
 
 
 def _recorder() -> tuple[list[tuple[int, int]], Progress]:

@@ -17,9 +17,9 @@ from profiles.motor import load_motor
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.table import FreeCurveTable, InitTable, table_from_json
 from profiles.provenance import FileRef, PlanProvenance, content_sha256
+from tests.support.paths import ROOT
 from verify import cli
 
-ROOT = Path(__file__).resolve().parents[1]
 SCHEMA = json.loads((ROOT / "profiles" / "data" / "table.schema.json").read_text("utf-8"))
 NEMA17 = ROOT / "profiles" / "data" / "motor-nema17-1600.json"
 PROV = PlanProvenance(FileRef("nema17-1600", "ab" * 32), "0.1.0", "2025-01-31T12:00:00Z", (3200,),

@@ -25,6 +25,7 @@ from profiles.reading import (
     read_bytes,
     read_json,
 )
+from tests.support.paths import ROOT
 
 
 def _refused(path: str | Path, match: str) -> str:
@@ -97,7 +98,7 @@ def test_a_fifo_has_the_same_bound_as_stdin(tmp_path: Path) -> None:
 
 def test_process_substitution_is_an_input(tmp_path: Path) -> None:
     """`stepramp check <(cat t.json)`: bash hands over /dev/fd/N, a pipe."""
-    table = Path(__file__).resolve().parents[1] / "examples" / "free-curve-nema17.json"
+    table = ROOT / "examples" / "free-curve-nema17.json"
     r = subprocess.run(["bash", "-c", f'"{sys.executable}" -m verify.cli check <(cat "{table}")'
                         f' && "{sys.executable}" -m verify.cli show <(cat "{table}")'],
                        capture_output=True, text=True, timeout=120, cwd=tmp_path)
@@ -287,7 +288,7 @@ def test_the_guide_states_the_input_bounds_the_reader_keeps() -> None:
     number of more than 40 characters are refused; the reader's constants say the same."""
     import re
 
-    guide = (Path(__file__).resolve().parents[1] / "docs" / "guide.md").read_text("utf-8")
+    guide = (ROOT / "docs" / "guide.md").read_text("utf-8")
     inputs = " ".join(guide[guide.index("- **Inputs**"):guide.index("- **Outputs**")].split())
     said = re.search(r"a file over (\d+) MiB .* JSON nested more than (\d+) deep, a number "
                      r"of more than (\d+) characters", inputs)

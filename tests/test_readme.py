@@ -6,11 +6,12 @@ import json
 import os
 import re
 from pathlib import Path
-from typing import Any
 
 import pytest
 
-ROOT = Path(__file__).resolve().parent.parent
+from tests.support.bench_readme import bench_readme
+from tests.support.paths import ROOT
+
 README = (ROOT / "README.md").read_text(encoding="utf-8")
 
 
@@ -117,19 +118,6 @@ def test_every_example_in_the_table_parses(capsys: pytest.CaptureFixture[str]) -
 
 
 # --- the measured sections: generated from bench/results, never typed -------------------
-
-def bench_readme() -> Any:
-    """bench/readme.py, the generator of the README's measured blocks and figures."""
-    import importlib.util
-    import sys
-
-    spec = importlib.util.spec_from_file_location("stepramp_bench_readme",
-                                                  ROOT / "bench" / "readme.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
 
 
 def test_the_readme_agrees_with_the_committed_bench_results() -> None:

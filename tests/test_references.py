@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 from profiles.errors import FieldRangeError, FormatError, StepRampError
 from profiles.motor import Motor, bundled_motor_paths, load_motor
+from tests.support.paths import ROOT
 from verify.references import (
     Reference,
     ReferenceSolveError,
@@ -317,7 +318,7 @@ def test_no_heavy_imports_at_module_level() -> None:
     code = ("import sys, verify.references; "
             "print(sorted(m for m in ('toppra', 'casadi', 'ruckig') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True, cwd=str(__import__("pathlib").Path(__file__).parents[1]))
+                         check=True, cwd=str(ROOT))
     assert out.stdout.strip() == "[]"
 
 

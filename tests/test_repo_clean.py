@@ -1,4 +1,4 @@
-"""The session check of tests/repo_clean.py: a run that leaves a file in the checkout
+"""The session check of tests/support/repo_clean.py: a run that leaves a file in the checkout
 fails and names it; one that writes only under tmp_path passes. Each case is a pytest
 session of its own in a fresh git repository."""
 
@@ -6,17 +6,17 @@ from __future__ import annotations
 
 import shutil
 import subprocess
-from pathlib import Path
 
 import pytest
 
+from tests.support.paths import ROOT
+
 pytest_plugins = ["pytester"]
-HERE = Path(__file__).resolve().parent
 
 
 def _session(pytester: pytest.Pytester, body: str) -> pytest.RunResult:
     subprocess.run(["git", "init", "-q"], cwd=pytester.path, check=True)
-    shutil.copy(HERE / "repo_clean.py", pytester.path / "repo_clean.py")
+    shutil.copy(ROOT / "tests" / "support" / "repo_clean.py", pytester.path / "repo_clean.py")
     pytester.makeconftest('pytest_plugins = ["repo_clean"]\n')
     (pytester.path / ".gitignore").write_text("runpytest-*/\n")  # pytester's basetemp
     pytester.makepyfile(test_it=body)
@@ -52,9 +52,9 @@ def test_the_fuzz_campaign_writes_nothing_into_the_checkout() -> None:
     every case's files go to its temporary folder."""
     import sys
 
-    from repo_clean import porcelain
+    from tests.support.repo_clean import porcelain
 
-    root = HERE.parent
+    root = ROOT
     before = porcelain(root)
     if before is None:
         pytest.skip("not a git checkout")

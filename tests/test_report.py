@@ -10,11 +10,12 @@ import pytest
 
 from profiles.errors import FormatError
 from profiles.ppmc312.table import load_table
+from tests.support.paths import ROOT
 from verify.chip_rules import check_table
 from verify.findings import Finding
 from verify.report import FileResult, finding_line, render
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = ROOT / "examples"
 
 ERR = Finding("error", "rate-min", "rates[3] = 1 is ≤ 1: raise it to ≥ 4", 0x18, 3)
 WARN = Finding("warning", "decel-stage-count", "6 accel stages but 4 decel stages")

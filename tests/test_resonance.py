@@ -17,10 +17,11 @@ from profiles.ppmc312.criterion import all_length_problems
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312.resonance import forbidden_dwells
 from profiles.ppmc312.table import FreeCurveTable, dump_table
+from tests.support.paths import ROOT
 from verify import cli
 from verify.resonance import resonance_findings
 
-NEMA17 = Path(__file__).resolve().parents[1] / "profiles" / "data" / "motor-nema17-1600.json"
+NEMA17 = ROOT / "profiles" / "data" / "motor-nema17-1600.json"
 PULSES = 20000
 
 

@@ -10,10 +10,8 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-import rotor_oracle as oracle
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
-from oracle_moves import whole_move, worst_whole_move
 
 from profiles.motor import Motor, bundled_motor_paths, load_motor
 from profiles.motor.rotor import (
@@ -26,57 +24,21 @@ from profiles.motor.rotor import (
     settle_s,
 )
 from profiles.motor.tolerance import corners, variant
-from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.load_angle import worst_load_angle, worst_load_angles
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312.table import FreeCurveTable
+from tests.support import rotor_oracle as oracle
+from tests.support.oracle_moves import whole_move, worst_whole_move
+from tests.support.strategies import MHZ1
+from tests.support.strategies import rotor_motors as motors
+from tests.support.strategies import rotor_tables as tables
 
-MHZ1 = Clock.internal("1MHz")
 AGREE_DEG = 0.1   # the kernel and the oracle: the issue's bound (they agree to rounding)
 SETTINGS = settings(max_examples=25, suppress_health_check=[HealthCheck.too_slow])
 
 
 def deg(rotor_c_e: float, lag: float) -> float:
     return math.degrees(rotor_c_e * lag)
-
-
-@st.composite
-def motors(draw: st.DrawFn) -> Motor:
-    """A hybrid stepper: a falling pull-out curve (its last point may be 0), 2 or 5
-    phases, light to heavy inertia, friction, a signed load, any damping."""
-    steps = draw(st.sampled_from([200, 400, 1000, 1600, 3200]))
-    points = draw(st.integers(2, 5))
-    top = draw(st.floats(4_000, 60_000))
-    speeds = np.linspace(0.0, top, points)
-    t0 = draw(st.floats(0.1, 2.0))
-    falls = np.sort(np.asarray(draw(st.lists(st.floats(0.05, 1.0), min_size=points - 1,
-                                              max_size=points - 1))))[::-1]
-    torques = np.concatenate(([t0], t0 * falls))
-    if draw(st.booleans()):
-        torques[-1] = 0.0
-    friction = draw(st.floats(0.0, 0.15)) * t0
-    load = draw(st.floats(-0.15, 0.15)) * t0
-    return Motor(steps_per_rev=steps, curve_speed_pps=speeds, curve_torque_nm=torques,
-                 inertia_kgm2=draw(st.floats(2e-6, 1e-3)), safety_factor=0.6,
-                 start_pps=draw(st.floats(100, 1000)), friction_torque_nm=friction,
-                 load_torque_nm=load, phases=draw(st.sampled_from([2, 5])),
-                 damping_ratio=draw(st.floats(0.02, 1.0)),
-                 holding_torque_nm=draw(st.none() | st.floats(0.5 * t0, 2 * t0)))
-
-
-@st.composite
-def tables(draw: st.DrawFn, top_pps: float = 20_000) -> FreeCurveTable:
-    """A small free curve: 2..6 stages between 200 pps and `top_pps`, LE=0 or LE=1."""
-    n = draw(st.integers(2, 6))
-    speeds = sorted(draw(st.lists(st.floats(200, max(top_pps, 400)), min_size=n, max_size=n,
-                                  unique=True)), reverse=True)
-    rates = tuple(sorted({round(MHZ1.hz / v) for v in speeds}))
-    if len(rates) < 2:  # the speeds drawn round to one rate: its two ends instead
-        rates = (round(MHZ1.hz / max(top_pps, 400)), 5000)
-    counts = st.integers(2, 40)
-    acc = tuple(draw(st.lists(counts, min_size=len(rates), max_size=len(rates))))
-    dec = tuple(draw(st.lists(counts, min_size=len(rates), max_size=len(rates))))
-    return FreeCurveTable(MHZ1, rates, acc, dec if draw(st.booleans()) else None)
 
 
 @SETTINGS

@@ -13,13 +13,13 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from oracle_moves import kernel_step_counts, whole_move
 
 from profiles.motor import Motor
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.execution import MoveBatch, moves
 from profiles.ppmc312.load_angle import angles, worst_load_angle
 from profiles.ppmc312.table import FreeCurveTable
+from tests.support.oracle_moves import kernel_step_counts, whole_move
 
 MHZ1 = Clock.internal("1MHz")
 AGREE_DEG = 0.1

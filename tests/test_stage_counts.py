@@ -9,15 +9,15 @@ import math
 from dataclasses import replace
 
 import numpy as np
-from hypothesis import HealthCheck, given, reject, settings
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from profiles.errors import FormatError
 from profiles.motor import Motor
 from profiles.motor.resonance import in_bands, narrow_bands
 from profiles.ppmc312.limits import MIN_STAGE_TICKS, STAGE_PULSES_MAX
 from profiles.ppmc312.planner import Shaping, choose_clock, make_problem
 from profiles.ppmc312.planner.problem import Problem
+from tests.support.strategies import curve_motors as motors
 
 SETTINGS = settings(max_examples=60, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])
@@ -53,38 +53,6 @@ def oracle(pb: Problem, r_slow: np.ndarray, r_fast: np.ndarray
              & (d <= STAGE_PULSES_MAX) & ~in_bands(f_slow, narrow_bands(m))
              & ~in_bands(f_fast, narrow_bands(m)))
     return n, d, valid
-
-
-@st.composite
-def motors(draw: st.DrawFn) -> Motor:
-    """A pull-out curve of 2..30 points that may rise before it falls (as vendor curves
-    do), friction, a signed load, and resonance bands narrower and wider than a jump."""
-    points = draw(st.integers(2, 30))
-    top = draw(st.floats(3_000, 80_000))
-    inner = sorted(set(draw(st.lists(st.floats(0.01, 0.99), min_size=points - 2,
-                                     max_size=points - 2))))
-    speeds = np.unique([0.0, *(top * x for x in inner), top])
-    torques = np.asarray(draw(st.lists(st.floats(0.05, 2.0), min_size=len(speeds),
-                                       max_size=len(speeds))))
-    if draw(st.booleans()):
-        torques[-1] = 0.0
-    start = draw(st.floats(100, 1000))
-    bands = tuple(sorted((lo, lo + w) for lo, w in draw(st.lists(
-        st.tuples(st.floats(start * 1.2, top * 0.9), st.floats(1.0, 3 * start)),
-        max_size=2))))
-    bands = tuple(b for i, b in enumerate(bands) if i == 0 or b[0] > bands[i - 1][1])
-    t0 = float(torques[0])
-    try:
-        return Motor(steps_per_rev=draw(st.sampled_from([200, 400, 1600, 3200])),
-                     curve_speed_pps=speeds, curve_torque_nm=torques,
-                     inertia_kgm2=draw(st.floats(2e-6, 1e-3)),
-                     safety_factor=draw(st.floats(0.3, 1.0)), start_pps=start,
-                     friction_torque_nm=draw(st.floats(0.0, 0.2)) * t0,
-                     load_torque_nm=draw(st.floats(-0.2, 0.2)) * t0,
-                     max_jump_pps=draw(st.none() | st.floats(50, 2000)),
-                     resonance_bands_pps=bands)
-    except FormatError:  # friction and load above the torque at rest: no motor
-        reject()
 
 
 @SETTINGS

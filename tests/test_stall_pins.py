@@ -13,12 +13,12 @@ from typing import cast
 
 import numpy as np
 import pytest
-from test_criterion_pins import StandIn
 
 from profiles.motor import Motor
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.criterion import StepProblem
 from profiles.ppmc312.table import FreeCurveTable
+from tests.support.stand_ins import StandIn
 from verify.criterion import (
     check_stall,
     findings_from_problems,
@@ -320,7 +320,7 @@ def test_a_tiny_capability_still_names_a_count() -> None:
 
 
 def test_a_switch_names_only_the_rules_it_breaks_at_their_boundary() -> None:
-    from test_criterion_pins import exact_limit
+    from tests.support.stand_ins import exact_limit
 
     # |Δv| 250 exactly at the jump limit's tolerated bound, need exactly at the capability's
     at_jump = cast(Motor, StandIn(start_pps=200.0, top_pps=900.0, jump_pps=exact_limit(250.0)))

@@ -22,10 +22,11 @@ from profiles.motor import load_motor
 from profiles.motor.tolerance import worst_case_motor
 from profiles.ppmc312.criterion import all_length_problems
 from profiles.ppmc312.planner import plan_free_curve
+from tests.support.paths import ROOT
 from verify import cli
 from verify.sweep import COLUMNS, jobs_of, run_sweep
 
-NEMA17 = Path(__file__).resolve().parents[1] / "profiles" / "data" / "motor-nema17-1600.json"
+NEMA17 = ROOT / "profiles" / "data" / "motor-nema17-1600.json"
 TIMING = {"solve_s", "judge_s"}
 
 

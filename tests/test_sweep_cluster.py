@@ -17,11 +17,12 @@ from typing import Any
 
 import pytest
 
+from tests.support.paths import ROOT
 from verify.sweep import jobs_of, run_sweep
 
 pytestmark = pytest.mark.slow  # three Python processes start (about 10 s on 2 cores)
 
-NEMA17 = Path(__file__).resolve().parents[1] / "profiles" / "data" / "motor-nema17-1600.json"
+NEMA17 = ROOT / "profiles" / "data" / "motor-nema17-1600.json"
 TIMING = {"solve_s", "judge_s"}
 
 

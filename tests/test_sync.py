@@ -32,11 +32,11 @@ from profiles.ppmc312.sync import (
     spread_tolerance_s,
 )
 from profiles.ppmc312.upload import decode_move
+from tests.support.paths import ROOT
 from verify.criterion import check_stall
 from verify.devices import axes_entries, load_axes
 from verify.sync import ruckig_sync, sync_report
 
-ROOT = Path(__file__).resolve().parents[1]
 SCHEMA = json.loads((ROOT / "profiles" / "data" / "axes.schema.json").read_text("utf-8"))
 MOTORS = [load_motor(p) for p in bundled_motor_paths()]
 NEMA17, NEMA23, PK566 = MOTORS

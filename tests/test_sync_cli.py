@@ -26,13 +26,13 @@ from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.formats import parse, parse_c_set
 from profiles.ppmc312.table import load_table
 from profiles.ppmc312.upload import decode_move
+from tests.support.paths import ROOT
 from verify.cli import main
 from verify.criterion import check_stall
 from verify.devices import load_axes
 from verify.safety import judge_safety
 from verify.sync import output_names
 
-ROOT = Path(__file__).resolve().parents[1]
 MOTORS = [load_motor(p) for p in bundled_motor_paths()]
 NEMA17, NEMA23, PK566 = MOTORS
 

@@ -21,8 +21,8 @@ from profiles.ppmc312.table import (
     load_table,
     table_from_json,
 )
+from tests.support.paths import ROOT
 
-ROOT = Path(__file__).resolve().parents[1]
 SCHEMA = json.loads((ROOT / "profiles" / "data" / "table.schema.json").read_text("utf-8"))
 VALIDATOR = jsonschema.Draft202012Validator(SCHEMA)
 

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from oracle_moves import whole_stop, worst_whole_move
 
 from profiles.errors import PlanError
 from profiles.motor import Motor, bundled_motor_paths, load_motor
@@ -16,6 +15,7 @@ from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.load_angle import angles, worst_load_angle
 from profiles.ppmc312.planner import Shaping, plan, plan_free_curve
 from profiles.ppmc312.planner.tightening import culprits, tighten_uniform
+from tests.support.oracle_moves import whole_stop, worst_whole_move
 from verify.safety import judge_safety
 
 MOTORS = {p.stem.removeprefix("motor-"): load_motor(p) for p in bundled_motor_paths()}

@@ -26,10 +26,11 @@ from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.load_angle import worst_load_angle
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312.table import dump_table
+from tests.support.paths import ROOT
 from verify import cli
 from verify.tolerance_box import judge_box, sample_peaks
 
-DATA = Path(__file__).resolve().parents[1] / "profiles" / "data"
+DATA = ROOT / "profiles" / "data"
 NEMA17 = DATA / "motor-nema17-1600.json"
 
 FULL_BOX = {"inertia_kgm2": [4.0e-6, 9.0e-6], "friction_torque_nm": [0.0, 0.04],

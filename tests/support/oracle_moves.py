@@ -1,4 +1,4 @@
-"""Whole moves and decel stops by the plain-Python oracle (tests/rotor_oracle.py), shared by
+"""Whole moves and decel stops by the plain-Python oracle (tests/support/rotor_oracle.py), shared by
 the tests and bench/bench_safety.py: one move of a table integrated from rest until settled, its
 worst angle over the directions the verdict judges, and the compiled verdict's RK4 step
 counts (read from its kernel, which reports them only for its step budget)."""
@@ -10,13 +10,13 @@ import math
 from collections.abc import Iterator
 
 import numpy as np
-import rotor_oracle as oracle
 
 from profiles.motor import Motor
 from profiles.motor.rotor import rotor_of
 from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.load_angle import directions, spans_of
 from profiles.ppmc312.table import FreeCurveTable
+from tests.support import rotor_oracle as oracle
 
 
 def whole_move(table: FreeCurveTable, motor: Motor, pulses: int, direction: int = 1

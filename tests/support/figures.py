@@ -1,0 +1,18 @@
+"""What every figure test asks of a matplotlib figure."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from verify.plot import texts_outside
+
+
+def problems(fig: Any) -> list[str]:
+    """Texts past the canvas and lines without a legend entry."""
+    out = [f"outside the canvas: {t.get_text()!r}" for t in texts_outside(fig)]
+    legends = [ax.get_legend() for ax in fig.axes] + list(fig.legends)
+    entries = {t.get_text() for lg in legends if lg is not None for t in lg.get_texts()}
+    for ax in fig.axes:
+        out += [f"line without a legend entry: {line.get_label()!r}"
+                for line in ax.get_lines() if line.get_label() not in entries]
+    return out
