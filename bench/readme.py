@@ -16,7 +16,7 @@ into docs/img/<id>.png, named by a marker on the line before its image:
     ![what it shows](docs/img/<id>.png)
 
 Each PNG carries the hash of the data it was drawn from, so `--check` knows a figure is
-current without drawing it (tests/test_readme.py runs the check).
+current without drawing it (tests/docs/test_readme.py runs the check).
 """
 
 from __future__ import annotations

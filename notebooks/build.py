@@ -8,7 +8,7 @@
 Each notebook's source is `notebooks/<name>.py` in jupytext's percent format (`# %%`
 starts a code cell, `# %% [markdown]` a text cell): edit those, not the .ipynb files.
 The notebooks are written with fixed cell ids and no outputs, so running this twice
-gives byte-identical files (tests/test_notebooks.py checks the committed ones against a
+gives byte-identical files (tests/docs/test_notebooks.py checks the committed ones against a
 fresh build).
 """
 

@@ -392,7 +392,7 @@ def _strip_where(message: str) -> str:
 # else it raises `_Invalid` and the interpreter above (`_encode_slow`,
 # `_decode`) runs instead and raises the precise error. So the error messages
 # have one source, and the fast path can only be faster, never different
-# (tests/test_fields.py compares both paths on random input).
+# (tests/profiles/test_fields.py compares both paths on random input).
 
 class _Invalid(Exception):
     """The compiled path met a value or byte it does not handle: use the interpreter."""

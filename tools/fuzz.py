@@ -19,7 +19,7 @@ the HEAVY lists: the fast tests run the light lists once, the slow ones everythi
 Every case runs in its own temporary folder, and the campaign runs with that folder as
 the working directory: nothing is ever written beside the repository.
 
-`tests/test_fuzz.py` drives the same generators from hypothesis; this script runs a
+`tests/contract/test_fuzz.py` drives the same generators from hypothesis; this script runs a
 longer seeded campaign and prints counts per command:
 
     python tools/fuzz.py [--cases 20000] [--seed 1]
@@ -263,7 +263,7 @@ def run_cli(argv: list[str], timeout_s: float | None = None) -> tuple[int, str, 
 @contextlib.contextmanager
 def _no_server(argv: list[str]) -> Iterator[None]:
     """`design` checks every input, then serves its page until stopped: a case stops
-    where the server would start (the page itself is tests/test_design_web.py's)."""
+    where the server would start (the page itself is tests/verify/test_webdesigner.py's)."""
     if not argv or argv[0] != "design":
         yield
         return

@@ -167,7 +167,7 @@ def judge_decel_stops(table: FreeCurveTable, motor: Motor, *, aim_deg: float,
     limit = None if moves is None else ramp_reach(table, moves)
     groups: dict[tuple[str, float, float], list[int]] = {}
     # every step of a stop is one its trapezoid takes (profiles.ppmc312.stops.stop_problems;
-    # tests/test_decel_stops.py holds it on random tables): with every length judged, the
+    # tests/profiles/ppmc312/test_stops.py holds it on random tables): with every length judged, the
     # moves' findings say them all, and the stops' criterion has nothing to add
     if moves is not None:
         known = {(p.rule, p.v_from_pps, p.v_to_pps) for p in length_problems(table, judged,

@@ -103,7 +103,7 @@ class Finding:
 
 # --- what a report needs to rank findings of one rule ---------------------------------------
 # Findings carry no numbers besides their stage: the move and the shortfall are read back
-# from the messages verify.criterion writes (tests/test_report.py pins them on real findings,
+# from the messages verify.criterion writes (tests/verify/test_report.py pins them on real findings,
 # so a change of wording there fails a test instead of silently unranking a report).
 _NUMBER = r"([0-9.]+(?:e[+-]?[0-9]+)?)"
 _MOVE = re.compile(r"shortest move that runs it: (\d+) pulses")

@@ -20,10 +20,10 @@ impedance Z = R + jω_e·L and the back-EMF E = k_e·ω, whatever the phase betw
 
 This is a LOWER BOUND of the ideal circuit's pull-out torque (the current actually reached
 depends on the load angle and is higher), the first-order formula of REFERENCES.md. Against
-printed vendor curves (docs/manual-notes.md, tests/test_datasheet.py) it lies below every
-point, by 8–100 %: safe, pessimistic at high speed. Use a vendor curve (`--curve`) when one
-exists. At standstill T = T_h·I_set/I_r. No detent torque, saturation, iron losses or
-mid-band resonance are modelled.
+printed vendor curves (docs/manual-notes.md, tests/profiles/motor/test_datasheet.py) it lies
+below every point, by 8–100 %: safe, pessimistic at high speed. Use a vendor curve
+(`--curve`) when one exists. At standstill T = T_h·I_set/I_r. No detent torque,
+saturation, iron losses or mid-band resonance are modelled.
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ this is its compiled twin for the load-angle verdict, which builds some 600 move
 ~150 segments per table and already pays for numba (the rotor kernel): there numpy's
 passes over every segment were a third of a verdict. `stepramp simulate` and `show`
 never import numba (its import and first call cost about a second). The twin is
-pinned equal, array for array, by tests/test_move_assembly.py.
+pinned equal, array for array, by tests/profiles/ppmc312/test_assemble_kernel.py.
 """
 
 from __future__ import annotations

@@ -323,7 +323,7 @@ class _Sides:
 
     def compiled_families(self) -> FamilyBounds:
         """`families`, assembled by the compiled twin when not found yet (the same
-        arrays, pinned by tests/test_move_assembly.py)."""
+        arrays, pinned by tests/profiles/ppmc312/test_assemble_kernel.py)."""
         if "families" not in self.__dict__:
             self.__dict__["families"] = self._families(compiled=True)
         return self.families

@@ -3,7 +3,7 @@
 This is the integrator `profiles.motor.rotor` used before it was compiled
 (`profiles.motor.rotor_kernel`), step for step: fixed-step RK4 landing on span
 boundaries, the settling skip, the step budget. Nothing in the tool imports it
-(tests/test_layout.py); the tests hold the kernel to it.
+(tests/repo/test_layout.py); the tests hold the kernel to it.
 """
 
 from __future__ import annotations

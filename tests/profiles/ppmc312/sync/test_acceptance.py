@@ -1,0 +1,43 @@
+"""Synchronised axes (issue 11): axes files, time and line synchronisation, ruckig.
+
+Finish spread and line deviation are recomputed here independently of the library:
+each axis's pulse instants are rebuilt from its table's execution segments in pure
+Python (no pulse_times_s / searchsorted), positions at each instant counted with
+Execution.position_at (the segment model), and the distance to the line taken as the
+2-D cross product |x·N_y − y·N_x| / |N| (the library projects onto the line).
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from profiles.errors import SyncError
+from profiles.motor import bundled_motor_paths, load_motor
+
+MOTORS = [load_motor(p) for p in bundled_motor_paths()]
+
+
+NEMA17, NEMA23, PK566 = MOTORS
+
+
+def test_line_mode_falls_back_below_the_peak_and_says_so(monkeypatch: pytest.MonkeyPatch
+                                                         ) -> None:
+    """Where no line-synchronised set keeps the load angle within the aim, sync takes
+    one below the 90° peak, and its info says so; another judge's failure stands."""
+    import profiles.ppmc312.sync as sync
+
+    calls = []
+
+    def fake(axes, *, accept):  # type: ignore[no-untyped-def]
+        calls.append(accept)
+        if accept is not sync.accepted_below_peak:
+            raise SyncError("nothing this judge passes")
+        return sync.SyncPlan("line", (), "line: leader x")
+
+    monkeypatch.setattr(sync, "plan_line_sync", fake)
+    plan = sync.plan_sync([("x", NEMA17, 1000)], "line")
+    assert calls == [sync.accepted, sync.accepted_below_peak]
+    assert "no set within the 75° load-angle aim" in plan.info
+    with pytest.raises(SyncError):  # a caller's own judge gets no fallback
+        sync.plan_sync([("x", NEMA17, 1000)], "line", accept=lambda t, m: True)
+    assert len(calls) == 3  # tried once, no fallback

@@ -1,0 +1,268 @@
+"""`stepramp alink`: what its options refuse, and where the words' range ends."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from profiles import alink as A
+from profiles.alink.commands import COMMANDS, Value, decode_command, encode_command
+from verify import cli
+from verify.check_file import check_file
+from verify.cli import main
+
+
+@pytest.mark.parametrize(("word", "code"), [("0xFFFF", 0), ("65535", 0), ("0x10000", 2),
+                                            ("-1", 2)])
+def test_decode_takes_16_bit_words(word: str, code: int,
+                                   capsys: pytest.CaptureFixture[str]) -> None:
+    assert cli.main(["alink", "decode", word, "0", "0"]) == code
+    err = capsys.readouterr().err
+    if code:
+        assert err.startswith(f"stepramp alink: word 0: {int(word, 0)}")
+        assert err.rstrip().endswith("is outside the allowed range 0..65535 (0xFFFF)")
+    else:
+        assert err == ""
+
+
+@pytest.mark.parametrize("explicit", [["--start-pps", "100"], ["--high-pps", "5000"],
+                                      ["--accel-ms-per-kpps", "10"]])
+def test_settings_take_a_motor_or_the_speeds_never_both(
+        explicit: list[str], capsys: pytest.CaptureFixture[str]) -> None:
+    """One given speed beside --motor would be ignored by the plan: refused instead."""
+    assert cli.main(["alink", "settings", "--motor", "nema17-1600", "--pulses", "1000",
+                     *explicit]) == 2
+    assert capsys.readouterr().err == ("stepramp alink: give either --motor or "
+                                       "--start-pps/--high-pps/--accel-ms-per-kpps\n")
+
+
+# (name, nn, value) → the words with pair code 1, from the figure by hand
+BY_HAND: list[tuple[str, int, int, tuple[int, int, int]]] = [
+    ("logic", 0, 0x14, (0x401C, 0x4000, 0x4014)),          # §11-1's LOGIC example
+    ("mode", 0, 0x15, (0x401D, 0x4000, 0x4015)),
+    ("l-speed", 1, 500, (0x4112, 0x4000, 0x41F4)),
+    ("h-speed", 1, 10000, (0x4113, 0x4000, 0x6710)),
+    ("up-time", 2, 2000, (0x4214, 0x4000, 0x47D0)),
+    ("up-time", 1, 39320, (0x4114, 0x4002, 0x5998)),
+    ("max-speed", 1, 100000, (0x4115, 0x4006, 0x46A0)),
+    ("mode-sig", 0, 0x20, (0x401E, 0x4000, 0x4020)),
+    ("ol-speed", 1, 200, (0x4118, 0x4000, 0x40C8)),
+    ("oh-speed", 1, 800, (0x4119, 0x4000, 0x4320)),
+    ("o-uptime", 2, 20, (0x421A, 0x4000, 0x4014)),
+    ("o-uptime", 1, 4, (0x411A, 0x4000, 0x4004)),
+    ("setting", 29, 1000, (0x5D17, 0x4000, 0x43E8)),
+    ("setting", 30, -1, (0x5E17, 0x7FFF, 0x7FFF)),
+    ("setting", 30, 134217727, (0x5E17, 0x5FFF, 0x7FFF)),
+    ("move-r", 28, -1, (0x5C21, 0x7FFF, 0x7FFF)),
+    ("move-a", 28, 100000, (0x5C22, 0x4006, 0x46A0)),       # §11-1's MOVE_A figure
+    ("move-a", 28, -134217728, (0x5C22, 0x6000, 0x4000)),
+    ("stop", 28, 0, (0x5C2F, 0x4000, 0x4000)),
+    ("stop", 31, 0, (0x5F2F, 0x4000, 0x4000)),
+    ("home", 1, 0, (0x4131, 0x4000, 0x4000)),
+    ("home", 2, 0, (0x4231, 0x4000, 0x4000)),
+    ("home", 3, 0, (0x4331, 0x4000, 0x4000)),
+    ("home", 4, 0, (0x4431, 0x4000, 0x4000)),
+    ("p-search", 28, 0, (0x5C3C, 0x4000, 0x4000)),
+    ("p-search", 30, 0, (0x5E3C, 0x4000, 0x4000)),
+    ("m-search", 28, 0, (0x5C3D, 0x4000, 0x4000)),
+    ("m-search", 30, 0, (0x5E3D, 0x4000, 0x4000)),
+    ("p-org", 28, 0, (0x5C3E, 0x4000, 0x4000)),
+    ("p-org", 30, 0, (0x5E3E, 0x4000, 0x4000)),
+    ("m-org", 28, 0, (0x5C3F, 0x4000, 0x4000)),
+    ("m-org", 30, 0, (0x5E3F, 0x4000, 0x4000)),
+    ("out-m", 28, 1, (0x5C4C, 0x4000, 0x4001)),
+    ("out-b", 28, 0, (0x5C4D, 0x4000, 0x4000)),
+    ("out-s", 28, 1, (0x5C4E, 0x4000, 0x4001)),
+    ("out-g", 28, 8, (0x5C4F, 0x4000, 0x4008)),
+    ("out-g", 31, 1, (0x5F4F, 0x4000, 0x4001)),
+    ("read-stat", 0, 7, (0x4045, 0x4000, 0x4007)),
+    ("read", 0, 0xA, (0x4046, 0x4000, 0x400A)),
+    ("read", 3, 0, (0x4346, 0x4000, 0x4000)),
+    ("change-speed", 1, 12000, (0x4151, 0x4000, 0x6EE0)),
+    ("change-speed", 0, 150, (0x4051, 0x4000, 0x4096)),
+    ("limit", 0, 0, (0x4052, 0x4000, 0x4000)),
+    ("limit", 3, 5000, (0x4352, 0x4000, 0x5388)),
+    ("clear-el", 0, 0, (0x405C, 0x4000, 0x4000)),
+    ("delay", 0, 500, (0x4058, 0x4000, 0x41F4)),
+    ("offset", 0, 1000, (0x405A, 0x4000, 0x43E8)),
+    ("offset", 0, -1300, (0x405A, 0x7FFF, 0x7AEC)),         # §12-1 (3)'s example
+    ("reset-pos", 0, 1000, (0x405B, 0x4000, 0x43E8)),
+    ("logic-r", 0, 0, (0x408C, 0x4000, 0x4000)),
+    ("mode-r", 0, 0, (0x408D, 0x4000, 0x4000)),
+    ("l-speed-r", 0, 0, (0x4082, 0x4000, 0x4000)),
+    ("h-speed-r", 0, 0, (0x4083, 0x4000, 0x4000)),
+    ("up-time-r", 0, 0, (0x4084, 0x4000, 0x4000)),
+    ("max-speed-r", 0, 0, (0x4085, 0x4000, 0x4000)),
+    ("mode-sig-r", 0, 0, (0x408E, 0x4000, 0x4000)),
+    ("ol-speed-r", 0, 0, (0x4088, 0x4000, 0x4000)),
+    ("oh-speed-r", 0, 0, (0x4089, 0x4000, 0x4000)),
+    ("o-uptime-r", 0, 0, (0x408A, 0x4000, 0x4000)),
+    ("setting-r", 29, 0, (0x5D87, 0x4000, 0x4000)),
+]
+
+
+@pytest.mark.parametrize(("name", "nn", "value", "words"), BY_HAND)
+def test_words_are_the_figures_and_decode_names_the_command(
+        name: str, nn: int, value: int, words: tuple[int, int, int],
+        capsys: pytest.CaptureFixture[str]) -> None:
+    c = encode_command(name, value if COMMANDS[name].forms[nn].value.takes else None, nn)
+    assert c.words == words and c.pair == 1
+    d = decode_command(*words)
+    assert (d.command.name, d.nn, d.value, d.pair, d.problems) == (name, nn, value, 1, ())
+    # and through the CLI: `alink command` writes them, `alink decode --command` names them
+    argv = ["alink", "command", name, "--nn", str(nn), "--format", "hex"]
+    if COMMANDS[name].forms[nn].value.takes:
+        argv += ["--value", str(value)]
+    assert cli.main(argv) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0] == " ".join(f"{w:04X}" for w in words) and out[1].startswith("# crc32 ")
+    assert cli.main(["alink", "decode", "--command", *(f"0x{w:04X}" for w in words),
+                     "--format", "json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert (doc["name"], doc["symbol"], doc["nn"], doc["value"], doc["problems"]) == \
+        (name, COMMANDS[name].cmd.name, nn, value, [])
+
+
+def _values(v: Value) -> st.SearchStrategy[int]:
+    if v.bits:
+        optional = [b for b in v.bits if b != 8]  # D8 is the factory check: not written
+        return st.sets(st.sampled_from(optional)).map(
+            lambda bits: v.fixed | sum(1 << b for b in bits))
+    if v.choices:
+        plain = [k for k in v.choices if k not in (0xF, 0x3FFF)]
+        opened = [] if v.open_from is None else [st.integers(v.open_from, v.hi - 1)]
+        return st.one_of(st.sampled_from(plain), *opened)
+    if not v.takes:
+        return st.just(0)
+    return st.integers(v.lo, v.hi).filter(lambda x: x not in v.refused)
+
+
+@st.composite
+def _command(draw: Any) -> tuple[str, int, int, int]:
+    name = draw(st.sampled_from(sorted(COMMANDS)))
+    nn = draw(st.sampled_from(sorted(COMMANDS[name].forms)))
+    value = draw(_values(COMMANDS[name].forms[nn].value))
+    return name, nn, value, draw(st.integers(1, 3))
+
+
+def _cli(argv: list[str]) -> Any:
+    """`stepramp ARGV --format json`'s document (exit 0), in-process."""
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert cli.main([*argv, "--format", "json"]) == 0
+    return json.loads(out.getvalue())
+
+
+@settings(max_examples=100, deadline=None)
+@given(_command())
+def test_every_command_round_trips_through_the_cli(case: tuple[str, int, int, int]) -> None:
+    """`alink command` writes the words, `alink decode --command` names them back."""
+    name, nn, value, pair = case
+    argv = ["alink", "command", name, "--nn", str(nn), "--pair", str(pair)]
+    if COMMANDS[name].forms[nn].value.takes:
+        argv += ["--value", str(value)]
+    [row] = _cli(argv)["commands"]
+    doc = _cli(["alink", "decode", "--command", *row["words"]])
+    assert (doc["name"], doc["nn"], doc["value"], doc["pair"], doc["problems"]) == \
+        (name, nn, value, pair, [])
+
+
+@pytest.mark.parametrize(("argv", "line"), [
+    (["l-speed", "--value", "0"],
+     "--value (l-speed nn 1: speed): 0 is outside the allowed range 1..100000 (0x186A0)"),
+    (["move-a", "--value", "0x8000000"],
+     "--value (move-a nn 28: pulse): 134217728 (0x8000000) is outside the allowed range "
+     "-134217728..134217727 (0x7FFFFFF)"),
+    (["out-m", "--value", "2"], "--value (out-m nn 28: out): 2 is not one of 0 (off), 1 (on)"),
+    (["home", "--nn", "5"], "--nn: 5 is not an nn of home (1: search CW, stop at the "
+                            "origin's CCW edge; 2: …"),
+    (["setting", "--nn", "30", "--value", "0"],
+     "--value (setting nn 30: pulse): 0: a soft limit is 1..134217727 (+) or "
+     "-134217728..-1 (-)"),
+    (["change-speed", "--value", "100001"],
+     "--value (change-speed nn 1: speed): 100001 (0x186A1) is outside the allowed range "
+     "1..100000 (0x186A0)"),
+    (["read-stat", "--value", "0x3FFF"], "--value (read-stat nn 0: type): READ_STAT type "
+                                         "0x3FFF: the factory A-Link check: …"),
+    (["stop", "--value", "3"], "--value: stop nn 28 takes no value (stop at once (the "
+                               "position is not kept): its para is 0)"),
+    (["move-a"], "--value: move-a nn 28 needs one: pulse, -134217728..134217727 pulses"),
+    (["move-a", "--value", "1", "--pair", "4"], "--pair: 4 is outside the allowed range 1..3"),
+    (["logic", "--value", "3"], "--value (logic nn 0: logic): 0x3 sets bits outside the "
+                                "word's (0x3); it is a bit word: …"),
+])
+def test_bad_values_are_one_line_naming_the_flag_value_and_range(
+        argv: list[str], line: str, capsys: pytest.CaptureFixture[str]) -> None:
+    assert cli.main(["alink", "command", *argv]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err.count("\n") == 1
+    err = err.removeprefix("stepramp alink: ").rstrip("\n")
+    assert err.startswith(line.removesuffix("…")) if line.endswith("…") else err == line
+
+
+def test_decode_refuses_answer_options_with_command(capsys: pytest.CaptureFixture[str]) -> None:
+    assert cli.main(["alink", "decode", "--command", "0x5C22", "0x4006", "0x46A0",
+                     "--read-back"]) == 2
+    assert capsys.readouterr().err == ("stepramp alink: --read-back: an answer's; a command's "
+                                       "words carry their own pair code\n")
+    assert cli.main(["alink", "decode", "--command", "0x5C22", "0x4006", "0x46A0"]) == 0
+    assert capsys.readouterr().out == (
+        "MOVE_A (move-a, §11-3 (2) absolute move) nn 28: move to pulse (absolute; needs the "
+        "origin); pulse 100000 pulses, pair 1\n")
+    assert cli.main(["alink", "decode", "--command", "0x7D00", "0", "0"]) == 2  # no command
+
+
+def test_alink_homing_writes_a_checked_file(tmp_path: Path,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "home.json"
+    assert cli.main(["alink", "homing", "--motor", "nema17-1600", "-o", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["homing"]["oh_pps"] == 800 and doc["homing"]["ol_pps"] == 200
+    assert [c["name"] for c in doc["commands"]] == ["OL_SPEED", "OH_SPEED", "O_UPTIME"]
+    assert cli.main(["check", str(out)]) == 0
+    assert cli.main(["alink", "read", str(out)]) == 0
+    capsys.readouterr()
+    assert cli.main(["alink", "homing", "--motor", "nema17-1600", "--max-pps", "-1"]) == 2
+    assert capsys.readouterr().err.startswith("stepramp alink: --max-pps: -1.0 is outside")
+
+
+SETTINGS_COMMANDS = A.settings_commands(A.quantise_settings(500, 10000, 20))
+
+
+def _rules(path: Path) -> list[tuple[str, str]]:
+    result = check_file(str(path))
+    assert result.error is None, result.error
+    return [(f.severity, f.rule) for f in result.findings]
+
+
+# --- check: A-Link ------------------------------------------------------------------------------
+def _write(tmp_path: Path, name: str, commands: list[A.Command], fmt: str = "hex") -> Path:
+    from profiles.alink.formats import render
+
+    path = tmp_path / name
+    path.write_bytes(render(commands, fmt))
+    return path
+
+
+def test_alink_read_and_corrupted_settings(tmp_path: Path,
+                                           capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["alink", "settings", "--start-pps", "500", "--high-pps", "10000",
+                 "--accel-ms-per-kpps", "20", "--address", "3", "--format", "json", "-o",
+                 str(tmp_path / "a.json")]) == 0
+    capsys.readouterr()
+    assert main(["alink", "read", str(tmp_path / "a.json"), "--format", "json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["start_pps"] == 500 and doc["commands"][0]["address"] == "0x086"
+    path = _write(tmp_path, "a.h", SETTINGS_COMMANDS, "c")
+    path.write_text(path.read_text().replace("0x4112", "0x4113"))  # L_SPEED → H_SPEED
+    assert _rules(path) == [("error", "alink-corrupted")]
+    assert main(["alink", "read", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("stepramp alink: corrupted: STEPRAMP_ALINK_CRC32 says CRC-32")

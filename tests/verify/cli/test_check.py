@@ -1,0 +1,213 @@
+"""The CLI's safety verdicts judge every move length: check --motor, compare, plan."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import re
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from profiles.motor import bundled_motor_paths
+from profiles.ppmc312.clock import Clock
+from profiles.ppmc312.execution import simulate_move
+from profiles.ppmc312.motion import COMMANDS
+from profiles.ppmc312.table import FreeCurveTable, dump_table, load_table
+from tests.support.ascii_frames import FIGURES
+from tests.support.cli import run
+from tests.support.paths import ROOT
+
+MOTORS = {p.stem: p for p in bundled_motor_paths()}
+
+
+NEMA23 = MOTORS["motor-nema23-heavy"]
+
+
+NEMA17 = MOTORS["motor-nema17-1600"]
+
+
+def switching_table(tmp_path: Path) -> Path:
+    # LE=1, decel counts heavy at the slow end: short triangles switch down
+    table = FreeCurveTable(Clock.internal("8MHz"), (1455, 1873, 2500), (40, 40, 40), (2, 2, 200))
+    path = tmp_path / "switch.table.json"
+    path.write_text(dump_table(table))
+    return path
+
+
+def test_check_motor_fails_a_table_unsafe_only_for_some_lengths(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = switching_table(tmp_path)
+    code, out, _ = run(capsys, "check", path, "--motor", NEMA23, "--no-physics")
+    assert code == 1 and "stall-switch" in out
+    shortest = int(re.search(r"shortest move that runs it: (\d+) pulses",  # type: ignore[union-attr]
+                             out[out.index("stall-switch"):]).group(1))
+    table = load_table(path)
+    # the named length really switches down; a trapezoid of the whole table does not
+    segs = simulate_move(table, shortest).segments
+    assert any(a.phase == "accel" and b.phase == "decel" and b.rate > a.rate
+               for a, b in itertools.pairwise(segs))
+    whole = table.accel_total + table.decel_total
+    code, out, _ = run(capsys, "check", path, "--motor", NEMA23, "--no-physics",
+                       "--pulses", f"{whole},{whole + 1000}")
+    assert "stall-switch" not in out
+    code, out, _ = run(capsys, "check", path, "--motor", NEMA23, "--no-physics",
+                       "--pulses", str(shortest))
+    assert code == 1 and "stall-switch" in out
+
+
+def test_check_pulses_needs_a_motor_and_valid_lengths(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = switching_table(tmp_path)
+    assert run(capsys, "check", path, "--pulses", "100")[0] == 2
+    code, _, err = run(capsys, "check", path, "--motor", NEMA23, "--pulses", "0")
+    assert code == 2 and "move length" in err
+
+
+def test_check_motor_reports_the_load_angle_judge(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # a motor file that vouches for a 21 kpps start (the criterion believes it) while
+    # its rotor (ω_n ≈ 1700 rad/s, 0.196 rad per pulse) swings 2.3 rad on a 20 kpps step
+    motor = json.loads(NEMA17.read_text())
+    motor.update(start_pps=21000, max_jump_pps=21000)
+    motor_path = tmp_path / "optimistic.motor.json"
+    motor_path.write_text(json.dumps(motor))
+    table = FreeCurveTable(Clock.internal("8MHz"), (300, 400), (800, 800))
+    path = tmp_path / "t.table.json"
+    path.write_text(dump_table(table))
+    code, out, _ = run(capsys, "check", path, "--motor", motor_path, "--format", "json")
+    rules = {f["rule"] for f in json.loads(out)["files"][0]["findings"]}
+    assert code == 1 and "load-angle" in rules
+    assert not rules & {"stall-jump", "stall-accel", "stall-decel", "stall-start-speed"}
+    message = next(f["message"] for f in json.loads(out)["files"][0]["findings"]
+                   if f["rule"] == "load-angle")
+    assert "the criterion passes" in message
+    assert run(capsys, "check", path, "--motor", motor_path, "--no-physics")[0] == 0
+
+
+def plan_from(capsys: pytest.CaptureFixture[str], tmp_path: Path, motor: str, source: str,
+              pulses: int) -> tuple[int, dict[str, Any], Path]:
+    out_path = tmp_path / f"{source}-{pulses}.json"
+    code, out, err = run(capsys, "plan", "--motor", motor, "--pulses", str(pulses), "--from",
+                         source, "--format", "json", "-o", out_path)
+    return code, json.loads(out) if code == 0 else {"err": err}, out_path
+
+
+@pytest.mark.parametrize("source", ["ruckig", "toppra"])
+def test_plan_from_a_reference_gives_a_safe_table_and_its_price(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], source: str) -> None:
+    code, doc, out_path = plan_from(capsys, tmp_path, NEMA17, source, 2000)
+    assert code == 0 and out_path.exists()
+    assert doc["safety"]["safe"] and doc["safety"]["within_aim"]
+    table = load_table(out_path)
+    assert doc["move_time_s"] == pytest.approx(simulate_move(table, 2000).duration_s)
+    # what following the reference costs: its time beside the reference's and the planner's
+    assert doc["table/planner"] == pytest.approx(doc["move_time_s"] / doc["planner_s"])
+    assert doc["table/reference"] == pytest.approx(doc["move_time_s"] / doc["reference_s"])
+    code, _, _ = run(capsys, "check", out_path, "--motor", NEMA17)
+    assert code == 0
+
+
+GOOD = ROOT / "examples" / "free-curve-nema17.json"
+
+
+BAD = ROOT / "examples" / "free-curve-bad.json"
+
+
+INIT = ROOT / "examples" / "init-linear.json"
+
+
+def test_check_good_and_bad(capsys: pytest.CaptureFixture[str]) -> None:
+    assert run(capsys, "check", GOOD, INIT)[0] == 0
+    code, out, _ = run(capsys, "check", GOOD, BAD)
+    assert code == 1
+    assert "chip 0x18" in out and "chip 0x19" in out
+
+
+def test_check_json_shape(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, _ = run(capsys, "check", GOOD, BAD, "--format", "json")
+    assert code == 1
+    doc = json.loads(out)
+    assert [f["path"] for f in doc["files"]] == [str(GOOD), str(BAD)]
+    assert doc["files"][0]["ok"] is True and doc["files"][1]["ok"] is False
+    finding = next(f for f in doc["files"][1]["findings"] if f["chip_code"] == "0x18")
+    assert set(finding) == {"severity", "rule", "chip_code", "stage", "message"}
+    assert finding["severity"] == "error" and finding["stage"] == 0
+
+
+def test_check_upload_files_by_what_the_chip_answers(
+        capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    hexfile = tmp_path / "good.upload.hex"
+    assert run(capsys, "export", GOOD, "--format", "hex", "-o", hexfile)[0] == 0
+    assert run(capsys, "check", hexfile)[0] == 0
+    binfile = tmp_path / "good.upload.bin"
+    assert run(capsys, "export", GOOD, "--format", "bin", "-o", binfile)[0] == 0
+    assert run(capsys, "check", binfile)[0] == 0
+    # an upload whose stage count the chip refuses (0x11): one stage only
+    # hand-edited, without the CRC line: judged (with a warning) by what the chip answers
+    lines = [line for line in hexfile.read_text().splitlines() if not line.startswith("#")]
+    first = lines[0].split()
+    first[4] = "01"
+    (tmp_path / "bad.upload.hex").write_text(" ".join(first) + "\n" + "\n".join(lines[1:]))
+    code, out, _ = run(capsys, "check", tmp_path / "bad.upload.hex", "--format", "json")
+    assert code == 1
+    codes = {f["chip_code"] for f in json.loads(out)["files"][0]["findings"]}
+    assert "0x11" in codes
+
+
+def test_check_junit_is_xml(capsys: pytest.CaptureFixture[str]) -> None:
+    import xml.etree.ElementTree as ET
+
+    code, out, _ = run(capsys, "check", GOOD, BAD, "--format", "junit")
+    assert code == 1
+    root = ET.fromstring(out)
+    assert len(root.findall(".//testcase")) == 2
+    assert root.findall(".//failure")
+
+
+def test_check_with_motor_on_an_init_table_the_chip_refuses(
+        capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    # No stages can be built, so there is nothing to judge for stall-safety: the chip's
+    # error is the finding (exit 1), not "unusable input".
+    path = tmp_path / "init.json"
+    path.write_text('{"format": "stepramp.table/1", "device": "ppmc312", "kind": "init", '
+                    '"clock": "8MHz", "shape": "linear", "start_rate": 400, '
+                    '"high_rate": 400, "accel_pulses": 2000}')
+    motor = ROOT / "profiles" / "data" / "motor-nema17-1600.json"
+    code, out, _ = run(capsys, "check", path, "--motor", motor, "--format", "json")
+    assert code == 1
+    assert [f["chip_code"] for f in json.loads(out)["files"][0]["findings"]] == ["0x03"]
+
+
+OPTION = {"rate": "--rate", "pulses": "--pulses", "override_at": "--override-at",
+          "on": "--on"}
+
+
+FLAG = {"ccw": "--ccw", "index": "--index"}
+
+
+def argv(name: str, params: dict[str, Any]) -> list[str]:
+    out = ["move", "--command", name]
+    for key, value in params.items():
+        out += [FLAG[key]] if key in FLAG else [OPTION[key], str(value)]
+    return out
+
+
+@pytest.mark.parametrize("name", sorted(COMMANDS))
+def test_every_command_in_every_format_is_judged_ok(capsys: pytest.CaptureFixture[str],
+                                                   tmp_path: Path, name: str) -> None:
+    from profiles.ppmc312.formats import FORMATS
+
+    params = next(p for n, p, _b, s in FIGURES if n == name and s is not None)
+    for fmt in FORMATS.names:
+        for to in ("parallel", "ascii"):
+            if to == "ascii" and fmt == "bus":
+                continue  # the bus is parallel only
+            out = tmp_path / f"{name}.{to}.{fmt}"
+            code, _, err = run(capsys, *argv(name, params), "--to", to, "--format", fmt,
+                               "-o", out)
+            assert (code, err) == (0, ""), (fmt, to)
+            code, text, err = run(capsys, "check", out)
+            assert code == 0, (fmt, to, text, err)
+            assert f"note: {COMMANDS[name].label if name != 'accel' else 'move'}" in text

@@ -1,0 +1,77 @@
+"""Item 5 of issue 10, "a CLI people trust": --version, help and units on every
+option, clock names in any case, `show`, `plan --kind`, messages in option/field
+terms, progress bars on a terminal only."""
+
+from __future__ import annotations
+
+import argparse
+import io
+import re
+import sys
+
+import pytest
+
+from verify import cli
+from verify.cli import _common
+
+
+def _parsers(parser: argparse.ArgumentParser, name: str = "stepramp"
+             ) -> list[tuple[str, argparse.ArgumentParser]]:
+    out = [(name, parser)]
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub_name, sub in action.choices.items():
+                out += _parsers(sub, f"{name} {sub_name}")
+    return out
+
+
+def _arguments() -> list[tuple[str, argparse.Action]]:
+    return [(name, a) for name, p in _parsers(cli.build_parser()) for a in p._actions
+            if not isinstance(a, argparse._SubParsersAction | argparse._HelpAction)]
+
+
+# motor new's datasheet options add N·m, A, Ω, mH, V, g·cm², ° and [1] (a ratio); mc200
+# stream's torque constant N·m/A
+UNIT = re.compile(r"\[(pps|pps²|pps³|s|ms|µs|Hz|pulses|N·m|N·m/A|N·cm|A|Ω|mH|V|g·cm²|°|1)\]")
+
+
+def test_every_quantity_option_names_its_unit() -> None:
+    # Number-typed options and those named for a unit are quantities: their help
+    # says the unit in brackets, spelled one way.
+    quantity = [(name, a) for name, a in _arguments()
+                if a.type is _common.number
+                or any(re.search(r"(pps|-us|-hz|pulses)$", o) for o in a.option_strings)]
+    assert len(quantity) >= 10
+    lacking = [f"{name} {a.option_strings}" for name, a in quantity
+               if not UNIT.search(a.help or "")]
+    assert not lacking, f"quantity options whose help has no [unit]: {lacking}"
+
+
+class _Tty(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_progress_bar_only_on_a_terminal(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(_common, "PROGRESS_DELAY_S", 0.0)
+    pipe = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", pipe)
+    with _common.progress_bar("work") as progress:
+        assert progress is None
+    assert pipe.getvalue() == ""
+    tty = _Tty()
+    monkeypatch.setattr(sys, "stderr", tty)
+    with _common.progress_bar("work", unit="packet") as progress:
+        assert progress is not None
+        progress(0, 40)
+        progress(40, 40)
+    assert "work" in tty.getvalue() and "40/40" in tty.getvalue()
+
+
+def test_a_pulse_list_is_every_length_given_in_order() -> None:
+    """--pulses N[,M…]: each length kept, spaces allowed, 1..2³²−1 (a move counter)."""
+    assert _common.pulse_list("1000, 3000,10000") == [1000, 3000, 10000]
+    assert _common.pulse_list("4294967295") == [4294967295]
+    for bad in ("0", "4294967296", "1000,", "1000,x"):
+        with pytest.raises(argparse.ArgumentTypeError):
+            _common.pulse_list(bad)

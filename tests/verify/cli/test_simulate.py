@@ -1,0 +1,39 @@
+"""The `stepramp` command: exit codes, output shapes, bad input, no half-written files."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from profiles.ppmc312.table import load_table
+from tests.support.cli import run
+from tests.support.paths import ROOT
+
+GOOD = ROOT / "examples" / "free-curve-nema17.json"
+
+
+def test_simulate_pulse_times_and_samples(capsys: pytest.CaptureFixture[str],
+                                          tmp_path: Path) -> None:
+    from profiles.ppmc312.execution import simulate_move
+
+    run_ = simulate_move(load_table(GOOD), 3000)
+    pt, sm = tmp_path / "pt.csv", tmp_path / "s.csv"
+    code, out, _ = run(capsys, "simulate", GOOD, "--pulses", "3000", "--pulse-times", pt,
+                       "--samples", sm)
+    assert code == 0 and "trapezoid" in out
+    rows = pt.read_text().splitlines()
+    assert rows[0] == "pulse,time_s" and len(rows) == 3001
+    assert float(rows[-1].split(",")[1]) == pytest.approx(run_.duration_s, abs=1e-9)
+    samples = sm.read_text().splitlines()
+    assert samples[0] == "t_s,x_pulses,v_pps,a_pps2" and len(samples) == 1001
+    assert float(samples[-1].split(",")[1]) == 3000
+
+
+def test_too_many_pulse_times_speaks_of_pulses(capsys: pytest.CaptureFixture[str],
+                                               tmp_path: Path) -> None:
+    code, _, err = run(capsys, "simulate", ROOT / "examples" / "free-curve-nema17.json",
+                       "--pulses", "10000001", "--pulse-times", tmp_path / "p.csv")
+    assert code == 2 and "pulses (one CSV row per pulse)" in err
+    assert "limit=" not in err and "_s:" not in err
+    assert not (tmp_path / "p.csv").exists()

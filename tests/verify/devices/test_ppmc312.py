@@ -1,0 +1,63 @@
+"""verify.check_file: one file judged as `stepramp check` does (library, no CLI)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from profiles.ppmc312.formats import render
+from profiles.ppmc312.table import load_table
+from profiles.ppmc312.upload import encode_table
+from tests.support.paths import ROOT
+from verify.check_file import check_file
+from verify.devices.ppmc312 import load_checkable, looks_like_table_json
+
+GOOD = ROOT / "examples" / "free-curve-nema17.json"
+
+
+def _hex() -> str:
+    data = render(encode_table(load_table(GOOD)), "hex")
+    return data if isinstance(data, str) else data.decode("ascii")
+
+
+def test_upload_file_is_decoded_and_judged(tmp_path: Path) -> None:
+    path = tmp_path / "good.hex"
+    path.write_text(_hex())
+    table, findings = load_checkable(str(path))
+    assert table == load_table(GOOD) and findings == []
+    assert check_file(str(path)).ok
+
+
+def test_upload_the_chip_refuses_is_one_finding_with_its_code(tmp_path: Path) -> None:
+    lines = [line for line in _hex().splitlines() if not line.startswith("#")]
+    first = lines[0].split()  # hand-edited, so without the CRC line (a warning, below)
+    first[4] = "01"  # one stage: the chip answers parameter error 0x11
+    path = tmp_path / "bad.hex"
+    path.write_text(" ".join(first) + "\n" + "\n".join(lines[1:]) + "\n")
+    table, findings = load_checkable(str(path))
+    assert table is None
+    assert [(f.rule, f.chip_code) for f in findings] == [("chip-rejects-upload", 0x11),
+                                                         ("upload-unchecked", None)]
+    result = check_file(str(path))
+    assert not result.ok and result.error is None
+
+
+def test_what_counts_as_a_table_file() -> None:
+    assert looks_like_table_json(b'  {"format": "stepramp.table/1", "blocks": []}')
+    assert looks_like_table_json(b'{"format": "wrong"}')  # reported as a bad table
+    assert not looks_like_table_json(json.dumps({"blocks": ["02 00"]}).encode())
+    assert not looks_like_table_json(b"02 00 01")
+
+
+EXAMPLE = ROOT / "examples" / "program-home-and-jog.json"
+
+
+TABLE = ROOT / "examples" / "free-curve-nema17.json"
+
+
+def test_the_judge_tells_programs_by_the_readers_format() -> None:
+    from profiles.ppmc312.program import FORMAT
+    from verify.devices.ppmc312 import PROGRAM_FORMAT, is_program
+
+    assert PROGRAM_FORMAT == FORMAT
+    assert is_program(EXAMPLE.read_bytes()) and not is_program(TABLE.read_bytes())

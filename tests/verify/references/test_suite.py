@@ -1,0 +1,64 @@
+"""Continuous references: the exact oracle against hand kinematics, and the solvers
+(toppra, ruckig, casadi) against the oracle and against the motor's capability."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from profiles.errors import FormatError
+from profiles.motor import Motor, bundled_motor_paths, load_motor
+from verify.references import (
+    Reference,
+    ReferenceSolveError,
+    best_reference,
+    is_feasible,
+    move_limits,
+    references,
+    ruckig_reference,
+)
+from verify.references._common import capability_violation
+from verify.references._suite import CHECK_REL_TOL
+
+BUNDLED = {p.stem: load_motor(p) for p in bundled_motor_paths()}
+
+
+def assert_move(motor: Motor, n: float, ref: Reference, rel_tol: float = 1e-6) -> None:
+    """Starts and ends at v0, covers exactly 0…N, time runs forward, stays in capability."""
+    lim = move_limits(motor, n)
+    assert ref.v_pps[0] == pytest.approx(lim.v0_pps, rel=1e-9)
+    assert ref.v_pps[-1] == pytest.approx(lim.v0_pps, rel=1e-9)
+    assert ref.x_pulses[0] == 0 and ref.x_pulses[-1] == pytest.approx(n, rel=1e-12)
+    assert np.all(np.diff(ref.t_s) >= 0)
+    assert ref.t_s[-1] == pytest.approx(ref.duration_s, rel=1e-9)
+    assert capability_violation(motor, lim, ref, rel_tol=rel_tol) == ""
+
+
+@pytest.mark.slow
+def test_references_all_feasible_and_best_is_fastest() -> None:
+    motor = BUNDLED["motor-nema23-heavy"]
+    refs = references(motor, 5000)
+    assert set(refs) == {"exact", "toppra", "ruckig", "casadi"}
+    for ref in refs.values():
+        assert is_feasible(ref), ref.info
+        assert_move(motor, 5000, ref, rel_tol=CHECK_REL_TOL)
+    best = best_reference(refs)
+    assert best.duration_s == min(r.duration_s for r in refs.values())
+    assert best.duration_s == pytest.approx(refs["exact"].duration_s, rel=2e-3)
+
+
+def test_references_flags_violations_and_best_skips_them() -> None:
+    motor = BUNDLED["motor-nema17-1600"]
+    refs = references(motor, 3000, include=("ruckig",))
+    assert set(refs) == {"exact", "ruckig"}
+    assert all(is_feasible(r) for r in refs.values())
+    # a reference that accelerates harder than the motor can is marked and skipped
+    fast = ruckig_reference(motor, 3000, bound="optimistic")
+    fast.info += "; " + "capability violated: " + capability_violation(
+        motor, move_limits(motor, 3000), fast, rel_tol=CHECK_REL_TOL)
+    assert not is_feasible(fast)
+    assert best_reference({**refs, "fast": fast}) is refs["exact"]
+    with pytest.raises(ReferenceSolveError):
+        best_reference({"fast": fast})
+    with pytest.raises(FormatError, match=r"^include: "):
+        references(motor, 3000, include=("gurobi",))

@@ -1,0 +1,25 @@
+"""The `stepramp` command: exit codes, output shapes, bad input, no half-written files."""
+
+from __future__ import annotations
+
+
+def test_plan_says_what_the_tightening_changed_in_plain_words() -> None:
+    # "start speed lowered to 2 840 pps …" rather than "start ×0.483"
+    from types import SimpleNamespace
+
+    from profiles.ppmc312.planner.problem import Shaping
+    from verify.plan_text import LINE_MAX, _tightening
+
+    motor = SimpleNamespace(start_pps=5880.0)
+    assert _tightening(Shaping.uniform(0.483), motor, 75.0) == [
+        "start speed lowered to 2 840 pps (from 5 880 pps)",
+        "ramp made gentler everywhere (48% of the torque it could use) to keep the rotor "
+        "within 75°"]
+    assert _tightening(Shaping((), (1.0,), 0.483), motor, 75.0) == [
+        "start speed lowered to 2 840 pps (from 5 880 pps) to keep the rotor within 75°"]
+    banded = Shaping((9112.0, 30755.0), (1.0, 0.93, 1.0), 0.5)
+    lines = _tightening(banded, motor, 75.0)
+    assert lines == ["start speed lowered to 2 940 pps (from 5 880 pps)",
+                     "ramp made gentler between 9 112 and 30 755 pps (down to 93% of the torque "
+                     "it could use) to keep the rotor within 75°"]
+    assert all(len(line) <= LINE_MAX for line in lines)
