@@ -55,8 +55,9 @@ def _bundled_motors_only() -> Iterator[None]:
 
 
 # The session fails when it leaves a new or changed file in the checkout
-# (tests/support/repo_clean.py).
-pytest_plugins = ["tests.support.repo_clean"]
+# (tests/support/repo_clean.py); pytester runs that plugin's own tests
+# (tests/repo/test_repo_clean.py: a test module below the top cannot load a plugin).
+pytest_plugins = ["tests.support.repo_clean", "pytester"]
 
 
 @pytest.fixture

@@ -1,4 +1,4 @@
-"""`stepramp sync` and `stepramp simulate --axes`: files, report, exit codes; the A-Link."""
+"""profiles.joint: the finish spread synchronised axes are allowed."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""verify.check_file: one file judged as `stepramp check` does (library, no CLI)."""
+"""verify.check_options: every front end draws the same number of samples by default."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The `stepramp` command: exit codes, output shapes, bad input, no half-written files."""
+"""verify.plan_text: what a plan says in plain words."""
 
 from __future__ import annotations
 

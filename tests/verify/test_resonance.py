@@ -1,5 +1,4 @@
-"""Resonance bands: the planner jumps narrow bands, never cruises in one, crosses wide
-ones with minimal stages; `check` reports resonance-dwell."""
+"""verify.resonance: `resonance-dwell` findings."""
 
 from __future__ import annotations
 

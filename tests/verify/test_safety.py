@@ -1,4 +1,4 @@
-"""verify.load_angle and profiles.motor.rotor: the load angle (electrical degrees) of executions."""
+"""verify.safety: the one verdict (unstable moves named, past the aim a warning)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,4 @@
-"""Tolerance boxes: the motor file keys, the binding corner, Monte Carlo, the robust plan
-and check."""
+"""verify.tolerance_box: samples of a motor's tolerance box judged."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""A-Link ALUM: multiplier tables, unit correction, quantised settings, planner, words."""
+"""profiles.alink.codec: A-Link ALUM command words, responses, read-backs and the memory map
+(manual §11), and settings read back from their commands."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""A-Link ALUM: multiplier tables, unit correction, quantised settings, planner, words."""
+"""profiles.alink.planner: the fastest stall-safe A-Link settings for a motor."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""MC-200 SPI packets: checksum example, codecs, sequences through the driver model, streaming."""
+"""profiles.mc200.model: the MC-200 driver model, fed packet by packet (servo on/off, mode
+switches, the SPI error and its reset)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""MC-200 SPI packets: checksum example, codecs, sequences through the driver model, streaming."""
+"""profiles.mc200.stream: MC-200 packet streams along a profile (ruckig), chunked and whole,
+in every control mode."""
 
 from __future__ import annotations
 

@@ -1,7 +1,5 @@
-"""The compiled load-angle model (profiles.motor.rotor_kernel) against its oracle, the
-plain-Python integrator (tests/support/rotor_oracle.py), and the all-length verdict against
-brute force over every move length; then the physics each part of the model states,
-as tests a wrong sign or threshold fails."""
+"""profiles.motor.rotor: the rotor model (load angle in electrical degrees) against the
+plain-Python oracle (tests/support/rotor_oracle.py), step by step."""
 
 from __future__ import annotations
 

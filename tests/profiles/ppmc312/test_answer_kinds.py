@@ -1,6 +1,4 @@
-"""Every answer the PPMC-312 gives, decoded: one test per response figure of the manual
-(§7–§11, bytes written header first from the figure), the serial replies (§13, §15–19),
-a round trip of every kind, and the bytes that are no answer."""
+"""profiles.ppmc312.answer_kinds: the kinds of answer the PPMC-312 gives (manual figures)."""
 
 from __future__ import annotations
 

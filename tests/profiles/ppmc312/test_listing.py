@@ -1,6 +1,4 @@
-"""Item 5 of issue 10, "a CLI people trust": --version, help and units on every
-option, clock names in any case, `show`, `plan --kind`, messages in option/field
-terms, progress bars on a terminal only."""
+"""profiles.ppmc312.listing: a table's stage listing (`stepramp show`), byte-stable."""
 
 from __future__ import annotations
 

@@ -1,7 +1,5 @@
-"""The compiled load-angle model (profiles.motor.rotor_kernel) against its oracle, the
-plain-Python integrator (tests/support/rotor_oracle.py), and the all-length verdict against
-brute force over every move length; then the physics each part of the model states,
-as tests a wrong sign or threshold fails."""
+"""profiles.ppmc312.load_angle: the all-length load-angle verdict of a table, against moves
+integrated whole by the plain-Python oracle."""
 
 from __future__ import annotations
 

@@ -1,6 +1,5 @@
-"""Item 5 of issue 10, "a CLI people trust": --version, help and units on every
-option, clock names in any case, `show`, `plan --kind`, messages in option/field
-terms, progress bars on a terminal only."""
+"""verify.cli._common: what every command shares (quantity options, pulse lists, progress bars
+on a terminal only)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The CLI's safety verdicts judge every move length: check --motor, compare, plan."""
+"""`stepramp compare` (verify/cli/compare.py): every move length judged."""
 
 from __future__ import annotations
 

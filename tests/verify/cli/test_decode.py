@@ -1,4 +1,5 @@
-"""The `stepramp` command: exit codes, output shapes, bad input, no half-written files."""
+"""`stepramp decode` (verify/cli/decode.py): upload files and table reads decoded, bad input in
+one line."""
 
 from __future__ import annotations
 

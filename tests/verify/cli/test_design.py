@@ -1,8 +1,4 @@
-"""`stepramp design`: the designer as a web page (verify/webdesigner.py, verify/cli/design.py).
-
-In-process: the command's refusals and the page's controls, verdict and files. In a
-real headless Chromium driven by Playwright: the served page, a slider dragged with the
-mouse, the verdict changing, the downloads checked by `stepramp check`, Ctrl-C."""
+"""`stepramp design` (verify/cli/design.py): its refusals and options, in-process."""
 
 from __future__ import annotations
 

@@ -1,6 +1,4 @@
-"""The PPMC-312 on its parallel bus, register by register (manual §5-4, §5-6, §5-8, §11-9):
-bus scripts run through the bus emulator, every expected read checked, an answer left
-unread raising alarm F4 01 at the line that overwrote it."""
+"""`stepramp emulate` (verify/cli/emulate.py): the chip emulated on its bus and its link."""
 
 from __future__ import annotations
 

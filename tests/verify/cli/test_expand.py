@@ -1,4 +1,4 @@
-"""The `stepramp` command: exit codes, output shapes, bad input, no half-written files."""
+"""`stepramp expand` (verify/cli/expand.py): an init table expanded to its stages."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The `stepramp` command: exit codes, output shapes, bad input, no half-written files."""
+"""`stepramp export` (verify/cli/export.py): upload files in every format, refusals."""
 
 from __future__ import annotations
 

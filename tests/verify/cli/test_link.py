@@ -1,5 +1,4 @@
-"""The serial link master (profiles/ppmc312/link.py) against the serial chip on a real
-pseudo-terminal, on a noisy line, and against scripted replies it must not believe."""
+"""`stepramp link` (verify/cli/link.py): the serial link master from the command line."""
 
 from __future__ import annotations
 

@@ -1,12 +1,4 @@
-"""`stepramp mc200 follow`: a stream's following error against the driver's replies
-(issue 33 item 4). Synthetic reply logs with a known lag give back exactly the error
-built into them; the report as text, JSON and a figure; bad input one line, exit 2.
-
-`examples/move.mc200.replies.hex` is such a log: the guide's stream (ruckig, 20 000 pps,
-200 000 pps², 5e6 pps³, 3 200 pulses, one packet a ms) answered by a driver 3 packets
-behind (`lagging_replies(GUIDE_STREAM, 3)`; `test_the_example_reply_log_is_the_guides_
-stream_3_packets_behind` rewrites it when STEPRAMP_WRITE_EXAMPLES=1).
-"""
+"""`stepramp mc200` (verify/cli/mc200.py): streams, follow, decode, in every control mode."""
 
 from __future__ import annotations
 

@@ -1,6 +1,5 @@
-"""Duty-cycle planning bounded: a mix's lengths deduplicated and capped, a bounded number
-of candidate tables, every length timed at once exactly as the chip runs it, and
-`plan --moves` naming the CSV file, line and field of a bad row in one short line."""
+"""`stepramp plan` (verify/cli/plan.py): plans, duty cycles, every move length, clocks in any
+case, cruise reserve, summaries."""
 
 from __future__ import annotations
 

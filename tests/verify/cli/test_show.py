@@ -1,6 +1,4 @@
-"""Item 5 of issue 10, "a CLI people trust": --version, help and units on every
-option, clock names in any case, `show`, `plan --kind`, messages in option/field
-terms, progress bars on a terminal only."""
+"""`stepramp show` (verify/cli/show.py): a table's stages as JSON, CSV and text."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The `stepramp` command: exit codes, output shapes, bad input, no half-written files."""
+"""`stepramp simulate` (verify/cli/simulate.py): pulse times and samples."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""`stepramp sweep`: the same rows in-process, on local processes and on a Dask cluster."""
+"""`stepramp sweep` (verify/cli/sweep.py): files, figure and refusals."""
 
 from __future__ import annotations
 

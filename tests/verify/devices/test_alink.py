@@ -1,10 +1,4 @@
-"""Every A-Link ALUM command of manual §11 (`stepramp alink command`, `alink decode
---command`), the unit's Nak rules of §11–12 over command lists (`check`), and the homing
-speeds (`alink homing`).
-
-The words below are written by hand from §11-1's figure (CMD = P P * func(5) cmd(8),
-PARAM1 = P P para bits 27–14, PARAM2 = P P para bits 13–0; pair code 1 is 0x4000 on every
-word), not from the code."""
+"""verify.devices.alink: the A-Link judge of command lists (NAK rules, messages)."""
 
 from __future__ import annotations
 

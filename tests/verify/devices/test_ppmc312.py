@@ -1,4 +1,4 @@
-"""verify.check_file: one file judged as `stepramp check` does (library, no CLI)."""
+"""verify.devices.ppmc312: the PPMC-312 judge: which files are tables, uploads and programs."""
 
 from __future__ import annotations
 

@@ -1,5 +1,4 @@
-"""Continuous references: the exact oracle against hand kinematics, and the solvers
-(toppra, ruckig, casadi) against the oracle and against the motor's capability."""
+"""verify.references.casadi_ref: the CasADi reference against the exact optimum."""
 
 from __future__ import annotations
 

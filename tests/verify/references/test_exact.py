@@ -1,5 +1,5 @@
-"""Continuous references: the exact oracle against hand kinematics, and the solvers
-(toppra, ruckig, casadi) against the oracle and against the motor's capability."""
+"""verify.references.exact: the exact continuous optimum against hand kinematics and brute
+force."""
 
 from __future__ import annotations
 

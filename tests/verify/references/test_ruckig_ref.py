@@ -1,5 +1,4 @@
-"""Continuous references: the exact oracle against hand kinematics, and the solvers
-(toppra, ruckig, casadi) against the oracle and against the motor's capability."""
+"""verify.references.ruckig_ref: the ruckig reference (jerk limits, speed caps)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,4 @@
-"""Continuous references: the exact oracle against hand kinematics, and the solvers
-(toppra, ruckig, casadi) against the oracle and against the motor's capability."""
+"""verify.references._suite: every reference solved, the fastest feasible one chosen."""
 
 from __future__ import annotations
 

@@ -1,10 +1,4 @@
-"""Every figure the CLI writes: no text past the canvas, a legend entry for every line,
-signed positions in sync's figure.
-
-Each CLI run is recorded at `Figure.savefig` (the figure as saved) and judged by what a
-draw of it shows (`verify.plot.drawn_texts`: tick labels of ticks outside the view are
-not drawn and not judged).
-"""
+"""verify.sync.figure: sync's figure draws signed positions, nothing past the canvas."""
 
 from __future__ import annotations
 

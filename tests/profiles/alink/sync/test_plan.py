@@ -1,4 +1,4 @@
-"""`stepramp sync` and `stepramp simulate --axes`: files, report, exit codes; the A-Link."""
+"""profiles.alink.sync.plan: A-Link synchronised plans, as `stepramp sync` writes them."""
 
 from __future__ import annotations
 

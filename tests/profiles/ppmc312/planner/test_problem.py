@@ -1,7 +1,5 @@
-"""Tightening for the load angle where the rotor rings (profiles.ppmc312.planner.tightening):
-the bands blamed are the ones whose speed steps drove the worst angles, a long move pays
-little for short moves' ringing, and every table it returns is within the aim at every
-move length, by the compiled model and by the plain-Python oracle."""
+"""profiles.ppmc312.planner.problem: the planning problem (shaping scales capability and
+jump band by band)."""
 
 from __future__ import annotations
 

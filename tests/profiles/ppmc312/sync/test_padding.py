@@ -1,11 +1,4 @@
-"""Synchronised axes (issue 11): axes files, time and line synchronisation, ruckig.
-
-Finish spread and line deviation are recomputed here independently of the library:
-each axis's pulse instants are rebuilt from its table's execution segments in pure
-Python (no pulse_times_s / searchsorted), positions at each instant counted with
-Execution.position_at (the segment model), and the distance to the line taken as the
-2-D cross product |x·N_y − y·N_x| / |N| (the library projects onto the line).
-"""
+"""profiles.ppmc312.sync.padding: padding lands within a tick step and only grows counts."""
 
 from __future__ import annotations
 
