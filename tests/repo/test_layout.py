@@ -12,7 +12,9 @@ independent of each other, profiles never importing verify, lazy imports include
   modules have one, and every test module there names a module that exists; the other
   tests sit in tests/contract, tests/docs or tests/repo, what they share in
   tests/support; no test module imports another, and bench/ and tools/ do not put
-  tests/ on sys.path (they import `tests.support.*` with the repository root on it).
+  tests/ on sys.path (they import `tests.support.*` with the repository root on it);
+  the checkout's folders come from tests/support/paths.py's ROOT, never from a test
+  file's own place (its `__file__`), which moves with the file.
 """
 
 from __future__ import annotations
@@ -293,3 +295,11 @@ def test_bench_and_tools_do_not_reach_into_tests_by_path() -> None:
         if bad:
             found[str(path.relative_to(ROOT))] = bad
     assert found == {}, "import tests.support.* with the repository root on sys.path"
+
+
+def test_the_checkouts_folders_come_from_one_root() -> None:
+    found = [str(p.relative_to(ROOT)) for p in (ROOT / "tests").rglob("*.py")
+             if p != ROOT / "tests" / "support" / "paths.py"
+             and re.search(r"Path\(__file__\)|\b__file__\)\.parent",
+                           p.read_text(encoding="utf-8"))]
+    assert found == [], "use tests.support.paths.ROOT"
