@@ -69,9 +69,9 @@ def draw_comparison(spec: dict[str, Any]) -> Any:
         stall_margin=math.inf if spec["margins"]["min"] is None else spec["margins"]["min"])
     fig = comparison_figure(shown)
     if spec.get("worst_load_angle_deg") is not None:
-        ax = fig.axes[0]
-        ax.set_title(ax.get_title() + f", worst load angle {spec['worst_load_angle_deg']:.1f}° "
-                     "over every move length")
+        title = fig.get_suptitle()
+        fig.suptitle(title + f", worst load angle {spec['worst_load_angle_deg']:.1f}° "
+                     "over every move length", color="k" if spec["safe"] else "tab:red")
     return fig
 
 

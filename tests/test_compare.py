@@ -96,9 +96,9 @@ def test_figure_is_written(tmp_path: Path, suffix: str) -> None:
     head = out.read_bytes()[:64]
     assert head.startswith(b"\x89PNG") if suffix == "png" else b"<svg" in out.read_bytes()
     fig = cmp.figure()
-    assert len(fig.axes) == 3
+    assert len(fig.axes) == 4  # and the load angle against time
     labels = [ax.get_xlabel() for ax in fig.axes]
-    assert labels == ["time [ms]", "position [pulses]", "stage (0 = fastest)"]
+    assert labels == ["time [ms]", "position [pulses]", "time [ms]", "stage (0 = fastest)"]
 
 
 @pytest.mark.slow
