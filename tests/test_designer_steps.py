@@ -1,0 +1,131 @@
+"""The designer's two steps a change (issue #32 item 9): a first table at once, marked as
+being tightened and never offered as safe, then the final table, which is the one
+`stepramp plan` writes for the same inputs. The time budget itself is benched
+(bench/bench_designer.py), not timed here."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from profiles.motor import bundled_motor_paths, load_motor
+from profiles.motor.reserve import parse_cruise_reserve
+from profiles.ppmc312.planner import plan_free_curve
+from profiles.ppmc312.table import load_table
+from verify.designer import (
+    TIGHTENING,
+    DesignFigure,
+    Settings,
+    design,
+    design_steps,
+    designer,
+    first_design,
+    loaded_motor,
+    verdict,
+)
+
+NEMA17_PATH = next(p for p in bundled_motor_paths() if "nema17" in p.name)
+NEMA17 = load_motor(NEMA17_PATH)
+# a move whose plain table rings past the aim: the tightening changes it (4 plans)
+RINGS = Settings(pulses=5_000, safety_factor=NEMA17.safety_factor)
+
+
+def test_a_change_shows_a_marked_first_table_then_the_final_one() -> None:
+    first, final = design_steps(NEMA17, RINGS)
+    assert (first.final, final.final) == (False, True)
+    # the first is the plain criterion's table for the same loaded motor and reserve
+    plain = plan_free_curve(parse_cruise_reserve(RINGS.cruise_reserve).applied(
+        loaded_motor(NEMA17, RINGS)), pulses=RINGS.pulses)
+    assert first.plan.table == plain.table
+    assert first.verdict is None and first.physics is None
+    said = verdict(first)
+    assert said.level == "tightening" and not said.safe and TIGHTENING in said.text
+    assert first.summary().startswith(TIGHTENING)
+    # the tightening changed it; the final one is judged, safe and said so
+    assert final.plan.table != first.plan.table
+    assert final.verdict is not None and verdict(final).level == "safe"
+    assert TIGHTENING not in final.summary() and TIGHTENING not in verdict(final).text
+    assert final.plan.table == design(NEMA17, RINGS).plan.table
+
+
+def test_without_the_aim_or_the_load_angle_a_change_is_one_step() -> None:
+    plain = Settings(pulses=3_000, plan_to_aim=False)
+    assert [r.final for r in design_steps(NEMA17, plain, load_angle=False)] == [True]
+    assert [r.final for r in design_steps(NEMA17, plain)] == [False, True]  # judged after
+
+
+def test_the_final_table_is_the_one_stepramp_plan_writes(tmp_path: Path) -> None:
+    from verify import cli
+
+    out = tmp_path / "plan.table.json"
+    assert cli.main(["plan", "--motor", str(NEMA17_PATH), "--pulses", str(RINGS.pulses),
+                     "-o", str(out)]) == 0
+    *_, final = design_steps(NEMA17, RINGS)
+    assert final.plan.table == load_table(out)
+
+
+def test_a_first_table_is_drawn_over_the_last_axes_and_marked() -> None:
+    fig = DesignFigure()
+    final = design(NEMA17, RINGS)
+    final_png = fig.update(final)
+    assert fig.last_drawing == "full" and not fig.mark.get_visible()
+    limits = fig.ax_v.get_xlim(), fig.ax_v.get_ylim()
+    nearby = Settings(pulses=5_500, safety_factor=RINGS.safety_factor)
+    png = fig.update(first_design(NEMA17, nearby))
+    assert fig.last_drawing == "over" and (fig.ax_v.get_xlim(), fig.ax_v.get_ylim()) == limits
+    assert fig.mark.get_visible() and TIGHTENING in fig.mark.get_text()
+    assert fig.ax_v.get_title().startswith(TIGHTENING)
+    assert fig.table_line.get_linestyle() == "--"
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and png != final_png
+    # a first table the axes cannot hold is drawn in full, marked all the same
+    far = fig.update(first_design(NEMA17, Settings(pulses=60_000)))
+    assert fig.last_drawing == "full" and fig.mark.get_visible() and far != png
+    assert fig.ax_v.get_xlim()[1] > limits[0][1]
+    fig.update(design(NEMA17, nearby))
+    assert fig.last_drawing == "full" and not fig.mark.get_visible()
+    assert not fig.ax_v.get_title().startswith(TIGHTENING)
+
+
+def test_the_notebook_shows_both_tables_and_never_writes_a_first(tmp_path: Path) -> None:
+    d = designer(NEMA17, pulses=3_000, out_dir=tmp_path)
+    shown: list[str] = []
+    d.summary.observe(lambda change: shown.append(change["new"]), names="value")
+    d.controls["pulses"].value = RINGS.pulses
+    assert len(shown) == 2 and TIGHTENING in shown[0] and TIGHTENING not in shown[1]
+    assert d.result is not None and d.result.final
+    d.result = first_design(NEMA17, RINGS)
+    assert d.write() == [] and not any(tmp_path.iterdir())
+
+
+@pytest.mark.slow  # a Panel page: about 2 s
+def test_the_page_shows_the_first_table_then_the_final_on_the_next_turn() -> None:
+    pytest.importorskip("panel")
+    from verify.webdesigner import DesignPage
+
+    page = DesignPage(NEMA17, pulses=3_000, motor_name="nema17")
+    assert page.result is not None and page.result.final  # it opens on a final table
+    later: list[Any] = []
+
+    class Doc:  # a served tab's document: callbacks run on the server's next turn
+        session_context = object()
+
+        def add_next_tick_callback(self, callback: Any) -> None:
+            later.append(callback)
+
+    page._doc = Doc()
+    page.controls["pulses"].value = RINGS.pulses
+    assert page.result.final is False and len(later) == 1
+    assert "data-level='tightening'" in page.verdict.object
+    assert all(b.disabled for b in page.downloads.values())
+    assert TIGHTENING in page.summary.object
+    page.controls["pulses"].value = 5_200  # a newer change before the final came
+    later.pop(0)()                          # the older final is dropped
+    assert page.result.settings.pulses == 5_200 and not page.result.final
+    later.pop(0)()
+    assert page.result.final and page.result.plan.table == design(
+        NEMA17, page.settings).plan.table
+    assert "data-level='safe'" in page.verdict.object
+    assert not any(b.disabled for b in page.downloads.values())
+    assert "final table shown in" in page.summary.object
