@@ -137,3 +137,39 @@ def test_reference_lines_differ_in_style() -> None:
     assert REFERENCE_STYLE["exact"]["zorder"] < REFERENCE_STYLE["toppra"]["zorder"] \
         < REFERENCE_STYLE["casadi"]["zorder"]
 
+
+
+def motor_named(name: str) -> Any:
+    return next(load_motor(p) for p in bundled_motor_paths() if p.stem.endswith(name))
+
+
+def test_motor_show_marks_the_reachable_top_speed_and_the_drive() -> None:
+    from verify.plot import motor_figure
+    from verify.references import accel_zero_pps
+
+    heavy = motor_named("nema23-heavy")
+    zero = accel_zero_pps(heavy)
+    assert zero < heavy.top_pps  # a_acc < 0 before the curve's end (12 000 pps)
+    fig = motor_figure(heavy)
+    for ax in fig.axes:
+        marks = [ln for ln in ax.get_lines() if ln.get_label().startswith("reachable top")]
+        assert [float(m.get_xdata()[0]) for m in marks] == [pytest.approx(zero)]
+    assert "drive: not stated" in fig.get_suptitle()
+    close(fig)
+    said = {"pullout_torque": [{"value": 0.44, "from": "model: T_h 0.59 N·m; drive 24 V, "
+                                                       "1.5 A RMS, 1/8 step"}]}
+    fig = motor_figure(dataclasses.replace(MOTOR, name="", sources=said), "17hs19")
+    assert fig.get_suptitle() == "17hs19\ndrive 24 V, 1.5 A RMS, 1/8 step; 1600 pulses/rev"
+    close(fig)
+
+
+def test_motor_show_hides_no_line_under_another() -> None:
+    from verify.plot import motor_figure
+
+    fig = motor_figure(dataclasses.replace(MOTOR, safety_factor=1.0, friction_torque_nm=0.0))
+    ax_t = fig.axes[0]
+    curves = [ln for ln in ax_t.get_lines() if len(ln.get_xdata()) > 2]
+    assert len(curves) == 1 and "safety factor 1" in curves[0].get_label()
+    zero = next(ln for ln in ax_t.get_lines() if ln.get_label().startswith("cruising needs"))
+    assert ax_t.get_ylim()[0] < float(zero.get_ydata()[0]) == 0.0  # above the frame
+    close(fig)

@@ -226,28 +226,89 @@ def margin_panel(ax_m: Any, comparison: Any) -> None:
     ax_m.legend(fontsize=7, loc="upper right", ncols=4)
 
 
-def motor_figure(motor: Any) -> Any:
-    """Pull-out torque (×safety factor) and the acceleration capability."""
+def motor_figure(motor: Any, motor_label: str | None = None) -> Any:
+    """Pull-out torque (×safety factor), what cruising needs and the cruise reserve's floor;
+    the acceleration capability; on both the reachable top speed (where a_acc falls to 0,
+    when before the curve's end) and the top the default cruise reserve keeps; the drive
+    the curve was made for in the title. `motor_label` names a motor whose file has none."""
+    from profiles.motor.reserve import CruiseReserve
+    from verify.references import accel_zero_pps
+
     plt = pyplot()
-    fig, (ax_t, ax_a) = plt.subplots(1, 2, figsize=(10.0, 4.0), constrained_layout=True)
-    v = np.linspace(0, motor.top_curve_pps, 500)
-    ax_t.plot(v, motor.torque_nm(v), label="pull-out torque")
-    ax_t.plot(v, motor.safety_factor * motor.torque_nm(v), ls="--",
-              label=f"× safety factor {motor.safety_factor:g}")
-    ax_t.axhline(motor.friction_torque_nm, color="0.5", ls=":", label="friction")
-    if motor.load_torque_nm:
-        ax_t.axhline(abs(motor.load_torque_nm), color="tab:brown", ls="-.",
-                     label="load torque (either way)")
-    ax_t.set(xlabel="speed [pps]", ylabel="torque [N·m]", title=motor.name or "motor")
-    ax_t.set_ylim(bottom=0)
-    ax_a.plot(v, motor.a_acc_pps2(v), label="a_acc (speeding up)")
-    ax_a.plot(v, motor.a_dec_pps2(v), label="a_dec (slowing down)")
+    fig, (ax_t, ax_a) = plt.subplots(1, 2, figsize=(11.0, 5.8), constrained_layout=True)
+    v = np.linspace(0, motor.top_curve_pps, 800)
+    torque = motor.torque_nm(v)
+    ax_t.plot(v, torque, color="tab:blue", lw=2.2, zorder=2, label="pull-out torque")
+    if motor.safety_factor < 1:  # at 1 it would lie on the pull-out curve: said there
+        ax_t.plot(v, motor.safety_factor * torque, color="tab:orange", ls="--", lw=1.4,
+                  zorder=3, label=f"× safety factor {motor.safety_factor:g}")
+    else:
+        ax_t.lines[0].set_label(f"pull-out torque (× safety factor {motor.safety_factor:g})")
+    need = motor.friction_torque_nm + abs(motor.load_torque_nm)
+    ax_t.axhline(need, color="0.35", ls=":", lw=1.6, zorder=4,
+                 label=f"cruising needs {need:.3g} N·m (friction"
+                       + (" + load torque)" if motor.load_torque_nm else ")"))
+    reserve = CruiseReserve()
+    floor = reserve.floor_nm(motor)
+    ax_t.axhline(floor, color="tab:green", ls="-.", lw=1.2, zorder=4,
+                 label=f"cruise reserve floor {floor:.3g} N·m ({reserve.spec})")
+    top_t = float(np.max(torque))
+    ax_t.set_ylim(-0.03 * top_t, 1.12 * max(top_t, floor))  # a line at 0 stays visible
+    ax_t.set(xlabel="speed [pps]", ylabel="torque [N·m]", title="torque")
+    ax_a.plot(v, motor.a_acc_pps2(v), color="tab:blue", lw=1.8, label="a_acc (speeding up)")
+    ax_a.plot(v, motor.a_dec_pps2(v), color="tab:orange", lw=1.8, ls="--",
+              label="a_dec (slowing down)")
     ax_a.axhline(0, color="k", lw=0.8, label="0: no capability")
     ax_a.set(xlabel="speed [pps]", ylabel="acceleration [pps²]", title="capability")
+    speed_marks((ax_t, ax_a), motor, accel_zero_pps(motor), reserve.top_pps(motor))
+    entries: dict[str, Any] = {}
     for ax in (ax_t, ax_a):
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+        handles, labels = ax.get_legend_handles_labels()
+        entries.update(zip(labels, handles, strict=True))
+    # one legend below the panels (the marks are the same on both): inside, it hid curves
+    fig.legend(entries.values(), entries.keys(), loc="outside lower center", ncols=2,
+               fontsize=7.5)
+    fig.suptitle(f"{motor.name or motor_label or 'motor'}\n{drive_text(motor)}", fontsize=10)
     return fig
+
+
+def speed_marks(axes: Any, motor: Any, zero_pps: float, reserve_pps: float) -> None:
+    """On each panel: where a_acc falls to 0 (the reachable top; beyond it shaded) when that
+    is before the curve's end, else the top speed, and the cruise reserve's top."""
+    end = motor.top_curve_pps
+    for i, ax in enumerate(axes):
+        if zero_pps < end:
+            label = (f"reachable top {pps(zero_pps)}: a_acc = 0 (the curve and `motor "
+                     f"list` go to {pps(motor.top_pps)})")
+            ax.axvline(zero_pps, color="tab:red", lw=1.4, label=label)
+            ax.axvspan(zero_pps, end, color="tab:red", alpha=0.08, zorder=0)
+        else:
+            label = f"top {pps(motor.top_pps)} (" + (
+                "max_pps)" if motor.max_pps is not None and motor.max_pps < end else
+                "the curve's end)")
+            ax.axvline(motor.top_pps, color="tab:red", lw=1.4, label=label)
+        if 0 < reserve_pps < min(zero_pps, motor.top_pps):
+            ax.axvline(reserve_pps, color="tab:green", ls="-.", lw=1.2,
+                       label=f"top with the cruise reserve {pps(reserve_pps)}")
+        if i == 0:
+            ax.axvline(motor.start_pps, color="0.5", ls="--", lw=1.0,
+                       label=f"start {pps(motor.start_pps)}")
+
+
+def pps(speed_pps: float) -> str:
+    """A speed as a figure says it: whole pulses per second, thousands spaced."""
+    return f"{speed_pps:,.0f} pps".replace(",", "\u2009")
+
+
+def drive_text(motor: Any) -> str:
+    """The drive the pull-out curve holds for, as the motor file's sources say it (`motor
+    new` writes the supply, current and microstep), and the steps per revolution."""
+    said = [s.get("from", "") for s in ((motor.sources or {}).get("pullout_torque") or [])]
+    text = next((s for s in said if "drive " in s), None)
+    drive = ("drive " + text.split("drive ", 1)[1]) if text else \
+        "drive: not stated in the motor file (its curve holds for the drive it was measured on)"
+    return f"{drive}; {motor.steps_per_rev} pulses/rev"
 
 
 def save_figure(fig: Any, path: str | Path) -> None:

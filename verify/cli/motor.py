@@ -457,9 +457,11 @@ def _do_show(args: argparse.Namespace) -> int:
              else display_path(resolve(args.motor)))
     write_output(None, _show_text(args.motor, where, motor))
     if args.plot:
+        from pathlib import Path
+
         from verify.plot import motor_figure, save_figure
 
-        save_figure(motor_figure(motor), args.plot)
+        save_figure(motor_figure(motor, Path(args.motor).stem), args.plot)
     return EXIT_OK
 
 
