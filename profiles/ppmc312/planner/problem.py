@@ -138,6 +138,23 @@ class Problem:
                      np.ascontiguousarray(rf).ravel(), *self.count_constants, n, d, valid)
         return n.reshape(shape), d.reshape(shape), valid.reshape(shape)
 
+    def graph_counts(self, rates: np.ndarray, width: int
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """`counts` of every step of the planner's graph (node j of `rates`, slowest first,
+        from each of j − 1 … j − width; (G, width) arrays, invalid where j − 1 − w < 0),
+        equal to `counts` on those steps (tests/test_stage_counts.py), in one compiled
+        pass that interpolates the curve once per node (dp_kernel.graph_counts); and each
+        node's reach (1 + its last valid w, 0 when none)."""
+        from .dp_kernel import graph_counts
+
+        g = len(rates)
+        n, d = np.empty((g, width)), np.empty((g, width))
+        valid = np.empty((g, width), dtype=bool)
+        reach = np.empty(g, dtype=np.int64)
+        graph_counts(np.ascontiguousarray(rates, dtype=np.int64), int(width),  # type: ignore[call-arg]
+                     *self.count_constants, n, d, valid, reach)
+        return n, d, valid, reach
+
     @functools.cached_property
     def count_constants(self) -> tuple[Any, ...]:
         """What `counts` hands the kernel besides the steps: the motor, the shaping and the

@@ -86,6 +86,7 @@ class Graph:
     start: np.ndarray       # (G,) bool: may be the slowest stage
     wtop: np.ndarray        # (G,) accel + decel pulses of a top stage at this node
     watop: np.ndarray       # (G,) accel pulses of a top stage at this node
+    reach: np.ndarray       # (G,) 1 + the last valid predecessor's w (0: none)
 
 
 def graph(pb: Problem, rates: np.ndarray) -> Graph:
@@ -97,11 +98,10 @@ def graph(pb: Problem, rates: np.ndarray) -> Graph:
     pred = j - 1 - np.arange(width)[None, :]
     ok = pred >= 0
     pred = np.where(ok, pred, 0)
-    n, d, valid = pb.counts(rates[pred], np.broadcast_to(rates[:, None], pred.shape))
-    valid &= ok
+    n, d, valid, reach = pb.graph_counts(rates, width)  # pb.counts(rates[pred], rates[j]) & ok
     base = base_pulses(rates)
     return Graph(rates, f, pred, valid, np.where(valid, n + d, 0.0), np.where(valid, n, 0.0),
-                  f <= pb.start, 2 * base, base)
+                  f <= pb.start, 2 * base, base, reach)
 
 
 @dataclass
@@ -127,7 +127,8 @@ def run_dp(gr: Graph, lam: float, max_stages: int, start_f: float, jump: float) 
     packed = np.empty(g, dtype=np.int64)
     parents = np.full((max_stages + 1, g), -1, dtype=np.int32)
     used = layers(np.ascontiguousarray(gr.pred, dtype=np.int64), cost, packed_w, gr.start,
-                  gr.f, float(start_f), float(jump), int(max_stages), value, packed, parents)
+                  gr.f, float(start_f), float(jump), int(max_stages), value, packed, parents,
+                  gr.reach)
     pulses = (packed >> 32).astype(float)
     accel = (packed & 0xFFFFFFFF).astype(float)
     return DP(value, pulses, accel, parents[:used], lam)
