@@ -173,3 +173,28 @@ def test_motor_show_hides_no_line_under_another() -> None:
     zero = next(ln for ln in ax_t.get_lines() if ln.get_label().startswith("cruising needs"))
     assert ax_t.get_ylim()[0] < float(zero.get_ydata()[0]) == 0.0  # above the frame
     close(fig)
+
+
+def test_sync_deviation_is_an_envelope_with_its_worst_marked() -> None:
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import PolyCollection
+
+    from verify.sync.figure import DEVIATION_BINS, binned_envelope, deviation_panel
+
+    rng = np.random.default_rng(0)
+    t = np.cumsum(rng.uniform(1e-6, 2e-5, 100_000))
+    d = rng.uniform(0.0, 0.8, t.size) * (np.arange(t.size) % 2)  # 0 at every other instant
+    d[54_321] = 1.5
+    fig, ax = plt.subplots()
+    deviation_panel(ax, t, d)
+    [fill] = [c for c in ax.collections if isinstance(c, PolyCollection)]
+    assert len(fill.get_paths()[0].vertices) < 6 * DEVIATION_BINS  # not one per instant
+    lines = ax.get_lines()
+    assert all(len(ln.get_xdata()) <= DEVIATION_BINS + 1 for ln in lines)
+    [worst] = [ln for ln in lines if ln.get_label().startswith("worst")]
+    assert worst.get_ydata()[0] == 1.5 and worst.get_xdata()[0] == pytest.approx(t[54_321] * 1e3)
+    edges, lo, hi = binned_envelope(t, d, DEVIATION_BINS)
+    assert hi.max() == 1.5 and lo.min() == 0.0 and np.all(lo <= hi)
+    inside = (t >= edges[7]) & (t < edges[8])  # a bin's own instants lie within its band
+    assert lo[7] <= d[inside].min() and d[inside].max() <= hi[7]
+    close(fig)

@@ -56,9 +56,14 @@ def add_subparser(sub: Any) -> None:
                         "pulses,weight, a row per move length the machine runs; minimises "
                         "the weighted sum of move times [s] (instead of --pulses)")
     p.add_argument("--load-angle", type=number, default=AIM_DEG, metavar="DEG",
-                   help="free curve: tighten the table until its worst load angle over every "
-                        f"move length is at most this [°] (electrical degrees; default "
-                        f"{AIM_DEG:g}; 90 is the torque peak)")
+                   help="tighten the table until its worst load angle over every move length "
+                        "(an init table's: and every motion command judged) is at most this "
+                        f"[°] (electrical degrees; default {AIM_DEG:g}; 90 is the torque peak)")
+    p.add_argument("--commands", type=lambda text: tuple(text.split(",")),
+                   metavar="CODE|NAME[,…]",
+                   help="the motion commands the machine runs, by code or name (as check "
+                        "--commands): the verdict, and an init table's tightening, judge "
+                        "only these besides every move (82) (default: all)")
     add_cruise_reserve_option(p)
     p.add_argument("--format", choices=("text", "json"), default="text",
                    help="the summary's format (the table itself is always JSON)")
@@ -90,6 +95,10 @@ def _do_plan(args: argparse.Namespace) -> int:
         if args.pulses is None:
             raise FormatError(f"--kind {args.kind} needs --pulses: an init table is chosen "
                               "for the move it runs")
+    if args.commands is not None:
+        from verify.command_verdicts import command_names
+
+        command_names(args.commands)  # an unknown one: one line, before any work
     reserve = cruise_reserve(args)
     motor = load_motor(args.motor)
     warned = friction_warning(motor.friction_torque_nm,
@@ -100,7 +109,7 @@ def _do_plan(args: argparse.Namespace) -> int:
     planned = reserve.applied(motor)
     with fields_as_options(OPTIONS):
         if args.kind != "free":
-            table, summary = _init(args, planned)
+            table, summary = _init(args, planned, motor)
         elif args.source:
             table, summary = _from_reference(args, planned)
         elif args.moves is not None:
@@ -110,11 +119,15 @@ def _do_plan(args: argparse.Namespace) -> int:
     made = summary.pop("_plan")
     kept = reserve.at(motor, top_pps(table))
     summary["cruise_reserve"] = kept.to_json()
-    verdict = judge_safety(table, motor, aim_deg=min(args.load_angle, PEAK_DEG))
+    verdict = judge_safety(table, motor, aim_deg=min(args.load_angle, PEAK_DEG),
+                           commands=args.commands)
     if not verdict.safe:
         # never write a table that is unsafe for some move length the chip can run
         print(f"stepramp plan: refused: the table is not stall-safe for every move length: "
               f"{verdict.describe()}", file=sys.stderr)
+        fix = (getattr(made, "extras", None) or {}).get("fix")
+        if fix:
+            print(f"stepramp plan: what would help: {fix}", file=sys.stderr)
         return EXIT_FINDINGS
     summary["safety"] = verdict.to_json()
     table = replace(table, provenance=plan_provenance(args, motor))
@@ -126,7 +139,9 @@ def _do_plan(args: argparse.Namespace) -> int:
     else:
         lines = plain_summary(summary, made, table, planned, kept, verdict,
                               aim_deg=min(args.load_angle, PEAK_DEG),
-                              check=f"stepramp check {args.output or 'TABLE'} --motor {args.motor}")
+                              check=f"stepramp check {args.output or 'TABLE'} --motor {args.motor}"
+                              + ("" if args.commands is None
+                                 else " --commands " + ",".join(args.commands)))
         print("\n".join(lines), file=stream)
     return EXIT_OK
 
@@ -275,20 +290,37 @@ def _from_reference(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str
                    "info": followed.plan.info, "_plan": followed.plan}
 
 
-def _init(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, Any]]:
-    from profiles.ppmc312.init_planner import Shape, plan_init
+def _init(args: argparse.Namespace, planned: Any, motor: Any) -> tuple[Any, dict[str, Any]]:
+    """The init table tightened until the one verdict (on `motor`, over the commands
+    asked) finds it within the aim (profiles.ppmc312.init_planner.tighten_init), planned
+    for `planned` (the motor with the cruise reserve's top speed)."""
+    from profiles.motor.angles import PEAK_DEG
+    from profiles.ppmc312.init_planner import Shape, tighten_init
+    from verify.init_judge import init_judge
 
     shape: Shape = "s_curve" if args.kind == "s-curve" else "linear"
     # LE=0 by default: the table then exports to both interfaces (docs/manual-notes.md).
     separate = bool(args.separate_decel)
+    aim = min(args.load_angle, PEAK_DEG)
     with progress_bar(f"plan {args.kind}", unit="candidate") as progress:
-        plan = plan_init(motor, shape, args.pulses, clock=args.clock,
-                         separate_decel=separate, progress=progress)
-    table = plan.table
+        plan = tighten_init(planned, shape, args.pulses,
+                            init_judge(motor, aim_deg=aim, commands=args.commands),
+                            clock=args.clock, separate_decel=separate, aim_deg=aim,
+                            progress=progress)
+    table, levers = plan.table, plan.extras["levers"]
+    plain = plan.extras["untightened"]
     return table, {"kind": args.kind, "modelled_stages": len(plan.extras["stages"].rates),
                    "clock": table.clock.name, "separate_decel": table.separate,
                    "pulses": plan.pulses, "move_time_s": plan.duration_s,
-                   "run": plan.extras["shape_run"], "info": plan.info, "_plan": plan}
+                   "run": plan.extras["shape_run"], "info": plan.info,
+                   "tightening": {"start_scale": levers.start, "ramp_scale": levers.ramp,
+                                  "top_scale": levers.top, "plans": plan.extras["plans"],
+                                  "untightened_move_time_s": plain.duration_s,
+                                  "untightened_start_rate": plain.table.start_rate,
+                                  "untightened_high_rate": plain.table.high_rate,
+                                  "price": plan.duration_s / plain.duration_s,
+                                  "fix": plan.extras.get("fix")},
+                   "_plan": plan}
 
 
 def plan_provenance(args: argparse.Namespace, motor: Any) -> Any:

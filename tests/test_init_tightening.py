@@ -1,0 +1,265 @@
+"""Init tables planned safe, never refused without a fix (issue 33 item 2): `plan --kind
+linear|s-curve` tightens the start speed, the ramp and the top speed until the one verdict
+finds the table within the aim at every move length and under every motion command,
+reports the price, and where nothing gets there names what would help."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
+
+import pytest
+
+from profiles.motor import Motor, bundled_motor_paths, load_motor
+from profiles.motor.angles import AIM_DEG
+from profiles.motor.tolerance import worst_case_motor
+from profiles.ppmc312.clock import Clock
+from profiles.ppmc312.execution import simulate_move
+from profiles.ppmc312.init_model import expand_init
+from profiles.ppmc312.init_planner import (
+    RAMP_FLOOR,
+    InitJudgement,
+    Levers,
+    plan_init,
+    tighten_init,
+    what_would_help,
+)
+from profiles.ppmc312.table import InitTable, load_table
+from verify.cli import main
+from verify.init_judge import init_judge, judgement
+from verify.plan_text import init_tightening
+from verify.safety import judge_safety
+
+# a datasheet NEMA17 on a lead screw: the plain init table's origin return (11) reverses
+# by twice a start speed the rotor cannot follow (the report of issue 33)
+DATASHEET = ["--name", "17hs19", "--holding-torque-nm", "0.59", "--rated-current-a", "2",
+             "--current-a", "1.5", "--resistance-ohm", "1.4", "--inductance-mh", "3.0",
+             "--rotor-inertia-gcm2", "82", "--supply-v", "24", "--microstep", "8",
+             "--load", "screw:lead_mm=8,mass_kg=4"]
+PULSES = 4000
+
+
+def run(capsys: pytest.CaptureFixture[str], *argv: str | Path) -> tuple[int, str, str]:
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture(scope="module")
+def datasheet_path(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("motor") / "17hs19.json"
+    assert main(["motor", "new", *DATASHEET, "-o", str(path)]) == 0
+    return path
+
+
+def test_plan_tightens_the_datasheet_motors_linear_table(
+        capsys: pytest.CaptureFixture[str], tmp_path: Path, datasheet_path: Path) -> None:
+    """The report's command: planned (exit 0), not refused; the table is within the aim at
+    every move length and under every command by judge_safety asked here again, and the
+    summary says what changed and what it cost, in numbers the table itself gives."""
+    table_path = tmp_path / "lin.json"
+    code, out, err = run(capsys, "plan", "--kind", "linear", "--motor", datasheet_path,
+                         "--pulses", PULSES, "-o", table_path)
+    assert code == 0, err  # the summary: on stdout, the table being written to its file
+    table = load_table(table_path)
+    motor = load_motor(datasheet_path)
+    verdict = judge_safety(table, motor)
+    assert verdict.moves is None and verdict.safe and verdict.within_aim, verdict.describe()
+    assert {name for name, _ in verdict.commands} >= {"origin-return", "decel-stop", "constant"}
+    # the plain table (the motor's own start speed) was not: the tightening did the work
+    start = re.search(r"start speed lowered to ([\d ]+) pps \(from ([\d ]+) pps\) to keep the "
+                      r"rotor within 75° under every command judged", out)
+    assert start, out
+    assert int(start[1].replace(" ", "")) == round(table.clock.hz / table.start_rate)
+    assert int(start[1].replace(" ", "")) < int(start[2].replace(" ", ""))
+    price = re.search(rf"price: a move of {PULSES} pulses takes ([\d.]+) ms, ([\d.]+)% longer "
+                      r"than the untightened table's ([\d.]+) ms", out)
+    assert price, out
+    took = simulate_move(expand_init(table), PULSES).duration_s * 1e3
+    assert float(price[1]) == pytest.approx(took, rel=1e-3)
+    assert float(price[2]) == pytest.approx((took / float(price[3]) - 1) * 100, abs=0.06)
+
+
+def test_the_untightened_table_is_past_the_aim(datasheet_path: Path) -> None:
+    """What the tightening starts from: the plain table (the criterion's, on the box's worst
+    case) fails the verdict on the origin return, so the test above cannot pass on a table
+    that never needed tightening."""
+    motor = load_motor(datasheet_path)
+    plain = plan_init(worst_case_motor(motor), "linear", PULSES, separate_decel=False).table
+    before = judge_safety(plain, motor)
+    assert not before.within_aim and "origin-return" in before.failed
+    assert "origin-return" in init_judge(motor)(plain).failing
+
+
+@pytest.mark.slow  # eight tables planned and judged several times over
+@pytest.mark.parametrize("shape", ["linear", "s_curve"])
+@pytest.mark.parametrize("which", ["datasheet", *[p.stem for p in bundled_motor_paths()]])
+def test_planned_init_tables_are_within_the_aim_at_every_length(
+        which: str, shape: str, datasheet_path: Path) -> None:
+    path = datasheet_path if which == "datasheet" else next(
+        p for p in bundled_motor_paths() if p.stem == which)
+    motor = load_motor(path)
+    for separate in (False, True):
+        plan = tighten_init(motor, shape, PULSES, init_judge(motor), separate_decel=separate)
+        verdict = judge_safety(plan.table, motor)   # asked again, on its own
+        assert verdict.moves is None and verdict.safe and verdict.within_aim, \
+            verdict.describe()
+        assert plan.duration_s >= plan.extras["untightened"].duration_s * (1 - 1e-9) \
+            or not plan.extras["levers"].plain
+
+
+def test_plan_commands_narrows_the_verdict_and_refuses_an_unknown_one(
+        capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    code, out, err = run(capsys, "plan", "--kind", "linear", "--motor", "nema17-1600",
+                         "--pulses", "2000", "--commands", "82,81", "--format", "json",
+                         "-o", tmp_path / "t.json")
+    assert code == 0, err
+    assert list(json.loads(out)["safety"]["commands"]) == ["decel-stop"]
+    code, _, err = run(capsys, "plan", "--kind", "linear", "--motor", "nema17-1600",
+                       "--pulses", "2000", "--commands", "82,warp")
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "'warp'" in err
+
+
+# --- the judge: the verdict blamed on a lever ---------------------------------------------
+
+def _verdict(moves: tuple[float, int], stop: tuple[float, int], families: dict[str, float],
+             *, aim: float = AIM_DEG) -> Any:
+    la = SimpleNamespace(worst_deg=moves[0], worst_pulses=moves[1], worst_at="nominal",
+                         sample_failures=0)
+    commands = [("decel-stop", SimpleNamespace(worst_deg=stop[0], ramp_pulse=stop[1],
+                                               sample_failures=0, worst_at="corner 1 "
+                                               "(friction_torque_nm 0)"))]
+    commands += [(n, SimpleNamespace(use_deg=d)) for n, d in families.items()]
+    worst = max(moves[0], stop[0], *families.values())
+    return SimpleNamespace(criterion=(), load_angle=la, commands=commands, aim_deg=aim,
+                           safe=worst < 90, within_aim=worst <= aim)
+
+
+TABLE = InitTable(Clock.internal("8MHz"), "linear", 2000, 400, 1000)  # start zone: 250 pulses
+
+
+def test_judgement_blames_short_moves_early_stops_and_commands_from_rest_on_the_start() -> None:
+    j = judgement(_verdict((80.0, 400), (70.0, 900), {"origin-return": 95.0,
+                                                     "set-speed": 60.0}), TABLE)
+    assert (j.start_deg, j.ramp_deg) == (95.0, 70.0)   # a move of 400: ramp pulse 200 ≤ 250
+    assert j.failing == ("moves", "origin-return") and not j.safe
+    j = judgement(_verdict((80.0, 600), (78.0, 240), {"constant": 50.0, "set-speed": 77.0}),
+                  TABLE)
+    assert (j.start_deg, j.ramp_deg) == (78.0, 80.0)   # the stop early, the move not
+    assert j.failing == ("moves", "decel-stop", "set-speed")
+
+
+def test_levers_tighten_what_is_blamed_and_the_top_once_the_ramp_is_at_its_floor() -> None:
+    j = InitJudgement(False, False, start_deg=100.0, ramp_deg=50.0)
+    assert Levers().tightened(j, 75.0) == Levers(start=0.75)
+    j = InitJudgement(False, False, start_deg=50.0, ramp_deg=80.0)
+    assert Levers().tightened(j, 75.0) == Levers(ramp=75 / 80)
+    at_floor = Levers(ramp=RAMP_FLOOR)
+    assert at_floor.tightened(j, 75.0) == Levers(ramp=RAMP_FLOOR, top=75 / 80)
+    j = InitJudgement(False, False, start_deg=500.0, ramp_deg=0.0)
+    assert Levers().tightened(j, 75.0).start == 0.6   # never more than 40 % a round
+
+
+def test_levers_make_a_gentler_motor(datasheet_path: Path) -> None:
+    motor = load_motor(datasheet_path)
+    gentle = Levers(0.5, 0.8, 0.9).motor(motor)
+    assert gentle.start_pps == pytest.approx(motor.start_pps * 0.5)
+    assert gentle.jump_pps == pytest.approx(motor.jump_pps)  # only the start from rest
+    assert gentle.safety_factor == pytest.approx(motor.safety_factor * 0.8)
+    assert gentle.top_pps == pytest.approx(motor.top_pps * 0.9)
+    assert Levers().motor(motor) is motor
+
+
+# --- nothing within the aim: what would help -----------------------------------------------
+
+def test_what_would_help_names_the_change_by_what_fails(datasheet_path: Path) -> None:
+    motor = load_motor(datasheet_path)  # friction planned over a range (tolerances)
+    only_11 = InitJudgement(False, False, 120.0, 40.0, ("origin-return",))
+    text = what_would_help(only_11, motor, AIM_DEG)
+    assert "--commands 80,81,82,83,84,85,86,87,88,10,05 if the machine never runs " \
+           "11 (origin-return)" in text
+    assert "load inertia or more drive current" in text and "top speed" not in text
+    ramp = InitJudgement(False, False, 40.0, 120.0, ("moves",), "corner 1 "
+                         "(friction_torque_nm 0.04377)")
+    text = what_would_help(ramp, motor, AIM_DEG)
+    assert "a lower top speed" in text and "a narrower friction range" in text
+    assert "--commands" not in text and "inertia" not in text
+
+
+def _never_within(failing: tuple[str, ...]) -> Any:
+    calls: list[InitTable] = []
+
+    def judge(table: InitTable) -> InitJudgement:
+        calls.append(table)
+        # the start lever helps a little each time, never enough
+        return InitJudgement(False, False, 90.0 + 1000.0 / table.start_rate, 40.0, failing)
+
+    return judge, calls
+
+
+@pytest.mark.slow  # every round plans the candidates again
+def test_nothing_within_the_aim_returns_the_closest_with_the_fix() -> None:
+    motor = load_motor(next(p for p in bundled_motor_paths() if "nema23" in p.stem))
+    judge, calls = _never_within(("origin-return",))
+    plan = tighten_init(motor, "linear", PULSES, judge)
+    assert len(calls) == plan.extras["plans"] > 2
+    closest = min(calls, key=lambda t: 1000.0 / t.start_rate)
+    assert plan.table == closest
+    assert "11 (origin-return)" in plan.extras["fix"]
+
+
+def test_the_cli_refusal_names_the_fix(capsys: pytest.CaptureFixture[str], tmp_path: Path,
+                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    """`plan` refuses (exit 1) a table the verdict finds unsafe and says what would help
+    (the planner's `fix`): a judge that never passes stands in for a motor nothing is safe
+    for, and the verdict for the one that would fail it."""
+    from profiles.ppmc312 import init_planner
+
+    plain = init_planner.tighten_init
+
+    def stuck(motor: Motor, shape: Any, pulses: int, judge: Any, **kw: Any) -> Any:
+        never, _ = _never_within(("origin-return",))
+        kw["aim_deg"] = AIM_DEG
+        return plain(motor, shape, pulses, never, **kw)
+
+    monkeypatch.setattr(init_planner, "TIGHTEN_ROUNDS", 1)
+    monkeypatch.setattr(init_planner, "RELAX_STEPS", 0)
+    monkeypatch.setattr(init_planner, "tighten_init", stuck)
+    unsafe = SimpleNamespace(safe=False, describe=lambda: "UNSAFE (failed: origin-return)")
+    monkeypatch.setattr("verify.safety.judge_safety", lambda *a, **k: unsafe)
+    code, _, err = run(capsys, "plan", "--kind", "linear", "--motor", "nema23-heavy",
+                         "--pulses", "2000", "-o", tmp_path / "t.json")
+    assert code == 1 and not (tmp_path / "t.json").exists()
+    assert "refused" in err and "what would help: " in err
+    assert "--commands 80,81,82,83,84,85,86,87,88,10,05 if the machine never runs " \
+           "11 (origin-return)" in err
+
+
+# --- the price in plain words ----------------------------------------------------------------
+
+def _plan(start_rate: int, high_rate: int, took_s: float, levers: Levers, plain: Any) -> Any:
+    table = InitTable(Clock.internal("8MHz"), "linear", start_rate, high_rate, 1000)
+    return SimpleNamespace(table=table, duration_s=took_s, pulses=PULSES,
+                           extras={"levers": levers, "untightened": plain})
+
+
+def test_the_price_line_in_plain_words() -> None:
+    plain = _plan(1600, 400, 0.2000, Levers(), None)          # 5 000 pps start, 20 000 top
+    plan = _plan(2000, 500, 0.2100, Levers(0.8, 0.9, 0.8), plain)
+    assert init_tightening(plan, 75.0)[:3] == [   # too long for one line: a part a line
+        "start speed lowered to 4 000 pps (from 5 000 pps)",
+        "ramp made gentler (90% of the torque it could use)",
+        "top speed lowered to 16 000 pps (from 20 000 pps) to keep the rotor within 75° "
+        "under every command judged"]
+    lines = init_tightening(plan, 75.0)
+    assert lines[-1] == ("price: a move of 4000 pulses takes 210 ms, 5.0% longer than the "
+                         "untightened table's 200 ms")
+    faster = _plan(2000, 400, 0.1990, Levers(0.8), plain)
+    assert init_tightening(faster, 75.0) == [
+        "start speed lowered to 4 000 pps (from 5 000 pps) to keep the rotor within 75° "
+        "under every command judged",
+        "price: a move of 4000 pulses takes 199 ms, 0.5% shorter than the untightened "
+        "table's 200 ms"]
