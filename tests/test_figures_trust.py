@@ -198,3 +198,46 @@ def test_sync_deviation_is_an_envelope_with_its_worst_marked() -> None:
     inside = (t >= edges[7]) & (t < edges[8])  # a bin's own instants lie within its band
     assert lo[7] <= d[inside].min() and d[inside].max() <= hi[7]
     close(fig)
+
+
+def sweep_row(motor: str, pulses: int, worst_pulses: int, angle: float) -> dict[str, Any]:
+    return {"motor": motor, "pulses": pulses, "worst_pulses": worst_pulses, "error": "",
+            "worst_load_angle_deg": angle, "move_time_s": 1e-5 * pulses}
+
+
+def test_sweep_draws_each_angle_at_the_length_where_it_occurs() -> None:
+    from profiles.motor.travel import AxisUnits
+    from verify.sweep import PLANNED, sweep_figure
+
+    rows = [sweep_row("a", 400, 21, 72.5), sweep_row("a", 3200, 40, 70.0),
+            sweep_row("b", 3200, 3200, 60.0)]
+    fig = sweep_figure(rows, 75.0)
+    ax = fig.axes[1]
+    worst = {ln.get_label(): list(zip(ln.get_xdata(), ln.get_ydata(), strict=True))
+             for ln in ax.get_lines() if ln.get_label().endswith("each table's worst")}
+    assert worst == {"a: each table's worst": [(21, 72.5), (40, 70.0)],
+                     "b: each table's worst": [(3200, 60.0)]}
+    joins = [list(ln.get_xdata()) for ln in ax.get_lines() if ln.get_label() == PLANNED]
+    assert joins == [[400, 21], [3200, 40], [3200, 3200]]
+    assert "[pulses]" in ax.get_xlabel()
+    close(fig)
+    units = {"a": AxisUnits(200, 8.0), "b": AxisUnits(1000, 8.0)}
+    fig = sweep_figure(rows, 75.0, units=units)
+    ax = fig.axes[1]
+    b = next(ln for ln in ax.get_lines() if ln.get_label() == "b: each table's worst")
+    assert list(b.get_xdata()) == [pytest.approx(3200 * 8.0 / 1000)]
+    assert "[mm]" in ax.get_xlabel() and "[mm]" in fig.axes[0].get_xlabel()
+    close(fig)
+
+
+def test_sweep_plot_x_mm_needs_every_motor_s_travel(tmp_path: Any,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    from verify import cli
+
+    code = cli.main(["sweep", "--motors", "nema17-1600", "--pulses", "400", "--samples", "0",
+                     "--plot-x", "mm", "--plot", str(tmp_path / "s.png"),
+                     "-o", str(tmp_path / "s.csv")])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "--plot-x mm: nema17-1600 states no travel_mm_per_rev" in err
+    assert not (tmp_path / "s.csv").exists()

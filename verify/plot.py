@@ -218,9 +218,9 @@ def margin_panel(ax_m: Any, comparison: Any) -> None:
     ax_m.yaxis.set_major_formatter(FuncFormatter(lambda y, _pos: f"{y:g}"))
     negative = int(np.sum(finite < 0))
     ax_m.set(xlabel="stage (0 = fastest)", ylabel="stall margin\n(capability / need)",
-             title="stall margin per stage (log above 1, linear below; ≥ 1 is stall-safe): "
-                   f"smallest {comparison.stall_margin:.3f}"
-                   + (f"; {negative} below 0 (no capability)" if negative else ""))
+             title=f"stall margin per stage: smallest {comparison.stall_margin:.3f}"
+                   + (f", {negative} below 0 (no capability)" if negative else "")
+                   + "\n(≥ 1 is stall-safe; log scale above 1, linear below)")
     ax_m.title.set_fontsize(9)
     ax_m.grid(alpha=0.3, axis="y", which="both")
     ax_m.legend(fontsize=7, loc="upper right", ncols=4)
