@@ -79,13 +79,26 @@ def test_a_first_table_is_drawn_over_the_last_axes_and_marked() -> None:
     assert fig.ax_v.get_title().startswith(TIGHTENING)
     assert fig.table_line.get_linestyle() == "--"
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and png != final_png
+    # its final table fits the same axes: drawn over them too, the mark gone
+    near = design(NEMA17, nearby)
+    over = fig.update(near)
+    assert fig.last_drawing == "over" and not fig.mark.get_visible()
+    assert not fig.ax_v.get_title().startswith(TIGHTENING)
+    # nothing of the tables drawn before stays behind: the picture is a fresh figure's
+    fresh = DesignFigure()
+    assert fresh.update(near) == over
+    assert [ax.get_xlim() + ax.get_ylim() for ax in (fresh.ax_v, fresh.ax_m, fresh.ax_l)] \
+        == [ax.get_xlim() + ax.get_ylim() for ax in (fig.ax_v, fig.ax_m, fig.ax_l)]
+    fig.update(first_design(NEMA17, nearby))
     # a first table the axes cannot hold is drawn in full, marked all the same
     far = fig.update(first_design(NEMA17, Settings(pulses=60_000)))
     assert fig.last_drawing == "full" and fig.mark.get_visible() and far != png
     assert fig.ax_v.get_xlim()[1] > limits[0][1]
-    fig.update(design(NEMA17, nearby))
+    fig.update(design(NEMA17, nearby))  # the axes too long for it now: in full
     assert fig.last_drawing == "full" and not fig.mark.get_visible()
-    assert not fig.ax_v.get_title().startswith(TIGHTENING)
+    # the references shown change the legend: in full
+    fig.update(design(NEMA17, nearby), {"toppra": design(NEMA17, nearby).exact})
+    assert fig.last_drawing == "full"
 
 
 def test_the_notebook_shows_both_tables_and_never_writes_a_first(tmp_path: Path) -> None:
@@ -129,3 +142,20 @@ def test_the_page_shows_the_first_table_then_the_final_on_the_next_turn() -> Non
     assert "data-level='safe'" in page.verdict.object
     assert not any(b.disabled for b in page.downloads.values())
     assert "final table shown in" in page.summary.object
+
+
+@pytest.mark.slow  # NEMA23: a few tightening plans and two verdicts, about 1.5 s
+def test_the_verdict_on_the_motor_as_planned_is_the_loaded_motors() -> None:
+    """The final design is judged on the motor the planner had (the loaded motor with its
+    top speed capped for the cruise reserve), so the tightening's verdicts are reused;
+    the verdict is the one `check --motor` gives on the loaded motor."""
+    from verify.safety import judge_safety
+
+    nema23 = load_motor(next(p for p in bundled_motor_paths() if "nema23" in p.name))
+    settings = Settings(pulses=12_000, safety_factor=nema23.safety_factor)
+    loaded = loaded_motor(nema23, settings)
+    capped = parse_cruise_reserve(settings.cruise_reserve).applied(loaded)
+    assert capped.top_pps < loaded.top_pps  # the reserve binds on this motor
+    final = design(nema23, settings)
+    assert final.verdict is not None
+    assert final.verdict.to_json() == judge_safety(final.plan.table, loaded).to_json()

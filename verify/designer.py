@@ -282,8 +282,9 @@ def _designed(motor: Motor, settings: Settings, *, tighten: bool, judge: bool,
     lo, hi = AIM_RANGE_DEG
     if not lo <= settings.load_angle_aim_deg <= hi:
         raise FieldRangeError("load_angle_aim_deg", settings.load_angle_aim_deg, lo, hi)
-    # planned to the reserve's top speed (the load sliders move it), judged as loaded
-    plan = plan_free_curve(reserve.applied(loaded), clock=clock, max_stages=settings.max_stages,
+    # planned to the reserve's top speed (the load sliders move it)
+    planned = reserve.applied(loaded)
+    plan = plan_free_curve(planned, clock=clock, max_stages=settings.max_stages,
                            pulses=settings.pulses, load_angle_deg=(
                                settings.load_angle_aim_deg if tighten else None))
     execution = simulate_move(plan.table, settings.pulses)
@@ -300,7 +301,11 @@ def _designed(motor: Motor, settings: Settings, *, tighten: bool, judge: bool,
         # T_L > 0 opposes forward motion: follow the direction the load hinders.
         physics = trace_load_angle(execution, loaded,
                                    direction=-1 if loaded.load_torque_nm < 0 else 1)
-        verdict = judge_safety(plan.table, loaded, aim_deg=settings.load_angle_aim_deg)
+        # judged on the motor as planned: its top speed capped for the reserve is all that
+        # differs from the loaded motor (no judge reads it but the criterion's top-speed
+        # rule, which a table planned under the cap passes either way), and the moves and
+        # decel stops the tightening judged are remembered under it
+        verdict = judge_safety(plan.table, planned, aim_deg=settings.load_angle_aim_deg)
     t4 = time.perf_counter()
     timings.update(plan=(t1 - t0) * 1e3, exact=(t2 - t1) * 1e3, margins=(t3 - t2) * 1e3,
                    load_angle=(t4 - t3) * 1e3)
@@ -344,11 +349,12 @@ class DesignFigure:
     is fixed: redrawing is what a slider change costs): speed against time (staircase,
     exact, any slow references), stall margin per stage, load angle against time.
 
-    The data lines, the titles and the legend are drawn over a kept background (the axes,
-    ticks and grid of the last full drawing); a first table (`Design.final` False) that
-    fits the axes as they are is drawn over it alone (`last_drawing` "over"), in a few
-    milliseconds, dashed and marked as being tightened; anything else is drawn in full
-    ("full"), with axis limits rounded up so that the next changes fit."""
+    The data lines and the titles are drawn over a kept background (the axes, ticks, grid
+    and legend of the last full drawing): a design that fits the axes as they are is
+    drawn over it alone (`last_drawing` "over"), in a few milliseconds; one that does not,
+    or a change of the references shown, is drawn in full ("full"), with axis limits
+    rounded up so that the next changes fit. A first table (`Design.final` False) is
+    drawn dashed and marked as being tightened."""
 
     MAX_POINTS = 1500  # the lag trace is drawn as a min/max envelope of this many bins
 
@@ -390,19 +396,24 @@ class DesignFigure:
                                    va="bottom", fontsize=10, fontweight="bold", color="white",
                                    bbox={"facecolor": "#b36b00", "edgecolor": "none",
                                          "pad": 3})
-        self.legend: Any = None
+        for artist in self._live():
+            artist.set_animated(True)  # left out of the background, drawn over it
         self.background: Any = None   # the canvas without the live artists, once drawn
+        self.drawn_refs: tuple[str, ...] = ()  # the references the legend names
         self.last_drawing = ""        # "full" or "over" (a first table over the background)
 
     def update(self, result: Design, slow: dict[str, Any] | None = None) -> bytes:
         """Show `result` (and `slow` references); the PNG."""
         self._set_lines(result, slow)
         canvas = self.canvas
-        if not result.final and self.background is not None and self._fits(result):
+        refs = tuple(self.ref_lines)
+        if self.background is not None and refs == self.drawn_refs and self._fits(result):
             canvas.restore_region(self.background)
             self.last_drawing = "over"
         else:
             self._set_limits(result)
+            self.ax_v.legend(loc="upper center", ncols=4, fontsize=7)
+            self.drawn_refs = refs
             canvas.draw()  # everything but the live artists
             self.background = canvas.copy_from_bbox(self.fig.bbox)
             self.last_drawing = "full"
@@ -412,12 +423,8 @@ class DesignFigure:
 
     def _live(self) -> list[Any]:
         """The artists every change draws again (animated: the background leaves them out)."""
-        live = [self.table_line, *self.ref_lines.values(), *self.margin_lines.values(),
-                self.lag_line, self.ax_v.title, self.ax_m.title, self.ax_l.title, self.legend,
-                self.mark]
-        for artist in live:
-            artist.set_animated(True)
-        return live
+        return [self.table_line, *self.ref_lines.values(), *self.margin_lines.values(),
+                self.lag_line, self.ax_v.title, self.ax_m.title, self.ax_l.title, self.mark]
 
     def _set_lines(self, result: Design, slow: dict[str, Any] | None) -> None:
         import numpy as np
@@ -426,26 +433,25 @@ class DesignFigure:
         t, _, v = result.execution.edges()
         self.table_line.set_data(t * 1e3, v)
         self.table_line.set_linestyle("-" if final else "--")
-        self.table_line.set_label(f"table ({len(result.plan.table.rates)} stages, "
-                                  f"{result.execution.duration_s * 1e3:.2f} ms)"
-                                  + ("" if final else f", {TIGHTENING.lower()}"))
+        self.table_line.set_label("table")
         refs = {"exact": result.exact, **(slow or {})}
         for name in list(self.ref_lines):
             if name not in refs:
                 self.ref_lines.pop(name).remove()
         for name, ref in refs.items():
             if name not in self.ref_lines:
-                self.ref_lines[name], = self.ax_v.plot([], [], **_reference_style(name))
+                self.ref_lines[name], = self.ax_v.plot([], [], animated=True,
+                                                       **_reference_style(name))
             line = self.ref_lines[name]
             line.set_data(ref.t_s * 1e3, ref.v_pps)
-            line.set_label(f"{name} ({ref.duration_s * 1e3:.2f} ms)")
+            line.set_label(name if name == "exact" else
+                           f"{name} ({ref.duration_s * 1e3:.2f} ms)")  # drawn in full
         self.ax_v.set_title(("" if final else f"{TIGHTENING} ")
-                            + f"{result.settings.pulses} pulses: table / exact = "
-                            f"{result.ratio:.3f}", fontsize=10,
-                            color="k" if final else "#b36b00")
-        if self.legend is not None:
-            self.legend.remove()
-        self.legend = self.ax_v.legend(loc="upper center", ncols=3, fontsize=7)
+                            + f"{result.settings.pulses} pulses: table "
+                            f"({len(result.plan.table.rates)} stages) "
+                            f"{result.execution.duration_s * 1e3:.2f} ms / exact "
+                            f"{result.exact.duration_s * 1e3:.2f} ms = {result.ratio:.3f}",
+                            fontsize=10, color="k" if final else "#b36b00")
         self.mark.set_text("" if final else f"{TIGHTENING} first table, not judged: "
                                              "not safe to use")
         self.mark.set_visible(not final)
@@ -473,7 +479,12 @@ class DesignFigure:
         finite = np.concatenate([np.asarray(result.margins[side], float)
                                  for side in self.margin_lines])
         finite = finite[np.isfinite(finite)]
-        return {"t_ms": 1.02 * top_ms, "v_pps": 1.3 * float(np.max(v)),
+        ph = result.physics
+        lag_ms = 0.0 if ph is None or not len(ph.lag_t_s) else float(ph.lag_t_s[-1]) * 1e3
+        angle = 0.0 if ph is None or not len(ph.angle_deg) else float(
+            np.max(np.abs(ph.angle_deg)))
+        return {"t_ms": 1.02 * top_ms, "v_pps": 1.3 * float(np.max(v)), "lag_ms": lag_ms,
+                "angle_deg": 1.1 * angle,
                 "stages": float(result.settings.max_stages),  # the budget: steady
                 "m_lo": float(finite.min()) if finite.size else 1.0,
                 "m_hi": float(finite.max()) if finite.size else 1.0}
@@ -484,13 +495,19 @@ class DesignFigure:
         need = self._targets(result)
         t_hi, v_hi = self.ax_v.get_xlim()[1], self.ax_v.get_ylim()[1]
         m_lo, m_hi = self.ax_m.get_ylim()
-        return (0.5 * t_hi <= need["t_ms"] <= t_hi and 0.5 * v_hi <= need["v_pps"] <= v_hi
+        l_hi, span = self.ax_l.get_xlim()[1], self.ax_l.get_ylim()[1]
+
+        def fills(x: float, hi: float) -> bool:
+            return 0.5 * hi <= x <= hi
+
+        return (fills(need["t_ms"], t_hi) and fills(need["v_pps"], v_hi)
                 and need["stages"] < self.ax_m.get_xlim()[1]
-                and m_lo <= need["m_lo"] and need["m_hi"] <= m_hi)
+                and m_lo <= need["m_lo"] and need["m_hi"] <= m_hi
+                and (need["lag_ms"] == 0 or fills(need["lag_ms"], l_hi))
+                and (fills(need["angle_deg"], span) or need["angle_deg"] <= span
+                     <= ANGLE_SPAN_DEG))
 
     def _set_limits(self, result: Design) -> None:
-        import numpy as np
-
         need = self._targets(result)
         slow_end = max((float(line.get_xdata()[-1]) for line in self.ref_lines.values()
                         if len(line.get_xdata())), default=0.0)
@@ -498,12 +515,11 @@ class DesignFigure:
         self.ax_v.set_xlim(0, _rounded_up(1.2 * max(need["t_ms"], 1.02 * slow_end)))
         self.ax_v.set_ylim(0, _rounded_up(need["v_pps"]))
         self.ax_m.set_xlim(-1, need["stages"] + 1)
-        self.ax_m.set_ylim(min(0.8, 0.8 * need["m_lo"]), max(2.0, 1.5 * need["m_hi"]))
-        lag_t, angle = self.lag_line.get_xdata(), self.lag_line.get_ydata()
-        if len(lag_t):
-            self.ax_l.set_xlim(0, max(float(lag_t[-1]), 1e-3))
-            self.ax_l.set_ylim(-(span := max(100.0, 1.1 * float(np.max(np.abs(angle))))),
-                               span)
+        self.ax_m.set_ylim(min(0.8, 0.8 * need["m_lo"]), _rounded_up(max(2.0, 1.5 * need["m_hi"])))
+        if need["lag_ms"] > 0:  # a first table has no trace: the last one's axes stay
+            self.ax_l.set_xlim(0, _rounded_up(1.2 * need["lag_ms"]))
+            span = max(ANGLE_SPAN_DEG, _rounded_up(need["angle_deg"]))
+            self.ax_l.set_ylim(-span, span)
 
     def _png(self) -> bytes:
         from PIL import Image
@@ -514,6 +530,9 @@ class DesignFigure:
         buf = io.BytesIO()
         image.save(buf, format="png", compress_level=1)  # the fast end: a PNG a change
         return buf.getvalue()
+
+
+ANGLE_SPAN_DEG = 100.0  # the load-angle panel shows at least ±100° (the ±90° peak drawn)
 
 
 def _reference_style(name: str) -> dict[str, Any]:

@@ -32,7 +32,7 @@ def plain_summary(summary: dict[str, Any], plan: Any, table: Any, motor: Any, ke
     planner's Plan, `motor` the motor planned for, `kept` the cruise reserve at the top
     speed (profiles.motor.reserve.ReserveAt), `verdict` the safety verdict, `check` the
     command that lists the command families' limits."""
-    lines = [_planned(summary, table)]
+    lines = [_planned(summary, table), in_real_units(summary, table, motor)]
     lines += _held_back(plan, motor, aim_deg)
     lines.append(_reserve(kept))
     lines.append(_verdict(verdict))
@@ -198,3 +198,56 @@ def top_pps(table: Any) -> float:
     rate (an init table)."""
     rate = table.rates[0] if table.kind == "free_curve" else table.high_rate
     return float(table.clock.hz / rate)
+
+
+# --- real units (issue 32 item 5) --------------------------------------------------------
+
+def ramp(table: Any) -> tuple[float, float, float]:
+    """A table's accelerating ramp as the chip runs it (an init table's modelled
+    staircase): its start speed and top speed [pps] and its mean acceleration [pps²], the
+    speed it gains over the time it spends below the top stage."""
+    from profiles.ppmc312.init_model import as_free_curve
+
+    stages = as_free_curve(table)
+    hz = stages.clock.hz
+    k = len(stages.accel_pulses)
+    start, top = hz / stages.rates[k - 1], hz / stages.rates[0]
+    ticks = sum(stages.accel_pulses[i] * stages.rates[i] for i in range(1, k))
+    return float(start), float(top), float((top - start) * hz / ticks) if ticks else 0.0
+
+
+def real_units(summary: dict[str, Any], table: Any, motor: Any) -> dict[str, Any]:
+    """`plan --format json`'s real-unit keys (profiles/motor/travel.py), beside the pulse
+    keys, never instead of them: the start and top speed and the ramp's mean acceleration
+    in pps and in mm/s, mm/s² (the motor file's `travel_mm_per_rev`) or rpm, rev/s², and
+    the move in mm or rev."""
+    from profiles.motor.travel import axis_units
+
+    u = axis_units(motor)
+    start, top, accel = ramp(table)
+    out: dict[str, Any] = {"travel_mm_per_rev": u.mm_per_rev, "start_speed_pps": start,
+                           "top_speed_pps": top, "ramp_accel_pps2": accel,
+                           f"start_speed_{u.speed_key}": u.speed(start),
+                           f"top_speed_{u.speed_key}": u.speed(top),
+                           f"ramp_accel_{u.accel_key}": u.accel(accel)}
+    if summary.get("pulses") is not None:
+        out[f"move_{u.distance_key}"] = u.distance(summary["pulses"])
+    elif "move_times_s" in summary:
+        out[f"move_lengths_{u.distance_key}"] = {n: u.distance(int(n))
+                                                 for n in summary["move_times_s"]}
+    return out
+
+
+def in_real_units(summary: dict[str, Any], table: Any, motor: Any) -> str:
+    """`in mm: top 100 mm/s (from 4 mm/s), ramp 1 234 mm/s² on average, a move of 3200
+    pulses = 16 mm (0.005 mm per pulse)`, or in rev and rpm for a rotary axis."""
+    from profiles.motor.travel import axis_units
+
+    u = axis_units(motor)
+    start, top, accel = ramp(table)
+    line = (f"in {u.distance_unit}: top {u.speed_text(top)} (from {u.speed_text(start)}), "
+            f"ramp {u.accel_text(accel)} on average")
+    if summary.get("pulses") is not None:
+        line += f", a move of {summary['pulses']} pulses = {u.distance_text(summary['pulses'])}"
+    per = f" ({u.per_pulse:.4g} {u.distance_unit} per pulse)"
+    return line + per if len(line + per) <= LINE_MAX else line

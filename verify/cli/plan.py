@@ -44,6 +44,12 @@ def add_subparser(sub: Any) -> None:
     p.add_argument("--pulses", type=positive_int,
                    help="plan for a move of this many pulses [pulses] (free: default a long "
                         "reference move)")
+    p.add_argument("--distance-mm", type=number, metavar="MM",
+                   help="the move's length in mm instead of --pulses: the motor file's "
+                        "travel_mm_per_rev turns it into the nearest whole pulses (said when "
+                        "not exact)")
+    p.add_argument("--distance-rev", type=number, metavar="REV",
+                   help="the move's length in motor revolutions instead of --pulses")
     p.add_argument("--separate-decel", action=argparse.BooleanOptionalAction, default=None,
                    help="separate decel counts (LE=1); default: free curve whichever is "
                         "faster, init tables no (the ASCII init command has no LE=1 form)")
@@ -79,11 +85,12 @@ def _do_plan(args: argparse.Namespace) -> int:
     from profiles.ppmc312.table import dump_table
     from profiles.reading import json_text
     from verify.output import write_output
-    from verify.plan_text import plain_summary, top_pps
+    from verify.plan_text import plain_summary, real_units, top_pps
     from verify.safety import judge_safety
 
     with fields_as_options(OPTIONS):  # NaN, ±inf and negatives stop here, before any work
         require_number("load angle target [°]", args.load_angle, 1.0, PEAK_DEG)
+    asked = distance_to_pulses(args)  # a length in mm or rev: pulses, once, at the edge
     if args.moves is not None and (args.pulses is not None or args.source):
         raise FormatError("--moves plans for a mix of lengths: give it without --pulses "
                           "and --from")
@@ -130,6 +137,9 @@ def _do_plan(args: argparse.Namespace) -> int:
             print(f"stepramp plan: what would help: {fix}", file=sys.stderr)
         return EXIT_FINDINGS
     summary["safety"] = verdict.to_json()
+    summary.update(real_units(summary, table, planned))
+    if asked is not None:
+        summary[f"asked_move_{asked.unit}"] = asked.asked
     table = replace(table, provenance=plan_provenance(args, motor))
     write_output(args.output, dump_table(table))
     # The table owns stdout when no -o is given; the summary then goes to stderr.
@@ -343,6 +353,42 @@ def plan_provenance(args: argparse.Namespace, motor: Any) -> Any:
     return planned_for(args.motor, motor, pulses=pulses, moves_file=moves,
                        aim_deg=min(args.load_angle, PEAK_DEG),
                        reserve=cruise_reserve(args))
+
+
+def distance_to_pulses(args: argparse.Namespace) -> Any:
+    """`--distance-mm` or `--distance-rev` as `args.pulses`, the nearest whole pulses
+    (profiles/motor/travel.py; the rounding said on stderr when not exact); the length as
+    asked (`Rounded`), or None when the move is given in pulses. Refused in one line
+    naming the flag and its unit: with --pulses or --moves, in mm on a motor without
+    travel_mm_per_rev, out of 1..2³²−1 pulses."""
+    from profiles.errors import FormatError
+    from profiles.motor import load_motor
+    from profiles.motor.travel import AxisUnits, axis_units, pulses_of
+
+    given = [(flag, value) for flag, value in (("--distance-mm", args.distance_mm),
+                                               ("--distance-rev", args.distance_rev))
+             if value is not None]
+    if not given:
+        return None
+    if len(given) > 1 or args.pulses is not None or args.moves is not None:
+        raise FormatError("--pulses, --distance-mm and --distance-rev each give the move's "
+                          "length (--moves a mix of them): give one")
+    flag, value = given[0]
+    motor = load_motor(args.motor)
+    units = axis_units(motor)
+    if flag == "--distance-rev":
+        units = AxisUnits(motor.steps_per_rev)
+    elif not units.linear:
+        raise FormatError(f"--distance-mm [mm]: motor {args.motor} has no travel_mm_per_rev "
+                          "(a rotary axis, or a file made without its screw or belt): give "
+                          "--distance-rev [rev] or --pulses, or make the motor with `stepramp "
+                          "motor new --load screw:… | --travel-mm-per-rev MM`")
+    rounded = pulses_of(units, value, flag=f"{flag} [{units.distance_unit}]", lo_pulses=1,
+                        hi_pulses=0xFFFFFFFF)
+    if not rounded.exact:
+        print(f"stepramp plan: note: {rounded.note(flag)}", file=sys.stderr)
+    args.pulses = rounded.pulses
+    return rounded
 
 
 def _max_stages(args: argparse.Namespace) -> int:
