@@ -45,11 +45,11 @@ def add_subparser(sub: Any) -> None:
                    help="plan for a move of this many pulses [pulses] (free: default a long "
                         "reference move)")
     p.add_argument("--distance-mm", type=number, metavar="MM",
-                   help="the move's length in mm instead of --pulses: the motor file's "
+                   help="the move's length [mm] instead of --pulses: the motor file's "
                         "travel_mm_per_rev turns it into the nearest whole pulses (said when "
                         "not exact)")
     p.add_argument("--distance-rev", type=number, metavar="REV",
-                   help="the move's length in motor revolutions instead of --pulses")
+                   help="the move's length in motor revolutions [rev] instead of --pulses")
     p.add_argument("--separate-decel", action=argparse.BooleanOptionalAction, default=None,
                    help="separate decel counts (LE=1); default: free curve whichever is "
                         "faster, init tables no (the ASCII init command has no LE=1 form)")
