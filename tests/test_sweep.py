@@ -254,16 +254,16 @@ def test_the_sweep_figure_draws_the_aim_the_tables_were_tightened_to(
         aim: float | None, lines: dict[float, str]) -> None:
     """Two panels over move length (time, worst angle; one line a motor), the peak, and the
     sweep's own aim (--load-angle), not a fixed 75°."""
-    from verify.sweep import sweep_figure
+    from verify.sweep import PLANNED, sweep_figure
 
     rows = [{"motor": "m", "pulses": n, "move_time_s": n * 1e-4, "worst_load_angle_deg": 50.0,
-             "error": None} for n in (1000, 3000)]
+             "worst_pulses": 40, "error": None} for n in (1000, 3000)]
     fig = sweep_figure(rows, aim)
     ax_t, ax_a = fig.axes
     assert (ax_t.get_ylabel(), ax_a.get_ylabel()) == ("move time [s]",
                                                       "worst load angle [° electrical]")
     drawn = {line.get_ydata()[0]: line.get_label() for line in ax_a.get_lines()
-             if line.get_label() != "m"}
+             if not line.get_label().startswith("m: ") and line.get_label() != PLANNED}
     assert drawn == lines
 
 

@@ -470,7 +470,7 @@ def sweep_figure(rows: Sequence[dict[str, Any]], aim_deg: float | None = None, *
         length = (lambda p: p) if not units else units[name].distance
         n = [length(r["pulses"]) for r in mine]
         ax_t.plot(n, [r["move_time_s"] for r in mine], marker="o", color=f"C{i}", label=name)
-        at = [r for r in mine if r["worst_pulses"] not in (None, "")]
+        at = [r for r in mine if r.get("worst_pulses") not in (None, "")]
         for r in at:  # from the length planned for to the length where the worst is
             ax_a.plot([length(r["pulses"]), length(r["worst_pulses"])],
                       [r["worst_load_angle_deg"]] * 2, color=f"C{i}", lw=0.8, ls=":",
@@ -486,7 +486,7 @@ def sweep_figure(rows: Sequence[dict[str, Any]], aim_deg: float | None = None, *
              title="stepramp sweep: robust tables")
     ax_t.xaxis.set_tick_params(labelbottom=True)
     ax_a.set(xscale="log", xlabel=f"move length where the worst load angle occurs [{unit}]",
-             ylabel="worst load angle\n[° electrical]")
+             ylabel="worst load angle [° electrical]")
     ax_t.legend(fontsize=7)
     handles, labels = ax_a.get_legend_handles_labels()
     once = dict(zip(labels, handles, strict=True))  # the joins: one entry
