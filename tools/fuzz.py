@@ -490,6 +490,8 @@ HEAVY_ARGV_TEMPLATES: list[tuple[str, list[str]]] = [
     ("sweep", ["sweep", "--motors", "MOTOR", "--pulses", "V", "--samples", "0", "--load-angle",
                "V", "-o", "OUT"]),
     ("plan", ["plan", "--motor", "MOTOR", "--kind", "linear", "--pulses", "V", "--clock", "V"]),
+    ("plan", ["plan", "--motor", "MOTOR", "--kind", "s-curve", "--pulses", "V", "--commands",
+              "V", "--load-angle", "V"]),
 ]
 
 
