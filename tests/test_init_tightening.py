@@ -263,3 +263,23 @@ def test_the_price_line_in_plain_words() -> None:
         "under every command judged",
         "price: a move of 4000 pulses takes 199 ms, 0.5% shorter than the untightened "
         "table's 200 ms"]
+
+
+# --- the criterion's own refusals name a fix too ---------------------------------------------
+
+def test_init_refusals_by_the_criterion_name_what_would_help(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from dataclasses import replace
+
+    from profiles.errors import InitPlanError
+    from profiles.ppmc312 import init_planner
+
+    motor = load_motor(next(p for p in bundled_motor_paths() if "nema17" in p.stem))
+    crowded = replace(motor, max_pps=motor.start_pps * 1.01)  # no room for a high rate
+    with pytest.raises(InitPlanError, match=r"start rate \d+ − 0x80 at 8MHz: a top speed "
+                                            r"further above the start speed \(max_pps"):
+        init_planner.init_candidates(crowded, "linear")
+    monkeypatch.setattr(init_planner, "_smallest_safe", lambda *a: None)  # nothing passes
+    with pytest.raises(InitPlanError, match=r"even with the longest ramp the chip takes "
+                                            r"\(1048575 pulses\): a lower top speed"):
+        init_planner.init_candidates(motor, "s_curve", highs=2)

@@ -80,12 +80,15 @@ def init_candidates(motor: Motor, shape: Shape, *, clock: Clock | None = None,
     start_rate = math.ceil(clock.hz / min(motor.start_pps, motor.jump_pps))
     if not START_RATE_MIN <= start_rate <= START_RATE_MAX:
         raise InitPlanError(f"the start speed needs rate {start_rate} at {clock.name}, outside "
-                            f"{START_RATE_MIN}..{START_RATE_MAX}: choose another clock")
+                            f"{START_RATE_MIN}..{START_RATE_MAX}: choose another clock "
+                            "(--clock)")
     top_rate = max(HIGH_RATE_MIN, math.ceil(clock.hz / motor.top_pps))
     slowest_high = start_rate - MIN_GAP
     if slowest_high < top_rate:
         raise InitPlanError(f"no high rate fits between the top speed (rate {top_rate}) and "
-                            f"start rate {start_rate} − 0x80 at {clock.name}")
+                            f"start rate {start_rate} − 0x80 at {clock.name}: a top speed "
+                            "further above the start speed (max_pps, --cruise-reserve) or "
+                            "another clock (--clock) would help")
     speeds = np.geomspace(clock.hz / slowest_high, clock.hz / top_rate, highs)
     high_rates = sorted({min(slowest_high, max(top_rate, math.ceil(clock.hz / v)))
                          for v in speeds})
@@ -96,7 +99,10 @@ def init_candidates(motor: Motor, shape: Shape, *, clock: Clock | None = None,
             out.append(cand)
     if not out:
         raise InitPlanError(f"no {shape} init table is stall-safe for {motor.name or 'motor'} "
-                            f"at {clock.name}")
+                            f"at {clock.name}, even with the longest ramp the chip takes "
+                            f"({INIT_PULSES_FIELD_MAX} pulses): a lower top speed (max_pps, "
+                            "--cruise-reserve), a lower load inertia or more drive current "
+                            "would help, or a free curve (--kind free)")
     return out
 
 
