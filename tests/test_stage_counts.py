@@ -181,14 +181,17 @@ def test_the_graphs_counts_equal_the_step_by_step_counts(motor: Motor, separate:
     pb = make_problem(motor, choose_clock(slowest), separate, shaping)
     rates = grid_rates(pb, int(rng.integers(20, GRID_TARGET)))
     width = int(rng.integers(1, 60))
-    n, d, valid, reach = pb.graph_counts(rates, width)
+    w, wa, packed_w, valid, reach = pb.graph_counts(rates, width)
     pred = np.arange(len(rates))[:, None] - 1 - np.arange(width)[None, :]
     has = pred >= 0
-    want_n, want_d, want_valid = pb.counts(rates[np.where(has, pred, 0)].astype(float),
-                                           np.broadcast_to(rates[:, None], pred.shape)
-                                           .astype(float))
-    assert np.array_equal(valid, want_valid & has)
-    assert np.array_equal(n[valid], want_n[valid]) and np.array_equal(d[valid], want_d[valid])
+    n, d, want_valid = pb.counts(rates[np.where(has, pred, 0)].astype(float),
+                                 np.broadcast_to(rates[:, None], pred.shape).astype(float))
+    want_valid &= has
+    assert np.array_equal(valid, want_valid)
+    assert np.array_equal(w, np.where(want_valid, n + d, 0.0))
+    assert np.array_equal(wa, np.where(want_valid, n, 0.0))
+    assert np.array_equal(packed_w, (np.where(want_valid, n + d, 0.0).astype(np.int64) << 32)
+                          + np.where(want_valid, n, 0.0).astype(np.int64))
     last = np.where(valid.any(axis=1), width - np.argmax(valid[:, ::-1], axis=1), 0)
     assert np.array_equal(reach, last)
 

@@ -16,16 +16,21 @@ watch()  # the first compilation on a machine is said (profiles.compiling)
 
 
 @nb.njit(cache=True, nogil=True)
-def layers(pred: np.ndarray, cost: np.ndarray, packed_w: np.ndarray, start: np.ndarray,
-           f: np.ndarray, start_f: float, jump: float, max_stages: int, value: np.ndarray,
-           packed: np.ndarray, parents: np.ndarray, reach: np.ndarray) -> int:
+def layers(valid: np.ndarray, weight: np.ndarray, packed_w: np.ndarray, start: np.ndarray,
+           f: np.ndarray, lam: float, start_f: float, jump: float, max_stages: int,
+           value: np.ndarray, packed: np.ndarray, parents: np.ndarray, reach: np.ndarray
+           ) -> int:
     """Paths of 2..max_stages stages: `value[j]` the least cost of a path ending at node j,
     `packed[j]` its pulses (total << 32 | accel), `parents[m, j]` the predecessor of j in
     layer m (−1: the path of layer m − 1 stands). Each layer is computed from the one
     before it. Returns the number of layers written (the last ones change nothing).
-    `reach[j]`: node j's predecessors past the first reach[j] have an infinite cost (none
-    can be picked: they are not looked at)."""
-    g = pred.shape[0]
+    Node j's w-th predecessor is node j − 1 − w; the step costs weight · (1/f_pred − lam)
+    where `valid` (numpy's arithmetic, in its order), else it is never taken, and past
+    the first `reach[j]` none is valid (they are not looked at)."""
+    g = valid.shape[0]
+    inv = np.empty(g)
+    for j in range(g):
+        inv[j] = 1.0 / f[j]
     for j in range(g):
         value[j] = 0.0 if start[j] else math.inf
         packed[j] = 0
@@ -52,11 +57,13 @@ def layers(pred: np.ndarray, cost: np.ndarray, packed_w: np.ndarray, start: np.n
             best = math.inf
             pick = 0
             for w in range(reach[j]):
-                c = prev[pred[j, w]] + cost[j, w]
+                if not valid[j, w]:
+                    continue  # an infinite cost: never less than `best`
+                c = prev[j - 1 - w] + weight[j, w] * (inv[j - 1 - w] - lam)
                 if c < best:  # the first of equal costs, as numpy's argmin
                     best = c
                     pick = w
-            src = pred[j, pick]
+            src = max(j - 1 - pick, 0)
             if m == 2:  # a table has at least two stages: one-stage paths are not kept
                 better = math.isfinite(best)
                 value[j] = best
@@ -200,8 +207,9 @@ def stage_counts(rs: np.ndarray, rf: np.ndarray, hz: float, v: np.ndarray, t: np
 def graph_counts(rates: np.ndarray, width: int, hz: float, v: np.ndarray, t: np.ndarray,
                  sf: float, friction: float, load: float, k: float, edges: np.ndarray,
                  scale: np.ndarray, plain: bool, jump: float, separate: bool,
-                 bands: np.ndarray, base_ticks: float, most: float, n: np.ndarray,
-                 d: np.ndarray, valid: np.ndarray, reach: np.ndarray) -> None:
+                 bands: np.ndarray, base_ticks: float, most: float, weight: np.ndarray,
+                 accel: np.ndarray, packed_w: np.ndarray, valid: np.ndarray,
+                 reach: np.ndarray) -> None:
     """`stage_counts` over the planner's whole graph (`search.graph`: node j's
     predecessors are j − 1 … j − width, `rates` slowest first), to the bit, with what
     depends on one stage alone worked out once per node: its torque, band scale, chip
@@ -210,8 +218,10 @@ def graph_counts(rates: np.ndarray, width: int, hz: float, v: np.ndarray, t: np.
     holds the breakpoints of [f_(i+1), f_j] and those in (f_i, f_(i+1)]: the minimum of
     the same values). A motor whose jump limit is large against the grid's spacing (a
     datasheet motor that starts fast: hundreds of predecessors a node) spent most of a
-    plan interpolating the curve at every step. Entries with no predecessor (w ≥ j) are
-    invalid; `reach[j]`: 1 + the last valid w of node j (0: none), where the DP stops."""
+    plan interpolating the curve at every step. Writes each step's weight (accel + decel
+    count), accel count and both packed (weight << 32 | accel) where valid, 0 elsewhere;
+    entries with no predecessor (w ≥ j) are invalid; `reach[j]`: 1 + the last valid w of
+    node j (0: none), where the DP stops."""
     g = len(rates)
     last = len(v) - 1
     f = np.empty(g)
@@ -236,8 +246,8 @@ def graph_counts(rates: np.ndarray, width: int, hz: float, v: np.ndarray, t: np.
         for w in range(width):
             i = j - 1 - w
             if i < 0:
-                n[j, w] = 0.0
-                d[j, w] = 0.0
+                weight[j, w] = accel[j, w] = 0.0
+                packed_w[j, w] = 0
                 valid[j, w] = False
                 continue
             f_slow = f[i]
@@ -248,11 +258,18 @@ def graph_counts(rates: np.ndarray, width: int, hz: float, v: np.ndarray, t: np.
             torque = min(at[i], at[j])
             if inner < torque:
                 torque = inner
-            n[j, w], d[j, w], valid[j, w] = _counts_of(
-                torque, f_slow, f_fast, sigma[i], base[i], banned[i] or banned[j], sf,
-                friction, load, k, plain, jump, separate, most)
-            if valid[j, w]:
+            n_e, d_e, ok = _counts_of(torque, f_slow, f_fast, sigma[i], base[i],
+                                      banned[i] or banned[j], sf, friction, load, k, plain,
+                                      jump, separate, most)
+            valid[j, w] = ok
+            if ok:
+                weight[j, w] = n_e + d_e
+                accel[j, w] = n_e
+                packed_w[j, w] = (np.int64(n_e + d_e) << 32) + np.int64(n_e)
                 reach[j] = w + 1
+            else:
+                weight[j, w] = accel[j, w] = 0.0
+                packed_w[j, w] = 0
 
 
 @nb.njit(cache=True, nogil=True)
