@@ -159,7 +159,8 @@ def test_motor_show_marks_the_reachable_top_speed_and_the_drive() -> None:
     said = {"pullout_torque": [{"value": 0.44, "from": "model: T_h 0.59 N·m; drive 24 V, "
                                                        "1.5 A RMS, 1/8 step"}]}
     fig = motor_figure(dataclasses.replace(MOTOR, name="", sources=said), "17hs19")
-    assert fig.get_suptitle() == "17hs19\ndrive 24 V, 1.5 A RMS, 1/8 step; 1600 pulses/rev"
+    assert fig.get_suptitle() == ("17hs19: torque and capability\ndrive 24 V, 1.5 A RMS, 1/8 "
+                                  "step; rotary: 1600 pulses/rev (no travel_mm_per_rev)")
     close(fig)
 
 
@@ -241,3 +242,31 @@ def test_sweep_plot_x_mm_needs_every_motor_s_travel(tmp_path: Any,
     err = capsys.readouterr().err
     assert "--plot-x mm: nema17-1600 states no travel_mm_per_rev" in err
     assert not (tmp_path / "s.csv").exists()
+
+
+def scale_labels(ax: Any) -> list[str]:
+    """The labels of the second scales (real units) on `ax`."""
+    return [c.get_ylabel() or c.get_xlabel() for c in ax.child_axes]
+
+
+def test_real_units_beside_pulses_mm_with_a_travel_else_rev(cmp: Any) -> None:
+    from verify.plot import motor_figure
+
+    fig = cmp.figure()  # the bundled NEMA17: rotary, rpm and rev
+    assert scale_labels(fig.axes[0]) == ["speed [rpm]"]
+    assert sorted(scale_labels(fig.axes[1])) == ["position [rev]", "speed [rpm]"]
+    close(fig)
+    screw = dataclasses.replace(MOTOR, travel_mm_per_rev=8.0)
+    fig = dataclasses.replace(cmp, motor=screw).figure()
+    assert sorted(scale_labels(fig.axes[1])) == ["position [mm]", "speed [mm/s]"]
+    top = next(c for c in fig.axes[1].child_axes if c.get_xlabel() == "position [mm]")
+    fig.canvas.draw()  # a second scale takes its view from its axes when drawn
+    lo, hi = top.get_xlim()  # the same view: 4000 pulses = 20 mm at 1600 pulses/rev
+    pulses_lo, pulses_hi = fig.axes[1].get_xlim()
+    assert (lo, hi) == pytest.approx((pulses_lo * 8 / 1600, pulses_hi * 8 / 1600))
+    close(fig)
+    fig = motor_figure(screw)
+    assert scale_labels(fig.axes[0]) == ["speed [mm/s]"]
+    assert sorted(scale_labels(fig.axes[1])) == ["acceleration [mm/s²]", "speed [mm/s]"]
+    assert "8 mm/rev" in fig.get_suptitle()
+    close(fig)

@@ -54,6 +54,11 @@ def comparison_figure(comparison: Any, angles: Any = None,
                              gridspec_kw={"height_ratios": [h for _, h in rows]})
     ax = dict(zip((k for k, _ in rows), axes, strict=True))
     speed_panels(ax["t"], ax["x"], comparison)
+    units = motor_units(comparison.motor)
+    if units is not None:  # mm and mm/s (or rev and rpm) beside pulses and pps
+        for key in ("t", "x") + (("zoom",) if zoom_end else ()):
+            real_axis(ax[key], units, "speed", "right")
+        real_axis(ax["x"], units, "distance", "top")
     verdict = ("SAFE" if comparison.safe else
                "UNSAFE (" + ", ".join(comparison.failed_judges) + ")")
     name = comparison.motor.name or motor_label or "motor"
@@ -254,13 +259,20 @@ def motor_figure(motor: Any, motor_label: str | None = None) -> Any:
                  label=f"cruise reserve floor {floor:.3g} N·m ({reserve.spec})")
     top_t = float(np.max(torque))
     ax_t.set_ylim(-0.03 * top_t, 1.12 * max(top_t, floor))  # a line at 0 stays visible
-    ax_t.set(xlabel="speed [pps]", ylabel="torque [N·m]", title="torque")
+    ax_t.set(xlabel="speed [pps]", ylabel="torque [N·m]")
     ax_a.plot(v, motor.a_acc_pps2(v), color="tab:blue", lw=1.8, label="a_acc (speeding up)")
     ax_a.plot(v, motor.a_dec_pps2(v), color="tab:orange", lw=1.8, ls="--",
               label="a_dec (slowing down)")
     ax_a.axhline(0, color="k", lw=0.8, label="0: no capability")
-    ax_a.set(xlabel="speed [pps]", ylabel="acceleration [pps²]", title="capability")
+    ax_a.set(xlabel="speed [pps]", ylabel="acceleration [pps²]")
     speed_marks((ax_t, ax_a), motor, accel_zero_pps(motor), reserve.top_pps(motor))
+    units = motor_units(motor)  # mm/s (or rpm) above the pps, mm/s² (or rev/s²) beside pps²
+    for ax in (ax_t, ax_a):
+        real_axis(ax, units, "speed", "top")
+    real_axis(ax_a, units, "accel", "right")
+    from matplotlib.ticker import EngFormatter
+
+    ax_a.yaxis.set_major_formatter(EngFormatter())  # 5 M, not a 1e6 under the top scale
     entries: dict[str, Any] = {}
     for ax in (ax_t, ax_a):
         ax.grid(alpha=0.3)
@@ -269,7 +281,8 @@ def motor_figure(motor: Any, motor_label: str | None = None) -> Any:
     # one legend below the panels (the marks are the same on both): inside, it hid curves
     fig.legend(entries.values(), entries.keys(), loc="outside lower center", ncols=2,
                fontsize=7.5)
-    fig.suptitle(f"{motor.name or motor_label or 'motor'}\n{drive_text(motor)}", fontsize=10)
+    fig.suptitle(f"{motor.name or motor_label or 'motor'}: torque and capability\n"
+                 f"{drive_text(motor)}; {units.describe()}", fontsize=10)
     return fig
 
 
@@ -277,9 +290,10 @@ def speed_marks(axes: Any, motor: Any, zero_pps: float, reserve_pps: float) -> N
     """On each panel: where a_acc falls to 0 (the reachable top; beyond it shaded) when that
     is before the curve's end, else the top speed, and the cruise reserve's top."""
     end = motor.top_curve_pps
+    u = motor_units(motor)
     for i, ax in enumerate(axes):
         if zero_pps < end:
-            label = (f"reachable top {pps(zero_pps)}: a_acc = 0 (the curve and `motor "
+            label = (f"reachable top {pps(zero_pps, u)}: a_acc = 0 (the curve and `motor "
                      f"list` go to {pps(motor.top_pps)})")
             ax.axvline(zero_pps, color="tab:red", lw=1.4, label=label)
             ax.axvspan(zero_pps, end, color="tab:red", alpha=0.08, zorder=0)
@@ -290,15 +304,17 @@ def speed_marks(axes: Any, motor: Any, zero_pps: float, reserve_pps: float) -> N
             ax.axvline(motor.top_pps, color="tab:red", lw=1.4, label=label)
         if 0 < reserve_pps < min(zero_pps, motor.top_pps):
             ax.axvline(reserve_pps, color="tab:green", ls="-.", lw=1.2,
-                       label=f"top with the cruise reserve {pps(reserve_pps)}")
+                       label=f"top with the cruise reserve {pps(reserve_pps, u)}")
         if i == 0:
             ax.axvline(motor.start_pps, color="0.5", ls="--", lw=1.0,
-                       label=f"start {pps(motor.start_pps)}")
+                       label=f"start {pps(motor.start_pps, u)}")
 
 
-def pps(speed_pps: float) -> str:
-    """A speed as a figure says it: whole pulses per second, thousands spaced."""
-    return f"{speed_pps:,.0f} pps".replace(",", "\u2009")
+def pps(speed_pps: float, units: Any = None) -> str:
+    """A speed as a figure says it: whole pulses per second, thousands spaced, and in real
+    units when given (`profiles.motor.travel.AxisUnits`)."""
+    text = f"{speed_pps:,.0f} pps".replace(",", "\u2009")
+    return text if units is None else f"{text} ({units.speed_text(speed_pps)})"
 
 
 def drive_text(motor: Any) -> str:
@@ -308,7 +324,32 @@ def drive_text(motor: Any) -> str:
     text = next((s for s in said if "drive " in s), None)
     drive = ("drive " + text.split("drive ", 1)[1]) if text else \
         "drive: not stated in the motor file (its curve holds for the drive it was measured on)"
-    return f"{drive}; {motor.steps_per_rev} pulses/rev"
+    return drive
+
+
+def motor_units(motor: Any) -> Any:
+    """The motor's real units (`profiles.motor.travel.AxisUnits`: mm where its file states
+    the travel per revolution, else rev and rpm), or None for a stand-in without a
+    resolution (a bench figure's)."""
+    from profiles.motor.travel import axis_units
+
+    if not isinstance(getattr(motor, "steps_per_rev", None), int):
+        return None
+    return axis_units(motor)
+
+
+def real_axis(ax: Any, units: Any, what: str, side: str) -> None:
+    """A second scale on `ax` in real units beside its pulses: `what` is "speed" (pps),
+    "distance" (pulses) or "accel" (pps²); `side` "right" (a y scale) or "top" (x)."""
+    to, back, unit = {"speed": (units.speed, units.speed_pps, units.speed_unit),
+                      "distance": (units.distance, units.pulses, units.distance_unit),
+                      "accel": (units.accel, units.accel_pps2, units.accel_unit)}[what]
+    name = {"speed": "speed", "distance": "position", "accel": "acceleration"}[what]
+    if side == "right":
+        ax.secondary_yaxis("right", functions=(to, back)).set_ylabel(f"{name} [{unit}]")
+    else:
+        ax.secondary_xaxis("top", functions=(to, back)).set_xlabel(f"{name} [{unit}]",
+                                                                   fontsize=8)
 
 
 def save_figure(fig: Any, path: str | Path) -> None:
