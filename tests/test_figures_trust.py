@@ -252,15 +252,15 @@ def scale_labels(ax: Any) -> list[str]:
 def test_real_units_beside_pulses_mm_with_a_travel_else_rev(cmp: Any) -> None:
     from verify.plot import motor_figure
 
-    fig = cmp.figure()  # the bundled NEMA17: rotary, rpm and rev
+    fig = comparison_figure(cmp)  # the bundled NEMA17: rotary, rpm and rev
     assert scale_labels(fig.axes[0]) == ["speed [rpm]"]
     assert sorted(scale_labels(fig.axes[1])) == ["position [rev]", "speed [rpm]"]
     close(fig)
     screw = dataclasses.replace(MOTOR, travel_mm_per_rev=8.0)
-    fig = dataclasses.replace(cmp, motor=screw).figure()
+    fig = comparison_figure(dataclasses.replace(cmp, motor=screw))
     assert sorted(scale_labels(fig.axes[1])) == ["position [mm]", "speed [mm/s]"]
     top = next(c for c in fig.axes[1].child_axes if c.get_xlabel() == "position [mm]")
-    fig.canvas.draw()  # a second scale takes its view from its axes when drawn
+    top.apply_aspect()  # a second scale takes its view from its axes when laid out
     lo, hi = top.get_xlim()  # the same view: 4000 pulses = 20 mm at 1600 pulses/rev
     pulses_lo, pulses_hi = fig.axes[1].get_xlim()
     assert (lo, hi) == pytest.approx((pulses_lo * 8 / 1600, pulses_hi * 8 / 1600))
