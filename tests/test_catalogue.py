@@ -143,10 +143,12 @@ def test_motor_show_text(capsys: pytest.CaptureFixture[str]) -> None:
     assert lines[0] == "nema23-heavy: NEMA23 1.9 N·m, half step, heavy rotary table"
     assert lines[1].startswith("file: ") and lines[1].endswith("motor-nema23-heavy.json "
                                                                 "(bundled)")
-    assert lines[4].split() == ["speed", "[pps]", "[rpm]", "pull-out", "[N·m]", "×", "0.6",
+    assert lines[4] == ("axis: rotary (no travel_mm_per_rev): lengths in rev, speeds in rpm; "
+                        "top 1800 rpm")
+    assert lines[5].split() == ["speed", "[pps]", "[rpm]", "pull-out", "[N·m]", "×", "0.6",
                                 "[N·m]", "a_acc", "[pps²]", "a_dec", "[pps²]"]
     motor = load_motor("nema23-heavy")
-    rows = [line.split() for line in lines[5:]]
+    rows = [line.split() for line in lines[6:]]
     assert [float(r[0]) for r in rows] == list(motor.curve_speed_pps)
     # a_acc(0) = (0.6·1.9 − 0.2) / 4.8e-4 · 400 / 2π = 124 680 pps²
     assert float(rows[0][4]) == pytest.approx(124_680, rel=1e-3)
