@@ -1,6 +1,7 @@
-"""The designer's two steps a change (issue #32 item 9): a first table at once, marked as
+"""The designer's steps a change (issue #32 item 9): a first table at once, marked as
 being tightened and never offered as safe, then the final table, which is the one
-`stepramp plan` writes for the same inputs. The time budget itself is benched
+`stepramp plan` writes for the same inputs, judged for moves and decel stops, then its
+verdict over every command. The time budget itself is benched
 (bench/bench_designer.py), not timed here."""
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from profiles.motor.reserve import parse_cruise_reserve
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312.table import load_table
 from verify.designer import (
+    JUDGING,
     TIGHTENING,
     DesignFigure,
     Settings,
@@ -33,8 +35,9 @@ RINGS = Settings(pulses=5_000, safety_factor=NEMA17.safety_factor)
 
 
 def test_a_change_shows_a_marked_first_table_then_the_final_one() -> None:
-    first, final = design_steps(NEMA17, RINGS)
-    assert (first.final, final.final) == (False, True)
+    first, final, judged = design_steps(NEMA17, RINGS)
+    assert (first.final, final.final, judged.final) == (False, True, True)
+    assert (first.complete, final.complete, judged.complete) == (False, False, True)
     # the first is the plain criterion's table for the same loaded motor and reserve
     plain = plan_free_curve(parse_cruise_reserve(RINGS.cruise_reserve).applied(
         loaded_motor(NEMA17, RINGS)), pulses=RINGS.pulses)
@@ -47,13 +50,20 @@ def test_a_change_shows_a_marked_first_table_then_the_final_one() -> None:
     assert final.plan.table != first.plan.table
     assert final.verdict is not None and verdict(final).level == "safe"
     assert TIGHTENING not in final.summary() and TIGHTENING not in verdict(final).text
-    assert final.plan.table == design(NEMA17, RINGS).plan.table
+    # judged for the moves and decel stops first, saying the other commands are judged
+    assert [name for name, _ in final.verdict.commands] == ["decel-stop"]
+    assert verdict(final).text.endswith(JUDGING)
+    # then the same table with the verdict over every command: design()'s
+    whole = design(NEMA17, RINGS)
+    assert judged.plan is final.plan and judged.plan.table == whole.plan.table
+    assert judged.verdict.to_json() == whole.verdict.to_json()
+    assert verdict(judged) == verdict(whole) and JUDGING not in verdict(judged).text
 
 
 def test_without_the_aim_or_the_load_angle_a_change_is_one_step() -> None:
     plain = Settings(pulses=3_000, plan_to_aim=False)
     assert [r.final for r in design_steps(NEMA17, plain, load_angle=False)] == [True]
-    assert [r.final for r in design_steps(NEMA17, plain)] == [False, True]  # judged after
+    assert [r.final for r in design_steps(NEMA17, plain)] == [False, True, True]  # judged
 
 
 def test_the_final_table_is_the_one_stepramp_plan_writes(tmp_path: Path) -> None:
@@ -62,8 +72,8 @@ def test_the_final_table_is_the_one_stepramp_plan_writes(tmp_path: Path) -> None
     out = tmp_path / "plan.table.json"
     assert cli.main(["plan", "--motor", str(NEMA17_PATH), "--pulses", str(RINGS.pulses),
                      "-o", str(out)]) == 0
-    *_, final = design_steps(NEMA17, RINGS)
-    assert final.plan.table == load_table(out)
+    _, final, judged = design_steps(NEMA17, RINGS)
+    assert final.plan.table == judged.plan.table == load_table(out)
 
 
 def test_a_first_table_is_drawn_over_the_last_axes_and_marked() -> None:
@@ -106,10 +116,12 @@ def test_the_notebook_shows_both_tables_and_never_writes_a_first(tmp_path: Path)
     shown: list[str] = []
     d.summary.observe(lambda change: shown.append(change["new"]), names="value")
     d.controls["pulses"].value = RINGS.pulses
-    assert len(shown) == 2 and TIGHTENING in shown[0] and TIGHTENING not in shown[1]
-    assert d.result is not None and d.result.final
-    d.result = first_design(NEMA17, RINGS)
-    assert d.write() == [] and not any(tmp_path.iterdir())
+    assert len(shown) == 3 and TIGHTENING in shown[0] and JUDGING in shown[1]
+    assert TIGHTENING not in shown[1] + shown[2] and JUDGING not in shown[2]
+    assert d.result is not None and d.result.complete
+    for step in list(design_steps(NEMA17, RINGS))[:2]:  # neither is judged in full
+        d.result = step
+        assert d.write() == [] and not any(tmp_path.iterdir())
 
 
 @pytest.mark.slow  # a Panel page: about 2 s
@@ -139,9 +151,14 @@ def test_the_page_shows_the_first_table_then_the_final_on_the_next_turn() -> Non
     later.pop(0)()
     assert page.result.final and page.result.plan.table == design(
         NEMA17, page.settings).plan.table
-    assert "data-level='safe'" in page.verdict.object
-    assert not any(b.disabled for b in page.downloads.values())
+    assert "data-level='safe'" in page.verdict.object and JUDGING in page.verdict.object
+    assert all(b.disabled for b in page.downloads.values())  # not judged in full yet
     assert "final table shown in" in page.summary.object
+    later.pop(0)()
+    assert page.result.complete and not later
+    assert "data-level='safe'" in page.verdict.object and JUDGING not in page.verdict.object
+    assert not any(b.disabled for b in page.downloads.values())
+    assert "judged in full in" in page.summary.object
 
 
 @pytest.mark.slow  # NEMA23: a few tightening plans and two verdicts, about 1.5 s

@@ -58,6 +58,10 @@ AIM_RANGE_DEG = (10.0, PEAK_DEG)
 SLOW_REFERENCES = ("toppra", "ruckig", "casadi")
 UPLOAD_FORMATS = ("hex", "ihex", "c", "json", "bin", "bus")
 TIGHTENING = "TIGHTENING…"    # how a first table (not final, not judged) is marked everywhere
+# the commands the tightening plans for (a move, 82, and a decel stop, 81): the final table
+# is shown judged for these before the other commands' verdicts come
+PLANNED_COMMANDS = ("82", "81")
+JUDGING = "the other motion commands: judging…"
 
 
 @dataclass(frozen=True)
@@ -161,6 +165,14 @@ class Design:
     timings_ms: dict[str, float] = field(default_factory=dict)
     # False: a first table (the plain criterion's), shown while the final one is planned
     final: bool = True
+    # the commands `verdict` judged: PLANNED_COMMANDS (the moves and decel stops the
+    # tightening judged, while the others are judged) or None (every command)
+    judged: tuple[str, ...] | None = None
+
+    @property
+    def complete(self) -> bool:
+        """The final table with its whole verdict (what may be written or downloaded)."""
+        return self.final and (self.verdict is None or self.judged is None)
 
     @property
     def ratio(self) -> float:
@@ -206,6 +218,9 @@ def verdict(result: Design) -> Verdict:
     every move the table can run, as `stepramp check --motor` gives it. Every view shows
     this one function's answer."""
     v = result.verdict
+    if result.final and not result.complete:
+        said = verdict(dataclasses.replace(result, judged=None))
+        return Verdict(said.level, f"{said.text}; {JUDGING}")
     if not result.final:
         return Verdict("tightening", f"{TIGHTENING} a first table by the stall criterion "
                                      "alone, not yet judged for the load angle: wait for the "
@@ -261,15 +276,38 @@ def first_design(motor: Motor, settings: Settings) -> Design:
 def design_steps(motor: Motor, settings: Settings, *, load_angle: bool = True
                  ) -> Iterator[Design]:
     """What one change shows, in order: the first table (`first_design`, marked as being
-    tightened), then the final one (`design`). A view shows each as it comes; when the
-    final design does nothing more than the first (no aim, no load angle) only it."""
-    if settings.plan_to_aim or load_angle:
-        yield first_design(motor, settings)
-    yield design(motor, settings, load_angle=load_angle)
+    tightened); the final table judged for the moves and decel stops the tightening
+    planned for (remembered: a few milliseconds), its verdict saying the other commands
+    are being judged; the same table with the verdict over every command (`design`'s).
+    Steps that would add nothing are left out (no aim and no load angle: one step)."""
+    if not (settings.plan_to_aim or load_angle):
+        yield design(motor, settings, load_angle=False)
+        return
+    yield first_design(motor, settings)
+    if not load_angle:
+        yield design(motor, settings, load_angle=False)
+        return
+    final = _designed(motor, settings, tighten=settings.plan_to_aim, judge=True,
+                      commands=PLANNED_COMMANDS)
+    yield final
+    yield judged_in_full(final)
+
+
+def judged_in_full(result: Design) -> Design:
+    """`result` (a final table) with the verdict over every motion command."""
+    from profiles.motor.reserve import parse_cruise_reserve
+    from verify.safety import judge_safety
+
+    t0 = time.perf_counter()
+    settings = result.settings
+    planned = parse_cruise_reserve(settings.cruise_reserve).applied(result.motor)
+    every = judge_safety(result.plan.table, planned, aim_deg=settings.load_angle_aim_deg)
+    timings = {**result.timings_ms, "commands": (time.perf_counter() - t0) * 1e3}
+    return dataclasses.replace(result, verdict=every, judged=None, timings_ms=timings)
 
 
 def _designed(motor: Motor, settings: Settings, *, tighten: bool, judge: bool,
-              final: bool = True) -> Design:
+              final: bool = True, commands: tuple[str, ...] | None = None) -> Design:
     from profiles.motor.reserve import parse_cruise_reserve
     from verify.criterion import stall_margins
     from verify.references import exact_optimum
@@ -305,12 +343,13 @@ def _designed(motor: Motor, settings: Settings, *, tighten: bool, judge: bool,
         # differs from the loaded motor (no judge reads it but the criterion's top-speed
         # rule, which a table planned under the cap passes either way), and the moves and
         # decel stops the tightening judged are remembered under it
-        verdict = judge_safety(plan.table, planned, aim_deg=settings.load_angle_aim_deg)
+        verdict = judge_safety(plan.table, planned, aim_deg=settings.load_angle_aim_deg,
+                               commands=commands)
     t4 = time.perf_counter()
     timings.update(plan=(t1 - t0) * 1e3, exact=(t2 - t1) * 1e3, margins=(t3 - t2) * 1e3,
                    load_angle=(t4 - t3) * 1e3)
     return Design(settings, loaded, plan, execution, exact, margins, physics, verdict, timings,
-                  final)
+                  final, commands if judge else None)
 
 
 def design_files(result: Design, stem: str,
@@ -400,10 +439,19 @@ class DesignFigure:
             artist.set_animated(True)  # left out of the background, drawn over it
         self.background: Any = None   # the canvas without the live artists, once drawn
         self.drawn_refs: tuple[str, ...] = ()  # the references the legend names
+        self.shown: tuple[Any, ...] = ()        # what the last PNG shows
+        self.png = b""
         self.last_drawing = ""        # "full" or "over" (a first table over the background)
 
     def update(self, result: Design, slow: dict[str, Any] | None = None) -> bytes:
-        """Show `result` (and `slow` references); the PNG."""
+        """Show `result` (and `slow` references); the PNG (the last one again when only the
+        verdict differs from what it shows, as when the other commands' verdicts come)."""
+        shown = (result.plan, result.physics, result.exact, result.final,
+                 *sorted((slow or {}).items()))
+        if len(shown) == len(self.shown) and all(a is b for a, b in zip(shown, self.shown,
+                                                                         strict=True)):
+            return self.png
+        self.shown = shown
         self._set_lines(result, slow)
         canvas = self.canvas
         refs = tuple(self.ref_lines)
@@ -419,7 +467,8 @@ class DesignFigure:
             self.last_drawing = "full"
         for artist in self._live():
             self.fig.draw_artist(artist)
-        return self._png()
+        self.png = self._png()
+        return self.png
 
     def _live(self) -> list[Any]:
         """The artists every change draws again (animated: the background leaves them out)."""
@@ -661,6 +710,8 @@ class Designer:
                 if not result.final:
                     self._say(f"{TIGHTENING} the first table (the stall criterion alone) is "
                               "shown; the final table follows")
+                elif not result.complete:
+                    self._say(f"the final table: {JUDGING}")
         except StepRampError as e:
             if self.result is not last and last is not None:
                 self.result = last  # a first table whose final has none: the last design
@@ -685,8 +736,8 @@ class Designer:
 
     def write(self) -> list[Path]:
         """Write the current table and its upload files into `out_dir`."""
-        if self.result is None or not self.result.final:
-            return []  # a first table is never written: it is not judged
+        if self.result is None or not self.result.complete:
+            return []  # a table not judged in full is never written
         stem = design_stem(self.controls["motor"].value, self.result)
         try:
             self.written = write_design(self.result, self.out_dir, stem)
@@ -792,5 +843,5 @@ def _escape(text: str) -> str:
 __all__: Sequence[str] = (
     "TIGHTENING", "ControlSpec", "Design", "DesignFigure", "Designer", "Settings", "Verdict",
     "control_specs", "design", "design_files", "design_stem", "design_steps", "designer",
-    "first_design", "loaded_motor", "render_figure", "settings_from", "verdict",
-    "write_design")
+    "first_design", "judged_in_full", "loaded_motor", "render_figure", "settings_from",
+    "verdict", "write_design")

@@ -8,11 +8,12 @@ numbers beside it; buttons that download the table (`stepramp.table/1`) and an
 upload file in any format. Everything it shows comes from verify/designer.py, which
 the notebook widget uses too: this module only lays out widgets.
 
-A change shows two tables (`design_steps`): the first one (the plain criterion's,
-marked as being tightened: verdict level "tightening", downloads disabled) as soon as
-it is planned, and the final one on the server's next turn (a next-tick callback of
-the tab's document), so the browser receives the first before the tightening starts;
-a newer change drops a pending final.
+A change shows its steps (`design_steps`) one per turn of the server (a next-tick
+callback of the tab's document, so the browser receives each before the next is
+computed): the first table (the plain criterion's, marked as being tightened: verdict
+level "tightening"), the final table judged for moves and decel stops (its verdict
+saying the other commands are being judged), then its verdict over every command.
+The downloads are enabled at the last step only; a newer change drops pending steps.
 
 One server process serves every tab; `serve` warms the load-angle kernel (numba)
 once before it says where it listens, so the first slider change is as fast as
@@ -80,8 +81,9 @@ class DesignPage:
         self.cruise_reserve = cruise_reserve
         self.motor_name = motor_name or motor.name or "motor"
         self.result: Design | None = None
-        self.recompute_ms = 0.0   # from the change to the final table shown
         self.first_ms = 0.0       # from the change to the first table shown
+        self.recompute_ms = 0.0   # from the change to the final table shown
+        self.complete_ms = 0.0    # from the change to its verdict over every command
         self._figure = DesignFigure(dpi=80)
         self._lock = threading.Lock()
         self._changes = 0         # a pending final of an older change is dropped
@@ -142,7 +144,7 @@ class DesignPage:
             if result is None:
                 return
             self._show(result, (time.perf_counter() - t0) * 1e3)
-        if result.final:
+        if result.complete:
             return
         if deferred and self._doc is not None and self._doc.session_context is not None:
             self._doc.add_next_tick_callback(lambda: self._step(steps, change, t0, deferred))
@@ -154,17 +156,22 @@ class DesignPage:
         self.figure.object = self._figure.update(result)
         said = verdict(result)
         self._show_verdict(said.level, said.text)
-        if result.final:
+        if result.complete:
+            self.complete_ms = shown_ms
+            timing = (f"judged in full in {shown_ms:.0f} ms (first table shown in "
+                      f"{self.first_ms:.0f} ms, final in {self.recompute_ms:.0f} ms)")
+        elif result.final:
             self.recompute_ms = shown_ms
-            timing = f"final table shown in {shown_ms:.0f} ms (first in {self.first_ms:.0f} ms)"
+            timing = (f"final table shown in {shown_ms:.0f} ms (first in {self.first_ms:.0f} "
+                      "ms)")
         else:
             self.first_ms = shown_ms
             timing = f"first table shown in {shown_ms:.0f} ms"
         text = result.summary() + f"\n{timing}"
         self.summary.object = f"<pre class='sr-numbers'>{html.escape(text)}</pre>"
         for button in self.downloads.values():
-            button.disabled = not result.final  # a first table is never offered
-        if result.final:
+            button.disabled = not result.complete  # offered once judged in full
+        if result.complete:
             self._name_files()
 
     def _refuse(self, error: StepRampError) -> None:
@@ -176,7 +183,7 @@ class DesignPage:
 
     def files(self) -> list[tuple[str, bytes]]:
         """The table and the upload file (in the chosen format) of the current design."""
-        assert self.result is not None and self.result.final
+        assert self.result is not None and self.result.complete
         return design_files(self.result, design_stem(self.motor_name, self.result),
                             (self.upload_format.value,))
 
@@ -196,7 +203,7 @@ class DesignPage:
         return io.BytesIO(self.files()[index][1])
 
     def _name_files(self) -> None:
-        if self.result is not None and self.result.final:
+        if self.result is not None and self.result.complete:
             for (name, _), button in zip(self.files(), self.downloads.values(), strict=True):
                 button.filename = name
 
