@@ -42,6 +42,7 @@ from ..errors import InitBuildError, InitPlanError
 from ..motor import Motor
 from ..motor.angles import AIM_DEG, PEAK_DEG
 from ..progress import Progress, track
+from ..remembered import Remembered
 from ..result import PlanResult
 from .clock import Clock
 from .criterion import all_length_safe
@@ -57,6 +58,7 @@ from .init_model import (
 from .table import FreeCurveTable, InitTable
 
 Shape = Literal["linear", "s_curve"]
+CANDIDATES_KEPT = 32   # candidate lists remembered (a tightening plans some motors twice)
 
 
 @dataclass(frozen=True)
@@ -106,21 +108,31 @@ def init_candidates(motor: Motor, shape: Shape, *, clock: Clock | None = None,
     return out
 
 
+_candidates: Remembered[list[InitCandidate]] = Remembered(CANDIDATES_KEPT)
+
+
 def plan_init(motor: Motor, shape: Shape, pulses: int, *, clock: Clock | None = None,
               separate_decel: bool = True,
               candidates: list[InitCandidate] | None = None,
               progress: Progress | None = None) -> PlanResult[InitTable]:
     """The stall-safe init table with the shortest modelled move of `pulses`;
-    `progress` hears the candidate search (see `init_candidates`).
+    `progress` hears the candidate search (see `init_candidates`), whose last
+    CANDIDATES_KEPT lists are remembered by the motor's values, shape, clock and LE.
 
     `extras`: `stages` (the modelled staircase, a FreeCurveTable) and `shape_run`
     (the move shape the chip runs: trapezoid, triangle …).
     """
     from profiles.ppmc312.execution import simulate_move
 
+    from .planner import choose_clock
+
     started = time.perf_counter()
-    cands = candidates if candidates is not None else init_candidates(
-        motor, shape, clock=clock, separate_decel=separate_decel, progress=progress)
+    if candidates is None:
+        clock = clock or choose_clock(motor)
+        key = (motor.values_key(), shape, clock, separate_decel)
+        candidates, _ = _candidates.get(key, lambda: init_candidates(
+            motor, shape, clock=clock, separate_decel=separate_decel, progress=progress))
+    cands = candidates
     best: tuple[float, InitCandidate, str] | None = None
     for cand in cands:
         run = simulate_move(cand.stages, pulses)
