@@ -165,3 +165,39 @@ def test_show_takes_mm_from_the_motor_a_table_was_planned_for_when_unchanged(
     assert "mm/s" not in text and "planned for" not in text
     assert main(["show", str(table), "--format", "csv"]) == 0
     assert "speed_mm_s" not in capsys.readouterr().out
+
+
+# --- compare and sweep --------------------------------------------------------------------
+
+def test_compare_gives_mm_beside_pulses(screw: str, capsys: pytest.CaptureFixture[str]) -> None:
+    table = str(Path(__file__).parent.parent / "examples" / "free-curve-nema17.json")
+    argv = ["compare", table, "--motor", screw, "--pulses", "5000", "--references", "ruckig",
+            "--no-physics"]
+    main([*argv, "--format", "json"])
+    out = json.loads(capsys.readouterr().out)
+    assert out["pulses"] == 5000 and "table_s" in out                # the pulse keys stay
+    per_pulse = LEAD_MM / 1600
+    assert out["move_mm"] == pytest.approx(25.0)
+    assert out["table_mean_mm_s"] == pytest.approx(5000 / out["table_s"] * per_pulse)
+    assert out["optimum_mean_mm_s"] == pytest.approx(5000 / out["optimum_s"] * per_pulse)
+    assert out["table_top_mm_s"] == pytest.approx(out["table_top_pps"] * per_pulse)
+    assert out["table_top_pps"] == pytest.approx(20000.0)   # the example's fastest stage
+    main(argv)
+    [line] = [x for x in capsys.readouterr().out.splitlines() if x.startswith("in mm: ")]
+    assert line.startswith("in mm: a move of 25 mm; the table's top 100 mm/s, its mean ")
+
+
+def test_sweep_rows_give_rev_and_rpm_always_and_mm_with_a_travel(screw: str) -> None:
+    from profiles.motor import load_motor
+    from verify.sweep import real_units
+
+    rotary = real_units(load_motor("nema17-1600"), 3200, 20000.0)
+    assert rotary == {"move_rev": 2.0, "top_rpm": 750.0, "travel_mm_per_rev": None,
+                      "move_mm": None, "top_mm_s": None}
+    linear = real_units(load_motor(screw), 3200, 20000.0)
+    assert linear["move_mm"] == pytest.approx(16.0)
+    assert linear["top_mm_s"] == pytest.approx(100.0)
+    assert linear["travel_mm_per_rev"] == LEAD_MM and linear["top_rpm"] == 750.0
+    # before a plan (a row whose plan failed): the lengths, no speeds
+    assert set(real_units(load_motor(screw), 3200)) == {"move_rev", "travel_mm_per_rev",
+                                                        "move_mm"}

@@ -97,6 +97,7 @@ class Comparison:
             out["jerk_limited_optimum_s"] = self.jerk_limited_optimum.duration_s
         if self.failed_references:
             out["failed_references"] = dict(self.failed_references)
+        out.update(self.real_units())
         if self.from_table_start is not None:
             out["from_table_start"] = {"start_pps": self.table_start_pps,
                                        "reference_start_pps": self.reference_start_pps,
@@ -114,6 +115,7 @@ class Comparison:
                          + (f"  {r.info}" if r.info else ""))
         lines += [f"  {name:8s} failed ({why}): not drawn, not in the optimum"
                   for name, why in self.failed_references.items()]
+        lines.append(self.real_units_line())
         lines += self.start_lines()
         jerk = self.jerk_limited_optimum
         if jerk is not None:
@@ -129,6 +131,32 @@ class Comparison:
         verdict = "SAFE" if self.safe else "UNSAFE (failed: " + ", ".join(self.failed_judges) + ")"
         lines.append(f"verdict: {verdict}")
         return "\n".join(lines) + "\n"
+
+    def real_units(self) -> dict[str, Any]:
+        """The move in mm (the motor file's `travel_mm_per_rev`) or rev, and the table's
+        top and mean speed and the optimum's mean speed in mm/s or rpm
+        (profiles/motor/travel.py): JSON keys beside the pulse ones."""
+        from profiles.motor.travel import axis_units
+
+        u = axis_units(self.motor)
+        d, v = u.distance_key, u.speed_key
+        top = float(max(self.execution.edges()[2]))
+        return {"travel_mm_per_rev": u.mm_per_rev, f"move_{d}": u.distance(self.pulses),
+                "table_top_pps": top, f"table_top_{v}": u.speed(top),
+                f"table_mean_{v}": u.speed(self.pulses / self.table_s),
+                f"optimum_mean_{v}": u.speed(self.pulses / self.optimum_s)}
+
+    def real_units_line(self) -> str:
+        """`in mm: a move of 16 mm; the table's top 111.7 mm/s, its mean 60.1 mm/s; the
+        optimum's mean 70.3 mm/s` (or rev and rpm)."""
+        from profiles.motor.travel import axis_units
+
+        u = axis_units(self.motor)
+        top = float(max(self.execution.edges()[2]))
+        return (f"in {u.distance_unit}: a move of {u.distance_text(self.pulses)}; the "
+                f"table's top {u.speed_text(top)}, its mean "
+                f"{u.speed_text(self.pulses / self.table_s)}; the optimum's mean "
+                f"{u.speed_text(self.pulses / self.optimum_s)}")
 
     def start_lines(self) -> list[str]:
         """When the table starts at another speed than the references (the motor's start

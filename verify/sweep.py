@@ -52,7 +52,10 @@ from profiles.progress import Progress, report
 COLUMNS = ("motor", "pulses", "move_time_s", "worst_load_angle_deg", "safe", "failed",
            "margin_deg", "worst_pulses", "stages", "LE", "clock", "top_pps", "binds",
            "solve_s", "judge_s", "corners", "samples", "sample_failures",
-           "stall_probability_upper", "error", "safety")
+           "stall_probability_upper", "error", "safety",
+           # real units (profiles/motor/travel.py): rev and rpm always, mm and mm/s where
+           # the motor file states its travel_mm_per_rev (else empty)
+           "move_rev", "top_rpm", "travel_mm_per_rev", "move_mm", "top_mm_s")
 
 
 @dataclass(frozen=True)
@@ -77,6 +80,7 @@ def run_job(job: Job) -> dict[str, Any]:
     row.update(motor=job.motor, pulses=job.pulses, safe=False, error="")
     try:
         motor = Motor.from_json(job.motor_json)
+        row.update(real_units(motor, job.pulses))
         # planned to the reserve's top speed, judged on the motor as it is
         plan = plan_free_curve(parse_cruise_reserve(job.cruise_reserve).applied(motor),
                                pulses=job.pulses, load_angle_deg=job.load_angle_deg)
@@ -87,11 +91,26 @@ def run_job(job: Job) -> dict[str, Any]:
     row.update(move_time_s=plan.duration_s, stages=len(table.rates), LE=int(table.separate),
                clock=table.clock.name, top_pps=table.clock.hz / table.rates[0],
                binds=plan.binds, solve_s=plan.solve_s)
+    row.update(real_units(motor, job.pulses, row["top_pps"]))
     t0 = time.perf_counter()
     row.update(judge(table, motor, job.samples, job.seed,
                      None if job.load_angle_deg is None else min(job.load_angle_deg, 90.0)))
     row["judge_s"] = time.perf_counter() - t0
     return row
+
+
+def real_units(motor: Any, pulses: int, top_pps: float | None = None) -> dict[str, Any]:
+    """A row's real-unit columns: the move in rev and mm, the top speed in rpm and mm/s
+    (mm only with the motor file's travel_mm_per_rev; the speeds once planned)."""
+    from profiles.motor.travel import AxisUnits, axis_units
+
+    rev, u = AxisUnits(int(motor.steps_per_rev)), axis_units(motor)
+    out: dict[str, Any] = {"move_rev": rev.distance(pulses),
+                           "travel_mm_per_rev": u.mm_per_rev,
+                           "move_mm": u.distance(pulses) if u.linear else None}
+    if top_pps is not None:
+        out.update(top_rpm=rev.speed(top_pps), top_mm_s=u.speed(top_pps) if u.linear else None)
+    return out
 
 
 def judge(table: Any, motor: Any, samples: int, seed: int,
