@@ -176,3 +176,24 @@ def test_the_verdict_on_the_motor_as_planned_is_the_loaded_motors() -> None:
     final = design(nema23, settings)
     assert final.verdict is not None
     assert final.verdict.to_json() == judge_safety(final.plan.table, loaded).to_json()
+
+
+def test_readouts_and_the_speed_axis_speak_the_axis_units() -> None:
+    """mm and mm/s where the motor file states its travel per revolution, rev and rpm
+    otherwise (profiles.motor.travel's conversions), beside pulses and pps."""
+    import dataclasses
+
+    screw = dataclasses.replace(NEMA17, travel_mm_per_rev=8.0)  # 1600 pulses/rev
+    fig = DesignFigure()
+    for motor, length, speed in ((screw, "(25 mm)", "speed [mm/s]"),
+                                 (NEMA17, "(3.125 rev)", "speed [rpm]")):
+        result = first_design(motor, Settings(pulses=5_000))
+        summary = result.summary()
+        assert f"5000 pulses {length}" in summary
+        top = float(result.execution.edges()[2].max())
+        assert f"({result.units.speed_text(top)})" in summary
+        fig.update(result)
+        assert fig.last_drawing == "full"  # another motor's units: a new second scale
+        (second,) = fig.ax_v.child_axes
+        assert second.get_ylabel() == speed and length in fig.ax_v.get_title()
+    assert result.units.speed(top) == pytest.approx(top * 60 / 1600)

@@ -175,17 +175,31 @@ class Design:
         return self.final and (self.verdict is None or self.judged is None)
 
     @property
+    def units(self) -> Any:
+        """The axis's real units (`profiles.motor.travel.AxisUnits`): mm where the motor
+        file states its travel per revolution, else rev and rpm."""
+        from profiles.motor.travel import axis_units
+
+        return axis_units(self.motor)
+
+    @property
     def ratio(self) -> float:
         return float(self.execution.duration_s / self.exact.duration_s)
 
     def summary(self) -> str:
+        from verify.plot import pps
+
         table = self.plan.table
         lines = [] if self.final else [
             f"{TIGHTENING} a first table (the stall criterion alone, not judged for the "
             "load angle): not safe to use; the final table follows"]
+        u = self.units
+        top = float(self.execution.edges()[2].max())  # the move's top speed [pps]
         lines += [
-            f"{self.motor.name or 'motor'}: {self.settings.pulses} pulses, "
-            f"{len(table.rates)} stages, clock {table.clock.name}, LE={int(table.separate)}",
+            f"{self.motor.name or 'motor'}: {self.settings.pulses} pulses "
+            f"({u.distance_text(self.settings.pulses)}), {len(table.rates)} stages, clock "
+            f"{table.clock.name}, LE={int(table.separate)}",
+            f"top speed {pps(top, u)}; {u.describe()}",
             f"move {self.execution.duration_s * 1e3:.3f} ms; exact optimum "
             f"{self.exact.duration_s * 1e3:.3f} ms; ratio {self.ratio:.4f}",
             f"smallest stall margin {self.margins['min']:.3f} (≥ 1 is stall-safe)",
@@ -404,7 +418,8 @@ class DesignFigure:
         self.dpi = dpi
         self.fig = Figure(figsize=(9.0, 7.5), dpi=dpi)
         self.canvas = FigureCanvasAgg(self.fig)
-        self.fig.subplots_adjust(left=0.09, right=0.98, top=0.96, bottom=0.07, hspace=0.55)
+        # room on the right for the speed's second scale in real units
+        self.fig.subplots_adjust(left=0.09, right=0.91, top=0.96, bottom=0.07, hspace=0.55)
         self.ax_v, self.ax_m, self.ax_l = self.fig.subplots(3, 1, height_ratios=[3, 2, 2])
         self.ax_v.set(xlabel="time [ms]", ylabel="speed [pps]")
         self.ax_m.set(xlabel="stage (0 = fastest)", ylabel="stall margin")
@@ -440,6 +455,7 @@ class DesignFigure:
         self.background: Any = None   # the canvas without the live artists, once drawn
         self.drawn_refs: tuple[str, ...] = ()  # the references the legend names
         self.shown: tuple[Any, ...] = ()        # what the last PNG shows
+        self.units: Any = None                  # the real units the second scale shows
         self.png = b""
         self.last_drawing = ""        # "full" or "over" (a first table over the background)
 
@@ -452,6 +468,7 @@ class DesignFigure:
                                                                          strict=True)):
             return self.png
         self.shown = shown
+        self._set_units(result.units)
         self._set_lines(result, slow)
         canvas = self.canvas
         refs = tuple(self.ref_lines)
@@ -469,6 +486,18 @@ class DesignFigure:
             self.fig.draw_artist(artist)
         self.png = self._png()
         return self.png
+
+    def _set_units(self, units: Any) -> None:
+        """The speed panel's second scale in mm/s (rpm on a rotary axis), set again (and
+        the figure drawn in full) when another motor's units come."""
+        from verify.plot import real_axis
+
+        if units == self.units:
+            return
+        for child in list(self.ax_v.child_axes):
+            child.remove()
+        real_axis(self.ax_v, units, "speed", "right")
+        self.units, self.background = units, None
 
     def _live(self) -> list[Any]:
         """The artists every change draws again (animated: the background leaves them out)."""
@@ -496,7 +525,8 @@ class DesignFigure:
             line.set_label(name if name == "exact" else
                            f"{name} ({ref.duration_s * 1e3:.2f} ms)")  # drawn in full
         self.ax_v.set_title(("" if final else f"{TIGHTENING} ")
-                            + f"{result.settings.pulses} pulses: table "
+                            + f"{result.settings.pulses} pulses "
+                            f"({result.units.distance_text(result.settings.pulses)}): table "
                             f"({len(result.plan.table.rates)} stages) "
                             f"{result.execution.duration_s * 1e3:.2f} ms / exact "
                             f"{result.exact.duration_s * 1e3:.2f} ms = {result.ratio:.3f}",
@@ -520,7 +550,8 @@ class DesignFigure:
                                 else "load angle: off", fontsize=10)
 
     def _targets(self, result: Design) -> dict[str, float]:
-        """The extents the data needs: speed panel (time, speed), margins (stages, range)."""
+        """The extents the data needs: speed panel (time, speed), margins (stages, range),
+        load angle (time, angle); after `_set_lines`."""
         import numpy as np
 
         t, _, v = result.execution.edges()
@@ -528,10 +559,10 @@ class DesignFigure:
         finite = np.concatenate([np.asarray(result.margins[side], float)
                                  for side in self.margin_lines])
         finite = finite[np.isfinite(finite)]
-        ph = result.physics
-        lag_ms = 0.0 if ph is None or not len(ph.lag_t_s) else float(ph.lag_t_s[-1]) * 1e3
-        angle = 0.0 if ph is None or not len(ph.angle_deg) else float(
-            np.max(np.abs(ph.angle_deg)))
+        # the trace as drawn (`_set_lines` set it; empty for a first table)
+        lag_t, lag = self.lag_line.get_xdata(), self.lag_line.get_ydata()
+        lag_ms = float(lag_t[-1]) if len(lag_t) else 0.0
+        angle = float(np.max(np.abs(lag))) if len(lag) else 0.0
         return {"t_ms": 1.02 * top_ms, "v_pps": 1.3 * float(np.max(v)), "lag_ms": lag_ms,
                 "angle_deg": 1.1 * angle,
                 "stages": float(result.settings.max_stages),  # the budget: steady
