@@ -202,7 +202,7 @@ def margin_panel(ax_m: Any, comparison: Any) -> None:
     dec = None if dec is None else np.asarray(dec, float)
     shown = [m[np.isfinite(m)] for m in (acc, dec) if m is not None]
     finite = np.concatenate(shown) if shown else np.array([])
-    top = max(2.0, 1.5 * float(finite.max())) if finite.size else 2.0
+    top = max(2.0, 4.0 * float(finite.max())) if finite.size else 2.0  # room: legend
     low = min(0.0, 1.3 * float(finite.min())) if finite.size else 0.0
     stages = np.arange(len(acc))
     ax_m.bar(stages - 0.2, np.where(np.isfinite(acc), acc, np.nan), width=0.4,
