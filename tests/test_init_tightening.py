@@ -30,7 +30,7 @@ from profiles.ppmc312.init_planner import (
 from profiles.ppmc312.table import InitTable, load_table
 from verify.cli import main
 from verify.init_judge import init_judge, judgement
-from verify.plan_text import init_tightening
+from verify.plan_text import LINE_MAX, fix_lines, init_tightening
 from verify.safety import judge_safety
 
 # a datasheet NEMA17 on a lead screw: the plain init table's origin return (11) reverses
@@ -187,6 +187,12 @@ def test_what_would_help_names_the_change_by_what_fails(datasheet_path: Path) ->
     text = what_would_help(ramp, motor, AIM_DEG)
     assert "a lower top speed" in text and "a narrower friction range" in text
     assert "--commands" not in text and "inertia" not in text
+    both = InitJudgement(False, False, 120.0, 120.0, ("moves",), "corner 1 "
+                         "(friction_torque_nm 0.04377)")
+    lines = fix_lines(what_would_help(both, motor, AIM_DEG))   # as the summary shows it
+    assert lines[0] == "what would help, any of:" and len(lines) == 4
+    assert all(len(line) <= LINE_MAX for line in lines)
+    assert fix_lines("a lower top speed") == ["what would help: a lower top speed"]
 
 
 def _never_within(failing: tuple[str, ...]) -> Any:
@@ -257,6 +263,9 @@ def test_the_price_line_in_plain_words() -> None:
     lines = init_tightening(plan, 75.0)
     assert lines[-1] == ("price: a move of 4000 pulses takes 210 ms, 5.0% longer than the "
                          "untightened table's 200 ms")
+    much = _plan(2000, 400, 0.5000, Levers(0.8), plain)
+    assert init_tightening(much, 75.0)[-1] == ("price: a move of 4000 pulses takes 500 ms, "
+                                               "2.5× as long as the untightened table's 200 ms")
     faster = _plan(2000, 400, 0.1990, Levers(0.8), plain)
     assert init_tightening(faster, 75.0) == [
         "start speed lowered to 4 000 pps (from 5 000 pps) to keep the rotor within 75° "

@@ -90,8 +90,17 @@ def _held_back(plan: Any, motor: Any, aim_deg: float) -> list[str]:
         lines.append(f"the {aim_deg:g}° aim was not reached: the closest table reaches "
                      f"{worst:.1f}°")
     if extras.get("fix"):
-        lines.append(f"what would help: {extras['fix']}")
+        lines += fix_lines(str(extras["fix"]))
     return lines
+
+
+def fix_lines(fix: str) -> list[str]:
+    """What would help (the init planner's `fix`: changes joined by "; "), on one line
+    when it fits, else a change a line under a heading."""
+    line = f"what would help: {fix}"
+    if len(line) <= LINE_MAX:
+        return [line]
+    return ["what would help, any of:", *(f"  {part}" for part in fix.split("; "))]
 
 
 def init_tightening(plan: Any, aim_deg: float) -> list[str]:
@@ -116,7 +125,8 @@ def init_tightening(plan: Any, aim_deg: float) -> list[str]:
     line = ", ".join(parts) + why
     lines = [line] if len(line) <= LINE_MAX else [*parts[:-1], parts[-1] + why]
     slower = plan.duration_s / plain.duration_s - 1.0
-    change = (f"{slower:.1%} longer than" if slower > 5e-4 else
+    change = (f"{slower + 1:.3g}× as long as" if slower >= 0.5 else
+              f"{slower:.1%} longer than" if slower > 5e-4 else
               f"{-slower:.1%} shorter than" if slower < -5e-4 else "as long as")
     lines.append(f"price: a move of {plan.pulses} pulses takes {ms(plan.duration_s)}, "
                  f"{change} the untightened table's {ms(plain.duration_s)}")

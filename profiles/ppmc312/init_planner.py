@@ -362,16 +362,15 @@ def what_would_help(judged: InitJudgement, motor: Motor, aim_deg: float) -> str:
     them out of the verdict, where the machine never runs them)."""
     helps = []
     if judged.start_deg > aim_deg:
-        helps.append("a lower load inertia or more drive current (the rotor rings past "
-                     "the aim starting, stopping or reversing even at the lowest start "
-                     "speed tried)")
+        helps.append("a lower load inertia or more drive current (the start rings even at "
+                     "the lowest start speed tried)")
     if judged.ramp_deg > aim_deg:
         helps.append("a lower top speed (max_pps in the motor file, or a larger "
                      "--cruise-reserve)")
     low, high = motor.tolerance("friction_torque_nm")
     if "friction" in judged.worst_at and high > low:
         helps.append("a narrower friction range (the friction you measured: friction_coeff "
-                     "in --load, or friction_torque_nm in the motor file)")
+                     "in --load, or friction_torque_nm)")
     families = [f for f in judged.failing if f not in ("moves", "decel-stop")]
     if families and len(families) == len(judged.failing):
         from .motion import COMMANDS
