@@ -100,12 +100,16 @@ def test_a_first_table_is_drawn_over_the_last_axes_and_marked() -> None:
     assert [ax.get_xlim() + ax.get_ylim() for ax in (fresh.ax_v, fresh.ax_m, fresh.ax_l)] \
         == [ax.get_xlim() + ax.get_ylim() for ax in (fig.ax_v, fig.ax_m, fig.ax_l)]
     fig.update(first_design(NEMA17, nearby))
-    # a first table the axes cannot hold is drawn in full, marked all the same
-    far = fig.update(first_design(NEMA17, Settings(pulses=60_000)))
-    assert fig.last_drawing == "full" and fig.mark.get_visible() and far != png
+    # a first table the axes cannot hold gets new limits, only the panels whose limits
+    # moved drawn again (the picture a full drawing at those limits is), marked all the same
+    longer = first_design(NEMA17, Settings(pulses=60_000))
+    far = fig.update(longer)
+    assert fig.last_drawing == "panels" and fig.mark.get_visible() and far != png
     assert fig.ax_v.get_xlim()[1] > limits[0][1]
-    fig.update(design(NEMA17, nearby))  # the axes too long for it now: in full
-    assert fig.last_drawing == "full" and not fig.mark.get_visible()
+    fig.shown, fig.background = (), None
+    assert fig.update(longer) == far and fig.last_drawing == "full"
+    fig.update(design(NEMA17, nearby))  # the axes too long for it now: new limits
+    assert fig.last_drawing == "panels" and not fig.mark.get_visible()
     # the references shown change the legend: in full
     fig.update(design(NEMA17, nearby), {"toppra": design(NEMA17, nearby).exact})
     assert fig.last_drawing == "full"

@@ -404,10 +404,11 @@ class DesignFigure:
 
     The data lines and the titles are drawn over a kept background (the axes, ticks, grid
     and legend of the last full drawing): a design that fits the axes as they are is
-    drawn over it alone (`last_drawing` "over"), in a few milliseconds; one that does not,
-    or a change of the references shown, is drawn in full ("full"), with axis limits
-    rounded up so that the next changes fit. A first table (`Design.final` False) is
-    drawn dashed and marked as being tightened."""
+    drawn over it alone (`last_drawing` "over"), in a few milliseconds; one that does not
+    gets new limits, rounded up so that the next changes fit, and only the panels whose
+    limits moved are drawn again ("panels"); a change of the references shown or of the
+    units draws everything ("full"). A first table (`Design.final` False) is drawn dashed
+    and marked as being tightened."""
 
     MAX_POINTS = 1500  # the lag trace is drawn as a min/max envelope of this many bins
 
@@ -470,22 +471,47 @@ class DesignFigure:
         self.shown = shown
         self._set_units(result.units)
         self._set_lines(result, slow)
-        canvas = self.canvas
         refs = tuple(self.ref_lines)
-        if self.background is not None and refs == self.drawn_refs and self._fits(result):
-            canvas.restore_region(self.background)
+        kept = self.background is not None and refs == self.drawn_refs
+        if kept and self._fits(result):
+            self.canvas.restore_region(self.background)
             self.last_drawing = "over"
         else:
-            self._set_limits(result)
-            self.ax_v.legend(loc="upper center", ncols=4, fontsize=7)
-            self.drawn_refs = refs
-            canvas.draw()  # everything but the live artists
-            self.background = canvas.copy_from_bbox(self.fig.bbox)
-            self.last_drawing = "full"
+            limits = self._limits(result)
+            changed = [ax for ax, lim in limits.items() if lim != (ax.get_xlim(), ax.get_ylim())]
+            for ax, (xlim, ylim) in limits.items():
+                ax.set_xlim(*xlim)
+                ax.set_ylim(*ylim)
+            if kept:
+                self._redraw(changed)  # only the panels whose limits moved (if any)
+                self.last_drawing = "panels" if changed else "over"
+            else:
+                legend = self.ax_v.legend(loc="upper center", ncols=4, fontsize=7)
+                legend.legend_handles[0].set_linestyle("-")  # the table's, dashed or not
+                self.drawn_refs = refs
+                self.canvas.draw()  # everything but the live artists
+                self.last_drawing = "full"
+            self.background = self.canvas.copy_from_bbox(self.fig.bbox)
         for artist in self._live():
             self.fig.draw_artist(artist)
         self.png = self._png()
         return self.png
+
+    def _redraw(self, panels: list[Any]) -> None:
+        """The kept background with `panels` (axes, ticks, labels, grid) drawn again."""
+        from matplotlib.patches import Rectangle
+        from matplotlib.transforms import IdentityTransform
+
+        self.canvas.restore_region(self.background)
+        renderer = self.canvas.get_renderer()
+        for ax in panels:
+            box = ax.get_tightbbox(renderer)
+            blank = Rectangle((box.x0 - 2, box.y0 - 2), box.width + 4, box.height + 4,
+                              transform=IdentityTransform(), facecolor=self.fig.get_facecolor(),
+                              edgecolor="none")
+            blank.set_figure(self.fig)
+            blank.draw(renderer)
+            self.fig.draw_artist(ax)
 
     def _set_units(self, units: Any) -> None:
         """The speed panel's second scale in mm/s (rpm on a rotary axis), set again (and
@@ -587,19 +613,22 @@ class DesignFigure:
                 and (fills(need["angle_deg"], span) or need["angle_deg"] <= span
                      <= ANGLE_SPAN_DEG))
 
-    def _set_limits(self, result: Design) -> None:
+    def _limits(self, result: Design
+                ) -> dict[Any, tuple[tuple[float, float], tuple[float, float]]]:
+        """Each panel's (x, y) limits for `result`, rounded up with room to spare."""
         need = self._targets(result)
         slow_end = max((float(line.get_xdata()[-1]) for line in self.ref_lines.values()
                         if len(line.get_xdata())), default=0.0)
         # room for a longer move: the next change's first table fits without a full drawing
-        self.ax_v.set_xlim(0, _rounded_up(1.2 * max(need["t_ms"], 1.02 * slow_end)))
-        self.ax_v.set_ylim(0, _rounded_up(need["v_pps"]))
-        self.ax_m.set_xlim(-1, need["stages"] + 1)
-        self.ax_m.set_ylim(min(0.8, 0.8 * need["m_lo"]), _rounded_up(max(2.0, 1.5 * need["m_hi"])))
+        limits = {
+            self.ax_v: ((0.0, _rounded_up(1.2 * max(need["t_ms"], 1.02 * slow_end))),
+                        (0.0, _rounded_up(need["v_pps"]))),
+            self.ax_m: ((-1.0, need["stages"] + 1),
+                        (min(0.8, 0.8 * need["m_lo"]), _rounded_up(max(2.0, 1.5 * need["m_hi"]))))}
         if need["lag_ms"] > 0:  # a first table has no trace: the last one's axes stay
-            self.ax_l.set_xlim(0, _rounded_up(1.2 * need["lag_ms"]))
             span = max(ANGLE_SPAN_DEG, _rounded_up(need["angle_deg"]))
-            self.ax_l.set_ylim(-span, span)
+            limits[self.ax_l] = ((0.0, _rounded_up(1.2 * need["lag_ms"])), (-span, span))
+        return limits
 
     def _png(self) -> bytes:
         from PIL import Image
