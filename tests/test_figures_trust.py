@@ -270,3 +270,34 @@ def test_real_units_beside_pulses_mm_with_a_travel_else_rev(cmp: Any) -> None:
     assert sorted(scale_labels(fig.axes[1])) == ["acceleration [mm/s²]", "speed [mm/s]"]
     assert "8 mm/rev" in fig.get_suptitle()
     close(fig)
+
+
+@pytest.mark.slow  # plans a two-axis line move (~3 s); CI runs it
+def test_sync_scales_in_mm_when_every_axis_shares_its_units(
+        tmp_path: Any, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    from matplotlib.figure import Figure
+
+    from verify import cli
+
+    motor = json.loads(bundled_motor_paths()[0].read_text())
+    (tmp_path / "m.json").write_text(json.dumps({**motor, "travel_mm_per_rev": 8.0}))
+    (tmp_path / "axes.json").write_text(json.dumps({
+        "format": "stepramp.axes/1", "mode": "line",
+        "axes": [{"name": "x", "motor": "m.json", "pulses": 4000},
+                 {"name": "y", "motor": "m.json", "pulses": -1500}]}))
+    saved: list[Any] = []
+    original = Figure.savefig
+
+    def record(self: Any, *args: Any, **kwargs: Any) -> None:
+        saved.append(self)
+        original(self, *args, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", record)
+    assert cli.main(["sync", str(tmp_path / "axes.json"), "-o", str(tmp_path / "out"),
+                     "--no-ruckig", "--plot", str(tmp_path / "s.png")]) in (0, 1)
+    path_ax, _, speed_ax = saved[0].axes
+    assert sorted(scale_labels(path_ax)) == ["position [mm]", "position [mm]"]
+    assert scale_labels(speed_ax) == ["speed [mm/s]"]

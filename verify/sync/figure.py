@@ -6,7 +6,9 @@ negative); every line has a legend entry, except with many axes (more than
 `MANY_AXES`): then each axis keeps its colour and name and the lines drawn for every axis
 (the straight lines, ruckig's speeds) share one entry per kind, in grey, and the legends
 take columns. Up to 16 axes fit the figure, which grows with them, without matplotlib
-collapsing an axes (before: "constrained_layout not applied", twice)."""
+collapsing an axes (before: "constrained_layout not applied", twice). Where every axis's
+motor has the same real units (`profiles.motor.travel`), positions and speeds get a second
+scale in them (mm and mm/s, else rev and rpm)."""
 
 from __future__ import annotations
 
@@ -16,7 +18,7 @@ import numpy as np
 
 from profiles.pulses import line_deviation
 
-from ..plot import pyplot
+from ..plot import motor_units, pyplot, real_axis
 from ..references.ruckig_sync import RuckigSync
 
 MANY_AXES = 4            # more: one legend entry per kind of line drawn for every axis
@@ -55,6 +57,12 @@ def sync_figure(plan: Any, ruckig: RuckigSync | None = None) -> Any:
     ax_p.legend(fontsize=7 if many else 8, ncols=_columns(len(axes)))
     deviation_panel(ax_d, t, d)
     speeds(ax_v, axes, sign, ruckig)
+    units = {motor_units(a.motor) for a in axes if hasattr(a, "motor")}
+    if len(units) == 1 and None not in units:  # one scale fits every axis: mm (or rev)
+        [u] = units
+        real_axis(ax_p, u, "distance", "top")
+        real_axis(ax_p, u, "distance", "right")
+        real_axis(ax_v, u, "speed", "right")
     for ax in (ax_p, ax_d, ax_v):
         ax.grid(alpha=0.3)
     return fig
@@ -76,7 +84,7 @@ def deviation_panel(ax: Any, t: np.ndarray, d: np.ndarray) -> None:
         ax.plot([t[worst] * 1e3], [d[worst]], "o", color="k", ms=5,
                 label=f"worst {d[worst]:.3g} pulses at {t[worst] * 1e3:.4g} ms")
     ax.set(xlabel="time [ms]", ylabel="distance to\nthe line [pulses]")
-    ax.set_ylim(0, 1.3 * max(float(np.max(d)) if len(d) else 0.0, 1e-9))
+    ax.set_ylim(0, 1.45 * max(float(np.max(d)) if len(d) else 0.0, 1e-9))  # room: legend
     ax.legend(fontsize=7, loc="upper right", ncols=3)
 
 
