@@ -187,3 +187,41 @@ def test_ramp_of_settings_uses_the_multiplier() -> None:
     ramp = ramp_of(quantise_settings(800, 20000, 5.0, s_curve=True))
     assert ramp.multiplier == 10 and ramp.shape == "s_curve"
     assert ramp.speeds_pps[0] == 800 and ramp.speeds_pps[-1] < 20000
+
+
+def test_simulate_settings_shows_the_units_move(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    """`simulate SETTINGS --pulses N`: the model's move, its pulse times in the CSV."""
+    path = tmp_path / "s.txt"
+    assert run(capsys, "alink", "settings", "--start-pps", "800", "--high-pps", "20000",
+               "--accel-ms-per-kpps", "5", "-o", str(path))[0] == 0
+    times = tmp_path / "t.csv"
+    code, out, _ = run(capsys, "simulate", str(path), "--pulses", "101", "--pulse-times",
+                       str(times))
+    assert code == 0 and "shape: triangle" in out and "up 51" in out and "down 50" in out
+    rows = times.read_text().splitlines()
+    assert rows[0] == "pulse,time_s" and len(rows) == 102
+    speeds = stepped(800, 20000, 200_000.0, 10, "linear", 101)
+    # 1920 speed steps judged as 241 stages: the stepped unit's time within 0.1 %
+    assert float(rows[-1].split(",")[1]) == pytest.approx(sum(1 / v for v in speeds), rel=1e-3)
+    code, out, _ = run(capsys, "simulate", str(path), "--pulses", "5000", "--format", "json")
+    doc = json.loads(out)
+    assert code == 0 and doc["shape"] == "trapezoid" and doc["peak_pps"] == pytest.approx(20000)
+    assert sum(s["pulses"] for s in doc["segments"]) == 5000
+    code, _, err = run(capsys, "simulate", str(path), "--pulses", "10", "--samples", "x.csv")
+    assert code == 2 and "--samples" in err
+
+
+def test_check_json_is_the_tables_verdict_shape(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    """The same verdict object as a PPMC-312 table's (`--format json`)."""
+    path = tmp_path / "s.txt"
+    assert run(capsys, "alink", "settings", "--start-pps", "800", "--high-pps", "20000",
+               "--accel-ms-per-kpps", "5", "-o", str(path))[0] == 0
+    _, report, _ = run(capsys, "check", str(path), "examples/free-curve-nema17.json",
+                          "--motor", "nema17-1600", "--format", "json")
+    doc = json.loads(report)
+    files = doc["files"] if isinstance(doc, dict) else doc
+    ramp, table = files[0]["safety"], files[1]["safety"]
+    assert set(ramp) == set(table)
+    assert ramp["moves"] == "every" and ramp["safe"] in (True, False)

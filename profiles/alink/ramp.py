@@ -42,6 +42,7 @@ model's clock `RAMP_HZ`, the form the compiled load-angle kernel takes.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -287,3 +288,79 @@ def homing_ramp(ol_pps: int, oh_pps: int, accel_pps2: float, shape: RampShape,
                 multiplier: int) -> AlinkRamp:
     """The homing search's ramp from OL to OH at O_UPTIME's rate (module doc: 7)."""
     return build_ramp(ol_pps, oh_pps, accel_pps2, multiplier, shape)
+
+
+# --- one move as the unit runs it (stepramp simulate SETTINGS) -----------------------------------
+
+PULSE_TIMES_CSV_MAX = 10_000_000   # rows of a pulse-times CSV (one a pulse)
+
+
+@dataclass(frozen=True)
+class Motion:
+    """One move of `pulses` under the model: its parts, its segments (speed [pps] and
+    pulses each, in order), its shape and duration."""
+
+    pulses: int
+    shape: str            # trapezoid, triangle, avoided_triangle, constant
+    up: int
+    middle: int
+    down: int
+    rates: np.ndarray = field(repr=False)    # ticks of RAMP_HZ per pulse, per segment
+    counts: np.ndarray = field(repr=False)
+
+    @property
+    def speeds_pps(self) -> np.ndarray:
+        return RAMP_HZ / self.rates.astype(float)
+
+    @property
+    def duration_s(self) -> float:
+        return float(np.sum(self.counts * self.rates) / RAMP_HZ)
+
+    @property
+    def peak_pps(self) -> float:
+        return float(self.speeds_pps.max())
+
+    def to_json(self) -> dict[str, object]:
+        return {"pulses": self.pulses, "shape": self.shape, "up_pulses": self.up,
+                "middle_pulses": self.middle, "down_pulses": self.down,
+                "duration_s": self.duration_s, "peak_pps": self.peak_pps,
+                "segments": [{"speed_pps": v, "pulses": c} for v, c in
+                             zip(self.speeds_pps.tolist(), self.counts.tolist(),
+                                 strict=True)]}
+
+    def segments_csv(self) -> str:
+        """Each segment as CSV `segment,speed_pps,pulses,duration_s,end_s`."""
+        dur = self.counts * self.rates / RAMP_HZ
+        ends = np.cumsum(dur)
+        return "segment,speed_pps,pulses,duration_s,end_s\n" + "".join(
+            f"{k},{v:.6f},{c},{d:.9f},{e:.9f}\n" for k, (v, c, d, e) in enumerate(zip(
+                self.speeds_pps.tolist(), self.counts.tolist(), dur.tolist(), ends.tolist(),
+                strict=True)))
+
+    def pulse_times_chunks(self, chunk: int = 1 << 16) -> Iterator[str]:
+        """CSV `pulse,time_s`: each pulse's end, segment by segment, in pieces of at most
+        `chunk` rows (memory does not grow with the move); at most PULSE_TIMES_CSV_MAX."""
+        if self.pulses > PULSE_TIMES_CSV_MAX:
+            raise FieldRangeError("pulses (one CSV row per pulse)", self.pulses, 1,
+                                  PULSE_TIMES_CSV_MAX)
+        yield "pulse,time_s\n"
+        start, number = 0, 1
+        for rate, count in zip(self.rates.tolist(), self.counts.tolist(), strict=True):
+            for k0 in range(0, count, chunk):
+                k = np.arange(k0 + 1, min(count, k0 + chunk) + 1, dtype=np.int64)
+                times = (start + k * rate) / RAMP_HZ
+                yield "".join(f"{n},{t:.9f}\n" for n, t in enumerate(times.tolist(), number))
+                number += len(k)
+            start += count * rate
+
+
+def run_move(ramp: AlinkRamp, pulses: int) -> Motion:
+    """The move of `pulses` the unit runs with `ramp` (module doc: 5)."""
+    require_int("pulses", pulses, 1, MOVE_PULSES_MAX)
+    p = parts(ramp, "move", np.array([pulses]))
+    rates, counts, _ = segments(ramp, p)
+    up, middle, down = int(p.up[0]), int(p.middle[0]), int(p.down[0])
+    r = ramp.ramp_pulses
+    shape = ("constant" if r == 0 else "trapezoid" if up == r else
+             "avoided_triangle" if middle else "triangle")
+    return Motion(pulses, shape, up, middle, down, rates, counts)
