@@ -231,48 +231,51 @@ def families(ramp: AlinkRamp, kind: Kind
 def segments(ramp: AlinkRamp, motions: Parts
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The motions as flat segments: (rate [ticks of RAMP_HZ], pulses, offsets): motion e
-    is segments offsets[e]..offsets[e+1], neighbouring ones at one rate joined."""
+    is segments offsets[e]..offsets[e+1], neighbouring ones at one rate joined. Each
+    motion's slots (its up stages, the middle, its down stages) are placed where they go,
+    no sort."""
     p = ramp.pulses
     ends = np.cumsum(p)
     n = len(p)
     rates = np.append(ramp.rates, ramp.high_rate)
+    counts = np.append(p, 0)      # a stage's pulses; the high speed's come from `middle`
+    before = np.concatenate(([0], ends))   # pulses before each stage
     up, mid, down = motions.up, motions.middle, motions.down
     m = len(up)
-    k_up = np.where(up > 0, np.searchsorted(ends, up, side="left"), -1) if n else \
-        np.full(m, -1)
-    k_dn = np.where(down > 0, np.searchsorted(ends, down, side="left"), -1) if n else \
-        np.full(m, -1)
-    blocks = []
-    for k_last, total, rising in ((k_up, up, True), (k_dn, down, False)):
-        size = k_last + 1
-        move = np.repeat(np.arange(m), size)
-        within = np.arange(int(size.sum())) - np.repeat(np.cumsum(size) - size, size)
-        stage = within if rising else np.repeat(k_last, size) - within
-        count = p[stage] if n else np.zeros(0, np.int64)
+    k_up = np.searchsorted(ends, up, side="left") if n else np.zeros(m, np.int64)
+    k_dn = np.searchsorted(ends, down, side="left") if n else np.zeros(m, np.int64)
+    n_up = np.where(up > 0, k_up + 1, 0)
+    n_dn = np.where(down > 0, k_dn + 1, 0)
+    size = n_up + 1 + n_dn
+    first = np.cumsum(size) - size
+    total = int(size.sum())
+    rate = np.empty(total, np.int64)
+    count = np.empty(total, np.int64)
+    for n_side, k_side, part, rising in ((n_up, k_up, up, True), (n_dn, k_dn, down, False)):
+        owner = np.repeat(np.arange(m), n_side)
+        within = np.arange(int(n_side.sum())) - np.repeat(np.cumsum(n_side) - n_side, n_side)
+        stage = within if rising else k_side[owner] - within
+        slot = first[owner] + (within if rising else n_up[owner] + 1 + within)
         # the partial stage at the turn: the last going up, the first coming down
-        last = within == (np.repeat(size - 1, size) if rising else 0)
-        before = np.where(stage > 0, ends[np.maximum(stage - 1, 0)] if n else 0, 0)
-        count = np.where(last, np.repeat(total, size) - before, count)
-        order = within if rising else 2 * (n + 1) + within
-        blocks.append((move, order, rates[stage] if n else stage, count))
+        turn = within == (n_side[owner] - 1 if rising else 0)
+        rate[slot] = rates[stage]
+        count[slot] = np.where(turn, part[owner] - before[stage], counts[stage])
     # the middle runs at the stage the up part ended in (H after a whole ramp)
-    r = ramp.ramp_pulses
-    mid_stage = np.where(up >= r, n, np.maximum(k_up, 0))
-    blocks.insert(1, (np.arange(m), np.full(m, n + 1), rates[mid_stage], mid))
-    move, order, rate, count = (np.concatenate(b) for b in zip(*blocks, strict=True))
+    mid_stage = np.where(up >= ramp.ramp_pulses, n, k_up)
+    rate[first + n_up] = rates[mid_stage]
+    count[first + n_up] = mid
+    owner = np.repeat(np.arange(m), size)
     keep = count > 0
-    move, order, rate, count = move[keep], order[keep], rate[keep], count[keep]
-    sort = np.lexsort((order, move))
-    move, rate, count = move[sort], rate[sort], count[sort]
+    owner, rate, count = owner[keep], rate[keep], count[keep]
     # join neighbouring segments of one rate within a motion (the peak's dwell)
-    new = np.ones(len(move), bool)
-    new[1:] = (move[1:] != move[:-1]) | (rate[1:] != rate[:-1])
-    first = np.flatnonzero(new)
-    count = np.add.reduceat(count, first) if len(first) else count
-    move, rate = move[first], rate[first]
+    new = np.ones(len(owner), bool)
+    new[1:] = (owner[1:] != owner[:-1]) | (rate[1:] != rate[:-1])
+    starts = np.flatnonzero(new)
+    count = np.add.reduceat(count, starts) if len(starts) else count
+    owner, rate = owner[starts], rate[starts]
     offsets = np.zeros(m + 1, np.int64)
-    offsets[1:] = np.cumsum(np.bincount(move, minlength=m))
-    return rate.astype(np.int64), count.astype(np.int64), offsets
+    offsets[1:] = np.cumsum(np.bincount(owner, minlength=m))
+    return rate, count, offsets
 
 
 def pulse_times_s(ramp: AlinkRamp, kind: Kind, x: int) -> tuple[np.ndarray, np.ndarray]:
