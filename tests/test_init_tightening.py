@@ -292,3 +292,19 @@ def test_init_refusals_by_the_criterion_name_what_would_help(
     with pytest.raises(InitPlanError, match=r"even with the longest ramp the chip takes "
                                             r"\(1048575 pulses\): a lower top speed"):
         init_planner.init_candidates(motor, "s_curve", highs=2)
+
+
+@pytest.mark.slow  # a whole tightening, its candidate searches forgotten first
+def test_a_tightening_reports_progress_for_every_search(datasheet_path: Path) -> None:
+    """The plain table's candidate search and each gentler one's: a long tightening keeps
+    its progress bar moving."""
+    from profiles.ppmc312.init_planner import forget_candidates
+
+    motor = load_motor(datasheet_path)
+    heard: list[tuple[int, int]] = []
+    forget_candidates()
+    plan = tighten_init(motor, "linear", PULSES, init_judge(motor),
+                        progress=lambda done, total: heard.append((done, total)))
+    searches = sum(1 for done, _ in heard if done == 0)
+    assert plan.extras["plans"] >= 2 and searches == plan.extras["plans"]
+    assert all(0 <= done <= total for done, total in heard)

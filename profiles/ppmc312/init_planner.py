@@ -111,6 +111,11 @@ def init_candidates(motor: Motor, shape: Shape, *, clock: Clock | None = None,
 _candidates: Remembered[list[InitCandidate]] = Remembered(CANDIDATES_KEPT)
 
 
+def forget_candidates() -> None:
+    """Forget the remembered candidate lists (a test or a benchmark times a search)."""
+    _candidates.clear()
+
+
 def plan_init(motor: Motor, shape: Shape, pulses: int, *, clock: Clock | None = None,
               separate_decel: bool = True,
               candidates: list[InitCandidate] | None = None,
@@ -288,7 +293,8 @@ def tighten_init(motor: Motor, shape: Shape, pulses: int, judge: InitJudge, *,
     """The fastest init table for a move of `pulses` that `judge` finds within `aim_deg`
     (module docstring): planned by the criterion (on a tolerance box's worst case), then,
     while `judge` says it is past the aim, planned again for a gentler motor (`Levers`),
-    then bisected back. `extras` as `plan_init`'s, and `levers` (the Levers used),
+    then bisected back; `progress` hears each candidate search (a tightening runs
+    several, each from 0). `extras` as `plan_init`'s, and `levers` (the Levers used),
     `judgement` (the judge's word on the table), `untightened` (the plain plan, for the
     price), `plans` (how many were judged) and, when no table is within the aim, `fix`
     (what would help) and the closest table."""
@@ -307,7 +313,7 @@ def tighten_init(motor: Motor, shape: Shape, pulses: int, judge: InitJudge, *,
         """Plan and judge at `levers`; False when no table is left (too gentle)."""
         try:
             plan = plan_init(levers.motor(planned), shape, pulses, clock=clock,
-                             separate_decel=separate_decel)
+                             separate_decel=separate_decel, progress=progress)
         except InitPlanError:
             return False
         tried.append((levers, plan, judge(plan.table)))
