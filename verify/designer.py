@@ -16,15 +16,19 @@ the web page of `stepramp design` (verify/webdesigner.py) are two views of them,
 and a bench times them (bench/bench_designer.py). Widgets (ipywidgets) and
 matplotlib are imported only when a designer is built.
 
-A change is shown in two steps (`design_steps`): first the plain stall criterion's
-table (`first_design`: a plan that the tightening would start from anyway, with its
-margins and the exact optimum; no load angle judged), marked as being tightened
-(`Design.final` False, the verdict "tightening", the figure's title) and never offered
-as safe; then the final table (`design`), tightened to the load-angle aim and judged, the
-same table `stepramp plan` gives for those inputs. The figure draws the first one
-over the last final drawing's axes (`DesignFigure.update`: only the data and the texts
-are drawn again), so it shows in a few tens of milliseconds; bench/bench_designer.py
-times both against the budget (first ≤ 50 ms, final ≤ 150 ms, issue #32 item 9).
+A change is shown in three steps (`design_steps`): first the plain stall criterion's
+table (`first_design`: the plan the tightening starts from anyway, with its margins and
+the exact optimum; no load angle judged), marked as being tightened (`Design.final`
+False, the verdict "tightening", TIGHTENING in the figure's title and a mark) and never
+offered; then the final table, tightened to the load-angle aim (the same table
+`stepramp plan` gives for those inputs) and judged for moves and decel stops (the
+tightening's verdicts, remembered); then its verdict over every motion command
+(`judged_in_full`, what `design` returns; `Design.complete`: only such a design is
+written or downloaded). The figure keeps its axes and draws a design that fits them
+over a kept background (`DesignFigure.update`: only the data and the texts), so a step
+shows in a few tens of milliseconds; bench/bench_designer.py times the steps against
+the budget (first ≤ 50 ms, final ≤ 150 ms, issue #32 item 9). Lengths and speeds are
+also given in mm and mm/s (rev, rpm on a rotary axis): `profiles.motor.travel`.
 
 The load torque slider sets the motor's `load_torque_nm` (signed: > 0 opposes
 forward motion); the load angle is followed in the direction the load opposes
