@@ -220,3 +220,21 @@ def test_a_datasheet_motors_graph_counts_equal_the_step_by_step_counts() -> None
         assert np.array_equal(gr.valid, valid)
         assert np.array_equal(gr.w, np.where(valid, n + d, 0.0))
         assert np.array_equal(gr.wa, np.where(valid, n, 0.0))
+
+
+def test_a_shaped_graph_is_as_wide_as_its_largest_jump_and_loses_no_step() -> None:
+    """A uniformly tightened plan's graph is narrower (no band allows the full jump), and
+    every step it leaves out is invalid in the full-width counts."""
+    from profiles.ppmc312.planner.search import GRID_TARGET, graph, grid_rates
+
+    motor = Motor(steps_per_rev=1600, curve_speed_pps=np.array([0.0, 11464.0, 27215.0]),
+                  curve_torque_nm=np.array([0.44, 0.44, 0.02]), inertia_kgm2=1.5e-5,
+                  safety_factor=0.6, start_pps=5546.0, friction_torque_nm=0.04)
+    plain = make_problem(motor, choose_clock(motor), True)
+    shaped = make_problem(motor, choose_clock(motor), True, Shaping.uniform(0.6))
+    rates = grid_rates(plain, GRID_TARGET)
+    full, narrow = graph(plain, rates), graph(shaped, rates)
+    assert narrow.width < 0.7 * full.width
+    _, _, _, valid, _ = shaped.graph_counts(rates, full.width)
+    assert not valid[:, narrow.width:].any()
+    assert np.array_equal(valid[:, :narrow.width], narrow.valid)

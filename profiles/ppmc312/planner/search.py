@@ -99,7 +99,9 @@ class Graph:
 def graph(pb: Problem, rates: np.ndarray) -> Graph:
     f = pb.hz / rates.astype(float)
     g = len(rates)
-    first = np.searchsorted(f, f - pb.jump * (1 + 1e-12), side="left")
+    # no step is longer than the largest jump any band allows (a shaped plan's are shorter)
+    jump = pb.jump * (1.0 if pb.shaping.plain else max(pb.shaping.scale))
+    first = np.searchsorted(f, f - jump * (1 + 1e-12), side="left")
     width = int(max(1, np.max(np.arange(g) - first)))
     # pb.counts(rates[j − 1 − w], rates[j]), valid where j − 1 − w ≥ 0
     w, wa, packed_w, valid, reach = pb.graph_counts(rates, width)
