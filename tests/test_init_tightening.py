@@ -152,6 +152,21 @@ def test_judgement_blames_short_moves_early_stops_and_commands_from_rest_on_the_
     assert j.failing == ("moves", "decel-stop", "set-speed")
 
 
+def test_judgement_counts_sample_failures_as_the_peak_and_a_criterion_finding_on_the_ramp(
+        ) -> None:
+    v = _verdict((60.0, 10), (50.0, 900), {"stop": 40.0})
+    v.load_angle.sample_failures = 3       # Monte Carlo samples past the peak, corners not
+    v.criterion = (SimpleNamespace(severity="error"),)
+    j = judgement(v, TABLE)
+    assert (j.start_deg, j.ramp_deg) == (90.0, 90.0)
+    assert j.failing == ("criterion", "moves")
+    short = InitTable(Clock.internal("8MHz"), "linear", 2000, 400, 40)  # a quarter: 10
+    j = judgement(_verdict((80.0, 32), (20.0, 16), {}), short)   # the zone is 16 pulses
+    assert (j.start_deg, j.ramp_deg) == (80.0, 0.0)
+    j = judgement(_verdict((80.0, 34), (20.0, 17), {}), short)
+    assert (j.start_deg, j.ramp_deg) == (0.0, 80.0)
+
+
 def test_levers_tighten_what_is_blamed_and_the_top_once_the_ramp_is_at_its_floor() -> None:
     j = InitJudgement(False, False, start_deg=100.0, ramp_deg=50.0)
     assert Levers().tightened(j, 75.0) == Levers(start=0.75)
