@@ -225,3 +225,34 @@ def test_check_json_is_the_tables_verdict_shape(tmp_path: Path,
     ramp, table = files[0]["safety"], files[1]["safety"]
     assert set(ramp) == set(table)
     assert ramp["moves"] == "every" and ramp["safe"] in (True, False)
+
+
+def test_homing_legs_are_judged_and_a_fast_origin_stop_fails() -> None:
+    """A search stopping at once from OH far above the self-start speed slips; within it,
+    the homing legs are within the aim (the bundled NEMA17: self-start 800 pps)."""
+    from profiles.alink.homing import HomingSettings
+
+    motor = load_motor(resolve("nema17-1600"))
+    ramp = ramp_of(quantise_settings(800, 20000, 5.0))
+    fast = judge_safety(ramp, motor, homing=HomingSettings(1000, 20000, 200))
+    rules = {f.rule for f in fast.findings()}
+    assert {"stall-start-speed", "alink-homing-load-angle"} <= rules and not fast.safe
+    slow = judge_safety(ramp, motor, homing=HomingSettings(200, 800, 200))
+    assert dict(slow.commands)["homing"].within_aim and slow.safe
+
+
+def test_tighten_homing_lowers_oh_until_the_judge_agrees() -> None:
+    from profiles.alink.homing import HomingSettings, tighten_homing
+
+    motor = load_motor(resolve("nema17-1600"))
+
+    def below_500(h: HomingSettings) -> Judgement:
+        return Judgement(h.oh_pps <= 500, 80.0 if h.oh_pps > 500 else 60.0, "start", "")
+
+    h, verdict, price = tighten_homing(motor, HomingSettings(200, 800, 200), below_500,
+                                       aim_deg=75.0)
+    assert h.oh_pps <= 500 and h.oh_pps % 20 == 0 and h.ol_pps <= h.oh_pps
+    assert verdict.within_aim and "origin high speed lowered to" in price
+    with pytest.raises(PlanError, match="higher drive current"):
+        tighten_homing(motor, HomingSettings(200, 800, 200),
+                       lambda h: Judgement(False, 99.0, "start", ""), aim_deg=75.0)

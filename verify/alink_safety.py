@@ -16,7 +16,7 @@ at once within the self-start speed.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -24,7 +24,17 @@ import numpy as np
 
 from profiles.alink.homing import STEP_PPS, HomingSettings
 from profiles.alink.model import MOVE_PULSES_MAX
-from profiles.alink.ramp import RAMP_HZ, AlinkRamp, Kind, build_ramp, families, parts, segments
+from profiles.alink.planner import Judgement
+from profiles.alink.ramp import (
+    RAMP_HZ,
+    AlinkRamp,
+    Kind,
+    RampShape,
+    build_ramp,
+    families,
+    parts,
+    segments,
+)
 from profiles.motor import Motor
 from profiles.motor.angles import PEAK_DEG
 from profiles.motor.rotor import Rotors, rotors
@@ -205,23 +215,47 @@ RULES: dict[str, tuple[tuple[str, str], tuple[str, str]]] = {
 def family_verdicts(ramp: AlinkRamp, homing: HomingSettings | None, rot: Rotors,
                     aim_deg: float) -> list[tuple[str, MotionVerdict]]:
     """The decel stops from every pulse of the ramp and, with `homing`, its legs (a search
-    ramping OL → OH and stopping at once, the creep at OL), over every row of `rot`."""
+    ramping OL → OH in the ramp's shape and stopping at once, the creep at OL), over every
+    row of `rot`."""
     out = []
     if ramp.ramp_pulses > 1:
         out.append(("decel-stop", _verdict("decel-stop", "decel stops (STOP 31) from every "
                                            "pulse of the ramp",
                                            motion_angles(ramp, "stop", rot), rot, aim_deg)))
     if homing is not None:
-        search = build_ramp(homing.ol_pps, homing.oh_pps, homing.accel_pps2, STEP_PPS,
-                            ramp.shape)
-        creep = build_ramp(homing.ol_pps, homing.ol_pps, homing.accel_pps2, STEP_PPS)
-        legs = [motion_angles(search, "search", rot), motion_angles(creep, "creep", rot)]
-        worst = max(legs, key=lambda a: a.worst()[0] if a.deg.size else -1.0)
-        out.append(("homing", _verdict("homing", f"homing searches (OL {homing.ol_pps} → OH "
-                                       f"{homing.oh_pps} pps, stopping at once) and the "
-                                       "creep at OL", worst, rot, aim_deg,
-                                       sum(a.deg.size for a in legs))))
+        out.append(("homing", homing_verdict(homing, (ramp.shape,), rot, aim_deg)))
     return out
+
+
+def homing_verdict(homing: HomingSettings, shapes: Sequence[RampShape], rot: Rotors,
+                   aim_deg: float) -> MotionVerdict:
+    """The homing legs on the load angle for every row of `rot`: a search ramping OL → OH
+    at O_UPTIME (in each of `shapes`: MODE's, or both when it is not known) in steps of
+    ×20, cruising at OH and stopping at once at the origin, and the creep at OL stopping
+    at once at the edge (profiles/alink/ramp.py, 7)."""
+    legs = [motion_angles(build_ramp(homing.ol_pps, homing.oh_pps, homing.accel_pps2,
+                                     STEP_PPS, shape), "search", rot) for shape in shapes]
+    legs.append(motion_angles(build_ramp(homing.ol_pps, homing.ol_pps, homing.accel_pps2,
+                                         STEP_PPS), "creep", rot))
+    worst = max(legs, key=lambda a: a.worst()[0] if a.deg.size else -1.0)
+    return _verdict("homing", f"homing searches (OL {homing.ol_pps} → OH {homing.oh_pps} "
+                    "pps, stopping at once) and the creep at OL", worst, rot, aim_deg,
+                    sum(a.deg.size for a in legs))
+
+
+def homing_judge(motor: Motor, *, aim_deg: float) -> Callable[[HomingSettings], Judgement]:
+    """The homing legs' verdict as `profiles.alink.homing.tighten_homing`'s judge: over the
+    motor's box corners, both ramp shapes (an `alink homing` file knows no MODE)."""
+    from profiles.motor.tolerance import corners
+
+    motors = [c.motor for c in corners(motor)] if motor.tolerances else [motor]
+    rot = box_rotors(motors, ways_of(motor))
+
+    def judged(homing: HomingSettings) -> Judgement:
+        v = homing_verdict(homing, ("linear", "s_curve"), rot, aim_deg)
+        return Judgement(v.within_aim, v.worst_deg, "start", v.describe())
+
+    return judged
 
 
 def _verdict(name: str, what: str, found: Angles, rot: Rotors, aim_deg: float,

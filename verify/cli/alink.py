@@ -261,25 +261,32 @@ def _do_homing(args: argparse.Namespace) -> int:
 
     from profiles.alink import homing_commands, plan_homing
     from profiles.alink.formats import C_NAME_DEFAULT, FORMATS, render
+    from profiles.alink.homing import tighten_homing
     from profiles.formats import Provenance
     from profiles.motor import load_motor
+    from profiles.motor.angles import AIM_DEG
+    from verify.alink_safety import homing_judge
     from verify.output import write_output
 
     motor = load_motor(args.motor)
     with fields_as_options({"max_pps": "--max-pps"}):
         plan = plan_homing(motor, max_pps=args.max_pps)
+    h, verdict, price = tighten_homing(motor, plan.table,
+                                       homing_judge(motor, aim_deg=AIM_DEG), aim_deg=AIM_DEG)
     with fields_as_options(ADDRESSING):
-        commands = homing_commands(plan.table, slave_address=args.address, axis=args.axis,
+        commands = homing_commands(h, slave_address=args.address, axis=args.axis,
                                    duplex=args.duplex)
-    h = plan.table  # the C comment's line stays ASCII: the model is in text and JSON
+    # the C comment's line stays ASCII: the model is in text and JSON
     fmt, options = file_format(args, FORMATS, Provenance(command_line(args), lines=(
         f"homing: OL {h.ol_pps} pps, OH {h.oh_pps} pps, O_UPTIME para {h.o_uptime_para}; "
         f"bound by {plan.binds}",)), default="text", c_default=C_NAME_DEFAULT)
     header = {"homing": {"ol_pps": h.ol_pps, "oh_pps": h.oh_pps,
                          "o_uptime_para": h.o_uptime_para,
                          "accel_pps2": h.accel_pps2, "binds": plan.binds,
-                         "model": plan.extras["model"]},
-              "warnings": list(plan.warnings)}
+                         "model": plan.extras["model"],
+                         "worst_load_angle_deg": verdict.worst_deg,
+                         "load_angle": verdict.what},
+              "warnings": list(plan.warnings) + ([price] if price else [])}
     write_output(args.output, render(commands, fmt, replace(options, header=header)))
     return EXIT_OK
 
