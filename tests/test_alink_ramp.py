@@ -256,3 +256,18 @@ def test_tighten_homing_lowers_oh_until_the_judge_agrees() -> None:
     with pytest.raises(PlanError, match="higher drive current"):
         tighten_homing(motor, HomingSettings(200, 800, 200),
                        lambda h: Judgement(False, 99.0, "start", ""), aim_deg=75.0)
+
+
+def test_sync_axis_verdict_carries_the_ramps_verdict() -> None:
+    """sync's report on an A-Link axis: the planner's rule and the one verdict's JSON."""
+    from types import SimpleNamespace
+
+    from verify.devices.alink import axis_verdict
+
+    motor = load_motor(resolve("nema17-1600"))
+    safe, facts = axis_verdict(SimpleNamespace(settings=quantise_settings(800, 20000, 5.0),
+                                               motor=motor))
+    assert safe and facts["stall_safe"] and facts["safety"]["moves"] == "every"
+    fast, facts = axis_verdict(SimpleNamespace(settings=quantise_settings(2000, 40000, 0.1),
+                                               motor=motor))
+    assert not fast and not facts["safety"]["safe"]

@@ -114,6 +114,9 @@ def safety_findings(commands: Sequence[Command], options: CheckOptions, notes: l
                            progress=options.progress)
     details["safety"] = verdict.to_json()
     notes.append(f"the unit's ramp: {ramp.describe()}")
+    if options.commands is not None:
+        notes.append("--commands names PPMC-312 motion commands: the unit's decel stops "
+                     "(STOP 31) and homing legs are judged whatever it says")
     notes.extend(verdict.notes())
     return verdict.findings()
 
@@ -175,11 +178,15 @@ def _speed_at(ramp: AlinkRamp, pulse: int) -> float:
 def axis_verdict(axis: Any) -> tuple[bool, dict[str, Any]]:
     """Whether one axis of a synchronised move is safe, and what sync's report says of it:
     its settings against the rule the planner plans by
-    (`profiles.alink.sync.is_stall_safe`)."""
+    (`profiles.alink.sync.is_stall_safe`) and the one safety verdict on the unit's ramp
+    (`judge_safety`, every move length: its JSON as a PPMC-312 axis's `safety`)."""
+    from profiles.alink.ramp import ramp_of
     from profiles.alink.sync import is_stall_safe
+    from verify.safety import judge_safety
 
-    safe = is_stall_safe(axis.settings, axis.motor)
-    return safe, {"stall_safe": safe}
+    rule = is_stall_safe(axis.settings, axis.motor)
+    verdict = judge_safety(ramp_of(axis.settings), axis.motor)
+    return rule and verdict.safe, {"stall_safe": rule, "safety": verdict.to_json()}
 
 
 def findings(raw: bytes, path: str) -> list[Finding]:
