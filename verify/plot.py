@@ -430,7 +430,8 @@ def drawn_texts(fig: Any) -> list[Any]:
     from matplotlib.text import Text
 
     hidden: set[int] = set()
-    for ax in fig.axes:
+    every = [ax for top in fig.axes for ax in (top, *top.child_axes)]  # second scales too
+    for ax in every:
         for axis in (ax.xaxis, ax.yaxis):
             lo, hi = sorted(axis.get_view_interval())
             tol = 1e-9 * max(abs(lo), abs(hi), 1.0)
