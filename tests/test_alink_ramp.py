@@ -129,15 +129,16 @@ def datasheet_motor(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return path
 
 
-@pytest.mark.parametrize("name", ["nema17-1600", "nema23-heavy", "pk566-5phase-half",
-                                  "datasheet"])
+@pytest.mark.parametrize(("name", "extra"), [
+    ("nema17-1600", ()), ("nema23-heavy", ()), ("pk566-5phase-half", ()), ("datasheet", ()),
+    ("datasheet", ("--s-curve",)), ("datasheet", ("--pulses", "400"))])
 def test_planned_settings_within_the_aim_at_every_length(
-        name: str, datasheet_motor: Path, tmp_path: Path,
+        name: str, extra: tuple[str, ...], datasheet_motor: Path, tmp_path: Path,
         capsys: pytest.CaptureFixture[str]) -> None:
     motor = str(datasheet_motor) if name == "datasheet" else name
     out = tmp_path / "s.json"
     code, _, _ = run(capsys, "alink", "settings", "--motor", motor, "--format", "json",
-                     "-o", str(out))
+                     "-o", str(out), *extra)
     assert code == 0
     code, report, _ = run(capsys, "check", str(out), "--motor", motor, "--format", "json")
     assert code == 0, report
@@ -271,3 +272,27 @@ def test_sync_axis_verdict_carries_the_ramps_verdict() -> None:
     fast, facts = axis_verdict(SimpleNamespace(settings=quantise_settings(2000, 40000, 0.1),
                                                motor=motor))
     assert not fast and not facts["safety"]["safe"]
+
+
+def test_triangle_avoidance_runs_a_third_at_the_speed_reached() -> None:
+    ramp = build_ramp(400, 20000, 40_000.0, 10, "linear", triangle_avoidance=True)
+    p = parts(ramp, "move", np.array([31, 3 * ramp.ramp_pulses + 5]))
+    assert (p.up.tolist(), p.middle.tolist(), p.down.tolist()) == (
+        [10, ramp.ramp_pulses], [11, ramp.ramp_pulses + 5], [10, ramp.ramp_pulses])
+
+
+def test_decel_stop_against_the_oracle() -> None:
+    """A decel stop from pulse x of the ramp: the stepped unit's first x pulses, then its
+    ramp reversed from the stage x is in, judged as the verdict's stop family is."""
+    from verify.alink_safety import motion_angles, nominal_rotors
+
+    motor = resolve("nema17-1600")
+    ramp = build_ramp(800, 4000, 150_000.0, 20, "linear")   # 160 steps: exact stages
+    ends = np.cumsum(ramp.pulses)
+    unit = stepped(800, 4000, 150_000.0, 20, "linear", 2 * ramp.ramp_pulses)
+    unit_ramp = unit[:ramp.ramp_pulses]
+    for x in (3, int(ends[40]) + 1, ramp.ramp_pulses - 2):
+        stage_end = int(ends[np.searchsorted(ends, x)])
+        speeds = unit_ramp[:x] + unit_ramp[:stage_end][::-1]
+        found = motion_angles(ramp, "stop", nominal_rotors(load_motor(motor)), [x])
+        assert float(found.deg.max()) == pytest.approx(oracle_deg(motor, speeds), abs=0.5)
