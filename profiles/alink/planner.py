@@ -192,11 +192,13 @@ def tighten_settings(motor: Motor, settings: AlinkSettings, judge: SettingsJudge
     left. `pulses`: the move whose time the price names (else the shortest that reaches
     the high speed before, and the worst short move)."""
     s = settings
+    first: Judgement | None = None
     for rounds in range(MAX_ROUNDS):
         verdict = judge(s)
+        first = first or verdict
         if verdict.within_aim:
             return Tightened(s, settings, rounds, verdict,
-                             _price(settings, s, verdict, aim_deg, pulses))
+                             _price(settings, s, (first, verdict), aim_deg, pulses))
         nxt = _gentler(s, verdict.blame, motor)
         if nxt is None:
             break
@@ -231,9 +233,10 @@ def _gentler(s: AlinkSettings, blame: str, motor: Motor) -> AlinkSettings | None
     return None
 
 
-def _price(before: AlinkSettings, after: AlinkSettings, verdict: Judgement, aim_deg: float,
-           pulses: int | None) -> str:
-    """What the tightening changed and what it costs, in plain words."""
+def _price(before: AlinkSettings, after: AlinkSettings, verdicts: tuple[Judgement, Judgement],
+           aim_deg: float, pulses: int | None) -> str:
+    """What the tightening changed and what it costs, in plain words (`verdicts`: the
+    judge's on the settings before and after)."""
     if after == before:
         return ""
     changes = []
@@ -251,7 +254,10 @@ def _price(before: AlinkSettings, after: AlinkSettings, verdict: Judgement, aim_
     costs = []
     for n in lengths:
         t0, t1 = move_time_s(before, n).duration_s, move_time_s(after, n).duration_s
-        costs.append(f"a move of {n} pulses takes {t1 * 1e3:.4g} ms instead of "
+        which = ("" if pulses is not None or n == 100 else
+                 " (the shortest that reached the high speed)")
+        costs.append(f"a move of {n} pulses{which} takes {t1 * 1e3:.4g} ms instead of "
                      f"{t0 * 1e3:.4g} ms ({t1 / t0 - 1:+.1%})")
-    return (", ".join(changes) + f" to keep every move within {aim_deg:g}° (worst now "
-            f"{verdict.worst_deg:.1f}°): " + "; ".join(costs))
+    was, now = verdicts
+    return (", ".join(changes) + f" to keep every move within {aim_deg:g}° (worst "
+            f"{was.worst_deg:.1f}° → {now.worst_deg:.1f}°, {was.what}): " + "; ".join(costs))

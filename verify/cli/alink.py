@@ -163,11 +163,15 @@ def _do_settings(args: argparse.Namespace) -> int:
                    "provenance": planned_for(
                        args.motor, motor, aim_deg=AIM_DEG, reserve=reserve,
                        pulses=None if args.pulses is None else (args.pulses,)).to_json(),
-                   "load_angle_tightening": tight.price or None}
+                   "load_angle_tightening": tight.price or None,
+                   "worst_load_angle_deg": tight.judgement.worst_deg}
         # No S-curve-vs-linear time beside it: the unit's move-time model does not depend on
         # the ramp shape (profiles.alink.model.move_time_s), so that comparison is equal by
         # construction.
-        warnings = list(plan.warnings) + ([tight.price] if tight.price else [])
+        # a start the tightening lowered makes the planner's note on the start speed stale
+        moved = settings.start_pps != plan.table.start_pps
+        warnings = [w for w in plan.warnings if not (moved and w.startswith("self-start"))] \
+            + ([tight.price] if tight.price else [])
     else:
         if any(v is None for v in explicit):
             raise FormatError("give --motor, or all of --start-pps, --high-pps and "
