@@ -8,8 +8,8 @@ tables, each timed as a view shows it (`verify.designer.design_steps` and
 `DesignFigure.update`, PNG included, on one figure kept across the changes):
 
 - first table: the plain criterion's plan, its execution, exact optimum and stall
-  margins, drawn over the last final drawing's axes when it fits them and marked
-  as being tightened. Goal (issue #32 item 9): ≤ 50 ms.
+  margins, drawn over the kept axes when it fits them (else the panels whose limits
+  moved drawn again) and marked as being tightened. Goal (issue #32 item 9): ≤ 50 ms.
 - final table: then the table tightened to the load-angle aim, judged for the moves
   and decel stops it was planned for and drawn (over the kept axes when it fits).
   Goal: ≤ 150 ms from the change.
@@ -136,8 +136,9 @@ def main() -> None:
              "criterion's, shown marked as being tightened; the final one is tightened to the "
              "load-angle aim as `stepramp plan` plans it and shown judged for moves and decel "
              "stops, then judged over every command (`check --motor`'s verdict; downloads "
-             "are offered from then). A table that does not fit the kept axes is drawn in "
-             "full (axes, ticks: about 60 ms more).")
+             "are offered from then). A design that does not fit the kept axes redraws the "
+             "panels whose limits moved (their ticks and labels: the worst cases); "
+             "'drawn over' counts the changes that did not.")
     res.write()
 
 
