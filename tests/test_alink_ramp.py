@@ -296,3 +296,20 @@ def test_decel_stop_against_the_oracle() -> None:
         speeds = unit_ramp[:x] + unit_ramp[:stage_end][::-1]
         found = motion_angles(ramp, "stop", nominal_rotors(load_motor(motor)), [x])
         assert float(found.deg.max()) == pytest.approx(oracle_deg(motor, speeds), abs=0.5)
+
+
+def test_a_cruise_in_a_resonance_band_is_a_dwell() -> None:
+    from dataclasses import replace
+
+    motor = replace(load_motor(resolve("nema17-1600")),
+                    resonance_bands_pps=((19000.0, 21000.0),))
+    inside = judge_safety(ramp_of(quantise_settings(800, 20000, 5.0)), motor,
+                          load_angle=False)
+    assert [f.rule for f in inside.resonance] == ["resonance-dwell"]
+    assert inside.resonance[0].severity == "warning"
+    strict = judge_safety(ramp_of(quantise_settings(800, 20000, 5.0)), motor,
+                          load_angle=False, strict=True)
+    assert not strict.safe
+    outside = judge_safety(ramp_of(quantise_settings(800, 25000, 5.0)), motor,
+                           load_angle=False)
+    assert not outside.resonance   # the ramp crosses the band: no finding

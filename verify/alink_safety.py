@@ -152,6 +152,20 @@ def ramp_criterion(ramp: AlinkRamp, motor: Motor, homing: HomingSettings | None
     return out
 
 
+def ramp_resonance(ramp: AlinkRamp, motor: Motor, *, strict: bool = False) -> list[Finding]:
+    """`resonance-dwell` for the unit's cruise at H_SPEED inside one of the motor's bands (a
+    warning; an error with `strict`). The ramp itself crosses a band at its acceleration: it
+    cannot step over one as a table's jump does, so its stages there are no finding."""
+    from profiles.motor.resonance import band_of, dwell_kind
+
+    if dwell_kind(ramp.high_pps, True, motor) is None:
+        return []
+    lo, hi = band_of(ramp.high_pps, motor)
+    return [Finding("error" if strict else "warning", "resonance-dwell",
+                    f"every move that reaches H_SPEED cruises at {ramp.high_pps:g} pps, inside "
+                    f"the resonance band [{lo:g}, {hi:g}] pps: choose a high speed outside it")]
+
+
 # --- the families besides the moves --------------------------------------------------------------
 
 @dataclass(frozen=True)

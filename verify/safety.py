@@ -215,7 +215,8 @@ def judge_safety(table: FreeCurveTable | InitTable | AlinkRamp, motor: Motor, *,
         raise FieldRangeError("load angle aim [°]", aim_deg, 1, PEAK_DEG)
     if not isinstance(table, FreeCurveTable | InitTable):  # the A-Link unit's ramp
         return _judge_ramp(table, motor, pulses=pulses, samples=samples, seed=seed,
-                           aim_deg=aim_deg, load_angle=load_angle, homing=homing)
+                           aim_deg=aim_deg, load_angle=load_angle, homing=homing,
+                           strict=strict)
     families = judged_families(commands)  # an unknown command is refused before any work
     stages = as_free_curve(table)
     moves = None if pulses is None else tuple(sorted({int(n) for n in pulses}))
@@ -247,7 +248,7 @@ def judge_safety(table: FreeCurveTable | InitTable | AlinkRamp, motor: Motor, *,
 
 def _judge_ramp(ramp: AlinkRamp, motor: Motor, *, pulses: Iterable[int] | None,
                 samples: int, seed: int, aim_deg: float, load_angle: bool,
-                homing: HomingSettings | None) -> SafetyVerdict:
+                homing: HomingSettings | None, strict: bool) -> SafetyVerdict:
     """`judge_safety` on the A-Link unit's ramp (verify.alink_safety)."""
     from profiles.motor.tolerance import corners, worst_case_motor
 
@@ -259,8 +260,9 @@ def _judge_ramp(ramp: AlinkRamp, motor: Motor, *, pulses: Iterable[int] | None,
     if motor.tolerances:
         criterion = [f.with_message(f.message + " (at the tolerance box's worst case)")
                      for f in criterion]
+    resonance = tuple(al.ramp_resonance(ramp, motor, strict=strict))
     if not load_angle:
-        return SafetyVerdict(moves, aim_deg, tuple(criterion), None, None, ())
+        return SafetyVerdict(moves, aim_deg, tuple(criterion), None, None, resonance)
     box_corners = corners(motor) if motor.tolerances else []
     ways = al.ways_of(motor)
     rot = al.box_rotors([c.motor for c in box_corners] or [motor], ways)
@@ -275,7 +277,7 @@ def _judge_ramp(ramp: AlinkRamp, motor: Motor, *, pulses: Iterable[int] | None,
         la = LoadAngle(box.worst_angle_deg, box.worst_pulses, box.worst_direction,
                        box.worst_where, box.first_unstable_pulses, box.slips,
                        box.executions, box.sample_failures)
-    return SafetyVerdict(moves, aim_deg, tuple(criterion), la, box, (),
+    return SafetyVerdict(moves, aim_deg, tuple(criterion), la, box, resonance,
                          tuple(al.family_verdicts(ramp, homing, rot, aim_deg)))
 
 

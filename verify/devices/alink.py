@@ -109,7 +109,7 @@ def safety_findings(commands: Sequence[Command], options: CheckOptions, notes: l
         notes.append(str(why))
         return []
     verdict = judge_safety(ramp, options.motor, pulses=options.pulses,
-                           samples=options.samples, seed=options.seed,
+                           samples=options.samples, seed=options.seed, strict=options.strict,
                            load_angle=options.physics, homing=homing,
                            progress=options.progress)
     details["safety"] = verdict.to_json()
