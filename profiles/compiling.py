@@ -26,8 +26,11 @@ tenth of a second or more of every `plan` and `check --motor` together
 (bench/bench_plantime.py measures the command's start). `watch()` imports those two
 numba modules first with scipy.linalg and cffi unavailable, then makes them available
 again for whatever else wants them; only in a process with one thread (no other thread
-can be importing them meanwhile) and when neither is imported yet. A library caller's
-process (a notebook that may compile its own kernels with `np.dot`) is left alone.
+can be importing them meanwhile) and when neither is imported yet. It also marks numba's
+third-party extensions as loaded: numba looks for them (entry points `numba_extensions`)
+by reading every installed package's metadata, a few hundredths of a second, and our
+kernels use none. A library caller's process (a notebook that may compile its own
+kernels with `np.dot` or an extension's types) is left alone.
 """
 
 from __future__ import annotations
@@ -78,8 +81,8 @@ def lean() -> None:
 
 def lean_registries() -> bool:
     """Import numba's registry modules that would import scipy.linalg and cffi with those
-    unavailable, when this is safe (one thread, neither imported yet, numba's modules not
-    yet either); whether it did."""
+    unavailable, and skip numba's search for extensions, when this is safe (one thread,
+    neither imported yet, numba's modules not yet either); whether it did."""
     if (threading.active_count() > 1 or any(m in sys.modules for m in LEAN_WITHOUT)
             or any(m in sys.modules for m in LEAN_FIRST)):
         return False
@@ -92,6 +95,9 @@ def lean_registries() -> bool:
         for name in LEAN_WITHOUT:
             if sys.modules.get(name, 0) is None:
                 del sys.modules[name]
+    from numba.core import entrypoints
+
+    entrypoints._already_initialized = True  # no extension's entry point looked for
     return True
 
 
