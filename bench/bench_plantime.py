@@ -1,12 +1,24 @@
-"""Issue #17: how long a safe plan takes, against references timed in the same run.
+"""Issues #17 and #32: how long a safe plan takes, against references timed in the same run.
 
-    python bench/bench_plantime.py [--quick]
+    python bench/bench_plantime.py [--quick] [--no-sweep] [--no-cold]
 
 - `stepramp plan --pulses 10000` (in-process, warm: every execution judged, tightened to
   75°, the verdict, the file written) against a 1-DOF toppra solve of the same move
   (`verify.references.toppra_reference`, 1 000 gridpoints, its 6 re-linearisations of
-  the torque curve; and one linearisation alone) timed alternately in the same run:
-  median over the bundled motors of the ratio of medians, goal ≤ 4;
+  the torque curve; and one linearisation alone) timed alternately in the same run, per
+  motor: the bundled motors and a datasheet motor (issue 32's new user's 17HS19-like
+  NEMA17 on a T8 screw, made in this run by `stepramp motor new`, in-process, from the
+  flags in DATASHEET: a motor file as a user's own). Goal: ≤ 4 for every motor;
+- cold (issue 32), fresh processes as installed (bytecode written), the numba cache
+  warm, against the same motor's toppra solve timed above: `stepramp plan --pulses 10000`
+  less `stepramp --version` (the interpreter and the CLI's own start; goal ≤ 15×), and
+  what `--motor` adds to `stepramp check` on that plan's table (`check T --motor M` less
+  `check T`; goal ≤ 5×; the issue names no reference for it: the one the other two
+  ratios use, and `check T`'s own time beside it);
+- the first run on a machine (issue 32): `stepramp plan --motor <datasheet> --pulses
+  10000` in a fresh process with an empty numba cache folder (NUMBA_CACHE_DIR: every
+  kernel the command runs is compiled), then again (loaded from that cache): what the
+  compile notice and the guide promise;
 - `stepramp plan --moves` on a mix of 4 lengths (goal ≤ 0.5 s) and a toleranced motor's
   plan (`--motor examples/motor-nema17-tolerances.json --pulses 3200`: planned over the
   box's corners, judged at the corners and on 1 000 samples; goal ≤ 1 s), in-process;
@@ -33,7 +45,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from benchlib import Results, forget, timed, verdict  # noqa: E402
+from benchlib import INSTALLED, Results, forget, fresh_processes, timed, verdict  # noqa: E402
 
 from profiles.motor import bundled_motor_paths, load_motor  # noqa: E402
 from verify.cli import main as stepramp  # noqa: E402
@@ -41,6 +53,16 @@ from verify.references import toppra_ref, toppra_reference  # noqa: E402
 
 BEFORE = "c096f0b"
 PLAN_GOAL = 4.0
+COLD_PLAN_GOAL = 15.0
+CHECK_MOTOR_GOAL = 5.0
+# issue 32's new user's motor: a 17HS19-2004S1-like NEMA17 (0.59 N·m, 2 A, 1.4 Ω, 3.0 mH,
+# 82 g·cm²) at 24 V, 1/8 step, 1.5 A, moving 4 kg on a T8 lead screw
+DATASHEET_NAME = "17hs19"
+DATASHEET = ("motor", "new", "--name", DATASHEET_NAME, "--holding-torque-nm", "0.59",
+             "--rated-current-a", "2", "--current-a", "1.5", "--resistance-ohm", "1.4",
+             "--inductance-mh", "3.0", "--rotor-inertia-gcm2", "82", "--supply-v", "24",
+             "--microstep", "8", "--load", "screw:lead_mm=8,mass_kg=4")
+CLI = (sys.executable, "-m", "verify.cli")
 MOVES_GOAL_S = 0.5
 TOLERANCED_GOAL_S = 1.0
 SWEEP_GOAL = 10.0
@@ -67,40 +89,139 @@ def toppra_solve_s(motor: object, iterations: int) -> float:
         toppra_ref.TOPPRA_ITERATIONS = saved
 
 
-def plan_time(res: Results, quick: bool, out: str) -> None:
+def datasheet_motor(folder: str) -> str:
+    """The datasheet motor's file, made by `stepramp motor new` (in this process) in
+    `folder`."""
+    path = os.path.join(folder, f"{DATASHEET_NAME}.json")
+    run_cli(*DATASHEET, "-o", path)
+    return path
+
+
+def bench_motors(folder: str) -> list[tuple[str, str]]:
+    """(label, --motor argument): the bundled motors by name, then the datasheet motor's
+    file."""
+    return [*((p.stem.removeprefix("motor-"),) * 2 for p in bundled_motor_paths()),
+            (f"{DATASHEET_NAME} (datasheet)", datasheet_motor(folder))]
+
+
+def plan_time(res: Results, quick: bool, out: str, motors: list[tuple[str, str]]) -> None:
     repeats = 3 if quick else 7
     per_motor = []
-    for path in bundled_motor_paths():
-        name = path.stem.removeprefix("motor-")
-        argv = ("plan", "--motor", name, "--pulses", "10000", "-o", out)
+    for name, arg in motors:
+        argv = ("plan", "--motor", arg, "--pulses", "10000", "-o", out)
         run_cli(*argv)  # warm
-        toppra_solve_s(load_motor(path), 6)
+        toppra_solve_s(load_motor(arg), 6)
         plans, full, single = [], [], []
         for _ in range(repeats):  # alternately, so load changes hit both alike
             forget()  # the tables it judges are new to it, as on its first run
             t0 = time.perf_counter()
             run_cli(*argv)
             plans.append(time.perf_counter() - t0)
-            full.append(toppra_solve_s(load_motor(path), 6))
-            single.append(toppra_solve_s(load_motor(path), 1))
+            full.append(toppra_solve_s(load_motor(arg), 6))
+            single.append(toppra_solve_s(load_motor(arg), 1))
         med = statistics.median
         per_motor.append({"motor": name, "plan_s": med(plans), "toppra_s": med(full),
                           "toppra_one_linearisation_s": med(single),
                           "ratio": med(plans) / med(full),
                           "ratio_one_linearisation": med(plans) / med(single)})
     ratio = statistics.median(m["ratio"] for m in per_motor)
+    worst = max(m["ratio"] for m in per_motor)
     one = statistics.median(m["ratio_one_linearisation"] for m in per_motor)
-    res.values["plan_time"] = {"motors": per_motor, "median_ratio": ratio,
-                               "median_ratio_one_linearisation": one, "repeats": repeats}
+    res.values["plan_time"] = {"motors": per_motor, "median_ratio": ratio, "worst_ratio": worst,
+                               "median_ratio_one_linearisation": one, "repeats": repeats,
+                               "datasheet": list(DATASHEET)}
     rows = [[m["motor"], f"{m['plan_s'] * 1e3:.0f} ms", f"{m['toppra_s'] * 1e3:.0f} ms",
-             f"{m['ratio']:.2f}", f"{m['toppra_one_linearisation_s'] * 1e3:.0f} ms",
+             f"{m['ratio']:.2f} (≤ 4: {verdict(m['ratio'] <= PLAN_GOAL)})",
+             f"{m['toppra_one_linearisation_s'] * 1e3:.0f} ms",
              f"{m['ratio_one_linearisation']:.1f}"] for m in per_motor]
-    rows.append(["**median**", "", "", f"**{ratio:.2f}** (goal ≤ 4: {verdict(ratio <= 4)})",
-                 "", f"{one:.1f}"])
+    rows.append(["**every motor**", "", "", f"**{worst:.2f}** at most, median {ratio:.2f} "
+                 f"(goal ≤ 4 for every motor: {verdict(worst <= PLAN_GOAL)})", "", f"{one:.1f}"])
     res.section("plan_time", ["motor", "`stepramp plan --pulses 10000`",
                               "toppra solve (6 linearisations)", "plan / toppra",
                               "toppra, one linearisation", "plan / that"], rows,
-                note=f"Wall time, medians of {repeats} alternating runs, warm, in one process.")
+                note=f"Wall time, medians of {repeats} alternating runs, warm, in one process. "
+                     f"{DATASHEET_NAME}: made in the run by `stepramp {' '.join(DATASHEET)}`.")
+
+
+def cold(res: Results, quick: bool, folder: str, motors: list[tuple[str, str]]) -> None:
+    """Fresh processes (numba's cache warm): `stepramp plan` less `stepramp --version`, and
+    what `--motor` adds to `stepramp check`, each against the motor's toppra solve timed
+    in plan_time."""
+    repeats = 3 if quick else 7
+    toppra = {m["motor"]: m["toppra_s"] for m in res.values["plan_time"]["motors"]}
+    version, version_cpu = fresh_processes((*CLI, "--version"), repeats)
+    rows, values = [], {"version_wall_s": version, "version_cpu_s": version_cpu,
+                        "repeats": repeats, "motors": []}
+    for name, arg in (motors[0], motors[-1]):  # a bundled motor and the datasheet one
+        table = os.path.join(folder, f"cold-{len(values['motors'])}.json")
+        plan, plan_cpu = fresh_processes((*CLI, "plan", "--motor", arg, "--pulses", "10000",
+                                          "-o", table), repeats)
+        bare, _ = fresh_processes((*CLI, "check", table), repeats)
+        judged, judged_cpu = fresh_processes((*CLI, "check", table, "--motor", arg), repeats)
+        ref = toppra[name]
+        v = {"motor": name, "plan_wall_s": plan, "plan_cpu_s": plan_cpu,
+             "plan_less_version_s": plan - version, "plan_ratio": (plan - version) / ref,
+             "check_wall_s": bare, "check_motor_wall_s": judged, "check_motor_cpu_s": judged_cpu,
+             "check_motor_extra_s": judged - bare, "check_motor_ratio": (judged - bare) / ref,
+             "check_motor_extra_over_check": (judged - bare) / bare, "toppra_s": ref}
+        values["motors"].append(v)
+        rows.append([f"`stepramp plan --motor {name.split()[0]} --pulses 10000` less "
+                     f"`stepramp --version` ({version * 1e3:.0f} ms)",
+                     f"{v['plan_less_version_s'] * 1e3:.0f} ms (wall {plan * 1e3:.0f}, "
+                     f"CPU {plan_cpu * 1e3:.0f})", f"{ref * 1e3:.0f} ms",
+                     f"{v['plan_ratio']:.1f}× "
+                     f"(≤ 15: {verdict(v['plan_ratio'] <= COLD_PLAN_GOAL)})"])
+        rows.append([f"what `--motor {name.split()[0]}` adds to `stepramp check` on that plan",
+                     f"{v['check_motor_extra_s'] * 1e3:.0f} ms ({judged * 1e3:.0f} against "
+                     f"{bare * 1e3:.0f}; {v['check_motor_extra_over_check']:.1f}× `check` "
+                     "alone)", f"{ref * 1e3:.0f} ms",
+                     f"{v['check_motor_ratio']:.1f}× (≤ 5: "
+                     f"{verdict(v['check_motor_ratio'] <= CHECK_MOTOR_GOAL)})"])
+    res.values["cold"] = values
+    res.section("cold", ["what (fresh processes, numba's cache warm)", "measured",
+                         "toppra solve, same motor (plan_time)", "ratio (goal)"], rows,
+                note=f"Medians of {repeats} fresh processes each, as installed (bytecode "
+                     "written), after one untimed run; wall time.")
+
+
+FIRST = """
+import json, os, sys, time
+from verify.cli import main
+t0 = time.perf_counter()
+sys.argv = ["stepramp", *sys.argv[1:]]
+rc = main()  # as the stepramp command runs it
+print(json.dumps({"rc": rc, "s": time.perf_counter() - t0,
+                  "kernels": sum(len(f) for _, _, f in os.walk(os.environ["NUMBA_CACHE_DIR"]))}),
+      file=sys.stderr)
+"""
+
+
+def first_run(res: Results, folder: str, motors: list[tuple[str, str]]) -> None:
+    """The datasheet motor's plan in a fresh process with an empty numba cache folder
+    (compile), then again (load)."""
+    name, arg = motors[-1]
+    argv = ("plan", "--motor", arg, "--pulses", "10000", "-o", os.path.join(folder, "first.json"))
+    runs = {}
+    with tempfile.TemporaryDirectory() as cache:
+        env = {**INSTALLED, "NUMBA_CACHE_DIR": cache, "STEPRAMP_COMPILE_NOTICE": "0"}
+        for label in ("compile", "cache load"):
+            t0 = time.perf_counter()
+            proc = subprocess.Popen([sys.executable, "-c", FIRST, *argv], cwd=ROOT, env=env,
+                                    stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+            _, err = proc.communicate()
+            wall = time.perf_counter() - t0
+            if proc.returncode != 0:
+                raise SystemExit(f"first run ({label}): exit {proc.returncode}: {err[-500:]}")
+            inner = json.loads(err.strip().splitlines()[-1])
+            runs[label] = {"wall_s": wall, "command_s": inner["s"], "cache_files": inner["kernels"]}
+    res.values["first_run"] = {"motor": name, "argv": list(argv[:5]), **runs}
+    rows = [[f"`stepramp plan --motor {name.split()[0]} --pulses 10000`, a fresh process, "
+             f"{label} ({r['cache_files']} files in the cache after it)",
+             f"{r['wall_s']:.1f} s", f"{r['command_s']:.1f} s"] for label, r in runs.items()]
+    res.section("first_run", ["what", "wall (the whole process)", "the command"], rows,
+                note="The first run: an empty numba cache folder (NUMBA_CACHE_DIR), so every "
+                     "kernel the plan and its verdict run is compiled and written; the second "
+                     "process loads them.")
 
 
 def moves_and_box(res: Results, quick: bool, out: str, folder: str) -> None:
@@ -209,12 +330,18 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="fewer repeats")
     ap.add_argument("--no-sweep", action="store_true", help="skip the before/after sweep")
+    ap.add_argument("--no-cold", action="store_true",
+                    help="skip the fresh processes (cold start, first run)")
     args = ap.parse_args()
     res = Results("plantime")
     with tempfile.TemporaryDirectory() as folder:
         out = os.path.join(folder, "table.json")
-        plan_time(res, args.quick, out)
+        motors = bench_motors(folder)
+        plan_time(res, args.quick, out, motors)
         moves_and_box(res, args.quick, out, folder)
+        if not args.no_cold:
+            cold(res, args.quick, folder, motors)
+            first_run(res, folder, motors)
     if not args.no_sweep:
         sweep(res)
     res.write()

@@ -143,3 +143,30 @@ def verdict(ok: bool) -> str:
 def count(x: float) -> str:
     """A large number with thin groups: 40 900."""
     return f"{x:,.0f}".replace(",", " ")
+
+
+# As installed: pip compiles the bytecode once; this environment may forbid writing it
+INSTALLED = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+
+
+def fresh_processes(cmd: Sequence[str], repeats: int, env: dict[str, str] | None = None,
+                    warm: bool = True) -> tuple[float, float]:
+    """Median wall and CPU (user + system) seconds of `repeats` fresh processes running
+    `cmd` in the repository (after one untimed run that writes the bytecode and the
+    compiled kernels' cache, unless not `warm`); each must exit 0 or 1."""
+    import subprocess
+
+    env = INSTALLED if env is None else env
+    if warm:
+        subprocess.run(list(cmd), check=False, capture_output=True, cwd=ROOT, env=env)
+    walls, cpus = [], []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        proc = subprocess.Popen(list(cmd), cwd=ROOT, env=env, stdout=subprocess.DEVNULL,
+                                stderr=subprocess.DEVNULL)
+        _, status, usage = os.wait4(proc.pid, 0)
+        walls.append(time.perf_counter() - t0)
+        cpus.append(usage.ru_utime + usage.ru_stime)
+        if os.waitstatus_to_exitcode(status) not in (0, 1):
+            raise SystemExit(f"{' '.join(cmd)}: exit {os.waitstatus_to_exitcode(status)}")
+    return statistics.median(walls), statistics.median(cpus)

@@ -17,12 +17,27 @@ The cache needs a writable folder: numba takes NUMBA_CACHE_DIR, else the package
 kernel is declared, checks that numba will find one; if not, it points numba at a
 private folder under the temporary folder, or, with none writable, turns the cache off
 (every run compiles), and says so once.
+
+The command line's own process (`lean()`, from `stepramp`'s entry) loads numba leaner:
+whenever numba first runs or loads a kernel it imports its registries, and two of them
+import what no kernel of ours uses: numba.np.arraymath checks for BLAS (for `np.dot`) by
+importing scipy.linalg, and numba.core.typing.cffi_utils imports cffi and pycparser, a
+tenth of a second or more of every `plan` and `check --motor` together
+(bench/bench_plantime.py measures the command's start). `watch()` imports those two
+numba modules first with scipy.linalg and cffi unavailable, then makes them available
+again for whatever else wants them; only in a process with one thread (no other thread
+can be importing them meanwhile) and when neither is imported yet. It also marks numba's
+third-party extensions as loaded: numba looks for them (entry points `numba_extensions`)
+by reading every installed package's metadata, a few hundredths of a second, and our
+kernels use none. A library caller's process (a notebook that may compile its own
+kernels with `np.dot` or an extension's types) is left alone.
 """
 
 from __future__ import annotations
 
 import os
 import stat
+import sys
 import tempfile
 import threading
 from collections.abc import Callable
@@ -42,6 +57,9 @@ _say: Callable[[str], None] | None = None
 _channel: Callable[[str], None] | None = None  # also when the compile notice is quiet
 _said = False
 _watching = False
+_lean = False
+LEAN_WITHOUT = ("scipy.linalg", "cffi")  # what numba's registries import that we never use
+LEAN_FIRST = ("numba.np.arraymath", "numba.core.typing.cffi_utils")  # the modules that do
 
 
 def announce(say: Callable[[str], None] | None) -> None:
@@ -54,15 +72,47 @@ def announce(say: Callable[[str], None] | None) -> None:
         _say = None if os.environ.get(QUIET_ENV, "1") == "0" else say
 
 
+def lean() -> None:
+    """This process is the `stepramp` command: numba's registries may be loaded without
+    scipy.linalg and cffi (the module docstring)."""
+    global _lean
+    _lean = True
+
+
+def lean_registries() -> bool:
+    """Import numba's registry modules that would import scipy.linalg and cffi with those
+    unavailable, and skip numba's search for extensions, when this is safe (one thread,
+    neither imported yet, numba's modules not yet either); whether it did."""
+    if (threading.active_count() > 1 or any(m in sys.modules for m in LEAN_WITHOUT)
+            or any(m in sys.modules for m in LEAN_FIRST)):
+        return False
+    for name in LEAN_WITHOUT:
+        sys.modules[name] = None  # type: ignore[assignment]  # import of it: ImportError
+    try:
+        for name in LEAN_FIRST:
+            __import__(name)
+    finally:
+        for name in LEAN_WITHOUT:
+            if sys.modules.get(name, 0) is None:
+                del sys.modules[name]
+    from numba.core import entrypoints
+
+    entrypoints._already_initialized = True  # no extension's entry point looked for
+    return True
+
+
 def watch() -> None:
     """Listen to numba's compilations and make sure its cache has a folder (once per
-    process; a kernel module calls it before declaring its kernels)."""
+    process; a kernel module calls it before declaring its kernels); in the command's
+    own process, load numba's registries lean (`lean`)."""
     global _watching
     with _lock:
         if _watching:
             return
         from numba.core import event
 
+        if _lean:
+            lean_registries()
         note = choose_cache()
 
         class Compiling(event.Listener):  # type: ignore[misc]

@@ -387,6 +387,10 @@ FILE_COMMANDS: list[tuple[str, str, list[str]]] = [
     ("check", "alink-list", ["check", "FILE"]),
     ("alink read", "alink-homing", ["alink", "read", "FILE"]),
     ("alink homing", "motor", ["alink", "homing", "--motor", "FILE", "--format", "json"]),
+    ("simulate", "alink-text", ["simulate", "FILE", "--pulses", "3000", "--pulse-times",
+                                "OUT"]),
+    ("check --motor", "alink-json", ["check", "FILE", "--motor", "nema17-1600",
+                                     "--samples", "0"]),
     ("show", "table-free", ["show", "FILE", "--format", "json"]),
     ("show", "table-init", ["show", "FILE", "--format", "csv", "-o", "OUT"]),
     ("show --motor", "motor", ["show", "EXAMPLE", "--motor", "FILE"]),
@@ -490,6 +494,8 @@ HEAVY_ARGV_TEMPLATES: list[tuple[str, list[str]]] = [
     ("sweep", ["sweep", "--motors", "MOTOR", "--pulses", "V", "--samples", "0", "--load-angle",
                "V", "-o", "OUT"]),
     ("plan", ["plan", "--motor", "MOTOR", "--kind", "linear", "--pulses", "V", "--clock", "V"]),
+    ("plan", ["plan", "--motor", "MOTOR", "--kind", "s-curve", "--pulses", "V", "--commands",
+              "V", "--load-angle", "V"]),
 ]
 
 

@@ -59,15 +59,22 @@ class FamilyVerdict:
         """The family as the verdict counts it: over the box when there is one."""
         return self.box if self.box is not None else self.family
 
-    def _usable(self, limit: float) -> bool:
+    @property
+    def use_deg(self) -> float | None:
+        """The angle of the use the table always leaves (no change at all, the return at
+        its high rate, or the slowest rate), which the verdict counts; None: not judged, or
+        a change-speed (87), which always has a safe use."""
         f = self.judged
         if f is None or self.name == "change-speed":
-            return True
+            return None
         e = f.envelope
-        # the use the table always leaves: no change at all, the return at its high rate,
-        # or the slowest rate
-        deg = (f.worst_deg if self.name == "origin-return" else
-               float(e["no_change_deg" if self.name == "set-speed" else "slowest_rate_deg"]))
+        return (f.worst_deg if self.name == "origin-return" else
+                float(e["no_change_deg" if self.name == "set-speed" else "slowest_rate_deg"]))
+
+    def _usable(self, limit: float) -> bool:
+        deg = self.use_deg
+        if deg is None:
+            return True
         return deg < limit if limit >= PEAK_DEG else deg <= limit
 
     @property

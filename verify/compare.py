@@ -21,6 +21,7 @@ from verify.references import SOLVERS as DEFAULT_REFERENCES
 from verify.safety import SafetyVerdict
 
 EVERY_MOVE = "every move"  # the every-move lines' prefix, where check names the file
+START_MATCH = 0.005        # relative: a table starting within 0.5 % of v0 starts with them
 
 
 @dataclass
@@ -35,6 +36,11 @@ class Comparison:
     move_verdict: SafetyVerdict       # the move asked for
     every_verdict: SafetyVerdict      # every move the table can run
     extra: dict[str, Any] = field(default_factory=dict)
+    # the references asked for whose solver failed: name → reason (`solve_references`)
+    failed_references: dict[str, str] = field(default_factory=dict)
+    # the exact optimum from the table's own start speed, when the references' start (the
+    # motor's) differs from it by more than START_MATCH (the plan lowered its start speed)
+    from_table_start: Any = None
 
     @property
     def safe(self) -> bool:
@@ -89,6 +95,13 @@ class Comparison:
         }
         if self.jerk_limited_optimum is not None:
             out["jerk_limited_optimum_s"] = self.jerk_limited_optimum.duration_s
+        if self.failed_references:
+            out["failed_references"] = dict(self.failed_references)
+        out.update(self.real_units())
+        if self.from_table_start is not None:
+            out["from_table_start"] = {"start_pps": self.table_start_pps,
+                                       "reference_start_pps": self.reference_start_pps,
+                                       "exact_s": self.from_table_start.duration_s}
         return out
 
     def to_text(self) -> str:
@@ -100,6 +113,10 @@ class Comparison:
             lines.append(f"  {name:8s} {r.duration_s * 1e3:10.3f} ms  table/ref "
                          f"{self.table_s / r.duration_s:.4f}  (solve {r.solve_s * 1e3:.1f} ms)"
                          + (f"  {r.info}" if r.info else ""))
+        lines += [f"  {name:8s} failed ({why}): not drawn, not in the optimum"
+                  for name, why in self.failed_references.items()]
+        lines.append(self.real_units_line())
+        lines += self.start_lines()
         jerk = self.jerk_limited_optimum
         if jerk is not None:
             lines.append(f"jerk-limited optimum (casadi): {jerk.duration_s * 1e3:.3f} ms; "
@@ -114,6 +131,75 @@ class Comparison:
         verdict = "SAFE" if self.safe else "UNSAFE (failed: " + ", ".join(self.failed_judges) + ")"
         lines.append(f"verdict: {verdict}")
         return "\n".join(lines) + "\n"
+
+    def real_units(self) -> dict[str, Any]:
+        """The move in mm (the motor file's `travel_mm_per_rev`) or rev, and the table's
+        top and mean speed and the optimum's mean speed in mm/s or rpm
+        (profiles/motor/travel.py): JSON keys beside the pulse ones."""
+        from profiles.motor.travel import axis_units
+
+        u = axis_units(self.motor)
+        d, v = u.distance_key, u.speed_key
+        top = float(max(self.execution.edges()[2]))
+        return {"travel_mm_per_rev": u.mm_per_rev, f"move_{d}": u.distance(self.pulses),
+                "table_top_pps": top, f"table_top_{v}": u.speed(top),
+                f"table_mean_{v}": u.speed(self.pulses / self.table_s),
+                f"optimum_mean_{v}": u.speed(self.pulses / self.optimum_s)}
+
+    def real_units_line(self) -> str:
+        """`in mm: a move of 16 mm; the table's top 111.7 mm/s, its mean 60.1 mm/s; the
+        optimum's mean 70.3 mm/s` (or rev and rpm)."""
+        from profiles.motor.travel import axis_units
+
+        u = axis_units(self.motor)
+        top = float(max(self.execution.edges()[2]))
+        return (f"in {u.distance_unit}: a move of {u.distance_text(self.pulses)}; the "
+                f"table's top {u.speed_text(top)}, its mean "
+                f"{u.speed_text(self.pulses / self.table_s)}; the optimum's mean "
+                f"{u.speed_text(self.pulses / self.optimum_s)}")
+
+    def start_lines(self) -> list[str]:
+        """When the table starts at another speed than the references (the motor's start
+        speed): both speeds and the exact optimum from the table's start."""
+        ref = self.from_table_start
+        if ref is None:
+            return []
+        return [f"references start at the motor's start speed {self.reference_start_pps:.6g} "
+                f"pps, the table at {self.table_start_pps:.6g} pps; the exact optimum from "
+                f"{self.table_start_pps:.6g} pps: {ref.duration_s * 1e3:.3f} ms, table/that "
+                f"{self.table_s / ref.duration_s:.4f}"]
+
+    @property
+    def table_start_pps(self) -> float:
+        """The speed the table's move starts at (its slowest stage)."""
+        return float(self.execution.edges()[2][0])
+
+    @property
+    def reference_start_pps(self) -> float:
+        """The speed every reference starts and ends at (the motor's v0)."""
+        return float(self.references["exact"].v_pps[0])
+
+    def load_angle_curves(self) -> list[tuple[str, Any]]:
+        """The move's load angle against time (`verify.load_angle.LoadAngleTrace`), each
+        with its label: the nominal motor forward, and the motor and direction where the
+        move's verdict found its worst when that is another (a tolerance-box corner or the
+        backward move); none when the load angle was not judged (--no-physics)."""
+        from profiles.motor.tolerance import corners
+        from verify.load_angle import trace_load_angle
+
+        worst = self.move_verdict.load_angle
+        if worst is None:
+            return []
+        out = [("nominal, forward", trace_load_angle(self.execution, self.motor))]
+        at = {c.label: c.motor for c in corners(self.motor)}.get(worst.worst_at)
+        if worst.worst_at == "nominal":
+            at = None
+        if at is not None or (worst.worst_at == "nominal" and worst.worst_direction < 0):
+            way = "forward" if worst.worst_direction > 0 else "backward"
+            out.append((f"{worst.worst_at}, {way} (the verdict's worst)",
+                        trace_load_angle(self.execution, at or self.motor,
+                                         direction=worst.worst_direction)))
+        return out
 
     def move_summary(self) -> str:
         """The move asked for in one line: safe or not, its worst load angle (its decel
@@ -133,15 +219,17 @@ class Comparison:
                             found, notes=v.notes())
         return file_lines(result)[0]
 
-    def figure(self) -> Any:
+    def figure(self, motor_label: str | None = None) -> Any:
+        """The figure (`verify.plot.comparison_figure`), with the move's load angle;
+        `motor_label` names the motor where its file has no name (its file's stem)."""
         from verify.plot import comparison_figure
 
-        return comparison_figure(self)
+        return comparison_figure(self, angles=self.load_angle_curves(), motor_label=motor_label)
 
-    def plot(self, path: str | Path) -> None:
+    def plot(self, path: str | Path, motor_label: str | None = None) -> None:
         from verify.plot import save_figure
 
-        save_figure(self.figure(), path)
+        save_figure(self.figure(motor_label), path)
 
 
 def compare_table(table: Table, motor: Motor, pulses: int, *,
@@ -152,19 +240,40 @@ def compare_table(table: Table, motor: Motor, pulses: int, *,
     from profiles.ppmc312.execution import simulate_move
     from profiles.ppmc312.init_model import as_free_curve
     from verify.criterion import stall_margins
-    from verify.references import best_reference, references
+    from verify.references import best_reference, solve_references
     from verify.safety import judge_safety
 
     table = as_free_curve(table)
     execution = simulate_move(table, pulses)
-    refs = references(motor, pulses, include=include)
+    refs, failed = solve_references(motor, pulses, include=include)
     best = best_reference(refs)
     optimum = next(name for name, r in refs.items() if r is best)
     return Comparison(table=table, motor=motor, pulses=pulses, execution=execution,
                       references=refs, optimum=optimum, margins=stall_margins(table, motor),
                       move_verdict=judge_safety(table, motor, pulses=[pulses],
                                                 load_angle=physics),
-                      every_verdict=judge_safety(table, motor, load_angle=physics))
+                      every_verdict=judge_safety(table, motor, load_angle=physics),
+                      failed_references=failed,
+                      from_table_start=from_start(motor, pulses, execution))
+
+
+def from_start(motor: Motor, pulses: int, execution: Any) -> Any:
+    """The exact optimum of the move from the table's start speed (a motor whose start
+    and largest jump are that speed), or None when the table starts where the references
+    do (within START_MATCH) or the motor cannot start there."""
+    from dataclasses import replace
+
+    from profiles.errors import StepRampError
+    from verify.references import exact_optimum, move_limits
+
+    v_table = float(execution.edges()[2][0])
+    v0 = move_limits(motor, pulses).v0_pps
+    if abs(v_table - v0) <= START_MATCH * v0:
+        return None
+    try:
+        return exact_optimum(replace(motor, start_pps=v_table, max_jump_pps=None), pulses)
+    except (StepRampError, ValueError):  # a start past the curve: no such optimum
+        return None
 
 
 def _finite(x: float) -> float | None:

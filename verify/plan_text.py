@@ -32,7 +32,7 @@ def plain_summary(summary: dict[str, Any], plan: Any, table: Any, motor: Any, ke
     planner's Plan, `motor` the motor planned for, `kept` the cruise reserve at the top
     speed (profiles.motor.reserve.ReserveAt), `verdict` the safety verdict, `check` the
     command that lists the command families' limits."""
-    lines = [_planned(summary, table)]
+    lines = [_planned(summary, table), in_real_units(summary, table, motor)]
     lines += _held_back(plan, motor, aim_deg)
     lines.append(_reserve(kept))
     lines.append(_verdict(verdict))
@@ -82,10 +82,54 @@ def _held_back(plan: Any, motor: Any, aim_deg: float) -> list[str]:
         lines.append("limited by: " + _BINDS[binds].format(stages=stages))
     if shaping is not None and not shaping.plain:
         lines += _tightening(shaping, motor, aim_deg)
+    levers = extras.get("levers")
+    if levers is not None and not levers.plain:
+        lines += init_tightening(plan, aim_deg)
     worst = extras.get("worst_load_angle_deg")
     if worst is not None and worst > aim_deg:
         lines.append(f"the {aim_deg:g}° aim was not reached: the closest table reaches "
                      f"{worst:.1f}°")
+    if extras.get("fix"):
+        lines += fix_lines(str(extras["fix"]))
+    return lines
+
+
+def fix_lines(fix: str) -> list[str]:
+    """What would help (the init planner's `fix`: changes joined by "; "), on one line
+    when it fits, else a change a line under a heading."""
+    line = f"what would help: {fix}"
+    if len(line) <= LINE_MAX:
+        return [line]
+    return ["what would help, any of:", *(f"  {part}" for part in fix.split("; "))]
+
+
+def init_tightening(plan: Any, aim_deg: float) -> list[str]:
+    """What tightening an init table changed (profiles.ppmc312.init_planner.Levers:
+    `extras["levers"]`, against the plain table `extras["untightened"]`) and its price,
+    in plain words: `start speed lowered to 4 540 pps (from 5 544 pps) to keep the rotor
+    within 75° under every command judged` and `price: a move of 4000 pulses takes
+    224.1 ms, 3.2 % longer than the untightened table's 217.1 ms`."""
+    levers, plain = plan.extras["levers"], plan.extras["untightened"]
+    table, before = plan.table, plain.table
+    hz = table.clock.hz
+    parts = []
+    if levers.start < 1.0:
+        parts.append(f"start speed lowered to {pps(hz / table.start_rate)} (from "
+                     f"{pps(before.clock.hz / before.start_rate)})")
+    if levers.ramp < 1.0:
+        parts.append(f"ramp made gentler ({levers.ramp:.0%} of the torque it could use)")
+    if levers.top < 1.0:
+        parts.append(f"top speed lowered to {pps(hz / table.high_rate)} (from "
+                     f"{pps(before.clock.hz / before.high_rate)})")
+    why = f" to keep the rotor within {aim_deg:g}° under every command judged"
+    line = ", ".join(parts) + why
+    lines = [line] if len(line) <= LINE_MAX else [*parts[:-1], parts[-1] + why]
+    slower = plan.duration_s / plain.duration_s - 1.0
+    change = (f"{slower + 1:.3g}× as long as" if slower >= 0.5 else
+              f"{slower:.1%} longer than" if slower > 5e-4 else
+              f"{-slower:.1%} shorter than" if slower < -5e-4 else "as long as")
+    lines.append(f"price: a move of {plan.pulses} pulses takes {ms(plan.duration_s)}, "
+                 f"{change} the untightened table's {ms(plain.duration_s)}")
     return lines
 
 
@@ -164,3 +208,56 @@ def top_pps(table: Any) -> float:
     rate (an init table)."""
     rate = table.rates[0] if table.kind == "free_curve" else table.high_rate
     return float(table.clock.hz / rate)
+
+
+# --- real units (issue 32 item 5) --------------------------------------------------------
+
+def ramp(table: Any) -> tuple[float, float, float]:
+    """A table's accelerating ramp as the chip runs it (an init table's modelled
+    staircase): its start speed and top speed [pps] and its mean acceleration [pps²], the
+    speed it gains over the time it spends below the top stage."""
+    from profiles.ppmc312.init_model import as_free_curve
+
+    stages = as_free_curve(table)
+    hz = stages.clock.hz
+    k = len(stages.accel_pulses)
+    start, top = hz / stages.rates[k - 1], hz / stages.rates[0]
+    ticks = sum(stages.accel_pulses[i] * stages.rates[i] for i in range(1, k))
+    return float(start), float(top), float((top - start) * hz / ticks) if ticks else 0.0
+
+
+def real_units(summary: dict[str, Any], table: Any, motor: Any) -> dict[str, Any]:
+    """`plan --format json`'s real-unit keys (profiles/motor/travel.py), beside the pulse
+    keys, never instead of them: the start and top speed and the ramp's mean acceleration
+    in pps and in mm/s, mm/s² (the motor file's `travel_mm_per_rev`) or rpm, rev/s², and
+    the move in mm or rev."""
+    from profiles.motor.travel import axis_units
+
+    u = axis_units(motor)
+    start, top, accel = ramp(table)
+    out: dict[str, Any] = {"travel_mm_per_rev": u.mm_per_rev, "start_speed_pps": start,
+                           "top_speed_pps": top, "ramp_accel_pps2": accel,
+                           f"start_speed_{u.speed_key}": u.speed(start),
+                           f"top_speed_{u.speed_key}": u.speed(top),
+                           f"ramp_accel_{u.accel_key}": u.accel(accel)}
+    if summary.get("pulses") is not None:
+        out[f"move_{u.distance_key}"] = u.distance(summary["pulses"])
+    elif "move_times_s" in summary:
+        out[f"move_lengths_{u.distance_key}"] = {n: u.distance(int(n))
+                                                 for n in summary["move_times_s"]}
+    return out
+
+
+def in_real_units(summary: dict[str, Any], table: Any, motor: Any) -> str:
+    """`in mm: top 100 mm/s (from 4 mm/s), ramp 1 234 mm/s² on average, a move of 3200
+    pulses = 16 mm (0.005 mm per pulse)`, or in rev and rpm for a rotary axis."""
+    from profiles.motor.travel import axis_units
+
+    u = axis_units(motor)
+    start, top, accel = ramp(table)
+    line = (f"in {u.distance_unit}: top {u.speed_text(top)} (from {u.speed_text(start)}), "
+            f"ramp {u.accel_text(accel)} on average")
+    if summary.get("pulses") is not None:
+        line += f", a move of {summary['pulses']} pulses = {u.distance_text(summary['pulses'])}"
+    per = f" ({u.per_pulse:.4g} {u.distance_unit} per pulse)"
+    return line + per if len(line + per) <= LINE_MAX else line

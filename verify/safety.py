@@ -33,6 +33,9 @@ from .check_options import DEFAULT_SAMPLES
 from .findings import Finding
 
 if TYPE_CHECKING:
+    from profiles.alink.homing import HomingSettings
+    from profiles.alink.ramp import AlinkRamp
+
     from .command_verdicts import CommandVerdict
 
 
@@ -179,11 +182,12 @@ class SafetyVerdict:
         }
 
 
-def judge_safety(table: FreeCurveTable | InitTable, motor: Motor, *,
+def judge_safety(table: FreeCurveTable | InitTable | AlinkRamp, motor: Motor, *,
                  pulses: Iterable[int] | None = None, samples: int = DEFAULT_SAMPLES,
                  seed: int = 0, aim_deg: float = AIM_DEG, strict: bool = False,
                  load_angle: bool = True, commands: Iterable[str] | None = None,
-                 progress: Progress | None = None) -> SafetyVerdict:
+                 progress: Progress | None = None,
+                 homing: HomingSettings | None = None) -> SafetyVerdict:
     """The verdict on `table` for `motor` over every execution the chip can run with it
     (`pulses`: only the moves of those lengths). A motor with tolerances is judged over
     its box: the criterion at the box's worst case, the load angle at every corner and
@@ -193,7 +197,13 @@ def judge_safety(table: FreeCurveTable | InitTable, motor: Motor, *,
     pulse of the ramp under every reading) is judged alike; `commands` (names or hex
     codes of `motion.COMMANDS`; None: all) narrows them for a machine that never runs
     the others. A decel stop may come during any move, or a continuous run (85): its
-    stops are judged over the whole ramp whatever `pulses` says."""
+    stops are judged over the whole ramp whatever `pulses` says.
+
+    An A-Link ALUM ramp (`profiles.alink.ramp.AlinkRamp`, the unit's settings as stages)
+    is judged alike (`verify.alink_safety`): the unit's criterion, every move length on
+    the load angle over the box, and as its command families the decel stops (STOP 31)
+    from every pulse of the ramp and, with `homing`, the homing legs (OL/OH, O_UPTIME, the
+    stop at once at the origin)."""
     from profiles.errors import FieldRangeError
     from profiles.ppmc312.init_model import as_free_curve
     from profiles.ppmc312.load_angle import worst_load_angle
@@ -203,6 +213,10 @@ def judge_safety(table: FreeCurveTable | InitTable, motor: Motor, *,
 
     if not 1.0 <= aim_deg <= PEAK_DEG:
         raise FieldRangeError("load angle aim [°]", aim_deg, 1, PEAK_DEG)
+    if not isinstance(table, FreeCurveTable | InitTable):  # the A-Link unit's ramp
+        return _judge_ramp(table, motor, pulses=pulses, samples=samples, seed=seed,
+                           aim_deg=aim_deg, load_angle=load_angle, homing=homing,
+                           strict=strict)
     families = judged_families(commands)  # an unknown command is refused before any work
     stages = as_free_curve(table)
     moves = None if pulses is None else tuple(sorted({int(n) for n in pulses}))
@@ -230,6 +244,74 @@ def judge_safety(table: FreeCurveTable | InitTable, motor: Motor, *,
                      for name in families if ordered)
     return SafetyVerdict(moves, aim_deg, tuple(criterion), la, box, tuple(resonance),
                          verdicts)
+
+
+def _judge_ramp(ramp: AlinkRamp, motor: Motor, *, pulses: Iterable[int] | None,
+                samples: int, seed: int, aim_deg: float, load_angle: bool,
+                homing: HomingSettings | None, strict: bool) -> SafetyVerdict:
+    """`judge_safety` on the A-Link unit's ramp (verify.alink_safety)."""
+    from profiles.motor.tolerance import corners, worst_case_motor
+
+    from . import alink_safety as al
+
+    moves = None if pulses is None else tuple(sorted({int(n) for n in pulses}))
+    criterion = al.ramp_criterion(ramp, worst_case_motor(motor) if motor.tolerances
+                                  else motor, homing)
+    if motor.tolerances:
+        criterion = [f.with_message(f.message + " (at the tolerance box's worst case)")
+                     for f in criterion]
+    resonance = tuple(al.ramp_resonance(ramp, motor, strict=strict))
+    if not load_angle:
+        return SafetyVerdict(moves, aim_deg, tuple(criterion), None, None, resonance)
+    box_corners = corners(motor) if motor.tolerances else []
+    ways = al.ways_of(motor)
+    rot = al.box_rotors([c.motor for c in box_corners] or [motor], ways)
+    found = al.motion_angles(ramp, "move", rot, moves)
+    deg, row, e = found.worst()
+    where = box_corners[row // len(ways)].describe() if box_corners else "nominal"
+    la = LoadAngle(deg, int(found.x[e]), int(rot.direction[row]), where,
+                   found.first_unstable(), bool(found.slipped.any()), found.deg.size)
+    box = _ramp_box(ramp, motor, found, la, len(box_corners), len(ways), samples, seed) \
+        if box_corners else None
+    if box is not None:
+        la = LoadAngle(box.worst_angle_deg, box.worst_pulses, box.worst_direction,
+                       box.worst_where, box.first_unstable_pulses, box.slips,
+                       box.executions, box.sample_failures)
+    return SafetyVerdict(moves, aim_deg, tuple(criterion), la, box, resonance,
+                         tuple(al.family_verdicts(ramp, homing, rot, aim_deg)))
+
+
+def _ramp_box(ramp: AlinkRamp, motor: Motor, found: Any, corner: LoadAngle, n_corners: int,
+              n_ways: int, samples: int, seed: int) -> Any:
+    """The tolerance box's verdict on the unit's moves: the corners (rows of `found`), the
+    Monte Carlo samples on the moves worst at some corner."""
+    import numpy as np
+
+    from profiles.alink.ramp import RAMP_HZ
+    from profiles.motor.tolerance import clopper_pearson_upper
+
+    from . import alink_safety as al
+    from .tolerance_box import CONFIDENCE, BoxVerdict, batch_sample_peaks
+
+    per_corner = found.deg.reshape(n_corners, n_ways, -1).max(axis=1)
+    sampled = tuple(sorted({int(found.x[k]) for k in np.argmax(per_corner, axis=1)}))
+    worst = (corner.worst_deg, corner.worst_at, corner.worst_pulses, corner.worst_direction)
+    sample_worst, failures, unstable = -1.0, 0, corner.first_unstable_pulses
+    if samples:
+        peaks, which, way = batch_sample_peaks(al.batch(ramp, "move", np.asarray(sampled)),
+                                               RAMP_HZ, motor, samples, seed)
+        failures = int(np.sum(peaks >= PEAK_DEG))
+        i = int(np.argmax(peaks))
+        sample_worst = float(peaks[i])
+        if sample_worst > worst[0]:
+            worst = (sample_worst, f"sample {i}", sampled[int(which[i])], int(way[i]))
+        if failures:
+            first = min(sampled[int(k)] for k in which[peaks >= PEAK_DEG])
+            unstable = first if unstable is None else min(unstable, first)
+    bound = clopper_pearson_upper(failures, samples, CONFIDENCE) if samples else 1.0
+    return BoxVerdict(worst[0], worst[1], worst[2], worst[3], n_corners, corner.worst_deg,
+                      samples, seed, sample_worst, failures, sampled, bound, unstable,
+                      corner.slips, corner.executions + samples * len(sampled))
 
 
 def _criterion(table: FreeCurveTable, motor: Motor,

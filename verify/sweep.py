@@ -52,7 +52,10 @@ from profiles.progress import Progress, report
 COLUMNS = ("motor", "pulses", "move_time_s", "worst_load_angle_deg", "safe", "failed",
            "margin_deg", "worst_pulses", "stages", "LE", "clock", "top_pps", "binds",
            "solve_s", "judge_s", "corners", "samples", "sample_failures",
-           "stall_probability_upper", "error", "safety")
+           "stall_probability_upper", "error", "safety",
+           # real units (profiles/motor/travel.py): rev and rpm always, mm and mm/s where
+           # the motor file states its travel_mm_per_rev (else empty)
+           "move_rev", "top_rpm", "travel_mm_per_rev", "move_mm", "top_mm_s")
 
 
 @dataclass(frozen=True)
@@ -77,6 +80,7 @@ def run_job(job: Job) -> dict[str, Any]:
     row.update(motor=job.motor, pulses=job.pulses, safe=False, error="")
     try:
         motor = Motor.from_json(job.motor_json)
+        row.update(real_units(motor, job.pulses))
         # planned to the reserve's top speed, judged on the motor as it is
         plan = plan_free_curve(parse_cruise_reserve(job.cruise_reserve).applied(motor),
                                pulses=job.pulses, load_angle_deg=job.load_angle_deg)
@@ -87,11 +91,26 @@ def run_job(job: Job) -> dict[str, Any]:
     row.update(move_time_s=plan.duration_s, stages=len(table.rates), LE=int(table.separate),
                clock=table.clock.name, top_pps=table.clock.hz / table.rates[0],
                binds=plan.binds, solve_s=plan.solve_s)
+    row.update(real_units(motor, job.pulses, row["top_pps"]))
     t0 = time.perf_counter()
     row.update(judge(table, motor, job.samples, job.seed,
                      None if job.load_angle_deg is None else min(job.load_angle_deg, 90.0)))
     row["judge_s"] = time.perf_counter() - t0
     return row
+
+
+def real_units(motor: Any, pulses: int, top_pps: float | None = None) -> dict[str, Any]:
+    """A row's real-unit columns: the move in rev and mm, the top speed in rpm and mm/s
+    (mm only with the motor file's travel_mm_per_rev; the speeds once planned)."""
+    from profiles.motor.travel import AxisUnits, axis_units
+
+    rev, u = AxisUnits(int(motor.steps_per_rev)), axis_units(motor)
+    out: dict[str, Any] = {"move_rev": rev.distance(pulses),
+                           "travel_mm_per_rev": u.mm_per_rev,
+                           "move_mm": u.distance(pulses) if u.linear else None}
+    if top_pps is not None:
+        out.update(top_rpm=rev.speed(top_pps), top_mm_s=u.speed(top_pps) if u.linear else None)
+    return out
 
 
 def judge(table: Any, motor: Any, samples: int, seed: int,
@@ -444,30 +463,51 @@ def _cell(v: Any) -> Any:
     return v
 
 
-def sweep_figure(rows: Sequence[dict[str, Any]], aim_deg: float | None = None) -> Any:
-    """Move time and worst load angle against move length, one line per motor; the 90°
-    peak, and the aim the tables were tightened to (`aim_deg`, when below the peak)."""
+PLANNED = "from the length a table was planned for (open circle)"
+
+
+def sweep_figure(rows: Sequence[dict[str, Any]], aim_deg: float | None = None, *,
+                 units: dict[str, Any] | None = None) -> Any:
+    """Move time against the move length each table was planned for, one line per motor;
+    each table's worst load angle (over every move length it can run) at the length where
+    it occurs (`worst_pulses`), joined to the length it was planned for; the 90° peak, and
+    the aim the tables were tightened to (`aim_deg`, when below the peak). `units`: motor
+    name → `profiles.motor.travel.AxisUnits` to draw lengths in (every motor's own: rev or
+    mm); None: pulses."""
     from profiles.motor.angles import PEAK_DEG
     from verify.plot import pyplot
 
     plt = pyplot()
-    fig, (ax_t, ax_a) = plt.subplots(2, 1, figsize=(8, 7), sharex=True)
-    for name in dict.fromkeys(r["motor"] for r in rows):
+    fig, (ax_t, ax_a) = plt.subplots(2, 1, figsize=(8, 7.5), sharex=True,
+                                     constrained_layout=True)
+    unit = "pulses" if not units else next(iter(units.values())).distance_unit
+    for i, name in enumerate(dict.fromkeys(r["motor"] for r in rows)):
         mine = sorted((r for r in rows if r["motor"] == name and not r["error"]),
                       key=lambda r: r["pulses"])
         if not mine:
             continue
-        n = [r["pulses"] for r in mine]
-        ax_t.plot(n, [r["move_time_s"] for r in mine], marker="o", label=name)
-        ax_a.plot(n, [r["worst_load_angle_deg"] for r in mine], marker="o", label=name)
-    ax_a.axhline(90.0, color="red", lw=1, ls="--", label="90° peak")
+        length = (lambda p: p) if not units else units[name].distance
+        n = [length(r["pulses"]) for r in mine]
+        ax_t.plot(n, [r["move_time_s"] for r in mine], marker="o", color=f"C{i}", label=name)
+        at = [r for r in mine if r.get("worst_pulses") not in (None, "")]
+        for r in at:  # from the length planned for to the length where the worst is
+            ax_a.plot([length(r["pulses"]), length(r["worst_pulses"])],
+                      [r["worst_load_angle_deg"]] * 2, color=f"C{i}", lw=0.8, ls=":",
+                      marker="o", mfc="none", markevery=[0], label=PLANNED)
+        ax_a.plot([length(r["worst_pulses"]) for r in at],
+                  [r["worst_load_angle_deg"] for r in at], ls="none", marker="o",
+                  color=f"C{i}", label=f"{name}: each table's worst")
+    ax_a.axhline(PEAK_DEG, color="red", lw=1, ls="--", label=f"{PEAK_DEG:g}° peak")
     if aim_deg is not None and aim_deg < PEAK_DEG:
         ax_a.axhline(aim_deg, color="orange", lw=1, ls=":", label=f"{aim_deg:g}° aim")
     ax_t.set(xscale="log", yscale="log", ylabel="move time [s]",
+             xlabel=f"move length planned for [{unit}]",
              title="stepramp sweep: robust tables")
-    ax_a.set(xscale="log", xlabel="move length [pulses]",
+    ax_t.xaxis.set_tick_params(labelbottom=True)
+    ax_a.set(xscale="log", xlabel=f"move length where the worst load angle occurs [{unit}]",
              ylabel="worst load angle [° electrical]")
     ax_t.legend(fontsize=7)
-    ax_a.legend(fontsize=7)
-    fig.tight_layout()
+    handles, labels = ax_a.get_legend_handles_labels()
+    once = dict(zip(labels, handles, strict=True))  # the joins: one entry
+    ax_a.legend(once.values(), once.keys(), fontsize=7)
     return fig

@@ -8,6 +8,13 @@ numbers beside it; buttons that download the table (`stepramp.table/1`) and an
 upload file in any format. Everything it shows comes from verify/designer.py, which
 the notebook widget uses too: this module only lays out widgets.
 
+A change shows its steps (`design_steps`) one per turn of the server (a next-tick
+callback of the tab's document, so the browser receives each before the next is
+computed): the first table (the plain criterion's, marked as being tightened: verdict
+level "tightening"), the final table judged for moves and decel stops (its verdict
+saying the other commands are being judged), then its verdict over every command.
+The downloads are enabled at the last step only; a newer change drops pending steps.
+
 One server process serves every tab; `serve` warms the load-angle kernel (numba)
 once before it says where it listens, so the first slider change is as fast as
 the others. Panel is imported only when a page is built or served.
@@ -22,7 +29,7 @@ import signal
 import threading
 import time
 import webbrowser
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any
 
 from profiles.errors import StepRampError
@@ -40,12 +47,14 @@ from verify.designer import (
     design,
     design_files,
     design_stem,
+    design_steps,
     settings_from,
     verdict,
 )
 
 INSTALL_HINT = "pip install 'stepramp[design]'"
-COLORS = {"safe": "#1b7f3b", "past-aim": "#b36b00", "unsafe": "#b00020", "none": "#b00020"}
+COLORS = {"safe": "#1b7f3b", "past-aim": "#b36b00", "unsafe": "#b00020", "none": "#b00020",
+          "tightening": "#5f6368"}
 GROUPS = (("move", "The move"), ("load", "The load"), ("aim", "The aim"), ("table", "The table"))
 
 
@@ -72,9 +81,13 @@ class DesignPage:
         self.cruise_reserve = cruise_reserve
         self.motor_name = motor_name or motor.name or "motor"
         self.result: Design | None = None
-        self.recompute_ms = 0.0
+        self.first_ms = 0.0       # from the change to the first table shown
+        self.recompute_ms = 0.0   # from the change to the final table shown
+        self.complete_ms = 0.0    # from the change to its verdict over every command
         self._figure = DesignFigure(dpi=80)
         self._lock = threading.Lock()
+        self._changes = 0         # a pending final of an older change is dropped
+        self._doc = pn.state.curdoc  # the tab's document when served (None in Python)
         specs = control_specs(motor, pulses)
         self._groups = {key: spec.group for key, spec in specs.items()}
         self._groups.update(clock="table", plan_to_aim="aim")
@@ -103,7 +116,7 @@ class DesignPage:
         for control in self.controls.values():
             control.param.watch(lambda _event: self.recompute(), "value")
         self.upload_format.param.watch(lambda _event: self._name_files(), "value")
-        self.recompute()
+        self.recompute(deferred=False)  # the page opens on a final table
 
     @property
     def settings(self) -> Settings:
@@ -111,33 +124,66 @@ class DesignPage:
                                                   self.controls.items()}),
                                    cruise_reserve=self.cruise_reserve)
 
-    def recompute(self) -> None:
-        """Replan, judge and redraw for the controls' current values (one at a time)."""
+    def recompute(self, *, deferred: bool = True) -> None:
+        """Replan, judge and redraw for the controls' current values: the first table at
+        once, the final one on the server's next turn when served (`deferred`), else
+        at once too."""
+        self._changes += 1
+        steps = design_steps(self.motor, self.settings)
+        self._step(steps, self._changes, time.perf_counter(), deferred)
+
+    def _step(self, steps: Iterator[Design], change: int, t0: float, deferred: bool) -> None:
+        if change != self._changes:
+            return  # a newer change came first
         with self._lock:
-            t0 = time.perf_counter()
             try:
-                result = design(self.motor, self.settings)
+                result = next(steps, None)
             except StepRampError as e:
-                self._show_verdict("none", f"NO TABLE for these settings: {e}")
-                self.summary.object = ("<pre class='sr-numbers'>no table: the figure shows the "
-                                       "last design that had one</pre>")
-                for button in self.downloads.values():
-                    button.disabled = True
+                self._refuse(e)
                 return
-            self.result = result
-            self.figure.object = self._figure.update(result)
-            self.recompute_ms = (time.perf_counter() - t0) * 1e3
-            said = verdict(result)
-            self._show_verdict(said.level, said.text)
-            text = result.summary() + f"\nshown in {self.recompute_ms:.0f} ms"
-            self.summary.object = f"<pre class='sr-numbers'>{html.escape(text)}</pre>"
-            for button in self.downloads.values():
-                button.disabled = False
+            if result is None:
+                return
+            self._show(result, (time.perf_counter() - t0) * 1e3)
+        if result.complete:
+            return
+        if deferred and self._doc is not None and self._doc.session_context is not None:
+            self._doc.add_next_tick_callback(lambda: self._step(steps, change, t0, deferred))
+        else:
+            self._step(steps, change, t0, deferred)
+
+    def _show(self, result: Design, shown_ms: float) -> None:
+        self.result = result
+        self.figure.object = self._figure.update(result)
+        said = verdict(result)
+        self._show_verdict(said.level, said.text)
+        if result.complete:
+            self.complete_ms = shown_ms
+            timing = (f"judged in full in {shown_ms:.0f} ms (first table shown in "
+                      f"{self.first_ms:.0f} ms, final in {self.recompute_ms:.0f} ms)")
+        elif result.final:
+            self.recompute_ms = shown_ms
+            timing = (f"final table shown in {shown_ms:.0f} ms (first in {self.first_ms:.0f} "
+                      "ms)")
+        else:
+            self.first_ms = shown_ms
+            timing = f"first table shown in {shown_ms:.0f} ms"
+        text = result.summary() + f"\n{timing}"
+        self.summary.object = f"<pre class='sr-numbers'>{html.escape(text)}</pre>"
+        for button in self.downloads.values():
+            button.disabled = not result.complete  # offered once judged in full
+        if result.complete:
             self._name_files()
+
+    def _refuse(self, error: StepRampError) -> None:
+        self._show_verdict("none", f"NO TABLE for these settings: {error}")
+        self.summary.object = ("<pre class='sr-numbers'>no table: the figure shows the "
+                               "last design that had one</pre>")
+        for button in self.downloads.values():
+            button.disabled = True
 
     def files(self) -> list[tuple[str, bytes]]:
         """The table and the upload file (in the chosen format) of the current design."""
-        assert self.result is not None
+        assert self.result is not None and self.result.complete
         return design_files(self.result, design_stem(self.motor_name, self.result),
                             (self.upload_format.value,))
 
@@ -157,7 +203,7 @@ class DesignPage:
         return io.BytesIO(self.files()[index][1])
 
     def _name_files(self) -> None:
-        if self.result is not None:
+        if self.result is not None and self.result.complete:
             for (name, _), button in zip(self.files(), self.downloads.values(), strict=True):
                 button.filename = name
 

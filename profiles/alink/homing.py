@@ -12,8 +12,8 @@ self-start range, whatever its rate.
 
 Conservative on purpose: a search could run faster and decelerate before the origin only
 with an SD input, which the unit has but a plan cannot count on. `plan_homing` is the one
-place the choice is made, so that a load-angle verdict of the homing legs can later judge
-(or widen) it there.
+place the choice is made; `tighten_homing` then lowers OH until the homing legs' load-angle
+verdict (verify.alink_safety.homing_judge, the kernel every verdict runs) is within the aim.
 
 The unit's multiplier for the homing speeds is not documented (appendix 2 names the high
 speed and MAX_SPEED only): every value chosen is a multiple of 20 — the largest
@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from ..errors import PlanError
@@ -40,6 +41,7 @@ from .codec import (
     command_address,
 )
 from .model import PPS2_PER_INV_PARA, SPEED_MAX_PPS, STEPS_MAX, max_setting
+from .planner import Judgement
 
 STEP_PPS = 20            # ×20, the largest multiplier either table of appendix 2 selects
 PARA_TOP = STEPS_MAX     # 8000: the top of ×1's para range, the narrowest (appendix 3)
@@ -97,6 +99,37 @@ def plan_homing(motor: Motor, *, max_pps: float = 0) -> PlanResult[HomingSetting
     return PlanResult(homing, None, binds, info, None, None, time.perf_counter() - started,
                       tuple(warnings), {"stop_cap_pps": float(stop_cap),
                                         "accel_limit_pps2": a_lim, "model": MODEL})
+
+
+HOMING_FACTOR = 0.85   # a tightening round: OH × this (OL = OH / CREEP_DIVISOR again)
+
+
+def tighten_homing(motor: Motor, homing: HomingSettings,
+                   judge: Callable[[HomingSettings], Judgement], *, aim_deg: float
+                   ) -> tuple[HomingSettings, Judgement, str]:
+    """`homing` with OH (and OL with it) lowered, a round at a time, until `judge` (the
+    homing legs on the load angle: verify.alink_safety.homing_judge) finds them within the
+    aim: (the settings, the judgement, the price in plain words, "" when nothing changed).
+    Refused (PlanError, naming what would help) below OH = 40 pps."""
+    h = homing
+    while True:
+        verdict = judge(h)
+        if verdict.within_aim:
+            break
+        oh = math.floor(h.oh_pps * HOMING_FACTOR / STEP_PPS) * STEP_PPS
+        if oh < 2 * STEP_PPS:
+            raise PlanError(f"{motor.name or 'motor'}: no homing speed keeps the stop at the "
+                            f"origin within {aim_deg:g}° (OH {h.oh_pps} pps: "
+                            f"{verdict.worst_deg:.1f}°); less load inertia, a higher drive "
+                            "current or a coarser microstep would help")
+        ol = max(STEP_PPS, math.floor(oh / CREEP_DIVISOR / STEP_PPS) * STEP_PPS)
+        h = HomingSettings(ol, oh, h.o_uptime_para)
+    price = ("" if h == homing else
+             f"origin high speed lowered to {h.oh_pps} pps (from {homing.oh_pps}; OL "
+             f"{h.ol_pps}) to keep the stop at the origin within {aim_deg:g}° (worst now "
+             f"{verdict.worst_deg:.1f}°): a search runs {homing.oh_pps / h.oh_pps:.2f}× as "
+             "long")
+    return h, verdict, price
 
 
 def homing_commands(homing: HomingSettings, *, slave_address: int | None = None,

@@ -9,10 +9,13 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
-from ..errors import FieldRangeError, StepRampError, require_int, require_number
+from ..errors import FieldRangeError, PlanError, StepRampError, require_int, require_number
 from ..motor import Motor
 from ..result import PlanResult
 from .model import (
@@ -27,6 +30,7 @@ from .model import (
     max_setting,
     move_time_s,
     move_times,
+    quantise_settings,
 )
 
 S_CURVE_PEAK_FACTOR = math.pi / 2  # peak / average acceleration of the 1 − cos law
@@ -143,3 +147,117 @@ def plan_settings(motor: Motor, *, pulses: int | None = None, max_pps: float = 0
                       time.perf_counter() - started, tuple(warnings),
                       {"shape": shape, "ramp_time_s": float(ramp_t[best]),
                        "ramp_pulses": ramp_pulses, "accel_limit_pps2": float(a_lim[best])})
+
+
+# --- tightened until the load angle is within the aim ------------------------------------------
+
+START_FACTOR = 0.85   # a start-speed round: L × this (down to one multiplier step)
+RAMP_FACTOR = 1.25    # a ramp round: the para × this (a gentler ramp), up to 8000·m
+HIGH_FACTOR = 0.9     # at the slowest ramp: the high speed × this
+MAX_ROUNDS = 40
+
+
+@dataclass(frozen=True)
+class Judgement:
+    """What a settings judge (verify.alink_safety.settings_judge) says of settings: within
+    the load-angle aim or not, the worst angle, the lever it blames ("start": short moves
+    and early stops, near the start speed; "ramp": the ramp higher up) and one line."""
+
+    within_aim: bool
+    worst_deg: float
+    blame: Literal["start", "ramp"]
+    what: str
+
+
+SettingsJudge = Callable[[AlinkSettings], Judgement]
+
+
+@dataclass(frozen=True)
+class Tightened:
+    """Settings tightened until a judge finds them within the aim, and the price."""
+
+    settings: AlinkSettings
+    before: AlinkSettings
+    rounds: int
+    judgement: Judgement
+    price: str            # plain words: what changed and what it costs ("" when nothing did)
+
+
+def tighten_settings(motor: Motor, settings: AlinkSettings, judge: SettingsJudge, *,
+                     aim_deg: float, pulses: int | None = None) -> Tightened:
+    """`settings` made gentler, a lever a round, until `judge` finds them within the aim:
+    the start speed L lowered (START_FACTOR) when the judge blames short moves, else the
+    ramp made gentler (RAMP_FACTOR on the para), and at the slowest ramp the high speed
+    lowered (HIGH_FACTOR). Refused (PlanError, naming what would help) when no lever is
+    left. `pulses`: the move whose time the price names (else the shortest that reaches
+    the high speed before, and the worst short move)."""
+    s = settings
+    first: Judgement | None = None
+    for rounds in range(MAX_ROUNDS):
+        verdict = judge(s)
+        first = first or verdict
+        if verdict.within_aim:
+            return Tightened(s, settings, rounds, verdict,
+                             _price(settings, s, (first, verdict), aim_deg, pulses))
+        nxt = _gentler(s, verdict.blame, motor)
+        if nxt is None:
+            break
+        s = nxt
+    raise PlanError(f"{motor.name or 'motor'}: no A-Link setting keeps every move within "
+                    f"{aim_deg:g}°: at L_SPEED {s.start_pps} pps, H_SPEED {s.high_pps} pps, "
+                    f"UP_TIME para {s.accel_para} the worst is {verdict.worst_deg:.1f}° "
+                    f"({verdict.what}); a lower speed limit (--max-pps), less load inertia, "
+                    "a higher drive current or a coarser microstep would help")
+
+
+def _gentler(s: AlinkSettings, blame: str, motor: Motor) -> AlinkSettings | None:
+    """The settings one lever gentler (None: no lever left)."""
+    m = s.multiplier
+    levers = ("start", "ramp", "high") if blame == "start" else ("ramp", "high", "start")
+    for lever in levers:
+        start, high, para = s.start_pps, s.high_pps, s.accel_para
+        if lever == "start":
+            start = max(math.floor(start * START_FACTOR / m) * m, m)
+        elif lever == "ramp":
+            para = min(math.ceil(para * RAMP_FACTOR / m) * m, STEPS_MAX * m)
+        else:
+            high = max(math.floor(high * HIGH_FACTOR), start + m)
+        if (start, high, para) == (s.start_pps, s.high_pps, s.accel_para):
+            continue
+        try:
+            return quantise_settings(min(start, high), high, para / 100, s.max_pps,
+                                     s_curve=s.s_curve,
+                                     triangle_avoidance=s.triangle_avoidance)
+        except StepRampError:
+            continue
+    return None
+
+
+def _price(before: AlinkSettings, after: AlinkSettings, verdicts: tuple[Judgement, Judgement],
+           aim_deg: float, pulses: int | None) -> str:
+    """What the tightening changed and what it costs, in plain words (`verdicts`: the
+    judge's on the settings before and after)."""
+    if after == before:
+        return ""
+    changes = []
+    if after.start_pps != before.start_pps:
+        changes.append(f"start speed lowered to {after.start_pps} pps (from "
+                       f"{before.start_pps})")
+    if after.accel_para != before.accel_para:
+        changes.append(f"ramp made gentler (UP_TIME para {before.accel_para} → "
+                       f"{after.accel_para}, {after.accel_pps2:.6g} pps/s)")
+    if after.high_pps != before.high_pps:
+        changes.append(f"high speed lowered to {after.high_pps} pps (from {before.high_pps})")
+    lengths = [pulses] if pulses is not None else sorted({
+        max(1, math.ceil((before.high_pps**2 - before.start_pps**2) / before.accel_pps2)),
+        100})
+    costs = []
+    for n in lengths:
+        t0, t1 = move_time_s(before, n).duration_s, move_time_s(after, n).duration_s
+        which = ("" if pulses is not None or n == 100 else
+                 " (the shortest that reached the high speed)")
+        costs.append(f"a move of {n} pulses{which} takes {t1 * 1e3:.4g} ms instead of "
+                     f"{t0 * 1e3:.4g} ms ({t1 / t0 - 1:+.1%})")
+    was, now = verdicts
+    return (", ".join(changes) + f" to keep every move within {aim_deg:g}° (worst "
+            f"{was.worst_deg:.1f}° → {now.worst_deg:.1f}°, {was.what}): " + "; ".join(costs))

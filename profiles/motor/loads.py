@@ -431,3 +431,39 @@ def friction_warning(friction_nm: float, friction_high_nm: float) -> str | None:
     return ("friction_torque_nm is 0: no detent, bearing, screw or guide friction, which a "
             "real axis has and accelerating needs torque for; give it, or its range in "
             "tolerances (`stepramp motor new` assumes it from the datasheet and the load)")
+
+
+# --- the mechanism's travel (issue 32 item 5) --------------------------------------------
+
+@dataclass(frozen=True)
+class Mechanism:
+    """A linear mechanism of the load specs: the axis travel per MOTOR revolution [mm]
+    (a screw's lead or a pulley's π·d, divided by every gear ratio before it) and how."""
+
+    travel_mm_per_rev: float
+    source: str
+
+    def to_json(self) -> dict[str, object]:
+        return {"value": self.travel_mm_per_rev, "from": self.source}
+
+
+def mechanisms_from_specs(specs: Sequence[str]) -> list[Mechanism]:
+    """The linear mechanisms of CLI load specs (screws, ball screws, belts), in order, each
+    through the gears given before it (their ratios multiply); none for rotary loads."""
+    out: list[Mechanism] = []
+    ratio, gears = 1.0, ""
+    for kind, args in (parse_load(s) for s in specs):
+        if kind == "gear":
+            ratio *= args["ratio"]
+            gears += f" / gear {_g(args['ratio'])}"
+            continue
+        if kind in ("screw", "ballscrew"):
+            mm = args["lead_m"] * 1e3
+            how = f"{'ball' if kind == 'ballscrew' else 'lead'} screw lead {_g(mm)} mm"
+        elif kind == "belt":
+            mm = math.pi * args["pulley_diameter_m"] * 1e3
+            how = f"belt pulley π·Ø{_g(args['pulley_diameter_m'] * 1e3)} mm"
+        else:
+            continue
+        out.append(Mechanism(mm / ratio, f"{how}{gears} = {_g(mm / ratio)} mm/rev"))
+    return out

@@ -35,7 +35,8 @@ REQUIRED_KEYS = {"format", "steps_per_rev", "pullout_torque", "inertia_kgm2",
                  "safety_factor", "start_pps"}
 OPTIONAL_KEYS = {"friction_torque_nm", "max_jump_pps", "max_pps", "max_jerk_pps3", "name",
                  "holding_torque_nm", "rotor_teeth", "phases", "damping_ratio",
-                 "load_torque_nm", "sources", "tolerances", "resonance_bands_pps"}
+                 "load_torque_nm", "sources", "tolerances", "resonance_bands_pps",
+                 "travel_mm_per_rev"}
 # Parameters a `tolerances` entry may range over (docs/manual-notes.md, "Tolerance box").
 TOLERANCE_KEYS = ("inertia_kgm2", "friction_torque_nm", "load_torque_nm", "torque_scale",
                   "damping_ratio")
@@ -45,6 +46,9 @@ DEFAULT_ROTOR_TEETH = 50        # the 1.8° (2-phase) and 0.72° (5-phase) hybri
 DEFAULT_DAMPING_RATIO = 0.1
 MAX_TORQUE_NM = 1e6
 MAX_SPEED_PPS = 1e9
+# The axis travel per motor revolution a file may state [mm] (physical bounds; `motor new`
+# and `motor check` refuse the implausible: profiles/motor/plausible.py).
+TRAVEL_MM_PER_REV_RANGE = (1e-6, 1e6)
 
 
 @dataclass(frozen=True)
@@ -72,6 +76,10 @@ class Motor:
     tolerances: tuple[tuple[str, float, float], ...] = ()
     # speeds [pps] where the machine resonates: closed intervals [lo, hi]
     resonance_bands_pps: tuple[tuple[float, float], ...] = ()
+    # the axis travel per motor revolution [mm] (a screw's lead, a pulley's π·d, through
+    # its gears): what `plan`, `show` and the figures give mm in (profiles/motor/travel.py);
+    # None: a rotary axis, shown in rev and rpm. Never used by the physics.
+    travel_mm_per_rev: float | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         v = np.asarray(self.curve_speed_pps, dtype=float)
@@ -109,6 +117,8 @@ class Motor:
             raise FieldRangeError("damping_ratio", self.damping_ratio, 0, 10)
         if not abs(self.load_torque_nm) < 1e4:
             raise FieldRangeError("load_torque_nm", self.load_torque_nm, -1e4, 1e4)
+        if self.travel_mm_per_rev is not None:
+            _positive("travel_mm_per_rev", self.travel_mm_per_rev, *TRAVEL_MM_PER_REV_RANGE)
         _check_tolerances(self)
         _check_bands(self.resonance_bands_pps)
         if self.a_acc_pps2(0.0) <= 0:
@@ -219,6 +229,8 @@ class Motor:
             out["tolerances"] = {k: [lo, hi] for k, lo, hi in self.tolerances}
         if self.resonance_bands_pps:
             out["resonance_bands_pps"] = [[lo, hi] for lo, hi in self.resonance_bands_pps]
+        if self.travel_mm_per_rev is not None:
+            out["travel_mm_per_rev"] = self.travel_mm_per_rev
         return out
 
     @classmethod
@@ -260,7 +272,8 @@ class Motor:
                    load_torque_nm=float(obj.get("load_torque_nm", 0.0)),
                    sources=_sources(obj["sources"]) if "sources" in obj else None,
                    tolerances=_read_tolerances(obj.get("tolerances", {})),
-                   resonance_bands_pps=_read_bands(obj.get("resonance_bands_pps", [])))
+                   resonance_bands_pps=_read_bands(obj.get("resonance_bands_pps", [])),
+                   travel_mm_per_rev=_opt(obj, "travel_mm_per_rev"))
 
     def nominal(self, name: str) -> float:
         """The nominal value of a TOLERANCE_KEYS parameter (torque_scale: 1)."""

@@ -49,6 +49,11 @@ QUANTITIES: dict[str, Quantity] = {
     "rotor_inertia_kgm2": Quantity("rotor inertia", "kg·m²", 1e-9, 1e-2,
                                    (("kg·m²", 1.0), ("g·cm²", 1e-7), ("kg·cm²", 1e-4))),
     "supply_v": Quantity("supply voltage", "V", 1.0, 400.0, (("V", 1.0), ("mV", 1e-3))),
+    # not a stepper's but its axis's: a 0.5 mm lead through a 500:1 gear (0.001 mm) to a
+    # Ø1.6 m pulley (5000 mm)
+    # (docs/manual-notes.md, "Real units"); the field is in mm, as screws and pulleys are
+    "travel_mm_per_rev": Quantity("axis travel per motor revolution", "mm", 1e-3, 5000.0,
+                                  (("mm", 1.0), ("m", 1e3), ("µm", 1e-3))),
 }
 # Holding (or standstill pull-out) torque per rotor inertia [rad/s²]: datasheets give
 # 1.7e4 (a 5 N·m NEMA 23) to 1.1e5 (a 0.4 N·m NEMA 17); a slip of units in either value
@@ -180,6 +185,10 @@ def _file_problems(obj: Mapping[str, Any]) -> list[Problem]:
     if isinstance(holding, int | float) and (msg := curve_problem(
             top, float(holding), curve_label, Label("/holding_torque_nm", "N·m"))):
         out.append(("/pullout_torque", msg))
+    travel = obj.get("travel_mm_per_rev")
+    if isinstance(travel, int | float) and (msg := value_problem(
+            "travel_mm_per_rev", float(travel), si_label("travel_mm_per_rev"))):
+        out.append(("/travel_mm_per_rev", msg))
     q = QUANTITIES["rotor_inertia_kgm2"]
     if inertia < q.lo:
         label = Label("/inertia_kgm2", "kg·m²")

@@ -18,6 +18,7 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 from ..errors import FieldRangeError, FormatError, echo
+from ..motor.travel import AxisUnits
 from .init_model import as_free_curve
 from .table import RATE_FIELD_MAX, FreeCurveTable, InitTable
 
@@ -36,6 +37,8 @@ class StageRow:
     decel_pulses: int | None
     decel_s: float | None
     decel_cum_s: float | None
+    # with a motor file's travel_mm_per_rev (profiles/motor/travel.py); listed only then
+    speed_mm_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -43,6 +46,13 @@ class StageListing:
     table: FreeCurveTable | InitTable
     stages: FreeCurveTable       # what the chip runs (the model's, for an init table)
     rows: tuple[StageRow, ...]   # slowest first
+    # the axis's real units (with a motor): the ramps in mm or rev, a linear axis's
+    # stages in mm/s too
+    units: AxisUnits | None = None
+
+    @property
+    def linear(self) -> bool:
+        return self.units is not None and self.units.linear
 
     @property
     def modelled(self) -> bool:
@@ -62,15 +72,28 @@ class StageListing:
             "clock": self.stages.clock.to_json(), "separate_decel": self.stages.separate,
             "accel_pulses": self.stages.accel_total, "decel_pulses": self.stages.decel_total,
             "accel_s": self.accel_s, "decel_s": self.decel_s,
-            "stages": [asdict(r) for r in self.rows]}
+            "stages": [self._row(r) for r in self.rows]}
+        u = self.units
+        if u is not None:  # the ramps' lengths in mm (or rev), beside their pulses
+            out[f"accel_{u.distance_key}"] = u.distance(self.stages.accel_total)
+            out[f"decel_{u.distance_key}"] = u.distance(self.stages.decel_total)
+            if u.linear:
+                out["travel_mm_per_rev"] = u.mm_per_rev
         if isinstance(self.table, InitTable):
             out["init"] = self.table.to_json()
+        return out
+
+    def _row(self, row: StageRow) -> dict[str, Any]:
+        """A stage's JSON object (`speed_mm_s` only on a linear axis)."""
+        out = asdict(row)
+        if not self.linear:
+            del out["speed_mm_s"]
         return out
 
     def to_csv(self) -> str:
         buf = io.StringIO()
         writer = csv.writer(buf, lineterminator="\n")
-        names = list(StageRow.__dataclass_fields__)
+        names = [n for n in StageRow.__dataclass_fields__ if self.linear or n != "speed_mm_s"]
         writer.writerow(names)
         for r in self.rows:
             writer.writerow(["" if v is None else repr(v) if isinstance(v, float) else v
@@ -79,9 +102,12 @@ class StageListing:
 
     def to_text(self) -> str:
         s = self.stages
+        u = self.units
+        acc, dec = ((f" ({u.distance_text(s.accel_total)})", f" ({u.distance_text(s.decel_total)})")
+                    if u is not None else ("", ""))
         head = (f"{'init' if self.modelled else 'free-curve'} table, clock {s.clock.name}, "
-                f"{len(s.rates)} stages: accel {s.accel_total} pulses in "
-                f"{self.accel_s * 1e3:.6g} ms, decel {s.decel_total} pulses in "
+                f"{len(s.rates)} stages: accel {s.accel_total} pulses{acc} in "
+                f"{self.accel_s * 1e3:.6g} ms, decel {s.decel_total} pulses{dec} in "
                 f"{self.decel_s * 1e3:.6g} ms"
                 + ("" if s.separate else " (decel counts = accel counts)"))
         lines = [head]
@@ -94,13 +120,16 @@ class StageListing:
             lines.append("the stages below are modelled: the staircase the chip is modelled "
                          "to build (docs/manual-notes.md), not read from the chip")
         rpm = any(r.speed_rpm is not None for r in self.rows)
-        cols = ["stage", "rate", "speed [pps]"] + (["speed [rpm]"] if rpm else []) + [
+        mm = self.linear
+        cols = ["stage", "rate", "speed [pps]"] + (["speed [rpm]"] if rpm else []) + (
+            ["speed [mm/s]"] if mm else []) + [
             "accel pulses", "accel [ms]", "accel cum [ms]",
             "decel pulses", "decel [ms]", "decel cum [ms]"]
         table = [cols]
         for r in self.rows:
             table.append([str(r.stage), str(r.rate), f"{r.speed_pps:.6g}"]
                          + ([_num(r.speed_rpm)] if rpm else [])
+                         + ([_num(r.speed_mm_s)] if mm else [])
                          + [_num(r.accel_pulses), _ms(r.accel_s), _ms(r.accel_cum_s),
                             _num(r.decel_pulses), _ms(r.decel_s), _ms(r.decel_cum_s)])
         widths = [max(len(row[i]) for row in table) for i in range(len(cols))]
@@ -118,9 +147,11 @@ class StageListing:
         raise FormatError(f"format: {echo(fmt)} is not one of {', '.join(FORMATS)}")
 
 
-def list_stages(table: FreeCurveTable | InitTable,
-                steps_per_rev: int | None = None) -> StageListing:
-    """The per-stage listing of `table`; `steps_per_rev` adds each stage's speed in rpm."""
+def list_stages(table: FreeCurveTable | InitTable, steps_per_rev: int | None = None,
+                units: AxisUnits | None = None) -> StageListing:
+    """The per-stage listing of `table`; `steps_per_rev` adds each stage's speed in rpm,
+    `units` of a linear axis (a motor file's travel_mm_per_rev) its speed in mm/s and the
+    ramps' lengths in mm."""
     stages = as_free_curve(table)
     hz = stages.clock.hz
     for i, rate in enumerate(stages.rates):
@@ -145,9 +176,11 @@ def list_stages(table: FreeCurveTable | InitTable,
                  speed_rpm=None if steps_per_rev is None else hz / rate * 60 / steps_per_rev,
                  accel_pulses=_at(stages.accel_pulses, i), accel_s=acc_s[i],
                  accel_cum_s=acc_cum[i], decel_pulses=_at(stages.decel, i),
-                 decel_s=dec_s[i], decel_cum_s=dec_cum[i])
+                 decel_s=dec_s[i], decel_cum_s=dec_cum[i],
+                 speed_mm_s=units.speed(hz / rate) if units is not None and units.linear
+                 else None)
         for i, rate in reversed(list(enumerate(stages.rates))))
-    return StageListing(table, stages, rows)
+    return StageListing(table, stages, rows, units)
 
 
 def _at(seq: tuple[int, ...], i: int) -> int | None:

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -116,3 +117,63 @@ def test_the_notebook_designer_says_it_in_the_cell(said: list[str],
     designer(load_motor(bundled_motor_paths()[0]), pulses=2_000)
     assert _kernel("profiles.fake_kernel")(5) == 10
     assert capsys.readouterr().out.splitlines() == [f"stepramp designer: {compiling.NOTICE}"]
+
+
+LEAN_PROBE = """
+import json, sys, threading
+from profiles import compiling
+gate = threading.Event()
+other = threading.Thread(target=gate.wait)
+other.start()
+busy = compiling.lean_registries()  # another thread could be importing scipy meanwhile
+gate.set()
+other.join()
+done = compiling.lean_registries()
+left = [m for m in compiling.LEAN_WITHOUT if m in sys.modules]
+import numba.np.arraymath
+blas = numba.np.arraymath._HAVE_BLAS
+import scipy.linalg, cffi  # available again to whatever wants them
+from numba.core import entrypoints
+print(json.dumps([busy, done, left, blas, compiling.lean_registries(),
+                  entrypoints._already_initialized]))
+"""
+
+
+def test_lean_registries_only_alone_and_only_once() -> None:
+    """numba's registry modules are imported without scipy.linalg and cffi (and numba's
+    extensions not looked for) only in a process with one thread, and both stay
+    importable afterwards; a second call (numba's modules loaded) does nothing."""
+    run = subprocess.run([sys.executable, "-c", LEAN_PROBE], capture_output=True, text=True,
+                         timeout=300, cwd=ROOT)
+    assert run.returncode == 0, run.stderr
+    assert json.loads(run.stdout) == [False, True, [], False, False, True]
+
+
+CHECK_PROBE = """
+import sys
+from verify.cli import main
+sys.argv = ["stepramp", *sys.argv[1:]]
+code = main()  # as the `stepramp` process: lean
+print([m for m in ("scipy.linalg", "cffi") if m in sys.modules], file=sys.stderr)
+sys.exit(code)
+"""
+
+
+def test_the_command_judges_alike_without_scipy_linalg_and_cffi(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """`stepramp check --motor` in its own process (numba's registries lean: neither
+    scipy.linalg nor cffi imported) gives the verdict this process gives (the reference,
+    numba loaded as a library caller's)."""
+    from verify.cli import main
+
+    root = ROOT
+    args = ["check", str(root / "examples" / "free-curve-nema17.json"), "--motor",
+            "nema17-1600", "--format", "json"]
+    run = subprocess.run([sys.executable, "-c", CHECK_PROBE, *args], capture_output=True,
+                         text=True, timeout=300, cwd=root)
+    assert run.returncode in (0, 1), run.stderr
+    assert run.stderr.strip().splitlines()[-1] == "[]"
+    capsys.readouterr()
+    code = main(args)
+    assert (code, json.loads(capsys.readouterr().out)) == (run.returncode,
+                                                           json.loads(run.stdout))

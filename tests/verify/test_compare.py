@@ -4,9 +4,12 @@ from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
+from typing import Any
 
+import numpy as np
 import pytest
 
+from profiles.errors import ReferenceSolveError
 from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.planner import plan_free_curve
@@ -98,9 +101,9 @@ def test_figure_is_written(tmp_path: Path, suffix: str) -> None:
     head = out.read_bytes()[:64]
     assert head.startswith(b"\x89PNG") if suffix == "png" else b"<svg" in out.read_bytes()
     fig = cmp.figure()
-    assert len(fig.axes) == 3
+    assert len(fig.axes) == 4  # and the load angle against time
     labels = [ax.get_xlabel() for ax in fig.axes]
-    assert labels == ["time [ms]", "position [pulses]", "stage (0 = fastest)"]
+    assert labels == ["time [ms]", "position [pulses]", "time [ms]", "stage (0 = fastest)"]
 
 
 @pytest.mark.slow
@@ -111,3 +114,93 @@ def test_jerk_limited_motor_reports_casadi_as_the_jerk_limited_optimum() -> None
     doc = cmp.to_json()
     assert doc["jerk_limited_optimum_s"] == cmp.references["casadi"].duration_s
     assert doc["jerk_limited_optimum_s"] >= cmp.optimum_s * (1 - 1e-3)
+
+
+@pytest.fixture(scope="module")
+def cmp() -> Any:
+    return compare_table(PLAN.table, MOTOR, 4000, include=("ruckig",))
+
+
+def legend_texts(fig: Any) -> list[str]:
+    legends = [ax.get_legend() for ax in fig.axes] + list(fig.legends)
+    return [t.get_text() for lg in legends if lg is not None for t in lg.get_texts()]
+
+
+def close(fig: Any) -> None:
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+
+
+def test_compare_has_a_load_angle_panel_with_the_aim_and_the_peak(cmp: Any) -> None:
+    fig = cmp.figure()
+    [ax] = [a for a in fig.axes if a.get_ylabel().startswith("load angle")]
+    levels = {round(float(line.get_ydata()[0]), 6) for line in ax.get_lines()
+              if len(set(np.asarray(line.get_ydata(), float))) == 1 and
+              len(line.get_ydata()) == 2}
+    assert {75.0, -75.0, 90.0, -90.0} <= levels
+    trace = next(line for line in ax.get_lines() if line.get_label() == "nominal, forward")
+    worst = cmp.move_verdict.load_angle.worst_deg
+    assert float(np.max(np.abs(trace.get_ydata()))) == pytest.approx(worst, rel=0.05)
+    assert any(t.startswith("worst ") for t in legend_texts(fig))
+    close(fig)
+
+
+def test_without_physics_no_load_angle_panel() -> None:
+    cmp = compare_table(PLAN.table, MOTOR, 4000, include=(), physics=False)
+    fig = cmp.figure()
+    assert not any(a.get_ylabel().startswith("load angle") for a in fig.axes)
+    close(fig)
+
+
+def test_a_failed_reference_is_shown_as_failed(monkeypatch: pytest.MonkeyPatch) -> None:
+    import verify.references.casadi_ref as casadi_ref
+
+    def fail(motor: Any, pulses: float) -> Any:
+        raise ReferenceSolveError("casadi: Ipopt did not succeed (Infeasible_Problem)")
+
+    monkeypatch.setattr(casadi_ref, "casadi_reference", fail)
+    cmp = compare_table(PLAN.table, MOTOR, 4000, include=("casadi",), physics=False)
+    assert cmp.failed_references == {"casadi": "Ipopt did not succeed (Infeasible_Problem)"}
+    assert "casadi" not in cmp.references
+    assert "  casadi   failed (Ipopt did not succeed (Infeasible_Problem))" in cmp.to_text()
+    assert cmp.to_json()["failed_references"] == cmp.failed_references
+    fig = cmp.figure()
+    texts = legend_texts(fig)
+    assert "casadi: FAILED (Ipopt did not succeed (Infeasible_Problem))" in texts
+    close(fig)
+
+
+def test_references_from_another_start_are_labelled_and_the_table_start_drawn() -> None:
+    faster = dataclasses.replace(MOTOR, start_pps=MOTOR.start_pps * 1.5)
+    cmp = compare_table(PLAN.table, faster, 4000, include=(), physics=False)
+    start = cmp.from_table_start
+    assert start is not None
+    assert start.v_pps[0] == pytest.approx(cmp.table_start_pps)
+    assert cmp.reference_start_pps == pytest.approx(faster.start_pps)
+    fig = cmp.figure()
+    legend = fig.axes[0].get_legend()
+    assert f"{faster.start_pps:.6g} pps" in legend.get_title().get_text()
+    assert any(t.startswith("exact from the table's start") for t in legend_texts(fig))
+    assert "table/that" in cmp.to_text()
+    close(fig)
+    same = compare_table(PLAN.table, MOTOR, 4000, include=(), physics=False)
+    assert same.from_table_start is None  # the planner's table starts at the motor's start
+
+
+def test_a_long_move_gets_a_ramp_zoom_a_short_one_none(cmp: Any) -> None:
+    fig = cmp.figure()
+    assert not any(a.get_title().startswith("the ramp, zoomed") for a in fig.axes)
+    close(fig)
+    long = compare_table(PLAN.table, MOTOR, 400_000, include=(), physics=False)
+    fig = long.figure()
+    [zoom] = [a for a in fig.axes if a.get_title().startswith("the ramp, zoomed")]
+    assert zoom.get_xlim()[1] < 0.1 * long.table_s * 1e3
+    close(fig)
+
+
+def test_an_unnamed_motor_is_titled_by_its_file(cmp: Any) -> None:
+    unnamed = dataclasses.replace(cmp, motor=dataclasses.replace(MOTOR, name=""))
+    fig = unnamed.figure("17hs19")
+    assert fig.get_suptitle().startswith("17hs19: 4000 pulses")
+    close(fig)

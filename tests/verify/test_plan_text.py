@@ -2,6 +2,12 @@
 
 from __future__ import annotations
 
+import pytest
+
+from profiles.ppmc312.clock import Clock
+from profiles.ppmc312.table import FreeCurveTable
+from verify.plan_text import ramp
+
 
 def test_plan_says_what_the_tightening_changed_in_plain_words() -> None:
     # "start speed lowered to 2 840 pps …" rather than "start ×0.483"
@@ -23,3 +29,12 @@ def test_plan_says_what_the_tightening_changed_in_plain_words() -> None:
                      "ramp made gentler between 9 112 and 30 755 pps (down to 93% of the torque "
                      "it could use) to keep the rotor within 75°"]
     assert all(len(line) <= LINE_MAX for line in lines)
+
+
+def test_a_tables_ramp_is_its_speed_gain_over_its_time_below_the_top() -> None:
+    # 1 MHz: stages at 1000, 2000, 4000 pps (rates 1000, 500, 250), 10 pulses each: below
+    # the top it spends 10·1000 + 10·500 ticks = 15 ms gaining 3000 pps: 200 000 pps²
+    table = FreeCurveTable(Clock.internal("1MHz"), (250, 500, 1000), (10, 10, 10))
+    start, top, accel = ramp(table)
+    assert (start, top) == (1000.0, 4000.0)
+    assert accel == pytest.approx(3000 / 0.015)

@@ -15,6 +15,8 @@ from typing import Any
 import pytest
 
 from profiles.errors import ClusterError
+from profiles.motor import load_motor
+from profiles.motor.catalogue import resolve
 from profiles.motor.tolerance import worst_case_motor
 from profiles.ppmc312.criterion import all_length_problems
 from profiles.ppmc312.planner import plan_free_curve
@@ -128,16 +130,16 @@ def test_the_sweep_figure_draws_the_aim_the_tables_were_tightened_to(
         aim: float | None, lines: dict[float, str]) -> None:
     """Two panels over move length (time, worst angle; one line a motor), the peak, and the
     sweep's own aim (--load-angle), not a fixed 75°."""
-    from verify.sweep import sweep_figure
+    from verify.sweep import PLANNED, sweep_figure
 
     rows = [{"motor": "m", "pulses": n, "move_time_s": n * 1e-4, "worst_load_angle_deg": 50.0,
-             "error": None} for n in (1000, 3000)]
+             "worst_pulses": 40, "error": None} for n in (1000, 3000)]
     fig = sweep_figure(rows, aim)
     ax_t, ax_a = fig.axes
     assert (ax_t.get_ylabel(), ax_a.get_ylabel()) == ("move time [s]",
                                                       "worst load angle [° electrical]")
     drawn = {line.get_ydata()[0]: line.get_label() for line in ax_a.get_lines()
-             if line.get_label() != "m"}
+             if not line.get_label().startswith("m: ") and line.get_label() != PLANNED}
     assert drawn == lines
 
 
@@ -150,8 +152,6 @@ def test_jobs_aim_at_the_planners_aim_unless_told() -> None:
     from verify.sweep import jobs_of
 
     assert inspect.signature(jobs_of).parameters["load_angle_deg"].default == AIM_DEG
-
-
 
 
 def sweep_jobs() -> list[Any]:
@@ -246,3 +246,66 @@ def test_ctrl_c_cancels_the_cluster_jobs_and_writes_nothing(cluster: Cluster,
         while any(client.processing().values()):
             assert time.monotonic() < deadline
             time.sleep(0.2)
+
+
+def close(fig: Any) -> None:
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+
+
+def sweep_row(motor: str, pulses: int, worst_pulses: int, angle: float) -> dict[str, Any]:
+    return {"motor": motor, "pulses": pulses, "worst_pulses": worst_pulses, "error": "",
+            "worst_load_angle_deg": angle, "move_time_s": 1e-5 * pulses}
+
+
+def test_sweep_draws_each_angle_at_the_length_where_it_occurs() -> None:
+    from profiles.motor.travel import AxisUnits
+    from verify.sweep import PLANNED, sweep_figure
+
+    rows = [sweep_row("a", 400, 21, 72.5), sweep_row("a", 3200, 40, 70.0),
+            sweep_row("b", 3200, 3200, 60.0)]
+    fig = sweep_figure(rows, 75.0)
+    ax = fig.axes[1]
+    worst = {ln.get_label(): list(zip(ln.get_xdata(), ln.get_ydata(), strict=True))
+             for ln in ax.get_lines() if ln.get_label().endswith("each table's worst")}
+    assert worst == {"a: each table's worst": [(21, 72.5), (40, 70.0)],
+                     "b: each table's worst": [(3200, 60.0)]}
+    joins = [list(ln.get_xdata()) for ln in ax.get_lines() if ln.get_label() == PLANNED]
+    assert joins == [[400, 21], [3200, 40], [3200, 3200]]
+    assert "[pulses]" in ax.get_xlabel()
+    close(fig)
+    units = {"a": AxisUnits(200, 8.0), "b": AxisUnits(1000, 8.0)}
+    fig = sweep_figure(rows, 75.0, units=units)
+    ax = fig.axes[1]
+    b = next(ln for ln in ax.get_lines() if ln.get_label() == "b: each table's worst")
+    assert list(b.get_xdata()) == [pytest.approx(3200 * 8.0 / 1000)]
+    assert "[mm]" in ax.get_xlabel() and "[mm]" in fig.axes[0].get_xlabel()
+    close(fig)
+
+
+LEAD_MM = 8.0   # nema17-1600 (1600 pulses/rev) on an 8 mm lead: 0.005 mm per pulse
+
+
+@pytest.fixture
+def screw(tmp_path: Path) -> str:
+    """The bundled nema17-1600 with an 8 mm lead screw's travel."""
+    obj = json.loads(resolve("nema17-1600").read_text())
+    path = tmp_path / "screw.json"
+    path.write_text(json.dumps({**obj, "travel_mm_per_rev": LEAD_MM}))
+    return str(path)
+
+
+def test_sweep_rows_give_rev_and_rpm_always_and_mm_with_a_travel(screw: str) -> None:
+    from verify.sweep import real_units
+
+    rotary = real_units(load_motor("nema17-1600"), 3200, 20000.0)
+    assert rotary == {"move_rev": 2.0, "top_rpm": 750.0, "travel_mm_per_rev": None,
+                      "move_mm": None, "top_mm_s": None}
+    linear = real_units(load_motor(screw), 3200, 20000.0)
+    assert linear["move_mm"] == pytest.approx(16.0)
+    assert linear["top_mm_s"] == pytest.approx(100.0)
+    assert linear["travel_mm_per_rev"] == LEAD_MM and linear["top_rpm"] == 750.0
+    # before a plan (a row whose plan failed): the lengths, no speeds
+    assert set(real_units(load_motor(screw), 3200)) == {"move_rev", "travel_mm_per_rev",
+                                                        "move_mm"}

@@ -29,7 +29,7 @@ from typing import NoReturn
 # elementwise; the load-angle judge runs its own threads). A user's setting wins.
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-from profiles.compiling import announce
+from profiles.compiling import announce, lean
 from profiles.errors import StepRampError, bounded
 from profiles.reading import display_path
 from verify.devices import command_groups
@@ -99,6 +99,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     line on stderr naming the command (and the input); an unexpected exception is a bug,
     reported the same way as an internal error (`--debug` shows the traceback) and never
     as exit 1, which CI reads as "findings"."""
+    if argv is None:  # the `stepramp` process itself (not a caller in its own process)
+        lean()
     args_list = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in args_list or bool(os.environ.get("STEPRAMP_DEBUG"))
     args_list = [a for a in args_list if a != "--debug"]

@@ -138,6 +138,7 @@ def _do_settings(args: argparse.Namespace) -> int:
     summary: dict[str, Any] = {}
     if args.motor:
         from profiles.motor import load_motor
+        from profiles.motor.angles import AIM_DEG
         from verify.references import exact_optimum
 
         reserve = cruise_reserve(args)
@@ -146,21 +147,31 @@ def _do_settings(args: argparse.Namespace) -> int:
             # the high speed is chosen from the motor's top: capped, it keeps the reserve
             plan = alink.plan_settings(reserve.applied(motor), pulses=args.pulses,
                                        max_pps=args.max_pps, s_curve=args.s_curve)
-        settings = plan.table
+        tight = _tightened(motor, plan.table, args.pulses)
+        settings = tight.settings
+        predicted, shape = plan.duration_s, plan.extras["shape"]
+        if args.pulses is not None and tight.price:
+            moved = alink.move_time_s(settings, args.pulses)
+            predicted, shape = moved.duration_s, moved.shape
         # verify judges the plan: its time against the continuous optimum
-        ratio = (None if plan.duration_s is None or args.pulses is None
-                 else plan.duration_s / exact_optimum(motor, args.pulses).duration_s)
-        summary = {"predicted_time_s": plan.duration_s, "shape": plan.extras["shape"],
+        ratio = (None if predicted is None or args.pulses is None
+                 else predicted / exact_optimum(motor, args.pulses).duration_s)
+        summary = {"predicted_time_s": predicted, "shape": shape,
                    "ratio_to_optimum": ratio,
                    "accel_limit_pps2": plan.extras["accel_limit_pps2"],
                    # what it was planned for, as a planned table carries it (JSON only)
                    "provenance": planned_for(
-                       args.motor, motor, aim_deg=None, reserve=reserve,
-                       pulses=None if args.pulses is None else (args.pulses,)).to_json()}
+                       args.motor, motor, aim_deg=AIM_DEG, reserve=reserve,
+                       pulses=None if args.pulses is None else (args.pulses,)).to_json(),
+                   "load_angle_tightening": tight.price or None,
+                   "worst_load_angle_deg": tight.judgement.worst_deg}
         # No S-curve-vs-linear time beside it: the unit's move-time model does not depend on
         # the ramp shape (profiles.alink.model.move_time_s), so that comparison is equal by
         # construction.
-        warnings = list(plan.warnings)
+        # a start the tightening lowered makes the planner's note on the start speed stale
+        moved = settings.start_pps != plan.table.start_pps
+        warnings = [w for w in plan.warnings if not (moved and w.startswith("self-start"))] \
+            + ([tight.price] if tight.price else [])
     else:
         if any(v is None for v in explicit):
             raise FormatError("give --motor, or all of --start-pps, --high-pps and "
@@ -178,6 +189,18 @@ def _do_settings(args: argparse.Namespace) -> int:
     doc = alink.settings_document(settings, commands, summary=summary, warnings=warnings)
     write_output(args.output, alink.render_settings(doc, fmt, options))
     return EXIT_OK
+
+
+def _tightened(motor: Any, settings: Any, pulses: int | None) -> Any:
+    """The planned settings tightened until every move, and every decel stop, is within
+    the load-angle aim (`profiles.alink.planner.tighten_settings`, judged by
+    `verify.safety.judge_safety` on the unit's ramp)."""
+    from profiles.alink.planner import tighten_settings
+    from profiles.motor.angles import AIM_DEG
+    from verify.devices.alink import settings_judge
+
+    return tighten_settings(motor, settings, settings_judge(motor, aim_deg=AIM_DEG),
+                            aim_deg=AIM_DEG, pulses=pulses)
 
 
 def _do_read(args: argparse.Namespace) -> int:
@@ -242,25 +265,32 @@ def _do_homing(args: argparse.Namespace) -> int:
 
     from profiles.alink import homing_commands, plan_homing
     from profiles.alink.formats import C_NAME_DEFAULT, FORMATS, render
+    from profiles.alink.homing import tighten_homing
     from profiles.formats import Provenance
     from profiles.motor import load_motor
+    from profiles.motor.angles import AIM_DEG
+    from verify.alink_safety import homing_judge
     from verify.output import write_output
 
     motor = load_motor(args.motor)
     with fields_as_options({"max_pps": "--max-pps"}):
         plan = plan_homing(motor, max_pps=args.max_pps)
+    h, verdict, price = tighten_homing(motor, plan.table,
+                                       homing_judge(motor, aim_deg=AIM_DEG), aim_deg=AIM_DEG)
     with fields_as_options(ADDRESSING):
-        commands = homing_commands(plan.table, slave_address=args.address, axis=args.axis,
+        commands = homing_commands(h, slave_address=args.address, axis=args.axis,
                                    duplex=args.duplex)
-    h = plan.table  # the C comment's line stays ASCII: the model is in text and JSON
+    # the C comment's line stays ASCII: the model is in text and JSON
     fmt, options = file_format(args, FORMATS, Provenance(command_line(args), lines=(
         f"homing: OL {h.ol_pps} pps, OH {h.oh_pps} pps, O_UPTIME para {h.o_uptime_para}; "
         f"bound by {plan.binds}",)), default="text", c_default=C_NAME_DEFAULT)
     header = {"homing": {"ol_pps": h.ol_pps, "oh_pps": h.oh_pps,
                          "o_uptime_para": h.o_uptime_para,
                          "accel_pps2": h.accel_pps2, "binds": plan.binds,
-                         "model": plan.extras["model"]},
-              "warnings": list(plan.warnings)}
+                         "model": plan.extras["model"],
+                         "worst_load_angle_deg": verdict.worst_deg,
+                         "load_angle": verdict.what},
+              "warnings": list(plan.warnings) + ([price] if price else [])}
     write_output(args.output, render(commands, fmt, replace(options, header=header)))
     return EXIT_OK
 

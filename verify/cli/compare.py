@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import Any
 
 from ._common import EXIT_FINDINGS, EXIT_OK, fields_as_options, positive_int
@@ -46,8 +47,8 @@ def _do_compare(args: argparse.Namespace) -> int:
     table, motor = load_table(args.table), load_motor(args.motor)
     with fields_as_options({"pulses": "--pulses"}):
         result = compare_table(table, motor, args.pulses, include=names, physics=args.physics)
-    if args.plot:
-        result.plot(args.plot)
+    if args.plot:  # a motor file without a name is named by its file
+        result.plot(args.plot, motor_label=Path(args.motor).stem)
     if args.format == "json":
         write_output(None, json_text(result.to_json()))
     else:

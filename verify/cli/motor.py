@@ -22,12 +22,34 @@ from ._common import (
 
 
 def add_subparser(sub: Any) -> None:
-    from profiles.motor.loads import LOAD_HELP
-    from profiles.motor.units import SPEED_UNITS, TORQUE_UNITS
-
     motor = sub.add_parser("motor", help="motors: list and show them by name, make motor files "
                                          "from a datasheet or curve, check them")
     msub = motor.add_subparsers(dest="motor_command", required=True, metavar="SUBCOMMAND")
+    _add_new(msub)
+
+    k = msub.add_parser("check", help="check motor files against the schema and the loader")
+    k.add_argument("files", nargs="+", metavar="MOTOR",
+                   help="motor files (stepramp.motor/1) or names from `stepramp motor list`")
+    k.set_defaults(func=_do_check)
+
+    ls = msub.add_parser("list", help="the motors known by name: bundled, in $STEPRAMP_MOTORS "
+                                      "and in the user config folder")
+    ls.add_argument("--format", choices=("text", "json"), default="text",
+                    help="output format (default text)")
+    ls.set_defaults(func=_do_list)
+
+    sh = msub.add_parser("show", help="one motor: its data, pull-out curve and acceleration "
+                                      "capability")
+    sh.add_argument("motor", metavar=MOTOR_METAVAR, help=MOTOR_HELP)
+    sh.add_argument("--plot", metavar="OUT.png",
+                    help="also write its figure (torque [N·m] and capability [pps²] against "
+                         "speed [pps]); PNG or SVG by extension")
+    sh.set_defaults(func=_do_show)
+
+
+def _add_new(msub: Any) -> None:
+    from profiles.motor.loads import LOAD_HELP
+    from profiles.motor.units import SPEED_UNITS, TORQUE_UNITS
 
     n = msub.add_parser("new", help="a motor file from a datasheet (electrical model) or a "
                                     "vendor curve, plus loads")
@@ -80,28 +102,13 @@ def add_subparser(sub: Any) -> None:
     o.add_argument("--start-pps", type=number, metavar="PPS",
                    help="self-start speed [pps] (default: estimated, see the guide)")
     o.add_argument("--name", default="", help="the motor file's name")
+    o.add_argument("--travel-mm-per-rev", type=number, metavar="MM",
+                   help="the axis travel per motor revolution [mm] (default: from a screw's "
+                        "lead or a belt pulley's π·d in --load, through its gears; none for "
+                        "a rotary load): plan, show and the figures then give mm beside "
+                        "pulses, and plan takes --distance-mm")
     n.add_argument("-o", "--output", metavar="M.json", help="write here (default stdout)")
     n.set_defaults(func=_do_new)
-
-    k = msub.add_parser("check", help="check motor files against the schema and the loader")
-    k.add_argument("files", nargs="+", metavar="MOTOR",
-                   help="motor files (stepramp.motor/1) or names from `stepramp motor list`")
-    k.set_defaults(func=_do_check)
-
-    ls = msub.add_parser("list", help="the motors known by name: bundled, in $STEPRAMP_MOTORS "
-                                      "and in the user config folder")
-    ls.add_argument("--format", choices=("text", "json"), default="text",
-                    help="output format (default text)")
-    ls.set_defaults(func=_do_list)
-
-    sh = msub.add_parser("show", help="one motor: its data, pull-out curve and acceleration "
-                                      "capability")
-    sh.add_argument("motor", metavar=MOTOR_METAVAR, help=MOTOR_HELP)
-    sh.add_argument("--plot", metavar="OUT.png",
-                    help="also write its figure (torque [N·m] and capability [pps²] against "
-                         "speed [pps]); PNG or SVG by extension")
-    sh.set_defaults(func=_do_show)
-
 
 # The datasheet's options by their library field (a refusal names what the user typed).
 _DATASHEET_OPTS = {"holding_torque_nm": "--holding-torque-nm", "rated_current_a":
@@ -118,7 +125,8 @@ OPTIONS = {"microstep": "--microstep", "phases": "--phases",
            "rated_current_a": "--rated-current-a [A]", "resistance_ohm": "--resistance-ohm [Ω]",
            "inductance_h": "--inductance-mh [mH]", "supply_v": "--supply-v [V]",
            "current_a": "--current-a [A]", "safety_factor": "--safety-factor [1]",
-           "start_pps": "--start-pps [pps]"}
+           "start_pps": "--start-pps [pps]",
+           "travel_mm_per_rev": "--travel-mm-per-rev [mm]"}
 SCALES = {"rotor_inertia_kgm2": 1e7, "inductance_h": 1e3}
 NCM_PER_NM = 100.0
 
@@ -134,6 +142,7 @@ def _do_new(args: argparse.Namespace) -> int:
             scales[f"{what}_torque_nm"] = NCM_PER_NM
     with fields_as_options(options, scales):
         obj = _motor_object(args)
+        _add_travel(args, obj)
         Motor.from_json(obj)   # refuse here what the planner would refuse later
     text_out = dump_motor(obj)
     write_output(args.output, text_out)
@@ -143,9 +152,39 @@ def _do_new(args: argparse.Namespace) -> int:
         print(f"{args.output}: {obj['steps_per_rev']} steps/rev, {len(curve)} curve points up to "
               f"{curve[-1][0]:g} pps, inertia {obj['inertia_kgm2']:.4g} kg·m², friction "
               f"{_friction_text(obj)} N·m, load torque "
-              f"{obj.get('load_torque_nm', 0.0):.4g} N·m, start {obj['start_pps']:g} pps")
+              f"{obj.get('load_torque_nm', 0.0):.4g} N·m, start {obj['start_pps']:g} pps"
+              + (f", travel {obj['travel_mm_per_rev']:.6g} mm/rev" if "travel_mm_per_rev" in obj
+                 else ""))
     say_assumed(obj)
     return EXIT_OK
+
+
+def _add_travel(args: argparse.Namespace, obj: dict[str, Any]) -> None:
+    """The axis travel per motor revolution, given or from the loads' mechanism, into the
+    motor file with where it came from (none for a rotary load)."""
+    from profiles.errors import FormatError
+    from profiles.motor.loads import mechanisms_from_specs
+    from profiles.motor.plausible import Label, value_problem
+
+    if args.travel_mm_per_rev is not None:
+        value, source = args.travel_mm_per_rev, "--travel-mm-per-rev (given)"
+        label = Label("--travel-mm-per-rev", "mm")
+    else:
+        found = mechanisms_from_specs(args.load)
+        if not found:
+            return
+        travels = sorted({f"{m.travel_mm_per_rev:.9g}" for m in found})
+        if len(travels) > 1:
+            raise FormatError(f"--load: the mechanisms travel {', '.join(travels)} mm per "
+                              "motor revolution: give the one the axis is measured by with "
+                              "--travel-mm-per-rev [mm]")
+        value, source = found[0].travel_mm_per_rev, found[0].source
+        label = Label(f"--load (travel per motor revolution: {source})", "mm")
+    problem = value_problem("travel_mm_per_rev", value, label)
+    if problem:
+        raise FormatError(problem)
+    obj["travel_mm_per_rev"] = value
+    obj.setdefault("sources", {})["travel_mm_per_rev"] = [{"value": value, "from": source}]
 
 
 def _friction_text(obj: dict[str, Any]) -> str:
@@ -418,14 +457,32 @@ def _do_show(args: argparse.Namespace) -> int:
              else display_path(resolve(args.motor)))
     write_output(None, _show_text(args.motor, where, motor))
     if args.plot:
+        from pathlib import Path
+
         from verify.plot import motor_figure, save_figure
 
-        save_figure(motor_figure(motor), args.plot)
+        save_figure(motor_figure(motor, Path(args.motor).stem), args.plot)
     return EXIT_OK
+
+
+def _travel_text(m: Any) -> str:
+    """The axis's travel per motor revolution and where it came from, or "rotary"."""
+    from profiles.motor.travel import axis_units
+
+    units = axis_units(m)
+    if not units.linear:
+        return (f"axis: rotary (no travel_mm_per_rev): lengths in rev, speeds in rpm; top "
+                f"{units.speed_text(m.top_pps)}")
+    came = (m.sources or {}).get("travel_mm_per_rev", [])
+    source = f" ({came[0]['from']})" if came else ""
+    return (f"axis: {units.describe()}{source}; top {units.speed_text(m.top_pps)}, "
+            f"at start {units.accel_text(float(m.a_acc_pps2(0.0)))}")
 
 
 def _show_text(spec: str, where: str, m: Any) -> str:
     import numpy as np
+
+    from profiles.motor.travel import axis_units
 
     rpm = 60.0 / m.steps_per_rev
     lines = [f"{spec}: {m.name}" if m.name else spec, f"file: {where}",
@@ -436,6 +493,7 @@ def _show_text(spec: str, where: str, m: Any) -> str:
              f"{m.top_pps:.6g} pps ({m.top_pps * rpm:.4g} rpm)"
              + ("" if m.holding_torque_nm is None else
                 f", holding torque {m.holding_torque_nm:.4g} N·m")]
+    lines.append(_travel_text(m))
     if m.tolerances:
         lines.append("tolerances: " + ", ".join(f"{k} {lo:.4g}..{hi:.4g}"
                                                for k, lo, hi in m.tolerances))
@@ -443,12 +501,17 @@ def _show_text(spec: str, where: str, m: Any) -> str:
         lines.append("resonance bands: " + ", ".join(f"{lo:.6g}–{hi:.6g} pps"
                                                      for lo, hi in m.resonance_bands_pps))
     v = np.asarray(m.curve_speed_pps)
-    head = ("speed [pps]", "[rpm]", "pull-out [N·m]", f"× {m.safety_factor:g} [N·m]",
-            "a_acc [pps²]", "a_dec [pps²]")
+    units = axis_units(m)
+    head: tuple[str, ...] = ("speed [pps]", "[rpm]", "pull-out [N·m]",
+                             f"× {m.safety_factor:g} [N·m]", "a_acc [pps²]", "a_dec [pps²]")
     cols = [[f"{x:.6g}" for x in v], [f"{x * rpm:.4g}" for x in v],
             [f"{x:.4g}" for x in m.curve_torque_nm],
             [f"{m.safety_factor * x:.4g}" for x in m.curve_torque_nm],
             [f"{x:.4g}" for x in m.a_acc_pps2(v)], [f"{x:.4g}" for x in m.a_dec_pps2(v)]]
+    if units.linear:  # the axis's own units beside the pulses'
+        head += ("[mm/s]", "a_acc [mm/s²]")
+        cols += [[f"{x:.4g}" for x in units.speed(v)],
+                 [f"{x:.4g}" for x in units.accel(m.a_acc_pps2(v))]]
     widths = [max(len(h), *(len(c) for c in col)) for h, col in zip(head, cols, strict=True)]
     lines.append("  ".join(h.rjust(w) for h, w in zip(head, widths, strict=True)))
     lines += ["  ".join(col[i].rjust(w) for col, w in zip(cols, widths, strict=True))

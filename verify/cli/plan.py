@@ -44,6 +44,12 @@ def add_subparser(sub: Any) -> None:
     p.add_argument("--pulses", type=positive_int,
                    help="plan for a move of this many pulses [pulses] (free: default a long "
                         "reference move)")
+    p.add_argument("--distance-mm", type=number, metavar="MM",
+                   help="the move's length [mm] instead of --pulses: the motor file's "
+                        "travel_mm_per_rev turns it into the nearest whole pulses (said when "
+                        "not exact)")
+    p.add_argument("--distance-rev", type=number, metavar="REV",
+                   help="the move's length in motor revolutions [rev] instead of --pulses")
     p.add_argument("--separate-decel", action=argparse.BooleanOptionalAction, default=None,
                    help="separate decel counts (LE=1); default: free curve whichever is "
                         "faster, init tables no (the ASCII init command has no LE=1 form)")
@@ -56,9 +62,14 @@ def add_subparser(sub: Any) -> None:
                         "pulses,weight, a row per move length the machine runs; minimises "
                         "the weighted sum of move times [s] (instead of --pulses)")
     p.add_argument("--load-angle", type=number, default=AIM_DEG, metavar="DEG",
-                   help="free curve: tighten the table until its worst load angle over every "
-                        f"move length is at most this [°] (electrical degrees; default "
-                        f"{AIM_DEG:g}; 90 is the torque peak)")
+                   help="tighten the table until its worst load angle over every move length "
+                        "(an init table's: and every motion command judged) is at most this "
+                        f"[°] (electrical degrees; default {AIM_DEG:g}; 90 is the torque peak)")
+    p.add_argument("--commands", type=lambda text: tuple(text.split(",")),
+                   metavar="CODE|NAME[,…]",
+                   help="the motion commands the machine runs, by code or name (as check "
+                        "--commands): the verdict, and an init table's tightening, judge "
+                        "only these besides every move (82) (default: all)")
     add_cruise_reserve_option(p)
     p.add_argument("--format", choices=("text", "json"), default="text",
                    help="the summary's format (the table itself is always JSON)")
@@ -74,11 +85,12 @@ def _do_plan(args: argparse.Namespace) -> int:
     from profiles.ppmc312.table import dump_table
     from profiles.reading import json_text
     from verify.output import write_output
-    from verify.plan_text import plain_summary, top_pps
+    from verify.plan_text import plain_summary, real_units, top_pps
     from verify.safety import judge_safety
 
     with fields_as_options(OPTIONS):  # NaN, ±inf and negatives stop here, before any work
         require_number("load angle target [°]", args.load_angle, 1.0, PEAK_DEG)
+    asked = distance_to_pulses(args)  # a length in mm or rev: pulses, once, at the edge
     if args.moves is not None and (args.pulses is not None or args.source):
         raise FormatError("--moves plans for a mix of lengths: give it without --pulses "
                           "and --from")
@@ -90,6 +102,10 @@ def _do_plan(args: argparse.Namespace) -> int:
         if args.pulses is None:
             raise FormatError(f"--kind {args.kind} needs --pulses: an init table is chosen "
                               "for the move it runs")
+    if args.commands is not None:
+        from verify.command_verdicts import command_names
+
+        command_names(args.commands)  # an unknown one: one line, before any work
     reserve = cruise_reserve(args)
     motor = load_motor(args.motor)
     warned = friction_warning(motor.friction_torque_nm,
@@ -100,7 +116,7 @@ def _do_plan(args: argparse.Namespace) -> int:
     planned = reserve.applied(motor)
     with fields_as_options(OPTIONS):
         if args.kind != "free":
-            table, summary = _init(args, planned)
+            table, summary = _init(args, planned, motor)
         elif args.source:
             table, summary = _from_reference(args, planned)
         elif args.moves is not None:
@@ -110,13 +126,20 @@ def _do_plan(args: argparse.Namespace) -> int:
     made = summary.pop("_plan")
     kept = reserve.at(motor, top_pps(table))
     summary["cruise_reserve"] = kept.to_json()
-    verdict = judge_safety(table, motor, aim_deg=min(args.load_angle, PEAK_DEG))
+    verdict = judge_safety(table, motor, aim_deg=min(args.load_angle, PEAK_DEG),
+                           commands=args.commands)
     if not verdict.safe:
         # never write a table that is unsafe for some move length the chip can run
         print(f"stepramp plan: refused: the table is not stall-safe for every move length: "
               f"{verdict.describe()}", file=sys.stderr)
+        fix = (getattr(made, "extras", None) or {}).get("fix")
+        if fix:
+            print(f"stepramp plan: what would help: {fix}", file=sys.stderr)
         return EXIT_FINDINGS
     summary["safety"] = verdict.to_json()
+    summary.update(real_units(summary, table, planned))
+    if asked is not None:
+        summary[f"asked_move_{asked.unit}"] = asked.asked
     table = replace(table, provenance=plan_provenance(args, motor))
     write_output(args.output, dump_table(table))
     # The table owns stdout when no -o is given; the summary then goes to stderr.
@@ -126,7 +149,9 @@ def _do_plan(args: argparse.Namespace) -> int:
     else:
         lines = plain_summary(summary, made, table, planned, kept, verdict,
                               aim_deg=min(args.load_angle, PEAK_DEG),
-                              check=f"stepramp check {args.output or 'TABLE'} --motor {args.motor}")
+                              check=f"stepramp check {args.output or 'TABLE'} --motor {args.motor}"
+                              + ("" if args.commands is None
+                                 else " --commands " + ",".join(args.commands)))
         print("\n".join(lines), file=stream)
     return EXIT_OK
 
@@ -275,20 +300,37 @@ def _from_reference(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str
                    "info": followed.plan.info, "_plan": followed.plan}
 
 
-def _init(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, Any]]:
-    from profiles.ppmc312.init_planner import Shape, plan_init
+def _init(args: argparse.Namespace, planned: Any, motor: Any) -> tuple[Any, dict[str, Any]]:
+    """The init table tightened until the one verdict (on `motor`, over the commands
+    asked) finds it within the aim (profiles.ppmc312.init_planner.tighten_init), planned
+    for `planned` (the motor with the cruise reserve's top speed)."""
+    from profiles.motor.angles import PEAK_DEG
+    from profiles.ppmc312.init_planner import Shape, tighten_init
+    from verify.init_judge import init_judge
 
     shape: Shape = "s_curve" if args.kind == "s-curve" else "linear"
     # LE=0 by default: the table then exports to both interfaces (docs/manual-notes.md).
     separate = bool(args.separate_decel)
+    aim = min(args.load_angle, PEAK_DEG)
     with progress_bar(f"plan {args.kind}", unit="candidate") as progress:
-        plan = plan_init(motor, shape, args.pulses, clock=args.clock,
-                         separate_decel=separate, progress=progress)
-    table = plan.table
+        plan = tighten_init(planned, shape, args.pulses,
+                            init_judge(motor, aim_deg=aim, commands=args.commands),
+                            clock=args.clock, separate_decel=separate, aim_deg=aim,
+                            progress=progress)
+    table, levers = plan.table, plan.extras["levers"]
+    plain = plan.extras["untightened"]
     return table, {"kind": args.kind, "modelled_stages": len(plan.extras["stages"].rates),
                    "clock": table.clock.name, "separate_decel": table.separate,
                    "pulses": plan.pulses, "move_time_s": plan.duration_s,
-                   "run": plan.extras["shape_run"], "info": plan.info, "_plan": plan}
+                   "run": plan.extras["shape_run"], "info": plan.info,
+                   "tightening": {"start_scale": levers.start, "ramp_scale": levers.ramp,
+                                  "top_scale": levers.top, "plans": plan.extras["plans"],
+                                  "untightened_move_time_s": plain.duration_s,
+                                  "untightened_start_rate": plain.table.start_rate,
+                                  "untightened_high_rate": plain.table.high_rate,
+                                  "price": plan.duration_s / plain.duration_s,
+                                  "fix": plan.extras.get("fix")},
+                   "_plan": plan}
 
 
 def plan_provenance(args: argparse.Namespace, motor: Any) -> Any:
@@ -311,6 +353,42 @@ def plan_provenance(args: argparse.Namespace, motor: Any) -> Any:
     return planned_for(args.motor, motor, pulses=pulses, moves_file=moves,
                        aim_deg=min(args.load_angle, PEAK_DEG),
                        reserve=cruise_reserve(args))
+
+
+def distance_to_pulses(args: argparse.Namespace) -> Any:
+    """`--distance-mm` or `--distance-rev` as `args.pulses`, the nearest whole pulses
+    (profiles/motor/travel.py; the rounding said on stderr when not exact); the length as
+    asked (`Rounded`), or None when the move is given in pulses. Refused in one line
+    naming the flag and its unit: with --pulses or --moves, in mm on a motor without
+    travel_mm_per_rev, out of 1..2³²−1 pulses."""
+    from profiles.errors import FormatError
+    from profiles.motor import load_motor
+    from profiles.motor.travel import AxisUnits, axis_units, pulses_of
+
+    given = [(flag, value) for flag, value in (("--distance-mm", args.distance_mm),
+                                               ("--distance-rev", args.distance_rev))
+             if value is not None]
+    if not given:
+        return None
+    if len(given) > 1 or args.pulses is not None or args.moves is not None:
+        raise FormatError("--pulses, --distance-mm and --distance-rev each give the move's "
+                          "length (--moves a mix of them): give one")
+    flag, value = given[0]
+    motor = load_motor(args.motor)
+    units = axis_units(motor)
+    if flag == "--distance-rev":
+        units = AxisUnits(motor.steps_per_rev)
+    elif not units.linear:
+        raise FormatError(f"--distance-mm [mm]: motor {args.motor} has no travel_mm_per_rev "
+                          "(a rotary axis, or a file made without its screw or belt): give "
+                          "--distance-rev [rev] or --pulses, or make the motor with `stepramp "
+                          "motor new --load screw:… | --travel-mm-per-rev MM`")
+    rounded = pulses_of(units, value, flag=f"{flag} [{units.distance_unit}]", lo_pulses=1,
+                        hi_pulses=0xFFFFFFFF)
+    if not rounded.exact:
+        print(f"stepramp plan: note: {rounded.note(flag)}", file=sys.stderr)
+    args.pulses = rounded.pulses
+    return rounded
 
 
 def _max_stages(args: argparse.Namespace) -> int:

@@ -12,8 +12,10 @@ def add_subparser(sub: Any) -> None:
     s = sub.add_parser("simulate", help="what the chip runs for an accel/decel move or a "
                                         "program")
     s.add_argument("table", metavar="TABLE", nargs="?",
-                   help="a table file (free curve or init) with --pulses, or a program file "
-                        "(stepramp.program/1: every command it issues); or give --axes")
+                   help="a table file (free curve or init) or an A-Link settings file "
+                        "(alink settings, any format: the unit's ramp) with --pulses, or a "
+                        "program file (stepramp.program/1: every command it issues); or give "
+                        "--axes")
     s.add_argument("--pulses", type=positive_int, help="move length [pulses] (with TABLE)")
     s.add_argument("--axes", metavar="AXES.json",
                    help="a stepramp.axes/1 file whose axes give tables (\"table\": …): every "
@@ -59,6 +61,8 @@ def _do_simulate(args: argparse.Namespace) -> int:
         return _simulate_program(args)
     if args.table is None or args.pulses is None:
         raise FormatError("give TABLE and --pulses, a program file, or --axes AXES.json")
+    if _is_alink(args.table):
+        return _simulate_alink(args)
     table = load_table(args.table)
     with fields_as_options({"pulses": "--pulses",
                             "high_rate": "--high-rate (0: the table's)"}):
@@ -117,6 +121,57 @@ def _simulate_axes(args: argparse.Namespace) -> int:
         write_output(None, json_text(doc))
     else:
         write_output(None, joint_timeline(names, runs))
+    return EXIT_OK
+
+
+def _is_alink(path: str) -> bool:
+    """Whether `path` names an A-Link settings file or command list (one that cannot be
+    read is not: loading the table then says why)."""
+    from profiles.alink.formats import is_settings_file
+    from profiles.errors import StepRampError
+    from profiles.reading import read_bytes
+
+    try:
+        return path != "-" and is_settings_file(read_bytes(path))
+    except StepRampError:
+        return False
+
+
+def _simulate_alink(args: argparse.Namespace) -> int:
+    """The move the A-Link unit runs with the settings a file leaves (the stage model of
+    profiles/alink/ramp.py, the one the load-angle verdict judges)."""
+    from profiles.alink.formats import parse
+    from profiles.alink.ramp import run_move
+    from profiles.errors import FormatError
+    from profiles.reading import json_text, read_bytes
+    from verify.devices.alink import ramp_of_commands
+    from verify.output import Data, write_output, write_outputs
+
+    if args.high_rate or args.samples:
+        raise FormatError("an A-Link settings file: --high-rate and --samples are for "
+                          "PPMC-312 tables (use --csv, --pulse-times)")
+    ramp, _, why = ramp_of_commands(parse(read_bytes(args.table), args.table).items)
+    if ramp is None:
+        raise FormatError(f"{args.table}: {str(why).removeprefix('--motor: ')}")
+    with fields_as_options({"pulses": "--pulses"}):
+        move = run_move(ramp, args.pulses)
+    files: list[tuple[str | None, Data]] = []
+    if args.csv:
+        files.append((args.csv, move.segments_csv()))
+    if args.pulse_times:
+        files.append((args.pulse_times, move.pulse_times_chunks()))
+    write_outputs(files)
+    if args.format == "json":
+        write_output(None, json_text({"ramp": ramp.describe(), **move.to_json()}))
+        return EXIT_OK
+    lines = [f"A-Link settings: {ramp.describe()}",
+             f"shape: {move.shape}",
+             f"pulses: {move.pulses} (up {move.up}, {move.middle} at "
+             f"{'the speed reached' if move.up < ramp.ramp_pulses else f'{ramp.high_pps:g} pps'}"
+             f", down {move.down})",
+             f"duration: {move.duration_s:.6f} s (peak {move.peak_pps:.6g} pps)",
+             f"segments: {len(move.counts)}"]
+    write_output(None, "\n".join(lines) + "\n")
     return EXIT_OK
 
 

@@ -53,6 +53,9 @@ def add_subparser(sub: Any) -> None:
     s.add_argument("--plot", metavar="OUT.png",
                    help="also write a summary figure (move time and worst load angle per "
                         "move length and motor)")
+    s.add_argument("--plot-x", choices=("pulses", "rev", "mm"), default="pulses",
+                   help="the figure's move lengths in pulses (default), in motor revolutions, "
+                        "or in mm (every motor file then states its travel_mm_per_rev)")
     s.add_argument("-o", "--output", required=True, metavar="RESULTS",
                    help="results: CSV, or Parquet when the name ends in .parquet")
     s.set_defaults(func=_do_sweep)
@@ -85,11 +88,13 @@ def _do_sweep(args: argparse.Namespace) -> int:
         check_options(workers=args.workers, timeout_s=timeout_s, load_angle_deg=args.load_angle)
     cruise_reserve(args)
     motors = []
+    units: dict[str, Any] = {}
     stems = [Path(p).stem for p in args.motors]
     for path, stem in zip(args.motors, stems, strict=True):
         motor = load_motor(path)  # a bad file stops the sweep before any work
         # rows name a motor by its file's stem, by its path where two stems are the same
         motors.append((stem if stems.count(stem) == 1 else path, motor.to_json()))
+        units[motors[-1][0]] = plot_units(args.plot_x, path, motor)
     jobs = jobs_of(motors, args.pulses, samples=args.samples, seed=args.seed,
                    load_angle_deg=args.load_angle, cruise_reserve=args.cruise_reserve)
     with progress_bar("sweep", unit="job") as progress:
@@ -99,10 +104,24 @@ def _do_sweep(args: argparse.Namespace) -> int:
     if args.plot:
         from verify.plot import save_figure
 
-        save_figure(sweep_figure(rows, args.load_angle), args.plot)
+        save_figure(sweep_figure(rows, args.load_angle,
+                                 units=None if args.plot_x == "pulses" else units), args.plot)
     write_output(args.output, data)
     unsafe = [r for r in rows if not r["safe"]]
     print(f"stepramp sweep: {len(motors)} motor(s) × {len(args.pulses)} move length(s): "
           f"{len(rows) - len(unsafe)} safe, {len(unsafe)} not safe → {args.output}",
           file=sys.stderr)
     return EXIT_FINDINGS if unsafe else EXIT_OK
+
+
+def plot_units(plot_x: str, path: str, motor: Any) -> Any:
+    """The units `--plot-x` draws `motor`'s lengths in (profiles.motor.travel.AxisUnits):
+    rev for every motor, mm for a motor whose file states its travel (else one line naming
+    the file and the option)."""
+    from profiles.errors import FormatError
+    from profiles.motor.travel import AxisUnits, axis_units
+
+    if plot_x == "mm" and motor.travel_mm_per_rev is None:
+        raise FormatError(f"--plot-x mm: {path} states no travel_mm_per_rev (a rotary axis): "
+                          "give --plot-x rev, or the travel in the motor file")
+    return axis_units(motor) if plot_x == "mm" else AxisUnits(int(motor.steps_per_rev))

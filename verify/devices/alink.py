@@ -13,14 +13,18 @@ from typing import TYPE_CHECKING, Any
 from profiles.errors import CorruptedError, StepRampError
 
 from ..findings import Finding, Severity
-from .common import device_result, integrity_findings
+from .common import dedupe, device_result, integrity_findings
 
 if TYPE_CHECKING:
-    from profiles.alink import Command
+    from profiles.alink import AlinkSettings, Command
+    from profiles.alink.planner import SettingsJudge
+    from profiles.alink.ramp import AlinkRamp
     from profiles.alink.unit import Answer, Issue
+    from profiles.motor import Motor
 
     from ..check_options import CheckOptions
     from ..report import FileResult
+    from ..safety import SafetyVerdict
 
 TITLE = "A-Link settings"
 
@@ -28,18 +32,161 @@ TITLE = "A-Link settings"
 def check(raw: bytes, path: str, options: CheckOptions) -> FileResult:
     """`stepramp check`'s verdict on one of the device's files: its own check, then the
     device's rules (a file whose own check fails has that one finding: its content
-    cannot be trusted for more)."""
-    return device_result(path, findings(raw, path), TITLE, options)
+    cannot be trusted for more); with a motor, the one safety verdict
+    (`verify.safety.judge_safety`) on the unit's ramp for the settings the file leaves
+    (its JSON in `details["safety"]`, as a PPMC-312 table's)."""
+    from profiles.alink.formats import parse
+
+    from ..report import FileResult
+
+    try:
+        parsed = parse(raw, path)
+    except CorruptedError as e:
+        return device_result(path, [Finding("error", "alink-corrupted", str(e))], TITLE,
+                             options)
+    found = (integrity_findings("alink", parsed.format, parsed.integrity, parsed.detail)
+             + command_findings(parsed.items))
+    if options.motor is None:
+        return device_result(path, found, TITLE, options)
+    notes = [f"{TITLE} file"]
+    details: dict[str, object] = {}
+    found += safety_findings(parsed.items, options, notes, details)
+    found = dedupe(found)
+    return FileResult(path=path, ok=not any(f.severity == "error" for f in found),
+                      findings=found, notes=notes, details=details)
+
+
+def ramp_of_commands(commands: Sequence[Command]) -> tuple[Any, Any, str | None]:
+    """The unit's ramp for the settings `commands` leave (the last of each, as the unit
+    applies them: `unit_applies`) and their homing speeds (None when the list sets none of
+    OL_SPEED, OH_SPEED, O_UPTIME); or why there is none (a line)."""
+    from profiles.alink import FUNC_ACCEL_PARA, Cmd, unit_applies
+    from profiles.alink.homing import HomingSettings
+    from profiles.alink.model import MODE_DEFAULT, MODE_S_CURVE, MODE_TRIANGLE_AVOID
+    from profiles.alink.ramp import build_ramp
+
+    last: dict[int, Command] = {}
+    for c in commands:
+        last[c.cmd] = c
+    need = [Cmd(k).name for k in (Cmd.H_SPEED, Cmd.L_SPEED, Cmd.UP_TIME) if k not in last]
+    if need:
+        return None, None, (f"--motor: the file sets no {', '.join(need)}: no ramp to judge "
+                            "(the unit keeps what it holds)")
+    if last[Cmd.UP_TIME].func != FUNC_ACCEL_PARA:
+        return None, None, ("--motor: UP_TIME func 1 (the legacy rate) has no documented "
+                            "acceleration: the ramp is not judged")
+    try:
+        run = unit_applies(last[Cmd.L_SPEED].para, last[Cmd.H_SPEED].para,
+                           last[Cmd.UP_TIME].para,
+                           max_pps=last[Cmd.MAX_SPEED].para if Cmd.MAX_SPEED in last else 0)
+    except StepRampError as e:
+        return None, None, f"--motor: the settings run no ramp ({e})"
+    if run.nak is not None or run.accel_pps2 is None:
+        return None, None, f"--motor: the unit refuses to drive ({run.nak}): no ramp to judge"
+    mode = last[Cmd.MODE].para if Cmd.MODE in last else MODE_DEFAULT
+    ramp = build_ramp(run.start_pps, run.high_pps, run.accel_pps2, run.multiplier,
+                      "s_curve" if mode & MODE_S_CURVE else "linear",
+                      triangle_avoidance=bool(mode & MODE_TRIANGLE_AVOID))
+    homing = None
+    if {Cmd.OL_SPEED, Cmd.OH_SPEED, Cmd.O_UPTIME} <= set(last) and \
+            last[Cmd.O_UPTIME].func == FUNC_ACCEL_PARA and \
+            0 < last[Cmd.OL_SPEED].para <= last[Cmd.OH_SPEED].para and \
+            last[Cmd.O_UPTIME].para > 0:
+        homing = HomingSettings(last[Cmd.OL_SPEED].para, last[Cmd.OH_SPEED].para,
+                                last[Cmd.O_UPTIME].para)
+    return ramp, homing, None
+
+
+def safety_findings(commands: Sequence[Command], options: CheckOptions, notes: list[str],
+                    details: dict[str, object]) -> list[Finding]:
+    """The safety verdict's findings for the ramp the commands leave; its summaries go to
+    `notes`, its JSON to `details["safety"]`."""
+    from verify.safety import judge_safety
+
+    assert options.motor is not None
+    ramp, homing, why = ramp_of_commands(commands)
+    if ramp is None:
+        notes.append(str(why))
+        return []
+    verdict = judge_safety(ramp, options.motor, pulses=options.pulses,
+                           samples=options.samples, seed=options.seed, strict=options.strict,
+                           load_angle=options.physics, homing=homing,
+                           progress=options.progress)
+    details["safety"] = verdict.to_json()
+    notes.append(f"the unit's ramp: {ramp.describe()}")
+    if options.commands is not None:
+        notes.append("--commands names PPMC-312 motion commands: the unit's decel stops "
+                     "(STOP 31) and homing legs are judged whatever it says")
+    notes.extend(verdict.notes())
+    return verdict.findings()
+
+
+def settings_judge(motor: Motor, *, aim_deg: float) -> SettingsJudge:
+    """The one verdict (`judge_safety`) as the A-Link planner's judge
+    (`profiles.alink.planner.tighten_settings`): within the aim or not, the worst angle,
+    and the lever it blames — the start speed when the worst is a short move, an early
+    decel stop or the start itself (its speed in the lowest 30 % of the ramp), else the
+    ramp."""
+    from profiles.alink.planner import Judgement
+    from profiles.alink.ramp import ramp_of
+    from verify.safety import judge_safety
+
+    def judged(settings: AlinkSettings) -> Judgement:
+        ramp = ramp_of(settings)
+        v = judge_safety(ramp, motor, samples=0, aim_deg=aim_deg)
+        rules = {f.rule for f in v.criterion}
+        worst, speed, what = _worst_speed(ramp, v)
+        near_start = speed <= ramp.start_pps + START_SHARE * (ramp.high_pps - ramp.start_pps)
+        start = "stall-start-speed" in rules or (not rules and near_start)
+        return Judgement(v.within_aim and v.safe, worst, "start" if start else "ramp", what)
+
+    return judged
+
+
+START_SHARE = 0.3   # a worst angle peaking below L + this × (H − L) is the start speed's
+
+
+def _worst_speed(ramp: AlinkRamp, v: SafetyVerdict) -> tuple[float, float, str]:
+    """(the worst angle over the moves and the decel stops, the speed its motion peaks at,
+    a phrase naming it)."""
+    import numpy as np
+
+    from profiles.alink.ramp import parts
+
+    la = v.load_angle
+    best = (-1.0, float(ramp.start_pps), "nothing judged")
+    if la is not None:
+        up = int(parts(ramp, "move", np.array([la.worst_pulses])).up[0])
+        best = (la.worst_deg, _speed_at(ramp, up), f"a move of {la.worst_pulses} pulses")
+    for name, c in v.commands:
+        deg = float(c.to_json()["worst_load_angle_deg"])
+        if name == "decel-stop" and deg > best[0]:
+            x = int(c.to_json()["worst_at"])
+            best = (deg, _speed_at(ramp, x), f"a decel stop from pulse {x} of the ramp")
+    return best
+
+
+def _speed_at(ramp: AlinkRamp, pulse: int) -> float:
+    """The speed of the ramp's stage holding pulse `pulse` (H past the ramp)."""
+    import numpy as np
+
+    ends = np.cumsum(ramp.pulses)
+    k = int(np.searchsorted(ends, pulse, side="left"))
+    return float(ramp.speeds_pps[k]) if k < len(ends) else float(ramp.high_pps)
 
 
 def axis_verdict(axis: Any) -> tuple[bool, dict[str, Any]]:
     """Whether one axis of a synchronised move is safe, and what sync's report says of it:
     its settings against the rule the planner plans by
-    (`profiles.alink.sync.is_stall_safe`)."""
+    (`profiles.alink.sync.is_stall_safe`) and the one safety verdict on the unit's ramp
+    (`judge_safety`, every move length: its JSON as a PPMC-312 axis's `safety`)."""
+    from profiles.alink.ramp import ramp_of
     from profiles.alink.sync import is_stall_safe
+    from verify.safety import judge_safety
 
-    safe = is_stall_safe(axis.settings, axis.motor)
-    return safe, {"stall_safe": safe}
+    rule = is_stall_safe(axis.settings, axis.motor)
+    verdict = judge_safety(ramp_of(axis.settings), axis.motor)
+    return rule and verdict.safe, {"stall_safe": rule, "safety": verdict.to_json()}
 
 
 def findings(raw: bytes, path: str) -> list[Finding]:

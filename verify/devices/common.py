@@ -31,7 +31,8 @@ def device_result(path: str, findings: Iterable[Finding], title: str,
     motor was given)."""
     found = dedupe(findings)
     notes = [f"{title} file"] + (
-        ["--motor judges PPMC-312 tables only: not this file's stall safety"]
+        ["--motor judges PPMC-312 tables and A-Link settings: not this file's stall "
+         "safety"]
         if options.motor is not None else [])
     return FileResult(path=path, ok=not any(f.severity == "error" for f in found),
                       findings=found, notes=notes)

@@ -40,9 +40,18 @@ def references(motor: Motor, pulses: Any, *, include: Iterable[str] = SOLVERS,
 
     Every result is re-checked on its samples (speed ≤ v_lim·(1+1e-6), −a_dec(v) − tol ≤
     a ≤ a_acc(v) + tol, ends at v0, covers 0…N); problems go into its `info` after
-    VIOLATION_MARK. A solver that fails is left out and named in the exact one's info.
+    VIOLATION_MARK. A solver that fails is left out and named in the exact one's info
+    (`solve_references` gives the failures by name).
     The solvers take seconds: `progress` hears (solvers run, solvers included).
     """
+    return solve_references(motor, pulses, include=include, progress=progress)[0]
+
+
+def solve_references(motor: Motor, pulses: Any, *, include: Iterable[str] = SOLVERS,
+                     progress: Progress | None = None
+                     ) -> tuple[dict[str, Reference], dict[str, str]]:
+    """`references`, and the solvers that failed: name → the reason (the solver's message
+    without its leading "name: "), in the order asked for."""
     wanted = list(include)
     for name in wanted:
         if name not in SOLVERS:
@@ -50,18 +59,20 @@ def references(motor: Motor, pulses: Any, *, include: Iterable[str] = SOLVERS,
                               f"{', '.join(SOLVERS)})")
     lim = move_limits(motor, pulses)
     out = {"exact": exact_optimum(motor, lim.pulses)}
-    failures: list[str] = []
+    failures: dict[str, str] = {}
     for name in track(wanted, progress):
         try:
             out[name] = _solver(name)(motor, lim.pulses)
         except ReferenceSolveError as exc:
-            failures.append(str(exc))
+            text = str(exc)
+            failures[name] = text.removeprefix(f"{name}: ") or "no reason given"
     for ref in out.values():
         problem = capability_violation(motor, lim, ref, rel_tol=CHECK_REL_TOL)
         ref.info += f"; {VIOLATION_MARK} {problem}" if problem else "; check ok"
     if failures:
-        out["exact"].info += "; failed: " + " | ".join(failures)
-    return out
+        out["exact"].info += "; failed: " + " | ".join(
+            f"{name}: {why}" for name, why in failures.items())
+    return out, failures
 
 
 def is_feasible(ref: Reference) -> bool:

@@ -16,14 +16,21 @@ watch()  # the first compilation on a machine is said (profiles.compiling)
 
 
 @nb.njit(cache=True, nogil=True)
-def layers(pred: np.ndarray, cost: np.ndarray, packed_w: np.ndarray, start: np.ndarray,
-           f: np.ndarray, start_f: float, jump: float, max_stages: int, value: np.ndarray,
-           packed: np.ndarray, parents: np.ndarray) -> int:
+def layers(valid: np.ndarray, weight: np.ndarray, packed_w: np.ndarray, start: np.ndarray,
+           f: np.ndarray, lam: float, start_f: float, jump: float, max_stages: int,
+           value: np.ndarray, packed: np.ndarray, parents: np.ndarray, reach: np.ndarray
+           ) -> int:
     """Paths of 2..max_stages stages: `value[j]` the least cost of a path ending at node j,
     `packed[j]` its pulses (total << 32 | accel), `parents[m, j]` the predecessor of j in
     layer m (−1: the path of layer m − 1 stands). Each layer is computed from the one
-    before it. Returns the number of layers written (the last ones change nothing)."""
-    g, width = pred.shape
+    before it. Returns the number of layers written (the last ones change nothing).
+    Node j's w-th predecessor is node j − 1 − w; the step costs weight · (1/f_pred − lam)
+    where `valid` (numpy's arithmetic, in its order), else it is never taken, and past
+    the first `reach[j]` none is valid (they are not looked at)."""
+    g = valid.shape[0]
+    inv = np.empty(g)
+    for j in range(g):
+        inv[j] = 1.0 / f[j]
     for j in range(g):
         value[j] = 0.0 if start[j] else math.inf
         packed[j] = 0
@@ -32,7 +39,7 @@ def layers(pred: np.ndarray, cost: np.ndarray, packed_w: np.ndarray, start: np.n
     # A node's value can improve in layer m only if a predecessor's improved in layer m − 1
     # (else its best is the same sum as before, which its value already holds): `moved`
     # counts the nodes that improved in the last layer, node by node, and a node none of
-    # whose predecessors (j − 1 … j − width: search.graph) moved is skipped. Most of a
+    # whose predecessors (j − 1 … j − reach[j]: search.graph) moved is skipped. Most of a
     # layer is, and the result is the same to the bit.
     moved = np.zeros(g + 1, dtype=np.int64)
     count = 2
@@ -45,16 +52,18 @@ def layers(pred: np.ndarray, cost: np.ndarray, packed_w: np.ndarray, start: np.n
         changed = False
         every = m <= 3  # layer 2 sets every value; layer 3 compares with all of them
         for j in range(hi):
-            if not every and j < hi_prev and moved[j] == moved[max(j - width, 0)]:
+            if not every and j < hi_prev and moved[j] == moved[max(j - reach[j], 0)]:
                 continue  # no predecessor moved: parents[m, j] stays −1
             best = math.inf
             pick = 0
-            for w in range(width):
-                c = prev[pred[j, w]] + cost[j, w]
+            for w in range(reach[j]):
+                if not valid[j, w]:
+                    continue  # an infinite cost: never less than `best`
+                c = prev[j - 1 - w] + weight[j, w] * (inv[j - 1 - w] - lam)
                 if c < best:  # the first of equal costs, as numpy's argmin
                     best = c
                     pick = w
-            src = pred[j, pick]
+            src = max(j - 1 - pick, 0)
             if m == 2:  # a table has at least two stages: one-stage paths are not kept
                 better = math.isfinite(best)
                 value[j] = best
@@ -123,34 +132,52 @@ def _count_py(r_slow: float, r_fast: float, hz: float, v: np.ndarray, t: np.ndar
               base_ticks: float, most: float) -> tuple[float, float, bool]:
     """One step's (accel count, decel count, valid): `Problem.counts` (the method and its
     comments are there)."""
-    c_acc = (friction + load) * k
-    c_dec = (load - friction) * k
     f_slow = hz / r_slow
     f_fast = hz / (r_fast if r_fast > 0 else 1.0)
-    delta = f_fast - f_slow
     # a_acc and a_dec grow with the torque, and rounding keeps that order: the least
     # capability is the capability of the least torque, to the bit
     torque = _least_torque(f_slow, f_fast, v, t)
+    sigma = 1.0 if plain else scale[np.searchsorted(edges, f_slow, side="right")]
+    base = max(2.0, np.ceil(base_ticks / r_slow))
+    banned = not r_fast > 0 or _in_band(f_slow, bands) or _in_band(f_fast, bands)
+    return _counts_of(torque, f_slow, f_fast, sigma, base, banned, sf, friction, load, k,
+                      plain, jump, separate, most)
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
+def _in_band(f: float, bands: np.ndarray) -> bool:
+    """Whether speed `f` lies in one of the (lo, hi) `bands` (a jump may step over them)."""
+    for b in range(bands.shape[0]):
+        if bands[b, 0] <= f <= bands[b, 1]:
+            return True
+    return False
+
+
+@nb.njit(cache=True, nogil=True, inline="always")
+def _counts_of(torque: float, f_slow: float, f_fast: float, sigma: float, base: float,
+               banned: bool, sf: float, friction: float, load: float, k: float,
+               plain: bool, jump: float, separate: bool, most: float
+               ) -> tuple[float, float, bool]:
+    """A step's counts and validity (`_count_py`) from the least torque over it, its
+    slower stage's band scale `sigma` and chip minimum `base`, and whether a stage lies in
+    a band a jump may step over (`banned`)."""
+    c_acc = (friction + load) * k
+    c_dec = (load - friction) * k
+    delta = f_fast - f_slow
     a_acc = (sf * torque - friction - load) * k
     a_dec = (sf * torque + friction - load) * k
     jump_e = jump
     if not plain:
-        band = np.searchsorted(edges, f_slow, side="right")
-        sigma = scale[band]
         a_acc = sigma * (a_acc + c_acc) - c_acc
         a_dec = sigma * (a_dec + c_dec) - c_dec
         jump_e = jump * sigma
-    base = max(2.0, np.ceil(base_ticks / r_slow))
     n_e = np.ceil(delta * f_slow / a_acc) if a_acc > 0 else math.inf
     d_e = np.ceil(delta * f_slow / a_dec) if a_dec > 0 else math.inf
     n_e = max(n_e, base)
     d_e = max(d_e, base)
     if not separate:
         n_e = d_e = max(n_e, d_e)
-    ok = r_fast > 0 and delta > 0 and delta <= jump_e and n_e <= most and d_e <= most
-    for b in range(bands.shape[0]):  # no stage in a band a jump can step over
-        if bands[b, 0] <= f_slow <= bands[b, 1] or bands[b, 0] <= f_fast <= bands[b, 1]:
-            ok = False
+    ok = (not banned and delta > 0 and delta <= jump_e and n_e <= most and d_e <= most)
     return n_e, d_e, ok
 
 
@@ -174,6 +201,75 @@ def stage_counts(rs: np.ndarray, rf: np.ndarray, hz: float, v: np.ndarray, t: np
         n[e], d[e], valid[e] = _count_inline(rs[e], rf[e], hz, v, t, sf, friction, load, k,
                                              edges, scale, plain, jump, separate, bands,
                                              base_ticks, most)
+
+
+@nb.njit(cache=True, nogil=True)
+def graph_counts(rates: np.ndarray, width: int, hz: float, v: np.ndarray, t: np.ndarray,
+                 sf: float, friction: float, load: float, k: float, edges: np.ndarray,
+                 scale: np.ndarray, plain: bool, jump: float, separate: bool,
+                 bands: np.ndarray, base_ticks: float, most: float, weight: np.ndarray,
+                 accel: np.ndarray, packed_w: np.ndarray, valid: np.ndarray,
+                 reach: np.ndarray) -> None:
+    """`stage_counts` over the planner's whole graph (`search.graph`: node j's
+    predecessors are j − 1 … j − width, `rates` slowest first), to the bit, with what
+    depends on one stage alone worked out once per node: its torque, band scale, chip
+    minimum and resonance band; the least torque over the curve's breakpoints inside a
+    step is carried from one predecessor to the next slower one (the step [f_i, f_j]
+    holds the breakpoints of [f_(i+1), f_j] and those in (f_i, f_(i+1)]: the minimum of
+    the same values). A motor whose jump limit is large against the grid's spacing (a
+    datasheet motor that starts fast: hundreds of predecessors a node) spent most of a
+    plan interpolating the curve at every step. Writes each step's weight (accel + decel
+    count), accel count and both packed (weight << 32 | accel) where valid, 0 elsewhere;
+    entries with no predecessor (w ≥ j) are invalid; `reach[j]`: 1 + the last valid w of
+    node j (0: none), where the DP stops."""
+    g = len(rates)
+    last = len(v) - 1
+    f = np.empty(g)
+    at = np.empty(g)
+    sigma = np.ones(g)
+    base = np.empty(g)
+    banned = np.empty(g, dtype=np.bool_)
+    for i in range(g):
+        f[i] = hz / float(rates[i])
+        at[i] = _torque(f[i], v, t)
+        if not plain:
+            sigma[i] = scale[np.searchsorted(edges, f[i], side="right")]
+        base[i] = max(2.0, np.ceil(base_ticks / float(rates[i])))
+        banned[i] = _in_band(f[i], bands)
+    for j in range(g):
+        f_fast = f[j]
+        b = last - 1  # the highest inner breakpoint below f_fast
+        while b >= 1 and not v[b] < f_fast:
+            b -= 1
+        inner = math.inf  # the least torque of the breakpoints strictly inside the step
+        reach[j] = 0
+        for w in range(width):
+            i = j - 1 - w
+            if i < 0:
+                weight[j, w] = accel[j, w] = 0.0
+                packed_w[j, w] = 0
+                valid[j, w] = False
+                continue
+            f_slow = f[i]
+            while b >= 1 and f_slow < v[b]:
+                if t[b] < inner:
+                    inner = t[b]
+                b -= 1
+            torque = min(at[i], at[j])
+            if inner < torque:
+                torque = inner
+            n_e, d_e, ok = _counts_of(torque, f_slow, f_fast, sigma[i], base[i],
+                                      banned[i] or banned[j], sf, friction, load, k, plain,
+                                      jump, separate, most)
+            valid[j, w] = ok
+            if ok:
+                weight[j, w] = n_e + d_e
+                accel[j, w] = n_e
+                packed_w[j, w] = (np.int64(n_e + d_e) << 32) + np.int64(n_e)
+                reach[j] = w + 1
+            else:
+                weight[j, w] = accel[j, w] = 0.0
+                packed_w[j, w] = 0
 
 
 @nb.njit(cache=True, nogil=True)

@@ -138,6 +138,26 @@ class Problem:
                      np.ascontiguousarray(rf).ravel(), *self.count_constants, n, d, valid)
         return n.reshape(shape), d.reshape(shape), valid.reshape(shape)
 
+    def graph_counts(self, rates: np.ndarray, width: int) -> tuple[np.ndarray, ...]:
+        """The counts of every step of the planner's graph (node j of `rates`, slowest
+        first, from each of j − 1 … j − width), as the DP weighs them: (G, width) arrays
+        of accel + decel, accel, both packed (total << 32 | accel; a path's sums stay far
+        below 2^31: 127 × 0xFFFFF × 2) and validity, each 0 where the step is invalid or
+        j − 1 − w < 0; and each node's reach (1 + its last valid w, 0 when none). `counts`
+        on those steps is the reference (tests/profiles/ppmc312/planner/test_dp_kernel.py);
+        one compiled pass that interpolates the curve once per node
+        (dp_kernel.graph_counts)."""
+        from .dp_kernel import graph_counts
+
+        g = len(rates)
+        weight, accel = np.empty((g, width)), np.empty((g, width))
+        packed_w = np.empty((g, width), dtype=np.int64)
+        valid = np.empty((g, width), dtype=bool)
+        reach = np.empty(g, dtype=np.int64)
+        graph_counts(np.ascontiguousarray(rates, dtype=np.int64), int(width),  # type: ignore[call-arg]
+                     *self.count_constants, weight, accel, packed_w, valid, reach)
+        return weight, accel, packed_w, valid, reach
+
     @functools.cached_property
     def count_constants(self) -> tuple[Any, ...]:
         """What `counts` hands the kernel besides the steps: the motor, the shaping and the

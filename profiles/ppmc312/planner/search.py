@@ -79,29 +79,34 @@ def _speed_grid(hz: float, r_start: int, r_fast: int, target: int) -> np.ndarray
 class Graph:
     rates: np.ndarray       # (G,) slowest first
     f: np.ndarray           # (G,) speeds, ascending
-    pred: np.ndarray        # (G, W) predecessor index (slower node), 0 where invalid
+    width: int              # node j's predecessors: j − 1 … j − width
     valid: np.ndarray       # (G, W)
     w: np.ndarray           # (G, W) accel + decel pulses of the predecessor stage
     wa: np.ndarray          # (G, W) accel pulses of the predecessor stage
+    packed_w: np.ndarray    # (G, W) both in one int64: w << 32 | wa
     start: np.ndarray       # (G,) bool: may be the slowest stage
     wtop: np.ndarray        # (G,) accel + decel pulses of a top stage at this node
     watop: np.ndarray       # (G,) accel pulses of a top stage at this node
+    reach: np.ndarray       # (G,) 1 + the last valid predecessor's w (0: none)
+
+    @property
+    def pred(self) -> np.ndarray:
+        """(G, W) predecessor index (the slower node), 0 where there is none."""
+        pred = np.arange(len(self.rates))[:, None] - 1 - np.arange(self.width)[None, :]
+        return np.maximum(pred, 0)
 
 
 def graph(pb: Problem, rates: np.ndarray) -> Graph:
     f = pb.hz / rates.astype(float)
     g = len(rates)
-    first = np.searchsorted(f, f - pb.jump * (1 + 1e-12), side="left")
+    # no step is longer than the largest jump any band allows (a shaped plan's are shorter)
+    jump = pb.jump * (1.0 if pb.shaping.plain else max(pb.shaping.scale))
+    first = np.searchsorted(f, f - jump * (1 + 1e-12), side="left")
     width = int(max(1, np.max(np.arange(g) - first)))
-    j = np.arange(g)[:, None]
-    pred = j - 1 - np.arange(width)[None, :]
-    ok = pred >= 0
-    pred = np.where(ok, pred, 0)
-    n, d, valid = pb.counts(rates[pred], np.broadcast_to(rates[:, None], pred.shape))
-    valid &= ok
+    # pb.counts(rates[j − 1 − w], rates[j]), valid where j − 1 − w ≥ 0
+    w, wa, packed_w, valid, reach = pb.graph_counts(rates, width)
     base = base_pulses(rates)
-    return Graph(rates, f, pred, valid, np.where(valid, n + d, 0.0), np.where(valid, n, 0.0),
-                  f <= pb.start, 2 * base, base)
+    return Graph(rates, f, width, valid, w, wa, packed_w, f <= pb.start, 2 * base, base, reach)
 
 
 @dataclass
@@ -119,15 +124,13 @@ def run_dp(gr: Graph, lam: float, max_stages: int, start_f: float, jump: float) 
     from .dp_kernel import layers
 
     g = len(gr.f)
-    cost = np.where(gr.valid, gr.w * (1.0 / gr.f[gr.pred] - lam), np.inf)
-    # accel and total pulses of a path packed in one int64 (total · 2^32 + accel): both
-    # stay far below 2^31 (127 × 0xFFFFF × 2)
-    packed_w = (gr.w.astype(np.int64) << 32) + gr.wa.astype(np.int64)
+    # a step's cost w · (1/f_pred − λ) (invalid: infinite) is worked out as the layers
+    # look at it; accel and total pulses of a path packed in one int64 (gr.packed_w)
     value = np.empty(g)
     packed = np.empty(g, dtype=np.int64)
     parents = np.full((max_stages + 1, g), -1, dtype=np.int32)
-    used = layers(np.ascontiguousarray(gr.pred, dtype=np.int64), cost, packed_w, gr.start,
-                  gr.f, float(start_f), float(jump), int(max_stages), value, packed, parents)
+    used = layers(gr.valid, gr.w, gr.packed_w, gr.start, gr.f, float(lam), float(start_f),
+                  float(jump), int(max_stages), value, packed, parents, gr.reach)
     pulses = (packed >> 32).astype(float)
     accel = (packed & 0xFFFFFFFF).astype(float)
     return DP(value, pulses, accel, parents[:used], lam)

@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
+from concurrent.futures import Future
 from dataclasses import replace
 from typing import NamedTuple
 
@@ -39,6 +40,7 @@ from ...errors import FieldRangeError, PlanError
 from ...motor import Motor
 from ...motor.angles import PEAK_DEG
 from ...motor.rotor import Rotor, follow, rotor_of
+from ...threads import pool
 from ..execution import Execution, simulate_moves
 from ..load_angle import Angles, angles, spans_of
 from ..stops import (
@@ -314,20 +316,41 @@ def tighten_uniform(motor: Motor, make: Make, load_angle_deg: float, *,
     """The whole table tightened alike: the safety factor, the largest jump and the start
     speed scaled by 0.85 a round until the worst angle (every move and, with `stops`,
     every decel stop) is within `load_angle_deg`, then bisected back towards the last
-    scale that failed (`extras["plans"]`: how many plans it made)."""
+    scale that failed (`extras["plans"]`: how many plans it made). While the descent
+    judges a plan, the next scale's is made on a side thread (the same plan, remembered
+    or not: a second core's worth of the round); one it did not need is dropped."""
     _check_aim(load_angle_deg)
     t0 = time.perf_counter()
     judges = list(judges or [motor])
     tried: list[Plan] = []
+    ahead: dict[float, Future[Plan]] = {}  # the descent's next plan, made on the side
 
-    def attempt(scale: float) -> tuple[float, Plan]:
+    def attempt(scale: float, descent: bool = True) -> tuple[float, Plan]:
         shaping = Shaping.uniform(scale)
-        plan = make(motor, None if shaping.plain else shaping)
+        future = ahead.pop(scale, None)
+        if descent:  # make the scale tried next if this one fails while this one is judged
+            nxt = scale * TIGHTEN_STEP
+            ahead[nxt] = pool("tighten-ahead", 1).submit(make, motor, Shaping.uniform(nxt))
+        if future is not None and not future.cancel():
+            plan = future.result()  # made ahead (raises the PlanError make raised)
+        else:
+            plan = make(motor, None if shaping.plain else shaping)
         worst = judged(plan.table, judges, stops).worst()
         plan = _annotated(plan, worst, shaping, len(judges), t0, stops)
         tried.append(plan)
         return worst, plan
 
+    try:
+        return _descend(attempt, load_angle_deg, tried)
+    finally:
+        for future in ahead.values():
+            future.cancel()  # made ahead for a step the descent did not take
+
+
+def _descend(attempt: Callable[..., tuple[float, Plan]], load_angle_deg: float,
+             tried: list[Plan]) -> Plan:
+    """`tighten_uniform`'s rounds: 0.85 a round until within the aim, then bisected back
+    (`attempt(scale, descent)`: the worst angle and the plan at `scale`)."""
     scale, failed = 1.0, None
     for _ in range(TIGHTEN_ROUNDS):
         try:
@@ -339,7 +362,7 @@ def tighten_uniform(motor: Motor, make: Make, load_angle_deg: float, *,
         if worst <= load_angle_deg:
             for _ in range(TIGHTEN_BISECT if failed is not None else 0):
                 mid = (scale + failed) / 2  # type: ignore[operator]
-                w_mid, p_mid = attempt(mid)
+                w_mid, p_mid = attempt(mid, False)
                 if w_mid <= load_angle_deg:
                     scale, plan = mid, p_mid
                 else:

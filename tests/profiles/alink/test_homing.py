@@ -8,8 +8,10 @@ import pytest
 
 from profiles import alink as A
 from profiles.alink.commands import encode_command
+from profiles.alink.planner import Judgement
 from profiles.errors import PlanError
 from profiles.motor import load_motor
+from profiles.motor.catalogue import resolve
 from verify.devices.alink import command_findings
 
 
@@ -39,3 +41,20 @@ def test_homing_under_max_speed_and_refused_without_a_safe_speed() -> None:
     slow = dataclasses.replace(motor, start_pps=39.0, max_jump_pps=None)
     with pytest.raises(PlanError, match=r"up to 39 pps, below 40 pps .*coarser microstep"):
         A.plan_homing(slow)
+
+
+def test_tighten_homing_lowers_oh_until_the_judge_agrees() -> None:
+    from profiles.alink.homing import HomingSettings, tighten_homing
+
+    motor = load_motor(resolve("nema17-1600"))
+
+    def below_500(h: HomingSettings) -> Judgement:
+        return Judgement(h.oh_pps <= 500, 80.0 if h.oh_pps > 500 else 60.0, "start", "")
+
+    h, verdict, price = tighten_homing(motor, HomingSettings(200, 800, 200), below_500,
+                                       aim_deg=75.0)
+    assert h.oh_pps <= 500 and h.oh_pps % 20 == 0 and h.ol_pps <= h.oh_pps
+    assert verdict.within_aim and "origin high speed lowered to" in price
+    with pytest.raises(PlanError, match="higher drive current"):
+        tighten_homing(motor, HomingSettings(200, 800, 200),
+                       lambda h: Judgement(False, 99.0, "start", ""), aim_deg=75.0)

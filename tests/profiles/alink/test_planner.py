@@ -5,8 +5,11 @@ from __future__ import annotations
 import pytest
 
 from profiles import alink as A
-from profiles.errors import FieldRangeError
+from profiles.alink.model import quantise_settings
+from profiles.alink.planner import Judgement, tighten_settings
+from profiles.errors import FieldRangeError, PlanError
 from profiles.motor import bundled_motor_paths, load_motor
+from profiles.motor.catalogue import resolve
 
 MOTORS = [load_motor(p) for p in bundled_motor_paths()]
 
@@ -55,3 +58,14 @@ def test_plan_says_what_binds() -> None:
     # in between, the torque: a higher speed would need a slower ramp
     assert A.plan_settings(motor, pulses=5000).binds.startswith("motor torque")
     assert long.info.startswith(f"×{long.table.multiplier}: start {long.table.start_pps} pps")
+
+
+def test_nothing_safe_names_what_would_help() -> None:
+    motor = load_motor(resolve("nema17-1600"))
+    settings = quantise_settings(800, 20000, 5.0)
+
+    def never(_: object) -> Judgement:
+        return Judgement(False, 120.0, "start", "a move of 3 pulses")
+
+    with pytest.raises(PlanError, match=r"lower speed limit.*less load inertia.*higher drive"):
+        tighten_settings(motor, settings, never, aim_deg=75.0)

@@ -22,6 +22,7 @@ from profiles.motor.loads import (
     disc,
     lead_screw,
     loads_from_specs,
+    mechanisms_from_specs,
     parse_load,
     through_gear,
 )
@@ -325,3 +326,23 @@ def test_the_designers_friction_slider_sets_it_exactly(tmp_path: Path,
     slid = loaded_motor(motor, Settings(friction_torque_nm=0.2))  # above it: no refusal
     assert slid.friction_torque_nm == 0.2 and slid.tolerances == ()
     assert loaded_motor(motor, Settings()).tolerances == motor.tolerances
+
+
+@pytest.mark.parametrize("specs, mm, source", [
+    (["screw:lead_mm=8,mass_kg=4"], 8.0, "lead screw lead 8 mm = 8 mm/rev"),
+    (["ballscrew:lead_mm=5,mass_kg=4"], 5.0, "ball screw lead 5 mm"),
+    (["belt:pulley_diameter_mm=20,mass_kg=1"], 20 * math.pi, "belt pulley π·Ø20 mm"),
+    # a 3:1 gear before a 10 mm lead: 10/3 mm per motor revolution; gears multiply
+    (["gear:ratio=3", "screw:lead_mm=10,mass_kg=1"], 10 / 3, "/ gear 3"),
+    (["gear:ratio=2", "gear:ratio=5", "belt:pulley_diameter_mm=30,mass_kg=1"],
+     30 * math.pi / 10, "/ gear 2 / gear 5"),
+])
+def test_a_screw_a_belt_and_a_gear_give_their_travel(specs: list[str], mm: float,
+                                                     source: str) -> None:
+    (m,) = mechanisms_from_specs(specs)
+    assert m.travel_mm_per_rev == pytest.approx(mm) and source in m.source
+
+
+def test_rotary_loads_have_no_travel() -> None:
+    assert mechanisms_from_specs(["disc:mass_kg=1,diameter_mm=50", "gear:ratio=3",
+                                  "inertia:j_kgm2=1e-5"]) == []

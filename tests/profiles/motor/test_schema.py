@@ -128,3 +128,16 @@ def test_where_the_schema_is_stricter_than_the_loader(key: str, value: Any) -> N
     obj[key] = value
     assert _loads(obj)
     assert [p for p, _ in schema_problems(obj)] == ["/" + key]
+
+
+def motor_obj(**extra: object) -> dict[str, object]:
+    return {"format": "stepramp.motor/1", "steps_per_rev": 1600,
+            "pullout_torque": [[0, 0.4], [40000, 0.1]], "inertia_kgm2": 1e-5,
+            "safety_factor": 0.6, "start_pps": 800, **extra}
+
+
+def test_motor_check_refuses_an_implausible_travel_naming_its_pointer() -> None:
+    found = problems(motor_obj(travel_mm_per_rev=8000.0))
+    assert [w for w, _ in found] == ["/travel_mm_per_rev"]
+    assert "8000 mm is outside" in found[0][1] and "8000 µm = 8 mm" in found[0][1]
+    assert problems(motor_obj(travel_mm_per_rev=8.0)) == []

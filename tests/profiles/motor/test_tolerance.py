@@ -204,6 +204,22 @@ def test_box_rotors_are_the_variant_motors_rotors(holding: float | None, directi
         assert rows.rotor(i) == rotor_of(s.motor, direction=direction)
 
 
+@pytest.mark.parametrize("max_step_s", [None, 2e-5])
+def test_box_rotors_steps_are_each_rotors_own(max_step_s: float | None) -> None:
+    """`Rotors.step_s` works out every row at once: the same steps, to the bit, as each
+    row's own `Rotor.step_s` (the reference), on a box's samples and both directions."""
+    from profiles.motor.rotor import rotors
+
+    m = replace(motor_with(tolerances=FULL_BOX), holding_torque_nm=0.33)
+    params = sample_params(m, 200, seed=3)
+    for direction in (1, -1):
+        rows = rotors(m, params, direction=direction)
+        want = np.asarray([rows.rotor(i).step_s() for i in range(len(rows))])
+        if max_step_s is not None:
+            want = np.minimum(want, max_step_s)
+        assert np.array_equal(rows.step_s(max_step_s), want)
+
+
 @pytest.mark.parametrize(("samples", "told"), [(50, [(4, 5), (5, 5)]), (0, [(4, 4)])])
 def test_judge_box_tells_its_progress_corners_then_samples(samples: int,
                                                            told: list[tuple[int, int]]) -> None:

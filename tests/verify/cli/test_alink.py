@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 
 from profiles import alink as A
 from profiles.alink.commands import COMMANDS, Value, decode_command, encode_command
+from tests.support.cli import run
 from verify import cli
 from verify.check_file import check_file
 from verify.cli import main
@@ -266,3 +267,48 @@ def test_alink_read_and_corrupted_settings(tmp_path: Path,
     assert main(["alink", "read", str(path)]) == 2
     err = capsys.readouterr().err
     assert err.startswith("stepramp alink: corrupted: STEPRAMP_ALINK_CRC32 says CRC-32")
+
+
+DATASHEET = ["motor", "new", "--holding-torque-nm", "0.59", "--rated-current-a", "2",
+             "--resistance-ohm", "1.4", "--inductance-mh", "3.0", "--rotor-inertia-gcm2", "82",
+             "--supply-v", "24", "--microstep", "8", "--current-a", "1.5",
+             "--load", "screw:lead_mm=8,mass_kg=4"]
+
+
+@pytest.fixture(scope="module")
+def datasheet_motor(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("motor") / "m.json"
+    assert cli.main([*DATASHEET, "--output", str(path)]) == 0
+    return path
+
+
+@pytest.mark.parametrize(("name", "extra"), [
+    ("nema17-1600", ()), ("nema23-heavy", ()), ("pk566-5phase-half", ()), ("datasheet", ()),
+    ("datasheet", ("--s-curve",)), ("datasheet", ("--pulses", "400"))])
+def test_planned_settings_within_the_aim_at_every_length(
+        name: str, extra: tuple[str, ...], datasheet_motor: Path, tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    motor = str(datasheet_motor) if name == "datasheet" else name
+    out = tmp_path / "s.json"
+    code, _, _ = run(capsys, "alink", "settings", "--motor", motor, "--format", "json",
+                     "-o", str(out), *extra)
+    assert code == 0
+    code, report, _ = run(capsys, "check", str(out), "--motor", motor, "--format", "json")
+    assert code == 0, report
+    safety = json.loads(report)["files"][0]["safety"] if "files" in json.loads(report) \
+        else json.loads(report)[0]["safety"]
+    assert safety["moves"] == "every" and safety["safe"] and safety["within_aim"]
+    assert safety["worst_load_angle_deg"] <= 75.0
+    assert "decel-stop" in safety["commands"]
+
+
+def test_datasheet_settings_lower_the_start_and_say_the_price(
+        datasheet_motor: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The issue's case: the untightened start (5 540 pps) leaves short moves past 75°."""
+    out = tmp_path / "s.txt"
+    code, _, _ = run(capsys, "alink", "settings", "--motor", str(datasheet_motor),
+                     "-o", str(out))
+    assert code == 0
+    text = out.read_text()
+    assert "start speed lowered to" in text and "within 75°" in text
+    assert "a move of 100 pulses takes" in text

@@ -18,6 +18,7 @@ from profiles.ppmc312.table import FreeCurveTable, dump_table, load_table
 from tests.support.ascii_frames import FIGURES
 from tests.support.cli import run
 from tests.support.paths import ROOT
+from verify import cli
 
 MOTORS = {p.stem: p for p in bundled_motor_paths()}
 
@@ -211,3 +212,43 @@ def test_every_command_in_every_format_is_judged_ok(capsys: pytest.CaptureFixtur
             code, text, err = run(capsys, "check", out)
             assert code == 0, (fmt, to, text, err)
             assert f"note: {COMMANDS[name].label if name != 'accel' else 'move'}" in text
+
+
+DATASHEET = ["motor", "new", "--holding-torque-nm", "0.59", "--rated-current-a", "2",
+             "--resistance-ohm", "1.4", "--inductance-mh", "3.0", "--rotor-inertia-gcm2", "82",
+             "--supply-v", "24", "--microstep", "8", "--current-a", "1.5",
+             "--load", "screw:lead_mm=8,mass_kg=4"]
+
+
+@pytest.fixture(scope="module")
+def datasheet_motor(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("motor") / "m.json"
+    assert cli.main([*DATASHEET, "--output", str(path)]) == 0
+    return path
+
+
+def test_check_motor_exits_1_on_an_unsafe_hand_written_file(
+        datasheet_motor: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "hand.txt"
+    assert run(capsys, "alink", "settings", "--start-pps", "8000", "--high-pps", "25000",
+               "--accel-ms-per-kpps", "0.5", "-o", str(out))[0] == 0
+    code, report, _ = run(capsys, "check", str(out), "--motor", str(datasheet_motor))
+    assert code == 1
+    assert "[stall-start-speed]" in report and "[load-angle]" in report
+    code, report, _ = run(capsys, "check", str(out))  # without a motor: the unit's rules only
+    assert code == 0 and "load-angle" not in report
+
+
+def test_check_json_is_the_tables_verdict_shape(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    """The same verdict object as a PPMC-312 table's (`--format json`)."""
+    path = tmp_path / "s.txt"
+    assert run(capsys, "alink", "settings", "--start-pps", "800", "--high-pps", "20000",
+               "--accel-ms-per-kpps", "5", "-o", str(path))[0] == 0
+    _, report, _ = run(capsys, "check", str(path), "examples/free-curve-nema17.json",
+                          "--motor", "nema17-1600", "--format", "json")
+    doc = json.loads(report)
+    files = doc["files"] if isinstance(doc, dict) else doc
+    ramp, table = files[0]["safety"], files[1]["safety"]
+    assert set(ramp) == set(table)
+    assert ramp["moves"] == "every" and ramp["safe"] in (True, False)

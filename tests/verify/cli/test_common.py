@@ -31,7 +31,7 @@ def _arguments() -> list[tuple[str, argparse.Action]]:
 
 # motor new's datasheet options add N·m, A, Ω, mH, V, g·cm², ° and [1] (a ratio); mc200
 # stream's torque constant N·m/A
-UNIT = re.compile(r"\[(pps|pps²|pps³|s|ms|µs|Hz|pulses|N·m|N·m/A|N·cm|A|Ω|mH|V|g·cm²|°|1)\]")
+UNIT = re.compile(r"\[(pps|pps²|pps³|s|ms|µs|Hz|pulses|N·m|N·m/A|N·cm|A|Ω|mH|V|g·cm²|°|1|mm|rev)\]")
 
 
 def test_every_quantity_option_names_its_unit() -> None:

@@ -8,10 +8,12 @@ from pathlib import Path
 import pytest
 
 from profiles.motor import bundled_motor_paths
+from profiles.motor.catalogue import resolve
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.table import FreeCurveTable, dump_table, load_table
 from tests.support.cli import run
 from tests.support.paths import ROOT
+from verify.cli import main
 
 MOTORS = {p.stem: p for p in bundled_motor_paths()}
 
@@ -42,3 +44,33 @@ def test_compare_exits_1_on_an_unsafe_move(tmp_path: Path,
                        "--references", "ruckig")
     assert code == 1 and ("verdict: UNSAFE (failed: criterion, load angle, decel-stop, "
                           "constant, origin-search, origin-return, stop, set-speed)") in out
+
+
+LEAD_MM = 8.0   # nema17-1600 (1600 pulses/rev) on an 8 mm lead: 0.005 mm per pulse
+
+
+@pytest.fixture
+def screw(tmp_path: Path) -> str:
+    """The bundled nema17-1600 with an 8 mm lead screw's travel."""
+    obj = json.loads(resolve("nema17-1600").read_text())
+    path = tmp_path / "screw.json"
+    path.write_text(json.dumps({**obj, "travel_mm_per_rev": LEAD_MM}))
+    return str(path)
+
+
+def test_compare_gives_mm_beside_pulses(screw: str, capsys: pytest.CaptureFixture[str]) -> None:
+    table = str(ROOT / "examples" / "free-curve-nema17.json")
+    argv = ["compare", table, "--motor", screw, "--pulses", "5000", "--references", "ruckig",
+            "--no-physics"]
+    main([*argv, "--format", "json"])
+    out = json.loads(capsys.readouterr().out)
+    assert out["pulses"] == 5000 and "table_s" in out                # the pulse keys stay
+    per_pulse = LEAD_MM / 1600
+    assert out["move_mm"] == pytest.approx(25.0)
+    assert out["table_mean_mm_s"] == pytest.approx(5000 / out["table_s"] * per_pulse)
+    assert out["optimum_mean_mm_s"] == pytest.approx(5000 / out["optimum_s"] * per_pulse)
+    assert out["table_top_mm_s"] == pytest.approx(out["table_top_pps"] * per_pulse)
+    assert out["table_top_pps"] == pytest.approx(20000.0)   # the example's fastest stage
+    main(argv)
+    [line] = [x for x in capsys.readouterr().out.splitlines() if x.startswith("in mm: ")]
+    assert line.startswith("in mm: a move of 25 mm; the table's top 100 mm/s, its mean ")

@@ -13,6 +13,7 @@ from profiles.motor import bundled_motor_paths, load_motor
 from profiles.motor.catalogue import (
     ENV_VAR,
 )
+from profiles.motor.travel import axis_units
 from tests.support.cli import run
 from tests.support.paths import ROOT
 from verify import cli
@@ -185,10 +186,12 @@ def test_motor_show_text(capsys: pytest.CaptureFixture[str]) -> None:
     assert lines[0] == "nema23-heavy: NEMA23 1.9 N·m, half step, heavy rotary table"
     assert lines[1].startswith("file: ") and lines[1].endswith("motor-nema23-heavy.json "
                                                                 "(bundled)")
-    assert lines[4].split() == ["speed", "[pps]", "[rpm]", "pull-out", "[N·m]", "×", "0.6",
+    assert lines[4] == ("axis: rotary (no travel_mm_per_rev): lengths in rev, speeds in rpm; "
+                        "top 1800 rpm")
+    assert lines[5].split() == ["speed", "[pps]", "[rpm]", "pull-out", "[N·m]", "×", "0.6",
                                 "[N·m]", "a_acc", "[pps²]", "a_dec", "[pps²]"]
     motor = load_motor("nema23-heavy")
-    rows = [line.split() for line in lines[5:]]
+    rows = [line.split() for line in lines[6:]]
     assert [float(r[0]) for r in rows] == list(motor.curve_speed_pps)
     # a_acc(0) = (0.6·1.9 − 0.2) / 4.8e-4 · 400 / 2π = 124 680 pps²
     assert float(rows[0][4]) == pytest.approx(124_680, rel=1e-3)
@@ -250,3 +253,48 @@ def test_plan_from_every_bundled_motor_and_reference(
     code, doc, out_path = plan_from(capsys, tmp_path, motor, source, pulses)
     assert code == 0, doc
     assert run(capsys, "check", out_path, "--motor", motor)[0] == 0
+
+
+def test_motor_new_writes_the_screws_travel_with_its_source(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out_file = tmp_path / "m.json"
+    code, out, _ = run_argv(["motor", "new", *DATASHEET, "--load", "gear:ratio=2", "--load",
+                        "screw:lead_mm=8,mass_kg=2,friction_coeff=0.01,efficiency=0.4",
+                        "-o", str(out_file)], capsys)
+    assert code == 0 and "travel 4 mm/rev" in out
+    obj = json.loads(out_file.read_text())
+    assert obj["travel_mm_per_rev"] == pytest.approx(4.0)
+    assert obj["sources"]["travel_mm_per_rev"][0]["from"] == ("lead screw lead 8 mm / gear 2 "
+                                                              "= 4 mm/rev")
+    code, out, _ = run_argv(["motor", "show", str(out_file)], capsys)
+    assert code == 0
+    assert "axis: 4 mm/rev, 1600 pulses/rev: 0.0025 mm per pulse" in out
+    assert "[mm/s]" in out
+
+
+def test_motor_new_takes_the_travel_given_and_a_rotary_load_none(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, _ = run_argv(["motor", "new", *DATASHEET, "--travel-mm-per-rev", "12.5"], capsys)
+    assert code == 0 and json.loads(out)["travel_mm_per_rev"] == 12.5
+    code, out, _ = run_argv(["motor", "new", *DATASHEET, "--load", "disc:mass_kg=0.1,"
+                        "diameter_mm=40"], capsys)
+    assert code == 0 and "travel_mm_per_rev" not in json.loads(out)
+
+
+@pytest.mark.parametrize("argv, text", [
+    (["--travel-mm-per-rev", "8000"], "--travel-mm-per-rev: 8000 mm is outside"),
+    (["--travel-mm-per-rev", "0"], "--travel-mm-per-rev: 0 mm is outside"),
+    (["--load", "screw:lead_mm=8,mass_kg=1", "--load", "belt:pulley_diameter_mm=20,"
+      "mass_kg=1"], "--load: the mechanisms travel 62.8318531, 8 mm per motor revolution"),
+])
+def test_motor_new_refuses_a_travel_naming_flag_and_unit(
+        argv: list[str], text: str, capsys: pytest.CaptureFixture[str]) -> None:
+    code, _, err = run_argv(["motor", "new", *DATASHEET, *argv], capsys)
+    assert code == 2 and text in err and "mm" in err and len(err.splitlines()) == 1
+
+
+def test_a_bundled_motor_reads_in_rev(capsys: pytest.CaptureFixture[str]) -> None:
+    assert not axis_units(load_motor("nema17-1600")).linear
+    code, out, _ = run_argv(["motor", "show", "nema17-1600"], capsys)
+    assert code == 0 and "axis: rotary (no travel_mm_per_rev)" in out
+    assert "top 1800 rpm" in out

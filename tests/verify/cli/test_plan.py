@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import io
 import json
+import re
 import sys
 from pathlib import Path
 
@@ -16,6 +17,7 @@ from profiles.motor.reserve import CruiseReserve
 from profiles.ppmc312.ascii import decode_serial_init
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.execution import simulate_move
+from profiles.ppmc312.init_model import expand_init
 from profiles.ppmc312.table import InitTable, load_table
 from tests.support.cli import run
 from tests.support.paths import ROOT
@@ -236,3 +238,158 @@ def test_plan_moves_from_stdin_carries_the_mix_hash(tmp_path: Path,
     provenance = json.loads(out.read_text())["provenance"]
     assert provenance["pulses"] == [2000]
     assert hashlib.sha256(mix).hexdigest() in json.dumps(provenance)
+
+
+# a datasheet NEMA17 on a lead screw: the plain init table's origin return (11) reverses
+# by twice a start speed the rotor cannot follow (the report of issue 33)
+DATASHEET = ["--name", "17hs19", "--holding-torque-nm", "0.59", "--rated-current-a", "2",
+             "--current-a", "1.5", "--resistance-ohm", "1.4", "--inductance-mh", "3.0",
+             "--rotor-inertia-gcm2", "82", "--supply-v", "24", "--microstep", "8",
+             "--load", "screw:lead_mm=8,mass_kg=4"]
+
+
+PULSES = 4000
+
+
+@pytest.fixture(scope="module")
+def datasheet_path(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("motor") / "17hs19.json"
+    assert main(["motor", "new", *DATASHEET, "-o", str(path)]) == 0
+    return path
+
+
+def test_plan_tightens_the_datasheet_motors_linear_table(
+        capsys: pytest.CaptureFixture[str], tmp_path: Path, datasheet_path: Path) -> None:
+    """The report's command: planned (exit 0), not refused; the table is within the aim at
+    every move length and under every command by judge_safety asked here again, and the
+    summary says what changed and what it cost, in numbers the table itself gives."""
+    table_path = tmp_path / "lin.json"
+    code, out, err = run(capsys, "plan", "--kind", "linear", "--motor", datasheet_path,
+                         "--pulses", PULSES, "-o", table_path)
+    assert code == 0, err  # the summary: on stdout, the table being written to its file
+    table = load_table(table_path)
+    motor = load_motor(datasheet_path)
+    verdict = judge_safety(table, motor)
+    assert verdict.moves is None and verdict.safe and verdict.within_aim, verdict.describe()
+    assert {name for name, _ in verdict.commands} >= {"origin-return", "decel-stop", "constant"}
+    # the plain table (the motor's own start speed) was not: the tightening did the work
+    start = re.search(r"start speed lowered to ([\d ]+) pps \(from ([\d ]+) pps\) to keep the "
+                      r"rotor within 75° under every command judged", out)
+    assert start, out
+    assert int(start[1].replace(" ", "")) == round(table.clock.hz / table.start_rate)
+    assert int(start[1].replace(" ", "")) < int(start[2].replace(" ", ""))
+    price = re.search(rf"price: a move of {PULSES} pulses takes ([\d.]+) ms, ([\d.]+)% longer "
+                      r"than the untightened table's ([\d.]+) ms", out)
+    assert price, out
+    took = simulate_move(expand_init(table), PULSES).duration_s * 1e3
+    assert float(price[1]) == pytest.approx(took, rel=1e-3)
+    assert float(price[2]) == pytest.approx((took / float(price[3]) - 1) * 100, abs=0.06)
+
+
+def test_plan_commands_narrows_the_verdict_and_refuses_an_unknown_one(
+        capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    code, out, err = run(capsys, "plan", "--kind", "linear", "--motor", "nema17-1600",
+                         "--pulses", "2000", "--commands", "82,81", "--format", "json",
+                         "-o", tmp_path / "t.json")
+    assert code == 0, err
+    assert list(json.loads(out)["safety"]["commands"]) == ["decel-stop"]
+    code, _, err = run(capsys, "plan", "--kind", "linear", "--motor", "nema17-1600",
+                       "--pulses", "2000", "--commands", "82,warp")
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "'warp'" in err
+
+
+LEAD_MM = 8.0   # nema17-1600 (1600 pulses/rev) on an 8 mm lead: 0.005 mm per pulse
+
+
+@pytest.fixture
+def screw(tmp_path: Path) -> str:
+    """The bundled nema17-1600 with an 8 mm lead screw's travel."""
+    obj = json.loads(resolve("nema17-1600").read_text())
+    path = tmp_path / "screw.json"
+    path.write_text(json.dumps({**obj, "travel_mm_per_rev": LEAD_MM}))
+    return str(path)
+
+
+def test_plan_gives_mm_beside_pulses(screw: str, tmp_path: Path,
+                                     capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "t.json"
+    assert main(["plan", "--motor", screw, "--pulses", "3200", "-o", str(out),
+                 "--format", "json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["pulses"] == 3200 and "move_time_s" in summary   # the pulse keys stay
+    assert summary["travel_mm_per_rev"] == LEAD_MM
+    assert summary["move_mm"] == pytest.approx(16.0)
+    per_pulse = LEAD_MM / 1600
+    table = json.loads(out.read_text())
+    top = 8e6 / table["rates"][0] if table["clock"] == "8MHz" else None
+    if top is not None:
+        assert summary["top_speed_pps"] == pytest.approx(top)
+    for key in ("top_speed", "start_speed"):
+        assert summary[f"{key}_mm_s"] == pytest.approx(summary[f"{key}_pps"] * per_pulse)
+    assert summary["ramp_accel_mm_s2"] == pytest.approx(summary["ramp_accel_pps2"] * per_pulse)
+    assert "top_speed_rpm" not in summary
+
+
+def test_plan_text_says_mm_and_a_rotary_motor_rev_and_rpm(
+        screw: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["plan", "--motor", screw, "--pulses", "3200", "-o",
+                 str(tmp_path / "t.json")]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    [line] = [x for x in lines if x.startswith("in mm: top ")]
+    assert " mm/s (from " in line and " mm/s² on average" in line
+    assert "a move of 3200 pulses = 16 mm (0.005 mm per pulse)" in line
+    assert main(["plan", "--motor", "nema17-1600", "--pulses", "3200", "-o",
+                 str(tmp_path / "r.json"), "--format", "json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["travel_mm_per_rev"] is None and summary["move_rev"] == 2.0
+    assert summary["top_speed_rpm"] == pytest.approx(summary["top_speed_pps"] * 60 / 1600)
+    assert summary["ramp_accel_rev_s2"] == pytest.approx(summary["ramp_accel_pps2"] / 1600)
+
+
+def test_plan_distance_mm_is_the_nearest_pulse_said_when_rounded(
+        screw: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "t.json"
+    assert main(["plan", "--motor", screw, "--distance-mm", "10.0012", "-o", str(out),
+                 "--format", "json"]) == 0
+    got = capsys.readouterr()
+    summary = json.loads(got.out)
+    # 10.0012 mm / 0.005 mm = 2000.24 pulses → 2000, 10 mm
+    assert summary["pulses"] == 2000 and summary["move_mm"] == pytest.approx(10.0)
+    assert summary["asked_move_mm"] == 10.0012
+    assert ("--distance-mm 10.0012 mm is 2000 pulses (rounded to the nearest pulse): 10 mm, "
+            "-0.0012 mm") in got.err
+    assert json.loads(out.read_text())["provenance"]["pulses"] == [2000]
+    assert main(["plan", "--motor", screw, "--distance-mm", "10", "-o", str(out)]) == 0
+    assert "rounded" not in capsys.readouterr().err
+
+
+def test_plan_distance_rev_on_any_motor(tmp_path: Path,
+                                        capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["plan", "--motor", "nema17-1600", "--distance-rev", "2.5", "-o",
+                 str(tmp_path / "t.json"), "--format", "json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["pulses"] == 4000 and summary["asked_move_rev"] == 2.5
+
+
+@pytest.mark.parametrize("argv, text", [
+    (["--motor", "nema17-1600", "--distance-mm", "10"],
+     "--distance-mm [mm]: motor nema17-1600 has no travel_mm_per_rev"),
+    (["--motor", "SCREW", "--distance-mm", "0"],
+     "--distance-mm [mm]: 0 mm is 0 pulses, outside 1..4294967295 pulses (0.005..2.14748e+07 "
+     "mm at 0.005 mm per pulse)"),
+    (["--motor", "SCREW", "--distance-mm", "-3"], "--distance-mm [mm]: -3 mm is -600 pulses"),
+    (["--motor", "SCREW", "--distance-mm", "inf"], "--distance-mm [mm]: inf mm is not a "
+                                                   "finite length"),
+    (["--motor", "SCREW", "--distance-mm", "3e7"], "--distance-mm [mm]: 3e+07 mm is 6e+09"),
+    (["--motor", "SCREW", "--distance-mm", "10", "--pulses", "2000"],
+     "--pulses, --distance-mm and --distance-rev each give the move's length"),
+    (["--motor", "SCREW", "--distance-mm", "10", "--distance-rev", "2"],
+     "--pulses, --distance-mm and --distance-rev each give the move's length"),
+    (["--motor", "nema17-1600", "--distance-rev", "0.0001"], "--distance-rev [rev]: 0.0001 rev"),
+])
+def test_plan_distance_refusals_name_the_flag_and_unit(
+        argv: list[str], text: str, screw: str, capsys: pytest.CaptureFixture[str]) -> None:
+    argv = [screw if a == "SCREW" else a for a in argv]
+    assert main(["plan", *argv]) == 2
+    err = capsys.readouterr().err
+    assert text in err and len(err.splitlines()) == 1

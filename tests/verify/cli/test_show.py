@@ -9,11 +9,13 @@ from pathlib import Path
 
 import pytest
 
+from profiles.motor.catalogue import resolve
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.init_model import expand_init
 from profiles.ppmc312.table import FreeCurveTable, load_table
 from tests.support.cli import run
 from tests.support.paths import ROOT
+from verify.cli import main
 
 MOTOR = ROOT / "profiles" / "data" / "motor-nema17-1600.json"
 
@@ -123,3 +125,59 @@ def test_show_reports_it_and_takes_the_tables_own(capsys: pytest.CaptureFixture[
     assert json.loads(said)["cruise_reserve"]["reserve"] == "3x,20%"
     code, _, err = run(capsys, "show", str(out), "--cruise-reserve", "3x")
     assert code == 2 and "--cruise-reserve holds the table's top speed" in err
+
+
+LEAD_MM = 8.0   # nema17-1600 (1600 pulses/rev) on an 8 mm lead: 0.005 mm per pulse
+
+
+@pytest.fixture
+def screw(tmp_path: Path) -> str:
+    """The bundled nema17-1600 with an 8 mm lead screw's travel."""
+    obj = json.loads(resolve("nema17-1600").read_text())
+    path = tmp_path / "screw.json"
+    path.write_text(json.dumps({**obj, "travel_mm_per_rev": LEAD_MM}))
+    return str(path)
+
+
+def test_show_gives_mm_with_a_linear_motor_and_rev_with_a_rotary_one(
+        screw: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    table = tmp_path / "t.json"
+    assert main(["plan", "--motor", screw, "--pulses", "3200", "-o", str(table)]) == 0
+    capsys.readouterr()
+    obj = json.loads(table.read_text())
+    accel = sum(obj["accel_pulses"])
+    assert main(["show", str(table), "--motor", screw, "--format", "json"]) == 0
+    listing = json.loads(capsys.readouterr().out)
+    assert listing["accel_pulses"] == accel                      # the pulse keys stay
+    assert listing["accel_mm"] == pytest.approx(accel * LEAD_MM / 1600)
+    assert listing["travel_mm_per_rev"] == LEAD_MM
+    row = listing["stages"][0]
+    assert row["speed_mm_s"] == pytest.approx(row["speed_pps"] * LEAD_MM / 1600)
+    assert main(["show", str(table), "--motor", screw]) == 0
+    text = capsys.readouterr().out
+    assert f"accel {accel} pulses ({accel * LEAD_MM / 1600:.4g} mm) in " in text
+    assert "speed [mm/s]" in text.splitlines()[1]
+    assert main(["show", str(table), "--motor", "nema17-1600", "--format", "json"]) == 0
+    listing = json.loads(capsys.readouterr().out)
+    assert listing["accel_rev"] == pytest.approx(accel / 1600)
+    assert "speed_mm_s" not in listing["stages"][0] and "travel_mm_per_rev" not in listing
+
+
+def test_show_takes_mm_from_the_motor_a_table_was_planned_for_when_unchanged(
+        screw: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    table = tmp_path / "t.json"
+    assert main(["plan", "--motor", screw, "--pulses", "3200", "-o", str(table)]) == 0
+    capsys.readouterr()
+    assert main(["show", str(table)]) == 0
+    text = capsys.readouterr().out
+    assert "speed [mm/s]" in text and "mm from the motor it was planned for: " in text
+    assert main(["show", str(table), "--format", "csv"]) == 0
+    assert capsys.readouterr().out.splitlines()[0].endswith(",speed_mm_s")
+    # the motor file changed since: its hash is not the one planned with, no mm
+    obj = json.loads(Path(screw).read_text())
+    Path(screw).write_text(json.dumps({**obj, "travel_mm_per_rev": 5.0}))
+    assert main(["show", str(table)]) == 0
+    text = capsys.readouterr().out
+    assert "mm/s" not in text and "planned for" not in text
+    assert main(["show", str(table), "--format", "csv"]) == 0
+    assert "speed_mm_s" not in capsys.readouterr().out

@@ -8,6 +8,7 @@ import socket
 import threading
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -140,3 +141,16 @@ def test_sweep_numbers_are_checked_first(tmp_path: Path, capsys: pytest.CaptureF
                      "-o", str(out)])
     err = capsys.readouterr().err
     assert code == 2 and says in err and len(err.splitlines()) == 1 and not out.exists()
+
+
+def test_sweep_plot_x_mm_needs_every_motor_s_travel(tmp_path: Any,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    from verify import cli
+
+    code = cli.main(["sweep", "--motors", "nema17-1600", "--pulses", "400", "--samples", "0",
+                     "--plot-x", "mm", "--plot", str(tmp_path / "s.png"),
+                     "-o", str(tmp_path / "s.csv")])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "--plot-x mm: nema17-1600 states no travel_mm_per_rev" in err
+    assert not (tmp_path / "s.csv").exists()

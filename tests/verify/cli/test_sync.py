@@ -6,6 +6,7 @@ import json
 import shutil
 import subprocess
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -224,3 +225,39 @@ def test_simulate_axes_reports_the_spread_of_tables_that_do_not_end_together(
     spread = simulate_move(loaded, 3000).duration_s - simulate_move(loaded, 1000).duration_s
     assert spread > 0
     assert doc["finish_spread_s"] == pytest.approx(spread, rel=1e-12)
+
+
+def scale_labels(ax: Any) -> list[str]:
+    """The labels of the second scales (real units) on `ax`."""
+    return [c.get_ylabel() or c.get_xlabel() for c in ax.child_axes]
+
+
+@pytest.mark.slow  # plans a two-axis line move (~3 s); CI runs it
+def test_sync_scales_in_mm_when_every_axis_shares_its_units(
+        tmp_path: Any, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    from matplotlib.figure import Figure
+
+    from verify import cli
+
+    motor = json.loads(bundled_motor_paths()[0].read_text())
+    (tmp_path / "m.json").write_text(json.dumps({**motor, "travel_mm_per_rev": 8.0}))
+    (tmp_path / "axes.json").write_text(json.dumps({
+        "format": "stepramp.axes/1", "mode": "line",
+        "axes": [{"name": "x", "motor": "m.json", "pulses": 4000},
+                 {"name": "y", "motor": "m.json", "pulses": -1500}]}))
+    saved: list[Any] = []
+    original = Figure.savefig
+
+    def record(self: Any, *args: Any, **kwargs: Any) -> None:
+        saved.append(self)
+        original(self, *args, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", record)
+    assert cli.main(["sync", str(tmp_path / "axes.json"), "-o", str(tmp_path / "out"),
+                     "--no-ruckig", "--plot", str(tmp_path / "s.png")]) in (0, 1)
+    path_ax, _, speed_ax = saved[0].axes
+    assert sorted(scale_labels(path_ax)) == ["position [mm]", "position [mm]"]
+    assert scale_labels(speed_ax) == ["speed [mm/s]"]

@@ -8,6 +8,9 @@ import pytest
 
 from profiles import alink as A
 from profiles.alink.commands import COMMANDS
+from profiles.alink.model import quantise_settings
+from profiles.motor import load_motor
+from profiles.motor.catalogue import resolve
 from verify.devices.alink import command_findings
 
 
@@ -129,3 +132,18 @@ def test_a_good_list_has_no_finding_and_its_answers_are_ack() -> None:
     assert command_findings(commands) == []
     run = A.run_commands(commands)
     assert all(a.ack for a in run.answers) and run.end == ()
+
+
+def test_sync_axis_verdict_carries_the_ramps_verdict() -> None:
+    """sync's report on an A-Link axis: the planner's rule and the one verdict's JSON."""
+    from types import SimpleNamespace
+
+    from verify.devices.alink import axis_verdict
+
+    motor = load_motor(resolve("nema17-1600"))
+    safe, facts = axis_verdict(SimpleNamespace(settings=quantise_settings(800, 20000, 5.0),
+                                               motor=motor))
+    assert safe and facts["stall_safe"] and facts["safety"]["moves"] == "every"
+    fast, facts = axis_verdict(SimpleNamespace(settings=quantise_settings(2000, 40000, 0.1),
+                                               motor=motor))
+    assert not fast and not facts["safety"]["safe"]

@@ -7,6 +7,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
@@ -50,3 +51,34 @@ def test_sync_figure_positions_are_signed(tmp_path: Path, saved: list[Any],
     assert list(line.get_xdata()) == [0, 12000] and list(line.get_ydata()) == [0, -5000]
     y_speed = next(ln for ln in speed_ax.get_lines() if ln.get_label().startswith("y ("))
     assert max(y_speed.get_ydata()) < 0  # y runs CCW the whole move (from its start speed)
+
+
+def close(fig: Any) -> None:
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+
+
+def test_sync_deviation_is_an_envelope_with_its_worst_marked() -> None:
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import PolyCollection
+
+    from verify.sync.figure import DEVIATION_BINS, binned_envelope, deviation_panel
+
+    rng = np.random.default_rng(0)
+    t = np.cumsum(rng.uniform(1e-6, 2e-5, 100_000))
+    d = rng.uniform(0.0, 0.8, t.size) * (np.arange(t.size) % 2)  # 0 at every other instant
+    d[54_321] = 1.5
+    fig, ax = plt.subplots()
+    deviation_panel(ax, t, d)
+    [fill] = [c for c in ax.collections if isinstance(c, PolyCollection)]
+    assert len(fill.get_paths()[0].vertices) < 6 * DEVIATION_BINS  # not one per instant
+    lines = ax.get_lines()
+    assert all(len(ln.get_xdata()) <= DEVIATION_BINS + 1 for ln in lines)
+    [worst] = [ln for ln in lines if ln.get_label().startswith("worst")]
+    assert worst.get_ydata()[0] == 1.5 and worst.get_xdata()[0] == pytest.approx(t[54_321] * 1e3)
+    edges, lo, hi = binned_envelope(t, d, DEVIATION_BINS)
+    assert hi.max() == 1.5 and lo.min() == 0.0 and np.all(lo <= hi)
+    inside = (t >= edges[7]) & (t < edges[8])  # a bin's own instants lie within its band
+    assert lo[7] <= d[inside].min() and d[inside].max() <= hi[7]
+    close(fig)

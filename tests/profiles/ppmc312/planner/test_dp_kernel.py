@@ -357,3 +357,80 @@ def test_a_count_exactly_at_its_field_limit_is_valid_and_one_past_it_is_not() ->
                 out = np.empty(1), np.empty(1), np.empty(1, dtype=bool)
                 stage_counts(r_slow, r_fast, *consts, *out)
                 assert bool(out[2][0]) is want, (separate, limit, most)
+
+
+@SETTINGS_COUNTS
+@given(motors(), st.booleans(), st.integers(0, 2), st.integers(0, 2**32 - 1))
+def test_the_graphs_counts_equal_the_step_by_step_counts(motor: Motor, separate: bool,
+                                                         shaped: int, seed: int) -> None:
+    """The planner's graph counts every step at once (dp_kernel.graph_counts: the torque
+    once per node, the breakpoints' least carried from one predecessor to the next); the
+    reference is `Problem.counts` step by step on the same steps, to the bit, and each
+    node's reach stops at its last valid predecessor."""
+    from profiles.ppmc312.planner.search import GRID_TARGET, grid_rates
+
+    rng = np.random.default_rng(seed)
+    shaping = (None, Shaping.uniform(float(rng.uniform(0.4, 1.0))),
+               Shaping.bands(motor).scaled({1: float(rng.uniform(0.4, 1.0))},
+                                           float(rng.uniform(0.5, 1.0))))[shaped]
+    slowest = replace(motor, start_pps=motor.start_pps * (shaping or Shaping()).start_scale)
+    pb = make_problem(motor, choose_clock(slowest), separate, shaping)
+    rates = grid_rates(pb, int(rng.integers(20, GRID_TARGET)))
+    width = int(rng.integers(1, 60))
+    w, wa, packed_w, valid, reach = pb.graph_counts(rates, width)
+    pred = np.arange(len(rates))[:, None] - 1 - np.arange(width)[None, :]
+    has = pred >= 0
+    n, d, want_valid = pb.counts(rates[np.where(has, pred, 0)].astype(float),
+                                 np.broadcast_to(rates[:, None], pred.shape).astype(float))
+    want_valid &= has
+    assert np.array_equal(valid, want_valid)
+    assert np.array_equal(w, np.where(want_valid, n + d, 0.0))
+    assert np.array_equal(wa, np.where(want_valid, n, 0.0))
+    assert np.array_equal(packed_w, (np.where(want_valid, n + d, 0.0).astype(np.int64) << 32)
+                          + np.where(want_valid, n, 0.0).astype(np.int64))
+    last = np.where(valid.any(axis=1), width - np.argmax(valid[:, ::-1], axis=1), 0)
+    assert np.array_equal(reach, last)
+
+
+def test_a_datasheet_motors_graph_counts_equal_the_step_by_step_counts() -> None:
+    """A motor that starts fast (a jump limit of hundreds of grid steps, the case the
+    graph's own pass is for; curve breakpoints between many steps' ends) and the
+    reference, the step-by-step counts over every step of its graph."""
+    from profiles.ppmc312.planner.search import GRID_TARGET, graph, grid_rates
+
+    speeds = np.array([0.0, 11464.0, 12335.0, 13308.0, 14390.0, 15601.0, 16968.0, 18520.0,
+                       20282.0, 22303.0, 24636.0, 27215.0])
+    torques = np.array([0.4425, 0.441, 0.3904, 0.342, 0.2953, 0.2506, 0.2075, 0.1663,
+                        0.1269, 0.0893, 0.0535, 0.0216])
+    motor = Motor(steps_per_rev=1600, curve_speed_pps=speeds, curve_torque_nm=torques,
+                  inertia_kgm2=1.468e-5, safety_factor=0.6, start_pps=5546.0,
+                  friction_torque_nm=0.0438)
+    for shaping in (None, Shaping.bands(motor).scaled({1: 0.7, 3: 0.8}, 0.8)):
+        pb = make_problem(motor, choose_clock(motor), True, shaping)
+        gr = graph(pb, grid_rates(pb, GRID_TARGET))
+        assert gr.pred.shape[1] > 200
+        n, d, valid = pb.counts(gr.rates[gr.pred].astype(float),
+                                np.broadcast_to(gr.rates[:, None], gr.pred.shape)
+                                .astype(float))
+        valid &= np.arange(len(gr.rates))[:, None] - 1 - np.arange(gr.pred.shape[1]) >= 0
+        assert np.array_equal(gr.valid, valid)
+        assert np.array_equal(gr.w, np.where(valid, n + d, 0.0))
+        assert np.array_equal(gr.wa, np.where(valid, n, 0.0))
+
+
+def test_a_shaped_graph_is_as_wide_as_its_largest_jump_and_loses_no_step() -> None:
+    """A uniformly tightened plan's graph is narrower (no band allows the full jump), and
+    every step it leaves out is invalid in the full-width counts."""
+    from profiles.ppmc312.planner.search import GRID_TARGET, graph, grid_rates
+
+    motor = Motor(steps_per_rev=1600, curve_speed_pps=np.array([0.0, 11464.0, 27215.0]),
+                  curve_torque_nm=np.array([0.44, 0.44, 0.02]), inertia_kgm2=1.5e-5,
+                  safety_factor=0.6, start_pps=5546.0, friction_torque_nm=0.04)
+    plain = make_problem(motor, choose_clock(motor), True)
+    shaped = make_problem(motor, choose_clock(motor), True, Shaping.uniform(0.6))
+    rates = grid_rates(plain, GRID_TARGET)
+    full, narrow = graph(plain, rates), graph(shaped, rates)
+    assert narrow.width < 0.7 * full.width
+    _, _, _, valid, _ = shaped.graph_counts(rates, full.width)
+    assert not valid[:, narrow.width:].any()
+    assert np.array_equal(valid[:, :narrow.width], narrow.valid)

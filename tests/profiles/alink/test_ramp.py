@@ -1,0 +1,99 @@
+"""profiles.alink.ramp: the A-Link unit's ramp as stages, against a plain-Python stepping
+of the unit (multiplier, decel stops, triangles, resonance dwells)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from profiles.alink.model import quantise_settings
+from profiles.alink.ramp import RAMP_HZ, build_ramp, parts, ramp_of, segments
+from profiles.motor import load_motor
+from profiles.motor.catalogue import resolve
+from verify.safety import judge_safety
+
+
+def stepped(start: float, high: float, accel: float, m: int, shape: str, n: int
+            ) -> list[float]:
+    """The unit stepped pulse by pulse, independently of the model's arrays: each pulse
+    lasts one period of the speed step in force when it begins; a move of n pulses runs
+    the first ⌈n/2⌉ pulses of the ramp up and the first ⌊n/2⌋ reversed down (or the
+    whole ramp, a cruise at `high`, the ramp reversed). Returns each pulse's speed."""
+    steps = int((high - start) // m)
+    ramp_s = (high - start) / accel
+
+    def speed(t: float) -> float:
+        if shape == "linear":
+            k = math.floor(accel * t / m + 1e-9)
+        else:
+            x = (1 - math.cos(math.pi * min(t, ramp_s) / ramp_s)) / 2 if ramp_s else 1.0
+            k = math.floor(x * steps + 1e-9)
+        return start + min(k, steps) * m
+
+    ramp: list[float] = []
+    t = 0.0
+    top = start + steps * m
+    while steps and len(ramp) < n:
+        v = speed(t)
+        if v >= top:
+            break
+        ramp.append(v)
+        t += 1 / v
+    if n >= 2 * len(ramp):
+        return ramp + [high] * (n - 2 * len(ramp)) + ramp[::-1]
+    return ramp[:(n + 1) // 2] + ramp[:n // 2][::-1]
+
+
+@pytest.mark.parametrize("shape", ["linear", "s_curve"])
+def test_stages_are_the_stepped_unit(shape: str) -> None:
+    """A ramp of at most 250 speed steps: the model's pulses are the stepped unit's, pulse
+    for pulse, for triangles, the move just reaching the top and a trapezoid."""
+    ramp = build_ramp(400, 2000, 40_000.0, 10, shape)  # 160 steps
+    assert ramp.steps == 160
+    for n in (1, 2, 7, 30, 2 * ramp.ramp_pulses - 1, 2 * ramp.ramp_pulses,
+              2 * ramp.ramp_pulses + 13):
+        rate, count, _ = segments(ramp, parts(ramp, "move", np.array([n])))
+        model = np.repeat(RAMP_HZ / rate.astype(float), count)
+        unit = stepped(400, 2000, 40_000.0, 10, shape, n)
+        assert len(model) == n == len(unit)
+        np.testing.assert_allclose(model, unit, rtol=1e-6)
+
+
+def test_decel_stop_runs_the_ramp_down_from_its_stage() -> None:
+    ramp = build_ramp(400, 2000, 40_000.0, 10, "linear")
+    ends = np.cumsum(ramp.pulses)
+    x = int(ends[5]) + 1   # the first pulse of stage 6
+    p = parts(ramp, "stop", np.array([x]))
+    assert (int(p.up[0]), int(p.middle[0]), int(p.down[0])) == (x, 0, int(ends[6]))
+
+
+def test_ramp_of_settings_uses_the_multiplier() -> None:
+    ramp = ramp_of(quantise_settings(800, 20000, 5.0, s_curve=True))
+    assert ramp.multiplier == 10 and ramp.shape == "s_curve"
+    assert ramp.speeds_pps[0] == 800 and ramp.speeds_pps[-1] < 20000
+
+
+def test_triangle_avoidance_runs_a_third_at_the_speed_reached() -> None:
+    ramp = build_ramp(400, 20000, 40_000.0, 10, "linear", triangle_avoidance=True)
+    p = parts(ramp, "move", np.array([31, 3 * ramp.ramp_pulses + 5]))
+    assert (p.up.tolist(), p.middle.tolist(), p.down.tolist()) == (
+        [10, ramp.ramp_pulses], [11, ramp.ramp_pulses + 5], [10, ramp.ramp_pulses])
+
+
+def test_a_cruise_in_a_resonance_band_is_a_dwell() -> None:
+    from dataclasses import replace
+
+    motor = replace(load_motor(resolve("nema17-1600")),
+                    resonance_bands_pps=((19000.0, 21000.0),))
+    inside = judge_safety(ramp_of(quantise_settings(800, 20000, 5.0)), motor,
+                          load_angle=False)
+    assert [f.rule for f in inside.resonance] == ["resonance-dwell"]
+    assert inside.resonance[0].severity == "warning"
+    strict = judge_safety(ramp_of(quantise_settings(800, 20000, 5.0)), motor,
+                          load_angle=False, strict=True)
+    assert not strict.safe
+    outside = judge_safety(ramp_of(quantise_settings(800, 25000, 5.0)), motor,
+                           load_angle=False)
+    assert not outside.resonance   # the ramp crosses the band: no finding

@@ -1,0 +1,113 @@
+"""verify.alink_safety: the A-Link ramp's one verdict against the plain-Python rotor oracle
+(tests/support/rotor_oracle.py) on sampled moves and decel stops, and its homing legs."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from profiles.alink.model import quantise_settings
+from profiles.alink.ramp import build_ramp, ramp_of
+from profiles.motor import load_motor
+from profiles.motor.catalogue import resolve
+from profiles.motor.rotor import rotor_of, settle_s
+from tests.support.rotor_oracle import follow
+from verify.safety import judge_safety
+
+
+def stepped(start: float, high: float, accel: float, m: int, shape: str, n: int
+            ) -> list[float]:
+    """The unit stepped pulse by pulse, independently of the model's arrays: each pulse
+    lasts one period of the speed step in force when it begins; a move of n pulses runs
+    the first ⌈n/2⌉ pulses of the ramp up and the first ⌊n/2⌋ reversed down (or the
+    whole ramp, a cruise at `high`, the ramp reversed). Returns each pulse's speed."""
+    steps = int((high - start) // m)
+    ramp_s = (high - start) / accel
+
+    def speed(t: float) -> float:
+        if shape == "linear":
+            k = math.floor(accel * t / m + 1e-9)
+        else:
+            x = (1 - math.cos(math.pi * min(t, ramp_s) / ramp_s)) / 2 if ramp_s else 1.0
+            k = math.floor(x * steps + 1e-9)
+        return start + min(k, steps) * m
+
+    ramp: list[float] = []
+    t = 0.0
+    top = start + steps * m
+    while steps and len(ramp) < n:
+        v = speed(t)
+        if v >= top:
+            break
+        ramp.append(v)
+        t += 1 / v
+    if n >= 2 * len(ramp):
+        return ramp + [high] * (n - 2 * len(ramp)) + ramp[::-1]
+    return ramp[:(n + 1) // 2] + ramp[:n // 2][::-1]
+
+
+def oracle_deg(motor_path: Path | str, speeds: list[float]) -> float:
+    """The worst |load angle| [electrical °] of a pulse train, by the plain-Python rotor."""
+    rotor = rotor_of(load_motor(motor_path))
+    spans: list[tuple[float, float]] = []
+    for v in speeds:
+        if spans and spans[-1][1] == v:
+            spans[-1] = (spans[-1][0] + 1 / v, v)
+        else:
+            spans.append((1 / v, v))
+    step = rotor.step_s()
+    spans.append((settle_s(rotor, step), 0.0))
+    trace = follow(rotor, spans, step_s=step)
+    return math.degrees(max(abs(x) for x in trace.lag) * rotor.c_e)
+
+
+@pytest.mark.parametrize("shape", ["linear", "s_curve"])
+def test_verdict_against_the_oracle_on_sampled_moves(shape: str) -> None:
+    """judge_safety on the model's moves against the plain-Python stepping and rotor, on
+    moves of every shape: exact ramps (≤ 250 steps) agree to 0.5°, a fine ramp judged as
+    250 stages to 3° (tests the grouping the model documents)."""
+    motor = resolve("nema17-1600")
+    cases = [(800, 6000, 150_000.0, 20, (3, 40, 101, 300)),       # 260 → grouped
+             (800, 4000, 150_000.0, 20, (5, 64, 200))]            # 160 steps: exact
+    for start, high, accel, m, lengths in cases:
+        ramp = build_ramp(start, high, accel, m, shape)
+        tol = 0.5 if ramp.steps <= 250 else 3.0
+        for n in lengths:
+            verdict = judge_safety(ramp, load_motor(motor), pulses=[n])
+            assert verdict.load_angle is not None
+            want = oracle_deg(motor, stepped(start, high, accel, m, shape, n))
+            assert verdict.load_angle.worst_deg == pytest.approx(want, abs=tol), (n, ramp)
+
+
+def test_homing_legs_are_judged_and_a_fast_origin_stop_fails() -> None:
+    """A search stopping at once from OH far above the self-start speed slips; within it,
+    the homing legs are within the aim (the bundled NEMA17: self-start 800 pps)."""
+    from profiles.alink.homing import HomingSettings
+
+    motor = load_motor(resolve("nema17-1600"))
+    ramp = ramp_of(quantise_settings(800, 20000, 5.0))
+    fast = judge_safety(ramp, motor, homing=HomingSettings(1000, 20000, 200))
+    rules = {f.rule for f in fast.findings()}
+    assert {"stall-start-speed", "alink-homing-load-angle"} <= rules and not fast.safe
+    slow = judge_safety(ramp, motor, homing=HomingSettings(200, 800, 200))
+    assert dict(slow.commands)["homing"].within_aim and slow.safe
+
+
+def test_decel_stop_against_the_oracle() -> None:
+    """A decel stop from pulse x of the ramp: the stepped unit's first x pulses, then its
+    ramp reversed from the stage x is in, judged as the verdict's stop family is."""
+    from verify.alink_safety import motion_angles, nominal_rotors
+
+    motor = resolve("nema17-1600")
+    ramp = build_ramp(800, 4000, 150_000.0, 20, "linear")   # 160 steps: exact stages
+    ends = np.cumsum(ramp.pulses)
+    unit = stepped(800, 4000, 150_000.0, 20, "linear", 2 * ramp.ramp_pulses)
+    unit_ramp = unit[:ramp.ramp_pulses]
+    for x in (3, int(ends[40]) + 1, ramp.ramp_pulses - 2):
+        stage_end = int(ends[np.searchsorted(ends, x)])
+        speeds = unit_ramp[:x] + unit_ramp[:stage_end][::-1]
+        found = motion_angles(ramp, "stop", nominal_rotors(load_motor(motor)), [x])
+        assert float(found.deg.max()) == pytest.approx(oracle_deg(motor, speeds), abs=0.5)
