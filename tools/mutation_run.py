@@ -80,10 +80,11 @@ def _run_child(name: str, path: Path, source: str, tests: list[str], plugin: _Fa
     devnull = os.open(os.devnull, os.O_WRONLY)
     os.dup2(devnull, 1)
     os.dup2(devnull, 2)
-    # no:repo_clean: the suite's check that a session leaves the checkout unchanged would
-    # fail a mutant's run whenever the checkout changes meanwhile (a log, an edit)
+    # no:tests.support.repo_clean: the suite's check that a session leaves the checkout
+    # unchanged would fail a mutant's run whenever the checkout changes meanwhile (a log,
+    # an edit)
     return int(pytest.main(["-x", "-q", "-m", "not slow", "-p", "no:cacheprovider",
-                            "-p", "no:repo_clean",
+                            "-p", "no:tests.support.repo_clean",
                             "--no-header", "-o", "addopts=", *tests], plugins=[plugin]))
 
 

@@ -6,6 +6,7 @@ silently). And the mutants' ids are code: lines moving leave them unchanged."""
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -117,3 +118,16 @@ def test_a_mutant_replaces_its_module_in_the_processes_its_tests_start(tmp_path:
     plain = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
                            env=env, timeout=60)
     assert plain.stdout.strip() == "no such module"
+
+
+def test_a_mutants_run_turns_off_the_plugin_the_suite_loads() -> None:
+    """tools/mutation_run.py blocks the repo-clean plugin by the name tests/conftest.py
+    loads it under (a name that blocks nothing would fail every mutant's run whenever
+    the checkout changes meanwhile)."""
+    source = (ROOT / "tools" / "mutation_run.py").read_text(encoding="utf-8")
+    blocked = [name.removeprefix("no:") for name in re.findall(r'"(no:[\w.]+)"', source)]
+    conftest = (ROOT / "tests" / "conftest.py").read_text(encoding="utf-8")
+    plugins = re.search(r"^pytest_plugins = \[(.*)\]$", conftest, re.M)
+    assert plugins is not None
+    assert "tests.support.repo_clean" in re.findall(r'"([\w.]+)"', plugins.group(1))
+    assert "tests.support.repo_clean" in blocked
