@@ -117,6 +117,25 @@ def test_page_controls_drive_the_verdict_and_the_files() -> None:
 
 # --- in a real browser -----------------------------------------------------------------------
 
+# Records, in the page, every verdict the server sends (its HTML) and whether the table's
+# download was enabled then: the steps of a change come faster than a test could poll.
+RECORD_VERDICTS = """() => {
+  const doc = Bokeh.documents[0];
+  const models = [...(doc.all_models || doc._all_models.values())];
+  const has = (m, c) => (m.css_classes || []).includes(c);
+  const verdict = models.find(m => has(m, 'sr-verdict'));
+  const table = models.find(m => has(m, 'sr-table'));
+  window.srVerdicts = [];
+  window.srTask = 0;  // counts the page's turns: steps sent in one message share one
+  if (!verdict || !table) return false;
+  verdict.property('text').change.connect(() => {
+    window.srVerdicts.push([verdict.text, !table.disabled, window.srTask]);
+    setTimeout(() => { window.srTask += 1; }, 0);
+  });
+  return true;
+}"""
+
+
 def chromium() -> str:
     """Debian's Chromium (Playwright cannot download its own here); skips locally without
     it, fails in CI, which must run this test (.ci/run installs it)."""
@@ -271,3 +290,46 @@ def test_the_page_opens_with_the_designers_move_length() -> None:
     (pulses,) = [a for a in parser._subparsers._group_actions[0].choices["design"]._actions
                  if a.dest == "pulses"]
     assert pulses.help is not None and pulses.help.endswith(f"(default {OPENING_PULSES})")
+
+
+@pytest.mark.slow
+def test_in_a_browser_a_change_shows_its_first_table_marked_then_the_final(
+        server: tuple[subprocess.Popen[str], str]) -> None:
+    """The browser receives each step of a change (issue #32 item 9): the first table
+    marked as being tightened, the final table while the other commands are judged, then
+    the verdict over every command; the downloads only at the last."""
+    from playwright.sync_api import sync_playwright
+
+    from verify.designer import JUDGING, TIGHTENING
+
+    executable = chromium()
+    _, url = server
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=executable, args=CHROMIUM_ARGS)
+        try:
+            page = browser.new_page(viewport={"width": 1400, "height": 1100})
+            page.goto(url)
+            page.locator("#sr-verdict[data-level='safe']").wait_for(timeout=60_000)
+            assert page.evaluate(RECORD_VERDICTS), "no #sr-verdict in the page"
+            _drag(page, "pulses", 0.04)  # about 8 000 pulses: a new plan, tightened
+            page.wait_for_function(  # the change's last step: a verdict over every command
+                f"() => window.srVerdicts.some(([t]) => !t.includes({TIGHTENING!r}) && "
+                f"!t.includes({JUDGING!r}))", timeout=60_000)
+            numbers = page.locator(".sr-numbers", has_text="judged in full in")
+            assert "first table shown in" in numbers.inner_text()
+            assert page.locator(".sr-table button").is_enabled()
+            steps: list[list[Any]] = []  # each verdict the page showed, its download state
+            shown = page.evaluate("() => window.srVerdicts")
+            # the first table came in a message of its own, before the tightening was done
+            assert shown[0][2] != shown[-1][2], shown
+            for text, downloads, _turn in shown:
+                level = re.search(r"data-level=(?:&#x27;|')([a-z-]+)", text)  # escaped
+                step = [level and level.group(1), TIGHTENING in text, JUDGING in text,
+                        downloads]
+                if not steps or steps[-1] != step:
+                    steps.append(step)
+            # the downloads stay off until the verdict over every command shows
+            assert steps == [["tightening", True, False, False], ["safe", False, True, False],
+                             ["safe", False, False, False]], steps
+        finally:
+            browser.close()
