@@ -153,6 +153,9 @@ class DesignPage:
 
     def _show(self, result: Design, shown_ms: float) -> None:
         self.result = result
+        if not result.complete:  # off before a verdict that is not the whole one shows
+            for button in self.downloads.values():
+                button.disabled = True
         self.figure.object = self._figure.update(result)
         said = verdict(result)
         self._show_verdict(said.level, said.text)
@@ -169,10 +172,10 @@ class DesignPage:
             timing = f"first table shown in {shown_ms:.0f} ms"
         text = result.summary() + f"\n{timing}"
         self.summary.object = f"<pre class='sr-numbers'>{html.escape(text)}</pre>"
-        for button in self.downloads.values():
-            button.disabled = not result.complete  # offered once judged in full
-        if result.complete:
+        if result.complete:  # on once the whole verdict shows
             self._name_files()
+            for button in self.downloads.values():
+                button.disabled = False
 
     def _refuse(self, error: StepRampError) -> None:
         self._show_verdict("none", f"NO TABLE for these settings: {error}")

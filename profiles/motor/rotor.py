@@ -136,18 +136,33 @@ class Rotors:
         return Rotor(c_e, k, tuple(float(v) for v in self.curve_v),
                      tuple(float(t) for t in self.curve_t[i]), friction, load, damping)
 
-    def step_s(self, max_step_s: float | None = None) -> np.ndarray:
-        """Each rotor's RK4 step (`Rotor.step_s`, the same arithmetic on every row at once:
-        a tolerance box's 1 000 samples made a Rotor each), at most `max_step_s`."""
+    def periods_at_rest_s(self) -> np.ndarray | None:
+        """Each rotor's natural period at rest (`Rotor.natural_period_s(0.0)`, the same
+        arithmetic on every row at once: a tolerance box's 1 000 samples made a Rotor
+        each); None when the curve does not start at 0 pps (ask each rotor)."""
         if len(self.curve_v) == 0 or self.curve_v[0] != 0.0:
+            return None
+        stiffness = self.rows[:, 1] * self.rows[:, 0] * self.curve_t[:, 0]  # torque at rest
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(stiffness > 0, 2 * math.pi / np.sqrt(stiffness), math.inf)
+
+    def step_s(self, max_step_s: float | None = None) -> np.ndarray:
+        """Each rotor's RK4 step (`Rotor.step_s`), at most `max_step_s`."""
+        period = self.periods_at_rest_s()
+        if period is None:
             steps = np.asarray([self.rotor(i).step_s() for i in range(len(self))])
-        else:  # the torque at rest is the curve's first point
-            stiffness = self.rows[:, 1] * self.rows[:, 0] * self.curve_t[:, 0]
-            with np.errstate(divide="ignore", invalid="ignore"):
-                period = np.where(stiffness > 0, 2 * math.pi / np.sqrt(stiffness), math.inf)
+        else:
             steps = period / STEPS_PER_NATURAL_PERIOD
             steps = np.where(np.isfinite(steps), steps, 1e-4)
         return steps if max_step_s is None else np.minimum(steps, max_step_s)
+
+    def settle_s(self, steps_s: np.ndarray) -> np.ndarray:
+        """Each rotor's `settle_s` with its step `steps_s[i]`, the same arithmetic."""
+        period = self.periods_at_rest_s()
+        if period is None:
+            return np.asarray([settle_s(self.rotor(i), h) for i, h in enumerate(steps_s)])
+        return MAX_SETTLE_PERIODS * np.maximum(np.asarray(steps_s) * STEPS_PER_NATURAL_PERIOD,
+                                               np.minimum(period, 1.0))
 
     @staticmethod
     def stack(parts: Sequence[Rotors]) -> Rotors:

@@ -293,7 +293,7 @@ def judge(runs: MoveBatch, hz: float, rot: Rotors, *, max_step_s: float | None =
     if not families:
         source[:] = -1
     steps = rot.step_s(max_step_s)
-    settles = np.asarray([settle_s(rot.rotor(i), h) for i, h in enumerate(steps)])
+    settles = rot.settle_s(steps)
     n_rot, n_exec = len(rot), len(runs)
     m = int(runs.offsets[ref + 1] - runs.offsets[ref])
     ref_max, ref_lag, ref_s = (np.zeros((n_rot, m + 1)) for _ in range(3))

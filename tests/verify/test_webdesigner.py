@@ -212,3 +212,65 @@ def test_the_server_stops_on_sigterm_too(server: tuple[subprocess.Popen[str], st
     proc.terminate()
     assert proc.wait(timeout=60) == 0
     assert time.perf_counter() - t0 < 30
+
+
+# Records, in the page, every verdict the server sends (its HTML) and whether the table's
+# download was enabled then: the steps of a change come faster than a test could poll.
+RECORD_VERDICTS = """() => {
+  const doc = Bokeh.documents[0];
+  const models = [...(doc.all_models || doc._all_models.values())];
+  const has = (m, c) => (m.css_classes || []).includes(c);
+  const verdict = models.find(m => has(m, 'sr-verdict'));
+  const table = models.find(m => has(m, 'sr-table'));
+  window.srVerdicts = [];
+  window.srTask = 0;  // counts the page's turns: steps sent in one message share one
+  if (!verdict || !table) return false;
+  verdict.property('text').change.connect(() => {
+    window.srVerdicts.push([verdict.text, !table.disabled, window.srTask]);
+    setTimeout(() => { window.srTask += 1; }, 0);
+  });
+  return true;
+}"""
+
+
+@pytest.mark.slow
+def test_in_a_browser_a_change_shows_its_first_table_marked_then_the_final(
+        server: tuple[subprocess.Popen[str], str]) -> None:
+    """The browser receives each step of a change (issue #32 item 9): the first table
+    marked as being tightened, the final table while the other commands are judged, then
+    the verdict over every command; the downloads only at the last."""
+    from playwright.sync_api import sync_playwright
+
+    from verify.designer import JUDGING, TIGHTENING
+
+    executable = chromium()
+    _, url = server
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=executable, args=CHROMIUM_ARGS)
+        try:
+            page = browser.new_page(viewport={"width": 1400, "height": 1100})
+            page.goto(url)
+            page.locator("#sr-verdict[data-level='safe']").wait_for(timeout=60_000)
+            assert page.evaluate(RECORD_VERDICTS), "no #sr-verdict in the page"
+            _drag(page, "pulses", 0.04)  # about 8 000 pulses: a new plan, tightened
+            page.wait_for_function(  # the change's last step: a verdict over every command
+                f"() => window.srVerdicts.some(([t]) => !t.includes({TIGHTENING!r}) && "
+                f"!t.includes({JUDGING!r}))", timeout=60_000)
+            numbers = page.locator(".sr-numbers", has_text="judged in full in")
+            assert "first table shown in" in numbers.inner_text()
+            assert page.locator(".sr-table button").is_enabled()
+            steps: list[list[Any]] = []  # each verdict the page showed, its download state
+            shown = page.evaluate("() => window.srVerdicts")
+            # the first table came in a message of its own, before the tightening was done
+            assert shown[0][2] != shown[-1][2], shown
+            for text, downloads, _turn in shown:
+                level = re.search(r"data-level=(?:&#x27;|')([a-z-]+)", text)  # escaped
+                step = [level and level.group(1), TIGHTENING in text, JUDGING in text,
+                        downloads]
+                if not steps or steps[-1] != step:
+                    steps.append(step)
+            # the downloads stay off until the verdict over every command shows
+            assert steps == [["tightening", True, False, False], ["safe", False, True, False],
+                             ["safe", False, False, False]], steps
+        finally:
+            browser.close()

@@ -8,7 +8,8 @@ triangle's accel→decel switch; long moves spend their time elsewhere. So the t
 is judged over every execution (profiles.ppmc312.load_angle), each execution past
 the aim is traced to the command's speed steps within the last natural period before
 its worst angle, and only those speed bands (`Shaping`: the capability share and the
-jump limit there, and the start speed when the jump from rest is among them) are
+jump limit there, and the start speed when the jump from rest or the stop to rest is
+among them) are
 planned again more gently, until every execution is within the aim. A long move then
 pays only for the bands its own ramp shares with the short moves that rang. The
 executions are the moves' and, by default, a decel stop's (81) at every pulse of the
@@ -273,7 +274,9 @@ def culprits(table: FreeCurveTable, judges: Sequence[Motor], found: Angles, aim_
 def _blame_run(blame: Blame, table: FreeCurveTable, run: Execution, rotor: Rotor, deg: float,
                shaping: Shaping) -> None:
     """Blame the bands of `run`'s segments within WINDOW_PERIODS natural periods before
-    its worst angle (`deg`), and the start when the jump from rest is in that window."""
+    its worst angle (`deg`), and the start when the jump from rest, or the stop to rest
+    from the slowest stage (a jump the start speed sets as well), is in that window: a
+    motor that starts fast rings worst just after a short move's last pulse."""
     step = rotor.step_s()
     trace = follow(rotor, spans_of(run, rotor, step), step_s=step)
     t_worst = float(trace.t_s[int(np.argmax(np.abs(trace.lag)))])
@@ -284,8 +287,8 @@ def _blame_run(blame: Blame, table: FreeCurveTable, run: Execution, rotor: Rotor
     for seg in run.segments:
         if seg.start_tick / hz <= t_worst and seg.end_tick / hz >= since:
             blame.add(shaping.band(hz / seg.rate), deg)
-    if since <= 0.0:
-        blame.start = max(blame.start, deg)  # the jump from rest is in the window
+    if since <= 0.0 or since <= run.duration_s <= t_worst:
+        blame.start = max(blame.start, deg)  # the jump from or to rest is in the window
 
 
 def _factor(worst_deg: float, aim_deg: float) -> float:

@@ -206,9 +206,10 @@ def test_box_rotors_are_the_variant_motors_rotors(holding: float | None, directi
 
 @pytest.mark.parametrize("max_step_s", [None, 2e-5])
 def test_box_rotors_steps_are_each_rotors_own(max_step_s: float | None) -> None:
-    """`Rotors.step_s` works out every row at once: the same steps, to the bit, as each
-    row's own `Rotor.step_s` (the reference), on a box's samples and both directions."""
-    from profiles.motor.rotor import rotors
+    """`Rotors.step_s` and `Rotors.settle_s` work out every row at once: the same steps
+    and settling times, to the bit, as each row's own `Rotor.step_s` and `settle_s` (the
+    reference), on a box's samples and both directions."""
+    from profiles.motor.rotor import rotors, settle_s
 
     m = replace(motor_with(tolerances=FULL_BOX), holding_torque_nm=0.33)
     params = sample_params(m, 200, seed=3)
@@ -218,6 +219,8 @@ def test_box_rotors_steps_are_each_rotors_own(max_step_s: float | None) -> None:
         if max_step_s is not None:
             want = np.minimum(want, max_step_s)
         assert np.array_equal(rows.step_s(max_step_s), want)
+        assert np.array_equal(rows.settle_s(want), [settle_s(rows.rotor(i), h)
+                                                    for i, h in enumerate(want)])
 
 
 @pytest.mark.parametrize(("samples", "told"), [(50, [(4, 5), (5, 5)]), (0, [(4, 4)])])

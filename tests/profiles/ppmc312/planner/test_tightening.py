@@ -431,3 +431,35 @@ def test_uniform_tightening_takes_eight_rounds_and_refuses_a_motor_with_no_table
 
     with pytest.raises(PlanError, match="no table"):
         tighten_uniform(NEMA23, none, AIM_DEG)  # type: ignore[arg-type]
+
+
+FAST_START = Motor(  # a datasheet motor that starts fast (issue 32's 17HS19-like NEMA17)
+    steps_per_rev=1600,
+    curve_speed_pps=np.array([0.0, 11464.0, 12335.0, 13308.0, 14390.0, 15601.0, 16968.0,
+                              18520.0, 20282.0, 22303.0, 24636.0, 27215.0]),
+    curve_torque_nm=np.array([0.4425, 0.441, 0.3904, 0.342, 0.2953, 0.2506, 0.2075, 0.1663,
+                              0.1269, 0.0893, 0.0535, 0.0216]),
+    inertia_kgm2=1.468e-5, safety_factor=0.6, start_pps=5546.0, friction_torque_nm=0.0438,
+    holding_torque_nm=0.59)
+
+
+def test_ringing_after_the_stop_to_rest_is_blamed_on_the_start_speed() -> None:
+    """A motor that starts fast rings worst after a short move's last pulse, where the
+    command drops from its slowest stage to rest, a jump the start speed sets: the start
+    is blamed (before, only the jump from rest was, and the band rounds lowered the slow
+    band eight times in vain, then tightened the whole table alike), and the band rounds
+    end within the aim, faster than the whole table tightened alike."""
+    table = plan_free_curve(FAST_START, pulses=10_000).table
+    found = angles(table, [FAST_START])
+    worst = found.worst(0)
+    assert worst.worst_angle_deg > AIM_DEG
+    blame = culprits(table, [FAST_START], found, AIM_DEG, Shaping.bands(FAST_START))
+    assert blame.start == pytest.approx(worst.worst_angle_deg)
+    local = plan_free_curve(FAST_START, pulses=10_000, load_angle_deg=AIM_DEG)
+    shaping = local.extras["shaping"]
+    assert shaping.edges_pps and shaping.start_scale < 1.0  # the bands', not uniform
+    assert local.extras["worst_load_angle_deg"] <= AIM_DEG
+    uniform = tighten_uniform(FAST_START, lambda m, s: plan(m, None, 127, 10_000, None,
+                                                           shaping=s), AIM_DEG)
+    assert local.duration_s <= uniform.duration_s
+    assert judge_safety(local.table, FAST_START, aim_deg=AIM_DEG).safe
