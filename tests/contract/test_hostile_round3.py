@@ -239,7 +239,9 @@ def test_sync_figure_of_16_axes_draws_without_warnings(tmp_path: Path) -> None:
         fig = sync.sync_figure(plan, ruckig)
         legends = [len(ax.get_legend().get_texts()) for ax in fig.axes]
         assert figure_bytes(fig, tmp_path / "s.png").startswith(b"\x89PNG")
-    assert legends == [16, 1, 19]  # 15 paths + the straight lines; 16 speeds + 2 ruckig + 0
+    # 15 paths + the straight lines; one deviation envelope whatever the number of axes
+    # (least to largest, its largest, the worst instant); 16 speeds + 2 ruckig + 0
+    assert legends == [16, 3, 19]
 
 
 # --- an incomplete motor file is named ---------------------------------------------------------
