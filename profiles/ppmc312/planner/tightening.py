@@ -111,11 +111,8 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
     move of the same motor ended (a duty cycle's candidates: the bands that ring are the
     motor's). Within the aim, it is kept as it is (nothing past the aim is known to
     relax towards); past it, tightening goes on from there; when it leaves no table for
-    this move, from the plain criterion.
-
-    `ramp_floor`: no band's share is lowered below this (0: no floor), while the start
-    speed goes on down: the free curve's last lever (free_curve.lower_top) tightens so at
-    each lower top speed, where a ramp gentler than the friction leaves no table."""
+    this move, from the plain criterion. `ramp_floor`: no band's share below it, the start
+    going on down (free_curve.lower_top: a ramp below the friction leaves no table)."""
     _check_aim(load_angle_deg)
     t0 = time.perf_counter()
     judges = list(judges or [motor])
@@ -170,10 +167,7 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
             return _counted(_best(tried, load_angle_deg), made[0])
         failed, failed_at = shaping, _worst_lengths(found, load_angle_deg)
         blame = culprits(plan.table, judges, found.moves, load_angle_deg, shaping, found.stops)
-        gentler = _gentler(shaping, blame, load_angle_deg, ramp_floor)
-        if ramp_floor and gentler == shaping:
-            break  # the blamed bands at the floor, the start not blamed: nothing left here
-        shaping = gentler
+        shaping = _gentler(shaping, blame, load_angle_deg, ramp_floor)
     try:
         uniform = tighten_uniform(motor, make, load_angle_deg, judges=judges, stops=stops)
         tried.append(uniform)
