@@ -462,3 +462,41 @@ def test_the_top_speed_is_the_last_lever_and_then_what_would_help() -> None:
     assert closest.extras["worst_load_angle_deg"] > 30.0
     assert closest.extras["fix"].startswith("a lower load inertia or more drive current")
     assert judge_safety(closest.table, HEAVY, aim_deg=30.0).safe  # below the peak
+
+
+def test_the_last_lever_keeps_the_first_top_speed_within_the_aim(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """lower_top's rounds, with the tightening stood in for: the motor's own top with the
+    ramp floored first, then × TOP_STEP a round; the first within the aim is kept, named
+    with its top speed; none below the peak at any top: a PlanError naming what would
+    help."""
+    import types
+
+    from profiles.ppmc312.planner import free_curve
+
+    asked: list[tuple[float, float]] = []
+    worst = iter([90.0, 80.0, 70.0])
+
+    def tighten(m: Motor, make: object, aim: float, **kw: object) -> Plan:
+        asked.append((m.top_pps, float(kw["ramp_floor"])))  # type: ignore[arg-type]
+        return Plan(FreeCurveTable(Clock.named("8MHz"), (400, 800), (10, 20)), 2.0, "", "",
+                    extras={"worst_load_angle_deg": next(worst), "plans": 3})
+
+    monkeypatch.setattr(free_curve, "tighten", tighten)
+    plain = types.SimpleNamespace(duration_s=1.0)
+    got = free_curve.lower_top(HEAVY, lambda m, s: plain, 75.0, [HEAVY], True, None,
+                               None)  # type: ignore[arg-type]
+    top = HEAVY.top_pps
+    assert asked == [(top, RAMP_FLOOR), (top * TOP_STEP, RAMP_FLOOR),
+                     (top * TOP_STEP ** 2, RAMP_FLOOR)]
+    assert got.extras["top_lowered_pps"] == (top, top * TOP_STEP ** 2)
+    assert got.extras["untightened_s"] == 1.0 and got.extras["plans"] == 9
+
+    def refuse(*a: object, **kw: object) -> object:
+        raise PlanError("no table keeps the load angle below 90°")
+
+    monkeypatch.setattr(free_curve, "tighten", refuse)
+    with pytest.raises(PlanError, match=r"^no table keeps .*; what would help: a lower load "
+                                        r"inertia or more drive current"):
+        free_curve.lower_top(HEAVY, lambda m, s: plain, 75.0, [HEAVY], True, None,
+                             PlanError("no table keeps the load angle below 90°"))  # type: ignore[arg-type]
