@@ -86,7 +86,8 @@ def ramp_of_commands(commands: Sequence[Command]) -> tuple[Any, Any, str | None]
     mode = last[Cmd.MODE].para if Cmd.MODE in last else MODE_DEFAULT
     ramp = build_ramp(run.start_pps, run.high_pps, run.accel_pps2, run.multiplier,
                       "s_curve" if mode & MODE_S_CURVE else "linear",
-                      triangle_avoidance=bool(mode & MODE_TRIANGLE_AVOID))
+                      triangle_avoidance=bool(mode & MODE_TRIANGLE_AVOID),
+                      max_pps=last[Cmd.MAX_SPEED].para if Cmd.MAX_SPEED in last else 0)
     homing = None
     if {Cmd.OL_SPEED, Cmd.OH_SPEED, Cmd.O_UPTIME} <= set(last) and \
             last[Cmd.O_UPTIME].func == FUNC_ACCEL_PARA and \
@@ -111,12 +112,12 @@ def safety_findings(commands: Sequence[Command], options: CheckOptions, notes: l
     verdict = judge_safety(ramp, options.motor, pulses=options.pulses,
                            samples=options.samples, seed=options.seed, strict=options.strict,
                            load_angle=options.physics, homing=homing,
-                           progress=options.progress)
+                           progress=options.progress, commands=options.commands)
     details["safety"] = verdict.to_json()
     notes.append(f"the unit's ramp: {ramp.describe()}")
     if options.commands is not None:
-        notes.append("--commands names PPMC-312 motion commands: the unit's decel stops "
-                     "(STOP 31) and homing legs are judged whatever it says")
+        notes.append("--commands: the unit's command families judged: " + (", ".join(
+            name for name, _ in verdict.commands) or "the moves alone"))
     notes.extend(verdict.notes())
     return verdict.findings()
 
