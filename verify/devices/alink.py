@@ -138,7 +138,10 @@ def settings_judge(motor: Motor, *, aim_deg: float) -> SettingsJudge:
         rules = {f.rule for f in v.criterion}
         worst, speed, what = _worst_speed(ramp, v)
         near_start = speed <= ramp.start_pps + START_SHARE * (ramp.high_pps - ramp.start_pps)
-        start = "stall-start-speed" in rules or (not rules and near_start)
+        # a command family past the aim at its use from L (a stop at once, a limit run)
+        from_start = any(not c.within_aim and name in ("stop", "limit")
+                         for name, c in v.commands)
+        start = "stall-start-speed" in rules or from_start or (not rules and near_start)
         return Judgement(v.within_aim and v.safe, worst, "start" if start else "ramp", what)
 
     return judged
