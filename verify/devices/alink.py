@@ -147,6 +147,14 @@ def settings_judge(motor: Motor, *, aim_deg: float) -> SettingsJudge:
     return judged
 
 
+def sync_judge_for(motor: Motor) -> SettingsJudge:
+    """The judge sync's time planner tightens each A-Link axis on
+    (`profiles.alink.sync.plan_sync`): `settings_judge` at the 75° aim."""
+    from verify.safety import AIM_DEG
+
+    return settings_judge(motor, aim_deg=AIM_DEG)
+
+
 START_SHARE = 0.3   # a worst angle peaking below L + this × (H − L) is the start speed's
 
 
