@@ -74,9 +74,11 @@ def batch(ramp: AlinkRamp, kind: Kind, x: np.ndarray) -> MoveBatch:
 
 
 def motion_angles(ramp: AlinkRamp, kind: Kind, rot: Rotors,
-                  x: Iterable[int] | None = None) -> Angles:
+                  x: Iterable[int] | None = None, *, upto: int | None = None) -> Angles:
     """The load angle of `kind`'s motions for every row of `rot`: at `x`, or over every
-    one through its families (sampled, then refined)."""
+    one through its families (sampled, then refined); `upto`: the caller keeps only the
+    motions up to it, so none past it is refined (the samples, and so which families are
+    refined, are unchanged)."""
     if x is not None:
         xs = np.asarray(sorted({int(n) for n in x}), dtype=np.int64)
         return _angles(ramp, kind, xs, rot)
@@ -91,6 +93,8 @@ def motion_angles(ramp: AlinkRamp, kind: Kind, rot: Rotors,
     xs, first = np.unique(xs, return_index=True)
     found = _angles(ramp, kind, xs, rot)
     extra = refine(xs, fam[first], spacing, found.deg.max(axis=0))
+    if upto is not None:
+        extra = extra[extra <= upto]
     if not len(extra):
         return found
     more = _angles(ramp, kind, extra, rot)
@@ -235,8 +239,11 @@ def family_verdicts(ramp: AlinkRamp, homing: HomingSettings | None, rot: Rotors,
     over every row of `rot`; `families` narrows them (`alink_families`)."""
     out: list[tuple[str, Any]] = []
     families = FAMILY_ORDER if families is None else families
-    judges = {"stop": stop_envelope, "change-speed": change_envelope,
-              "limit": limit_envelope}
+    memo: dict[tuple[object, ...], Angles] = {}   # the ramp stops stop and limit share
+    judges: dict[str, Callable[[AlinkRamp, Rotors, float], EnvelopeVerdict]] = {
+        "stop": lambda r, rows, aim: stop_envelope(r, rows, aim, memo=memo),
+        "change-speed": change_envelope,
+        "limit": lambda r, rows, aim: limit_envelope(r, rows, aim, memo=memo)}
     if ramp.ramp_pulses > 1 and "decel-stop" in families:
         out.append(("decel-stop", _verdict("decel-stop", "decel stops (STOP 31) from every "
                                            "pulse of the ramp",
@@ -471,11 +478,15 @@ def _stages(ramp: AlinkRamp) -> list[tuple[int, int]]:
     return list(zip(ramp.rates.tolist(), ramp.pulses.tolist(), strict=True))
 
 
-def stop_envelope(ramp: AlinkRamp, rot: Rotors, aim_deg: float) -> EnvelopeVerdict:
+def stop_envelope(ramp: AlinkRamp, rot: Rotors, aim_deg: float, *,
+                  memo: dict[tuple[object, ...], Angles] | None = None) -> EnvelopeVerdict:
     """STOP 28 (and an EL or STP input, 「即時停止」) from every pulse of every move: the
     ramp's stops at once (the homing search's motion on the unit's ramp), from each speed
-    of the ramp and from the cruise at H; the worst at a speed counts every stop up to it."""
+    of the ramp and from the cruise at H; the worst at a speed counts every stop up to it.
+    `memo` keeps them for `limit_envelope` (its ramp to H is this one in S-curve)."""
     found = motion_angles(ramp, "search", rot)
+    if memo is not None:
+        memo[_stops_key(ramp)] = found
     ends = np.cumsum(ramp.pulses)
     stage = np.searchsorted(ends, found.x, side="left")
     speeds = np.where(stage < len(ends), ramp.speeds_pps[np.minimum(stage, len(ends) - 1)]
@@ -493,13 +504,15 @@ def _cummax(degs: Sequence[float]) -> tuple[float, ...]:
     return tuple(np.maximum.accumulate(np.asarray(degs, float)).tolist()) if len(degs) else ()
 
 
-def limit_envelope(ramp: AlinkRamp, rot: Rotors, aim_deg: float) -> EnvelopeVerdict:
+def limit_envelope(ramp: AlinkRamp, rot: Rotors, aim_deg: float, *,
+                   memo: dict[tuple[object, ...], Angles] | None = None) -> EnvelopeVerdict:
     """LIMIT at each speed s (0: H) up to the cap: the ramp L → s at UP_TIME in MODE's
     shape, then either an EL input stopping it at once from any pulse (「+EL検出で即時
     停止」) or an SD input decelerating it to a stop along the ramp (「SD信号は減速停止に
     なります」) from the settled cruise; the worst at s counts every run up to s. A linear
     ramp to s is the first steps of the ramp to the cap: its stops at once from the ramp
-    are judged once, on that ramp."""
+    are judged once, on that ramp; a ramp whose stops `memo` holds (`stop_envelope`'s) is
+    not judged again."""
     grid = _grid(ramp, float(ramp.start_pps), change_cap_pps(ramp))
     settle = _settle(rot, grid)
     ramps = [build_ramp(ramp.start_pps, s, ramp.accel_pps2, ramp.multiplier, ramp.shape)
@@ -513,9 +526,9 @@ def limit_envelope(ramp: AlinkRamp, rot: Rotors, aim_deg: float) -> EnvelopeVerd
     way = int(rot.direction[int(row[int(np.argmax(deg))])])
     executions = len(motions) * len(rot)
     if ramp.shape == "linear":
-        ramp_stops = [_ramp_stops(ramps[-1], rot)]
+        ramp_stops = [_ramp_stops(ramps[-1], rot, memo)]
     else:
-        ramp_stops = [_ramp_stops(r, rot) for r in ramps]
+        ramp_stops = [_ramp_stops(r, rot, memo) for r in ramps]
     for speeds, worst, n in ramp_stops:
         executions += n
         for k, s in enumerate(grid):
@@ -526,10 +539,19 @@ def limit_envelope(ramp: AlinkRamp, rot: Rotors, aim_deg: float) -> EnvelopeVerd
                            float(ramp.start_pps), float(ramp.high_pps), way, executions)
 
 
-def _ramp_stops(ramp: AlinkRamp, rot: Rotors) -> tuple[np.ndarray, np.ndarray, int]:
-    """The stops at once from every pulse of `ramp` (not its cruise): (the speed of each
-    stop judged, its worst angle over the rows, the executions)."""
-    found = motion_angles(ramp, "search", rot)
+def _stops_key(ramp: AlinkRamp) -> tuple[object, ...]:
+    """What the stops at once from a ramp depend on: its stages and its top."""
+    return (ramp.high_pps, ramp.pulses.tobytes(), ramp.speeds_pps.tobytes())
+
+
+def _ramp_stops(ramp: AlinkRamp, rot: Rotors,
+                memo: dict[tuple[object, ...], Angles] | None = None
+                ) -> tuple[np.ndarray, np.ndarray, int]:
+    """The stops at once from every pulse of `ramp` (not its cruise; `memo`'s when it has
+    them): (the speed of each stop judged, its worst angle over the rows, the executions)."""
+    found = (memo or {}).get(_stops_key(ramp))
+    if found is None:
+        found = motion_angles(ramp, "search", rot, upto=ramp.ramp_pulses)
     on_ramp = found.x <= ramp.ramp_pulses
     stage = np.searchsorted(np.cumsum(ramp.pulses), found.x[on_ramp], side="left")
     return (ramp.speeds_pps[stage], found.deg[:, on_ramp].max(axis=0, initial=0.0),
