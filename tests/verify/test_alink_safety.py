@@ -180,3 +180,29 @@ def test_limit_runs_count_every_slower_run_and_fail_from_a_fast_start() -> None:
     bad = limit_envelope(build_ramp(20_000, 22_000, 20_000.0, 20), rot, 75.0)
     assert not bad.safe and bad.findings()[0].rule == "alink-command-envelope"
     assert bad.findings()[0].severity == "error"
+
+
+def test_limit_reads_the_stops_the_stop_family_judged(monkeypatch: pytest.MonkeyPatch) -> None:
+    """In S-curve the limit run's ramp to H is the unit's ramp: with the stop family's memo
+    its stops at once are judged once, and the limit verdict is the one judged alone."""
+    from verify import alink_safety as al
+
+    motor = load_motor(resolve("nema17-1600"))
+    rot = al.nominal_rotors(motor)
+    ramp = build_ramp(800, 4000, 20_000.0, 2, "s_curve")
+    calls: list[float] = []
+    judged = al.motion_angles
+
+    def counted(r: object, *args: object, **kw: object) -> object:
+        calls.append(r.high_pps)  # type: ignore[attr-defined]
+        return judged(r, *args, **kw)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(al, "motion_angles", counted)
+    alone = al.limit_envelope(ramp, rot, 75.0)
+    n_alone = len(calls)
+    memo: dict[tuple[object, ...], al.Angles] = {}
+    al.stop_envelope(ramp, rot, 75.0, memo=memo)
+    calls.clear()
+    shared = al.limit_envelope(ramp, rot, 75.0, memo=memo)
+    assert len(calls) == n_alone - 1 and 4000.0 not in calls
+    assert shared.degs == alone.degs and shared.speeds_pps == alone.speeds_pps
