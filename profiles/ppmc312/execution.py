@@ -44,7 +44,7 @@ from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.table import RATE_FIELD_MAX, STAGE_COUNT_FIELD_MAX, FreeCurveTable, InitTable
 
 Phase = Literal["accel", "cruise", "decel"]
-Shape = Literal["trapezoid", "triangle", "straight_triangle_decel", "straight_triangle_accel"]
+MoveShape = Literal["trapezoid", "triangle", "straight_triangle_decel", "straight_triangle_accel"]
 
 MOVE_PULSES_MAX = 0xFFFFFFFF
 STATUS: dict[str, int] = {"trapezoid": 0x00, "triangle": 0x10,
@@ -233,7 +233,7 @@ def to_csv(execution: Execution) -> str:
 # --- the chip's move model ------------------------------------------------------
 
 Stage = tuple[int, int, int]  # (index in the fastest-first lists, rate, pulses)
-Plan = list[tuple[Phase, int, int]]
+PhaseRuns = list[tuple[Phase, int, int]]
 
 
 @dataclass(frozen=True)
@@ -253,7 +253,7 @@ class _Sides:
         object.__setattr__(self, "split", _split(self.acc, self.dec, self.shared,
                                                  self.cruise_rate if self.no_accel else 0))
 
-    def runs(self, pulses: int) -> tuple[Shape, Plan]:
+    def runs(self, pulses: int) -> tuple[MoveShape, PhaseRuns]:
         """The segments of the move as (phase, rate, pulses) (see `moves`)."""
         batch = self.moves(np.asarray([pulses], dtype=np.int64))
         return SHAPES[int(batch.shape[0])], batch.runs(0)
@@ -467,7 +467,7 @@ def _execute(table: FreeCurveTable, sides: _Sides, pulses: int,
     return _execution(table, sides, pulses, *sides.runs(pulses), held_by_run)
 
 
-def _execution(table: FreeCurveTable, sides: _Sides, pulses: int, shape: Shape, runs: Plan,
+def _execution(table: FreeCurveTable, sides: _Sides, pulses: int, shape: MoveShape, runs: PhaseRuns,
                held_by_run: bool = False) -> Execution:
     segments: list[Segment] = []
     tick = 0
@@ -502,7 +502,7 @@ class MoveFamily:
             raise FieldRangeError("move pulses of this family", n, self.lo, self.hi)
         return _execute(self.table, self._sides, n)
 
-    def runs(self, pulses: int | None = None) -> Plan:
+    def runs(self, pulses: int | None = None) -> PhaseRuns:
         """The segments of a move of the family as (phase, rate, pulses), without building
         an `Execution` (what the criterion needs)."""
         if pulses is None or int(pulses) == self.lo:
@@ -621,7 +621,7 @@ class _Ladder:
 
 PHASE_CODES = {"accel": 0, "cruise": 1, "decel": 2}
 PHASES: tuple[Phase, ...] = ("accel", "cruise", "decel")
-SHAPES: tuple[Shape, ...] = ("trapezoid", "triangle", "straight_triangle_decel",
+SHAPES: tuple[MoveShape, ...] = ("trapezoid", "triangle", "straight_triangle_decel",
                              "straight_triangle_accel")
 
 
@@ -641,7 +641,7 @@ class MoveBatch:
     def __len__(self) -> int:
         return len(self.pulses)
 
-    def runs(self, e: int) -> Plan:
+    def runs(self, e: int) -> PhaseRuns:
         """Move e's segments as (phase, rate, pulses)."""
         a, b = int(self.offsets[e]), int(self.offsets[e + 1])
         return [(PHASES[f], r, c) for f, r, c in zip(self.phase[a:b].tolist(),
