@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from profiles.errors import CorruptedError, DecodeError, FormatError
+from profiles.findings import Finding
 
 from ..command_rules import (
     frame_payload,
@@ -33,7 +34,6 @@ from ..command_rules import (
     serial_move_findings,
     serial_move_notes,
 )
-from ..findings import Finding
 from ..report import FileResult
 from .common import dedupe, integrity_findings
 
