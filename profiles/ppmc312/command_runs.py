@@ -48,12 +48,12 @@ from .clock import Clock
 from .execution import (
     PULSE_TIMES_CSV_MAX,
     Execution,
-    Phase,
     Segment,
     pulse_times_csv_chunks,
     simulate_move,
 )
 from .init_model import as_free_curve
+from .move_batch import Phase
 from .table import FreeCurveTable, InitTable
 
 FOREVER = -1   # the pulses of a cruise that runs until something stops it
