@@ -17,7 +17,7 @@ from ..compiling import watch
 
 watch()  # the first compilation on a machine is said (profiles.compiling)
 
-ACCEL, CRUISE, DECEL = 0, 1, 2   # execution.PHASES
+ACCEL, CRUISE, DECEL = 0, 1, 2   # move_batch.PHASES
 
 
 @nb.njit(cache=True, nogil=True, inline="always")

@@ -136,7 +136,7 @@ class Motion:
         return self.pieces[-1].rate
 
     def runs(self) -> list[tuple[Phase, int, int]]:
-        """The pieces as (phase, rate, pulses), as `execution.MoveBatch.runs` gives a move."""
+        """The pieces as (phase, rate, pulses), as `move_batch.MoveBatch.runs` gives a move."""
         return [(p.phase, p.rate, p.pulses) for p in self.pieces]
 
     def legs(self) -> list[list[Piece]]:
