@@ -1,9 +1,11 @@
-"""The README's measured blocks and figures, generated from bench/results/*.json.
+"""The README's measured blocks and figures, generated from bench/results/*.json (the
+benchmarks) and reports/*.json (the test campaigns' summaries: fuzz, mutation).
 
     python bench/readme.py            rewrite every marked block, draw stale figures
     python bench/readme.py --check    exit 1 listing every block or figure that disagrees
 
-A block is any section of any results file (bench/benchlib.py describes the format):
+A block is any section of any results or report file (bench/benchlib.py describes the
+format):
 
     <!-- bench:<name>:<section> -->
     (generated: the section's table, its note, and where and when it was measured)
@@ -37,16 +39,22 @@ from benchfigures import fingerprint, png_bytes, stamp_of  # noqa: E402
 from benchlib import RESULTS, markdown_table  # noqa: E402
 
 README = ROOT / "README.md"
+REPORTS = ROOT / "reports"  # the test campaigns' summaries (not benchmarks)
 IMAGES = ROOT / "docs" / "img"
 BLOCK = re.compile(r"(<!-- bench:([\w.-]+):([\w.-]+) -->\n)(.*?)(<!-- /bench -->)", re.S)
 FIGURE = re.compile(r"<!-- bench-figure:([\w.-]+):([\w.-]+) -->")
 
 
-def load_results(folder: Path = RESULTS) -> dict[str, dict[str, Any]]:
-    """Every results file, by its name."""
+def load_results(folder: Path = RESULTS, reports: Path | None = REPORTS
+                 ) -> dict[str, dict[str, Any]]:
+    """Every results file, and every report of `reports`, by its name (with the file it
+    came from as `_path`)."""
     out = {}
-    for path in sorted(folder.glob("*.json")):
+    for path in sorted([*folder.glob("*.json"),
+                        *(reports.glob("*.json") if reports is not None else [])]):
         doc = json.loads(path.read_text(encoding="utf-8"))
+        doc["_path"] = (str(path.relative_to(ROOT)) if path.is_relative_to(ROOT)
+                        else str(path))
         out[doc.get("name", path.stem)] = doc
     return out
 
@@ -108,8 +116,9 @@ def problems(readme: Path = README, folder: Path = RESULTS, images: Path = IMAGE
     old_blocks = {(m.group(2), m.group(3)): m.group(4) for m in BLOCK.finditer(text)}
     for m in BLOCK.finditer(new):
         if old_blocks.get((m.group(2), m.group(3))) != m.group(4):
+            source = results[m.group(2)]["_path"]
             out.append(f"bench:{m.group(2)}:{m.group(3)}: the README's block differs from "
-                       f"bench/results/{m.group(2)}.json (run python bench/readme.py)")
+                       f"{source} (run python bench/readme.py)")
     drawn, missing = figures(text, results, images)
     out += missing
     for path, spec in drawn:

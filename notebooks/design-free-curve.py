@@ -12,9 +12,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.ticker import FuncFormatter
 
-from profiles.motor import bundled_motor_paths, load_motor
-from profiles.ppmc312.planner import plan_free_curve
-from verify.compare import compare_table
+from profiles import load_motor, plan_free_curve
+from profiles.motor import bundled_motor_paths
+from verify import compare_table
 from verify.plot import motor_figure
 from verify.references import exact_optimum
 from verify.criterion import stall_margins

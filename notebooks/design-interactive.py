@@ -17,10 +17,10 @@
 # - **stage budget** — at most this many stages (the chip takes 127).
 
 # %%
-from profiles.motor import bundled_motor_paths, load_motor
+from profiles import load_motor
 from verify.designer import designer
 
-motor = load_motor(next(p for p in bundled_motor_paths() if "nema17" in p.name))
+motor = load_motor("nema17-1600")
 design = designer(motor, pulses=10_000)
 design
 

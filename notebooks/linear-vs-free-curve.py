@@ -14,9 +14,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 from IPython.display import HTML, display
 
-from profiles.ppmc312.init_planner import init_candidates, plan_init
-from profiles.motor import bundled_motor_paths, load_motor
-from profiles.ppmc312.planner import plan_free_curve
+from profiles import load_motor, plan_free_curve, plan_init
+from profiles.motor import bundled_motor_paths
+from profiles.ppmc312.init_planner import init_candidates
 
 LENGTHS = (300, 2_000, 10_000, 100_000)
 SHAPES = ("linear", "s_curve")

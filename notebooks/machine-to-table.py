@@ -19,10 +19,8 @@ import numpy as np
 
 from profiles.motor.datasheet import Datasheet, Drive, motor_from_datasheet, pullout_torque_nm
 from profiles.motor.loads import lead_screw
-from profiles.motor import Motor, bundled_motor_paths, load_motor
-from profiles.ppmc312 import decode_upload, encode_free_curve
-from profiles.ppmc312.formats import parse_upload, render
-from profiles.ppmc312.planner import plan_free_curve
+from profiles import Motor, decode_upload, load_motor, plan_free_curve, render
+from profiles.ppmc312 import encode_free_curve, parse_upload
 from profiles.motor.units import machine_to_pps, pps_to_machine
 
 # The datasheet (SI units) and the drive's settings.
@@ -58,7 +56,7 @@ for field, parts in obj["sources"].items():
 spr = motor.steps_per_rev
 speeds = np.linspace(0, motor.top_curve_pps * 1.05, 600)
 model = pullout_torque_nm(datasheet, drive, speeds * 2 * math.pi / spr)
-bundled = load_motor(next(p for p in bundled_motor_paths() if "nema17" in p.name))
+bundled = load_motor("nema17-1600")
 
 fig, ax = plt.subplots(figsize=(8, 4.2))
 ax.plot(speeds, model, color="0.6", lw=3, label="model (profiles/datasheet.py)")

@@ -12,8 +12,9 @@
 import matplotlib.pyplot as plt
 import numpy as np
 
-from profiles.motor import bundled_motor_paths, load_motor
-from profiles.ppmc312.execution import simulate_move
+from profiles import load_motor
+from profiles.motor import bundled_motor_paths
+from profiles.ppmc312 import FreeCurveTable, simulate_move
 from profiles.ppmc312.sync import (line_deviation, plan_line_sync, plan_time_sync,
                                    spread_tolerance_s)
 from verify.criterion import check_stall
@@ -70,7 +71,6 @@ print(f"top-rate ratio {lined.axes[1].table.rates[0] / lined.axes[0].table.rates
 # scale the counts and round. The rounding errors add up into a drift.
 
 # %%
-from profiles.ppmc312.table import FreeCurveTable
 
 lead = lined.axes[0].table
 ratio = 5_000 / 12_000

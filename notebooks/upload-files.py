@@ -23,21 +23,17 @@ from pathlib import Path
 
 from profiles.alink import plan_settings, settings_commands, settings_from_commands
 from profiles.alink import formats as alink_files
-from profiles.ppmc312.init_planner import plan_init
 from profiles.mc200 import decode_stream, encode_stream, stream_move
 from profiles.mc200 import formats as mc200_files
-from profiles.motor import bundled_motor_paths, load_motor
-from profiles.ppmc312.planner import plan_free_curve
-from profiles.ppmc312 import decode_upload, encode_free_curve
+from profiles import decode_upload, load_motor, plan_free_curve, plan_init, render
+from profiles.ppmc312 import encode_free_curve, parse, parse_upload, simulate_move
 from profiles.ppmc312.ascii import decode_serial_init, encode_serial_init
 from profiles.ppmc312.bus import run_bus_script
 from profiles.ppmc312.emulator import expected_answers
-from profiles.ppmc312.formats import parse, parse_upload, render
-from profiles.ppmc312.execution import simulate_move
 from verify.references import exact_optimum
 
 PULSES = 10_000
-motor = load_motor(next(p for p in bundled_motor_paths() if "nema17" in p.name))
+motor = load_motor("nema17-1600")
 plan = plan_free_curve(motor, pulses=PULSES)
 print(motor.name)
 print(plan.info)

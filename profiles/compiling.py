@@ -29,8 +29,16 @@ again for whatever else wants them; only in a process with one thread (no other 
 can be importing them meanwhile) and when neither is imported yet. It also marks numba's
 third-party extensions as loaded: numba looks for them (entry points `numba_extensions`)
 by reading every installed package's metadata, a few hundredths of a second, and our
-kernels use none. A library caller's process (a notebook that may compile its own
-kernels with `np.dot` or an extension's types) is left alone.
+kernels use none. And it loads a cached kernel without numba's registries: numba's
+cache refreshes the whole typing and lowering registry before it loads a kernel (every
+numpy function numba can compile imported and installed, about a tenth of a second of
+`check --motor`), which only a compilation reads, and numba's compiler refreshes them
+itself; a loaded kernel needs only numba's runtime (NRT: its arrays), which is
+initialised instead. Before numba is imported, `coverage` is kept from being imported
+by numba's coverage support (a few hundredths of a second where coverage is installed;
+a process measured by coverage imported it already and is left alone). A library
+caller's process (a notebook that may compile its own kernels with `np.dot` or an
+extension's types) is left alone.
 """
 
 from __future__ import annotations
@@ -72,11 +80,18 @@ def announce(say: Callable[[str], None] | None) -> None:
         _say = None if os.environ.get(QUIET_ENV, "1") == "0" else say
 
 
+LEAN_BEFORE_NUMBA = ("coverage",)  # what numba's import pulls in that we never use
+
+
 def lean() -> None:
-    """This process is the `stepramp` command: numba's registries may be loaded without
-    scipy.linalg and cffi (the module docstring)."""
+    """This process is the `stepramp` command: numba may be imported without coverage and
+    its registries loaded without scipy.linalg and cffi, and cached kernels loaded
+    without the registries (the module docstring)."""
     global _lean
     _lean = True
+    if "numba" not in sys.modules:
+        for name in LEAN_BEFORE_NUMBA:
+            sys.modules.setdefault(name, None)  # type: ignore[arg-type]  # until watch()
 
 
 def lean_registries() -> bool:
@@ -98,7 +113,22 @@ def lean_registries() -> bool:
     from numba.core import entrypoints
 
     entrypoints._already_initialized = True  # no extension's entry point looked for
+    load_without_registries()
     return True
+
+
+def load_without_registries() -> None:
+    """numba's cache loads a kernel with its runtime initialised instead of every registry
+    refreshed (a compilation refreshes them itself: numba.core.compiler)."""
+    from numba.core import caching
+    from numba.core.runtime import rtsys
+
+    def load_overload(self: Any, sig: Any, target_context: Any) -> Any:
+        rtsys.initialize(target_context)  # the arrays' allocator, as the refresh would
+        with self._guard_against_spurious_io_errors():
+            return self._load_overload(sig, target_context)
+
+    caching.Cache.load_overload = load_overload  # type: ignore[method-assign]
 
 
 def watch() -> None:
@@ -112,6 +142,9 @@ def watch() -> None:
         from numba.core import event
 
         if _lean:
+            for name in LEAN_BEFORE_NUMBA:
+                if sys.modules.get(name, 0) is None:
+                    del sys.modules[name]  # importable again, numba imported without it
             lean_registries()
         note = choose_cache()
 

@@ -9,6 +9,8 @@ tell which motor to judge a file with and `check` can say when it judges with an
      "aim_deg": 75 | null,                     the load-angle aim (null: criterion only)
      "safety_factor": 0.6,                     the motor's share of its pull-out torque
      "cruise_reserve": "2x,10%" | "off",       the torque reserve at the top speed
+     "commands": ["decel-stop", "accel"],      the motion commands the machine runs (plan
+                                               --commands; absent: every command)
      "stepramp": "0.1.0", "date": "2025-01-31T12:00:00Z"}
 
 The motor's hash is the SHA-256 of its canonical JSON (`content_sha256`: keys sorted, no
@@ -30,7 +32,8 @@ from .errors import FormatError, echo, is_number
 TEXT_MAX_CHARS = 500      # a name or version longer than this is no name (and bloats the file)
 PULSES_LISTED_MAX = 1000  # a longer mix of lengths is named by its file instead
 REQUIRED = ("motor", "stepramp", "date")
-OPTIONAL = ("pulses", "moves_file", "aim_deg", "safety_factor", "cruise_reserve")
+OPTIONAL = ("pulses", "moves_file", "aim_deg", "safety_factor", "cruise_reserve", "commands")
+COMMANDS_MAX = 64         # more names than any device has commands is no list of them
 
 
 def content_sha256(obj: Any) -> str:
@@ -66,6 +69,9 @@ class PlanProvenance:
     aim_deg: float | None = None
     safety_factor: float | None = None
     cruise_reserve: str | None = None
+    # the motion commands plan judged (their names, as --commands gave them, the device's
+    # registry order); None: every command. `check --motor` judges these by default.
+    commands: tuple[str, ...] | None = None
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {"motor": self.motor.to_json(),
@@ -75,6 +81,8 @@ class PlanProvenance:
         out.update(aim_deg=self.aim_deg, safety_factor=self.safety_factor)
         if self.cruise_reserve is not None:
             out["cruise_reserve"] = self.cruise_reserve
+        if self.commands is not None:
+            out["commands"] = list(self.commands)
         out.update(stepramp=self.stepramp, date=self.date)
         return out
 
@@ -100,7 +108,8 @@ class PlanProvenance:
                    None if obj.get("moves_file") is None
                    else _file_ref(obj["moves_file"], "moves_file"),
                    _number(obj, "aim_deg", 0.0, 90.0), _number(obj, "safety_factor", 0.0, 1.0),
-                   None if obj.get("cruise_reserve") is None else _text(obj, "cruise_reserve"))
+                   None if obj.get("cruise_reserve") is None else _text(obj, "cruise_reserve"),
+                   _commands(obj.get("commands")))
 
     def describe(self) -> str:
         """One line: the motor and the move it was planned for, by what and when."""
@@ -119,6 +128,8 @@ class PlanProvenance:
             parts.append(f"safety factor {self.safety_factor:g}")
         if self.cruise_reserve is not None:
             parts.append(f"cruise reserve {self.cruise_reserve}")
+        if self.commands is not None:
+            parts.append(f"commands {','.join(self.commands)}")
         return ", ".join(parts) + f"; stepramp {self.stepramp}, {self.date}"
 
 
@@ -128,6 +139,17 @@ def _text(obj: dict[str, Any], key: str, where: str = "provenance") -> str:
         raise FormatError(f"{where}.{key}: expected a text of at most {TEXT_MAX_CHARS} "
                           f"characters, got {echo(value)}")
     return value
+
+
+def _commands(value: Any) -> tuple[str, ...] | None:
+    """The recorded command names (which ones a device knows is its judge's to say)."""
+    if value is None:
+        return None
+    if not (isinstance(value, list) and 0 < len(value) <= COMMANDS_MAX and all(
+            isinstance(v, str) and 0 < len(v) <= TEXT_MAX_CHARS for v in value)):
+        raise FormatError(f"provenance.commands: expected null or a list of 1..{COMMANDS_MAX} "
+                          f"command names, got {echo(value)}")
+    return tuple(value)
 
 
 def _number(obj: dict[str, Any], key: str, lo: float, hi: float) -> float | None:

@@ -8,6 +8,12 @@ single examples (speed goals live in bench/). The quick local suite (`pytest -m
 100, unless the test sets its own count: a first look, not the verdict (CI and the
 mutation runs, which set CI, keep the full count).
 
+The fuzz campaign is the `fuzz` profile (`HYPOTHESIS_PROFILE=fuzz`, or pytest's
+`--hypothesis-profile=fuzz`): tests/contract/test_fuzz.py's campaign tests then run
+STEPRAMP_FUZZ_EXAMPLES examples a template (default 100) instead of the suite's few, and
+write their summary where STEPRAMP_FUZZ_SUMMARY says (the README's fuzz block:
+reports/fuzz.json, tests/support/fuzzing.py's SUMMARY_COMMAND).
+
 The motor catalogue is the bundled motors only: the user's own motor folders
 (STEPRAMP_MOTORS, the XDG config folder) would make a test depend on the machine.
 """
@@ -20,12 +26,16 @@ import tempfile
 from collections.abc import Iterator
 
 import pytest
-from hypothesis import settings
+from hypothesis import HealthCheck, settings
 
 settings.register_profile("ci", derandomize=True, deadline=None, print_blob=True)
 settings.register_profile("dev", deadline=None)
 settings.register_profile("quick", deadline=None, max_examples=30)
-settings.load_profile("ci" if os.environ.get("CI") else "dev")
+settings.register_profile("fuzz", deadline=None, print_blob=True,
+                          max_examples=int(os.environ.get("STEPRAMP_FUZZ_EXAMPLES", "100")),
+                          suppress_health_check=list(HealthCheck))
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE")
+                      or ("ci" if os.environ.get("CI") else "dev"))
 
 # A fresh machine's first kernel compilation is said on stderr (profiles.compiling); which
 # test happens to compile first would decide whose stderr carries it. Tests of the CLI's
@@ -34,6 +44,8 @@ os.environ["STEPRAMP_COMPILE_NOTICE"] = "0"
 
 
 def pytest_configure(config: pytest.Config) -> None:
+    if os.environ.get("HYPOTHESIS_PROFILE") or config.getoption("hypothesis_profile", None):
+        return  # a profile asked for by name (the fuzz campaign) stays
     if not os.environ.get("CI") and config.getoption("markexpr", "") == "not slow":
         settings.load_profile("quick")
 

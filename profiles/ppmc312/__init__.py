@@ -38,7 +38,7 @@ if TYPE_CHECKING:
     from .clock import Clock
     from .emulator import ChipEmulator, accept_upload
     from .execution import simulate_move
-    from .formats import parse, render
+    from .formats import parse, parse_upload, render
     from .init_model import expand_init
     from .init_planner import plan_init
     from .link import Link
@@ -50,7 +50,8 @@ if TYPE_CHECKING:
 __getattr__ = lazy_exports(__name__, {
     "decode_answer": ".answers", "decode_answers": ".answers", "Clock": ".clock",
     "ChipEmulator": ".emulator", "accept_upload": ".emulator",
-    "simulate_move": ".execution", "parse": ".formats", "render": ".formats",
+    "simulate_move": ".execution", "parse": ".formats", "parse_upload": ".formats",
+    "render": ".formats",
     "expand_init": ".init_model", "plan_init": ".init_planner", "Link": ".link",
     "decode_command": ".motion", "encode_command": ".motion",
     "plan_free_curve": ".planner", "load_program": ".program",
@@ -85,6 +86,7 @@ __all__ = [
     "load_program",
     "load_table",
     "parse",
+    "parse_upload",
     "plan_free_curve",
     "plan_init",
     "render",

@@ -567,7 +567,8 @@ def parse_upload(data: bytes) -> list[bytes]:
 
 def provenance(table: Table | None = None, *, command: str | None = None,
                motor: str | None = None) -> Provenance:
-    """The provenance comment lines for an upload of `table`."""
+    """The provenance comment lines for an upload of `table` (a planned table's recorded
+    provenance among them: what it was planned for, its commands)."""
     from .table import FreeCurveTable, InitTable
 
     lines = []
@@ -588,6 +589,9 @@ def provenance(table: Table | None = None, *, command: str | None = None,
                      f"{table.high_rate}")
         decel = "" if table.decel_pulses is None else f", decel {table.decel_pulses}"
         lines.append(f"totals: accel {table.accel_pulses} pulses{decel}")
+    planned = getattr(table, "provenance", None)
+    if planned is not None:  # what plan recorded: the motor, the moves, the commands, …
+        lines.append(planned.describe().replace("°", " deg"))  # a C comment is ASCII
     return Provenance(command, tuple(lines))
 
 

@@ -459,3 +459,15 @@ def test_internal_links_resolve() -> None:
     assert sorted(set(links) - anchors) == []
     for target in re.findall(r"\]\((\.\./[^)#]+)\)", text):
         assert (GUIDE.parent / target).exists(), target
+
+
+def test_from_python_runs_and_prints_what_the_guide_shows(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    # The "From Python" section's code block, run as written through the front doors, and
+    # its output against the text block that follows it.
+    section = guide_text().split("## From Python", 1)[1]
+    [(at, code)] = [(n, lines) for n, lines in fenced_blocks("python")
+                    if "from profiles import encode_table" in "\n".join(lines)]
+    exec(compile("\n".join(code), f"docs/guide.md:{at}", "exec"), {})
+    shown = section.split("```text\n", 1)[1].split("```", 1)[0].splitlines()
+    assert output_mismatch(shown, capsys.readouterr().out.splitlines()) is None

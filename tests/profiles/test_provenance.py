@@ -113,3 +113,29 @@ def test_plan_writes_it_and_check_names_the_motor(capsys: pytest.CaptureFixture[
                         "--pulses", "3200")
     assert f"{out}: warning [motor-mismatch]: planned for motor nema17-1600 (sha256 " in said
     assert "(1 error" not in said and "1 warning" in said.splitlines()[-1]
+
+
+def test_the_commands_planned_for_round_trip_and_a_bad_list_names_its_key() -> None:
+    prov = PlanProvenance(FileRef("m", "0" * 64), "0.1.0", "d", (3200,),
+                          commands=("decel-stop", "accel"))
+    table = FreeCurveTable(Clock.named("8MHz"), (400, 800), (10, 20), provenance=prov)
+    obj = table.to_json()
+    jsonschema.validate(obj, SCHEMA)
+    assert obj["provenance"]["commands"] == ["decel-stop", "accel"]
+    assert table_from_json(json.loads(json.dumps(obj))).provenance == prov
+    assert "commands decel-stop,accel" in prov.describe()
+    # planned for every command: the key is left out, as an older table has none
+    assert "commands" not in PROV.to_json() and "commands" not in PROV.describe()
+    for bad in ([], ["accel", ""], "82,81", [82]):
+        with pytest.raises(FormatError, match=r"^provenance\.commands: expected null or a list"):
+            table_from_json({**obj, "provenance": {**obj["provenance"], "commands": bad}})
+
+
+def test_plan_records_its_commands(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    out = tmp_path / "t.json"
+    code, _, err = run(capsys, "plan", "--motor", "nema17-1600", "--pulses", "3200",
+                       "--commands", "82,0x81", "-o", out)
+    assert code == 0, err
+    obj = json.loads(out.read_text("utf-8"))
+    jsonschema.validate(obj, SCHEMA)
+    assert obj["provenance"]["commands"] == ["decel-stop", "accel"]  # by name, registry order

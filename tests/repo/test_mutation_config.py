@@ -131,3 +131,23 @@ def test_a_mutants_run_turns_off_the_plugin_the_suite_loads() -> None:
     assert plugins is not None
     assert "tests.support.repo_clean" in re.findall(r'"([\w.]+)"', plugins.group(1))
     assert "tests.support.repo_clean" in blocked
+
+
+def test_mutmut_mutates_both_packages_and_selects_existing_tests() -> None:
+    """pyproject.toml's [tool.mutmut] (the maintained tool replacing tools/mutation.py):
+    it mutates profiles/ and verify/ whole, its test selection names folders that exist,
+    slow tests and the repo-clean check stay out of a mutant's run, and its working copy
+    (mutants/) is git-ignored, never committed."""
+    import tomllib
+
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
+    mutmut = config["tool"]["mutmut"]
+    assert sorted(mutmut["source_paths"]) == ["profiles", "verify"]
+    for selected in mutmut["pytest_add_cli_args_test_selection"]:
+        assert (ROOT / selected).exists(), selected
+    args = mutmut["pytest_add_cli_args"]
+    assert args[args.index("-m") + 1] == "not slow"
+    assert "no:tests.support.repo_clean" in args
+    assert any(d.startswith("mutmut") for d in config["project"]["optional-dependencies"]["dev"])
+    r = subprocess.run(["git", "check-ignore", "-q", "mutants/profiles/x.py"], cwd=ROOT)
+    assert r.returncode == 0, "mutants/ is not git-ignored"

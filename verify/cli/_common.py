@@ -86,11 +86,13 @@ def cruise_reserve(args: argparse.Namespace) -> Any:
 
 
 def planned_for(spec: str, motor: Any, *, pulses: tuple[int, ...] | None,
-                aim_deg: float | None, reserve: Any, moves_file: Any = None) -> Any:
+                aim_deg: float | None, reserve: Any, moves_file: Any = None,
+                commands: tuple[str, ...] | None = None) -> Any:
     """The `PlanProvenance` of a planned file (profiles/provenance.py): the motor as typed
     (`spec`) and the hash of its content, the move lengths, the aim, its safety factor,
-    the cruise reserve, this version and the date (SOURCE_DATE_EPOCH when set: the
-    reproducible-builds convention, so a planned file can be rebuilt byte for byte)."""
+    the cruise reserve, the motion commands judged (names; None: all), this version and
+    the date (SOURCE_DATE_EPOCH when set: the reproducible-builds convention, so a
+    planned file can be rebuilt byte for byte)."""
     import os
     from datetime import UTC, datetime
 
@@ -100,7 +102,7 @@ def planned_for(spec: str, motor: Any, *, pulses: tuple[int, ...] | None,
     when = datetime.fromtimestamp(int(epoch), UTC) if epoch.isdigit() else datetime.now(UTC)
     return PlanProvenance(FileRef(spec, content_sha256(motor.to_json())), version(),
                           when.strftime("%Y-%m-%dT%H:%M:%SZ"), pulses, moves_file, aim_deg,
-                          motor.safety_factor, reserve.spec)
+                          motor.safety_factor, reserve.spec, commands)
 
 
 def internal_clock(text: str) -> Clock:

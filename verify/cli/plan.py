@@ -337,7 +337,8 @@ def _init(args: argparse.Namespace, planned: Any, motor: Any) -> tuple[Any, dict
 def plan_provenance(args: argparse.Namespace, motor: Any) -> Any:
     """What the table was planned for (profiles/provenance.py): the motor as typed and
     its hash, the move lengths (a mix: its lengths and its file), the aim, the safety
-    factor, the cruise reserve, this version and the date."""
+    factor, the cruise reserve, the motion commands judged (--commands, by name), this
+    version and the date."""
     import hashlib
 
     from profiles.motor.angles import PEAK_DEG
@@ -351,9 +352,14 @@ def plan_provenance(args: argparse.Namespace, motor: Any) -> Any:
         lengths = sorted({n for n, _ in read_mix(args.moves, raw)})
         pulses = tuple(lengths) if len(lengths) <= PULSES_LISTED_MAX else None
         moves = FileRef(display_path(args.moves), hashlib.sha256(raw).hexdigest())
+    commands = None
+    if args.commands is not None:
+        from verify.command_verdicts import command_names
+
+        commands = command_names(args.commands)
     return planned_for(args.motor, motor, pulses=pulses, moves_file=moves,
                        aim_deg=min(args.load_angle, PEAK_DEG),
-                       reserve=cruise_reserve(args))
+                       reserve=cruise_reserve(args), commands=commands)
 
 
 def distance_to_pulses(args: argparse.Namespace) -> Any:

@@ -314,14 +314,55 @@ def safety_findings(table: FreeCurveTable | InitTable, options: CheckOptions,
         stages = as_free_curve(table)
     except InitBuildError:
         return []
+    commands, found = planned_commands(table, options.commands, notes)
     verdict = judge_safety(stages, options.motor, pulses=options.pulses,
                            samples=options.samples, seed=options.seed, strict=options.strict,
-                           load_angle=options.physics, commands=options.commands,
+                           load_angle=options.physics, commands=commands,
                            progress=options.progress)
-    found = verdict.findings()
+    found += verdict.findings()
     details["safety"] = verdict.to_json()
     notes.extend(verdict.notes())
     return found
+
+
+def planned_commands(table: FreeCurveTable | InitTable, given: tuple[str, ...] | None,
+                     notes: list[str]) -> tuple[tuple[str, ...] | None, list[Finding]]:
+    """The motion commands the verdict judges (docs/manual-notes.md, "The commands a table
+    was planned for"): `--commands` when given, else those the table's provenance records
+    (`plan --commands`; said in a note), else every command. Given, and leaving out a
+    recorded one, it draws `commands-narrower`: the verdict no longer covers a command the
+    machine was planned to run. Wider than the record (or with no record) judges more than
+    was planned for: no warning, whatever it finds is the machine's to answer."""
+    from verify.command_verdicts import command_names
+
+    planned = table.provenance
+    recorded = None if planned is None else planned.commands
+    if recorded is None:
+        return given, []
+    try:
+        names = command_names(recorded)
+    except FormatError as e:
+        raise FormatError(f"provenance.{e}") from None
+    if given is None:
+        notes.append(f"judged for the commands it was planned for: {command_codes(names)} "
+                     "(provenance); --commands to change")
+        return names, []
+    left_out = [n for n in names if n not in command_names(given)]
+    if not left_out:
+        return given, []
+    return given, [Finding(
+        "warning", "commands-narrower",
+        f"planned for the commands {command_codes(names)}, judged for "
+        f"{command_codes(command_names(given))}: the verdict leaves out "
+        f"{command_codes(tuple(left_out))}, which the machine was planned to run; judge "
+        "without --commands (the recorded ones) or re-plan with the commands it runs")]
+
+
+def command_codes(names: tuple[str, ...]) -> str:
+    """Motion commands by their hex codes, as `--commands` takes them ("81,82")."""
+    from profiles.ppmc312.motion import COMMANDS
+
+    return ",".join(f"{COMMANDS[n].code:02X}" for n in names)
 
 
 def axis_verdict(axis: Any) -> tuple[bool, dict[str, Any]]:

@@ -5,12 +5,13 @@ from __future__ import annotations
 
 import contextlib
 import time
+from collections.abc import Callable
 from dataclasses import replace
 from types import MappingProxyType
 
 import numpy as np
 
-from ...errors import PlanError
+from ...errors import FieldRangeError, PlanError
 from ...motor import Motor
 from ...remembered import Remembered
 from ...threads import pool
@@ -206,8 +207,64 @@ def plan_free_curve(motor: Motor, *, clock: Clock | None = None, max_stages: int
         # cycle, which starts tightening from a shaping, planned it already: remembered)
         with contextlib.suppress(PlanError):
             make(planned)
-    return tighten(planned, make, load_angle_deg, judges=judges, start=start_shaping,
-                   stops=decel_stops)
+    refused: PlanError | None = None
+    try:
+        best: Plan | None = tighten(planned, make, load_angle_deg, judges=judges,
+                                    start=start_shaping, stops=decel_stops)
+    except PlanError as e:  # nothing below the 90° peak at the motor's top speed
+        best, refused = None, e
+    if best is not None and best.extras["worst_load_angle_deg"] <= load_angle_deg:
+        return best
+    return lower_top(planned, make, load_angle_deg, judges, decel_stops, best, refused)
+
+
+TOP_STEP = 0.8     # the top speed × this a round, when nothing else reaches the aim,
+TOP_ROUNDS = 6     # down to 0.8⁶ = 26 % of the motor's
+RAMP_FLOOR = 0.4   # meanwhile no band's share below this (as init_planner.RAMP_FLOOR)
+
+
+def lower_top(motor: Motor, make: Callable[[Motor, Shaping | None], Plan],
+              load_angle_deg: float, judges: list[Motor], stops: bool, best: Plan | None,
+              refused: PlanError | None) -> Plan:
+    """The last lever (docs/manual-notes.md, "The free curve's last lever: the top
+    speed"): when a lower start and a gentler ramp leave every table past the aim (a
+    large load inertia: its long natural period rings over the whole ramp, and a ramp
+    gentler than the friction leaves no table), the table is tightened again with no
+    band's share below RAMP_FLOOR (the start speed alone going on down), first at the
+    motor's top speed, then at a lower one, TOP_STEP a round; the first within the aim
+    is kept (`extras["top_lowered_pps"]`: (from, to) when lowered;
+    `extras["untightened_s"]`: the plain table's move time, for the price). None within:
+    the closest below the 90° peak with `extras["fix"]`, else a PlanError naming what
+    would help."""
+    plain_s = make(motor, None).duration_s  # remembered: tighten planned it first
+    plans = 0 if best is None else int(best.extras["plans"])
+    for k in range(TOP_ROUNDS + 1):
+        top = motor.top_pps * TOP_STEP ** k
+        try:
+            plan = tighten(replace(motor, max_pps=top) if k else motor, make, load_angle_deg,
+                           judges=judges, stops=stops, ramp_floor=RAMP_FLOOR)
+        except (PlanError, FieldRangeError):  # no table this slow, or none below the peak
+            continue
+        plans += int(plan.extras["plans"])
+        lowered = {"top_lowered_pps": (motor.top_pps, top)} if k else {}
+        plan = replace(plan, info=plan.info + (f" (top speed lowered to {top:.6g} pps)"
+                                               if k else ""),
+                       extras={**plan.extras, **lowered, "untightened_s": plain_s,
+                               "plans": plans})
+        if plan.extras["worst_load_angle_deg"] <= load_angle_deg:
+            return plan
+        if best is None or (plan.extras["worst_load_angle_deg"]
+                            < best.extras["worst_load_angle_deg"]):
+            best = plan
+    fix = ("a lower load inertia or more drive current (the rotor rings past the aim even "
+           f"with the top speed lowered to {motor.top_pps * TOP_STEP ** TOP_ROUNDS:.0f} pps "
+           "and the start and the ramp tightened), or a higher damping_ratio if the drive "
+           "damps more")
+    if best is None:
+        raise PlanError(f"{refused}; what would help: {fix}") if refused is not None \
+            else PlanError(f"no table for this move at any top speed tried; what would "
+                           f"help: {fix}")
+    return replace(best, extras={**best.extras, "fix": fix, "plans": plans})
 
 
 def plan_baseline(motor: Motor, *, clock: Clock | None = None, max_stages: int = 127,

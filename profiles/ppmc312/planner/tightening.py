@@ -98,7 +98,7 @@ def judged(table: FreeCurveTable, judges: Sequence[Motor], stops: bool = True) -
 
 def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
             judges: Sequence[Motor] | None = None, start: Shaping | None = None,
-            stops: bool = True) -> Plan:
+            stops: bool = True, ramp_floor: float = 0.0) -> Plan:
     """Plan with `make`, judge the table's load angle over every execution on `judges`
     (default: `motor`; a tolerance box's corners): every move and (`stops`) a decel stop
     at every pulse of the ramp under every reading, and while some execution exceeds
@@ -111,7 +111,8 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
     move of the same motor ended (a duty cycle's candidates: the bands that ring are the
     motor's). Within the aim, it is kept as it is (nothing past the aim is known to
     relax towards); past it, tightening goes on from there; when it leaves no table for
-    this move, from the plain criterion."""
+    this move, from the plain criterion. `ramp_floor`: no band's share below it, the start
+    going on down (free_curve.lower_top: a ramp below the friction leaves no table)."""
     _check_aim(load_angle_deg)
     t0 = time.perf_counter()
     judges = list(judges or [motor])
@@ -166,8 +167,7 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
             return _counted(_best(tried, load_angle_deg), made[0])
         failed, failed_at = shaping, _worst_lengths(found, load_angle_deg)
         blame = culprits(plan.table, judges, found.moves, load_angle_deg, shaping, found.stops)
-        shaping = shaping.scaled({b: _factor(w, load_angle_deg) for b, w in blame.bands.items()},
-                                 _factor(blame.start, load_angle_deg) if blame.start else 1.0)
+        shaping = _gentler(shaping, blame, load_angle_deg, ramp_floor)
     try:
         uniform = tighten_uniform(motor, make, load_angle_deg, judges=judges, stops=stops)
         tried.append(uniform)
@@ -289,6 +289,14 @@ def _blame_run(blame: Blame, table: FreeCurveTable, run: Execution, rotor: Rotor
             blame.add(shaping.band(hz / seg.rate), deg)
     if since <= 0.0 or since <= run.duration_s <= t_worst:
         blame.start = max(blame.start, deg)  # the jump from or to rest is in the window
+
+
+def _gentler(shaping: Shaping, blame: Blame, aim_deg: float, floor: float) -> Shaping:
+    """`shaping` made gentler where `blame` points: each band and the start by `_factor`,
+    no band below `floor` (a share of the motor; 0: none)."""
+    return shaping.scaled({b: min(1.0, max(_factor(w, aim_deg), floor / shaping.scale[b]))
+                           for b, w in blame.bands.items()},
+                          _factor(blame.start, aim_deg) if blame.start else 1.0)
 
 
 def _factor(worst_deg: float, aim_deg: float) -> float:

@@ -252,3 +252,37 @@ def test_check_json_is_the_tables_verdict_shape(tmp_path: Path,
     ramp, table = files[0]["safety"], files[1]["safety"]
     assert set(ramp) == set(table)
     assert ramp["moves"] == "every" and ramp["safe"] in (True, False)
+
+
+def test_check_motor_judges_the_commands_the_table_was_planned_for(
+        capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    from profiles.provenance import FileRef, PlanProvenance
+
+    def judged(table: FreeCurveTable, *more: str) -> tuple[list[str], list[str], str]:
+        path = tmp_path / "t.json"
+        path.write_text(dump_table(table))
+        code, out, err = run(capsys, "check", path, "--motor", NEMA17, "--no-physics",
+                             "--pulses", "30", "--format", "json", *more)
+        assert code in (0, 1), err
+        result = json.loads(out)["files"][0]
+        _, text, _ = run(capsys, "check", path, "--motor", NEMA17, "--no-physics",
+                         "--pulses", "30", *more)
+        return (list(result["safety"]["commands"]), [f["rule"] for f in result["findings"]],
+                text)
+
+    plain = FreeCurveTable(Clock.internal("8MHz"), (2500, 3000), (10, 20))
+    every, rules, text = judged(plain)  # an older table: every command family, as before
+    assert len(every) > 1 and "decel-stop" in every and "commands-narrower" not in rules
+    prov = PlanProvenance(FileRef("nema17-1600", "0" * 64), "0.1.0", "d",
+                          commands=("decel-stop", "accel"))
+    planned = FreeCurveTable(Clock.internal("8MHz"), (2500, 3000), (10, 20), provenance=prov)
+    families, rules, text = judged(planned)
+    assert families == ["decel-stop"] and "commands-narrower" not in rules
+    assert "note: judged for the commands it was planned for: 81,82 (provenance); " \
+           "--commands to change" in text
+    # the command line wins: wider judges more, without a word; narrower is a warning
+    assert judged(planned, "--commands", ",".join(f"{c.code:02X}" for c in COMMANDS.values())
+                  )[0] == every
+    families, rules, text = judged(planned, "--commands", "82")
+    assert families == [] and "commands-narrower" in rules
+    assert "warning [commands-narrower]: planned for the commands 81,82, judged for 82" in text

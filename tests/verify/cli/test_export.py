@@ -100,3 +100,23 @@ def test_missing_file_and_bad_arguments(capsys: pytest.CaptureFixture[str]) -> N
     assert run(capsys, "export", GOOD, "--address", "-1")[0] == 2
     assert run(capsys, "export", GOOD, "--to", "ascii", "--address", "16")[0] == 2
     assert run(capsys, "frobnicate")[0] == 2
+
+
+def test_export_c_carries_what_the_table_was_planned_for(capsys: pytest.CaptureFixture[str],
+                                                        tmp_path: Path) -> None:
+    from dataclasses import replace
+
+    from profiles.ppmc312.table import dump_table
+    from profiles.provenance import FileRef, PlanProvenance
+
+    prov = PlanProvenance(FileRef("nema17-1600", "ab" * 32), "0.1.0", "2025-01-31T12:00:00Z",
+                          (3200,), None, 75.0, 0.6, "2x,10%", ("decel-stop", "accel"))
+    path = tmp_path / "t.json"
+    path.write_text(dump_table(replace(load_table(GOOD), provenance=prov)))
+    code, header, err = run(capsys, "export", path, "--format", "c")
+    assert code == 0, err
+    assert (" * planned for motor nema17-1600 (sha256 abababababab), a move of 3200 pulses, "
+            "aim 75 deg, safety factor 0.6, cruise reserve 2x,10%, commands decel-stop,accel; "
+            "stepramp 0.1.0, 2025-01-31T12:00:00Z\n") in header
+    code, header, err = run(capsys, "export", GOOD, "--format", "c")  # no provenance: no line
+    assert code == 0 and "planned for" not in header

@@ -13,6 +13,7 @@ from profiles.motor import Motor, bundled_motor_paths, load_motor
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.planner import (
+    Shaping,
     choose_clock,
     plan,
     plan_baseline,
@@ -20,9 +21,12 @@ from profiles.ppmc312.planner import (
     reference_pulses,
     switch_safe,
 )
+from profiles.ppmc312.planner.free_curve import RAMP_FLOOR, TOP_ROUNDS, TOP_STEP
+from profiles.ppmc312.planner.problem import Plan
 from profiles.ppmc312.quantise import quantise_reference
 from profiles.ppmc312.table import FreeCurveTable
 from verify.criterion import check_stall
+from verify.safety import judge_safety
 
 MOTORS = {p.stem: load_motor(p) for p in bundled_motor_paths()}
 
@@ -404,3 +408,95 @@ def test_a_move_shorter_than_the_smallest_trapezoid_is_refused(pulses: int) -> N
     with pytest.raises(FieldRangeError,
                        match=rf"^pulses: {pulses}.* allowed range 8\.\.4294967295"):
         plan_free_curve(load_motor(bundled_motor_paths()[0]), pulses=pulses)
+
+
+# issue 32's datasheet NEMA17 (17HS19-like, on a lead screw, friction 0..0.0438 N·m) with
+# 30× the load inertia, its top speed capped where the cruise reserve holds (22 416 pps)
+HEAVY = Motor(
+    steps_per_rev=1600,
+    curve_speed_pps=np.array([0.0, 11464.0, 12335.0, 13308.0, 14390.0, 15601.0, 16968.0,
+                              18520.0, 20282.0, 22303.0, 24636.0, 27215.0]),
+    curve_torque_nm=np.array([0.4425, 0.441, 0.3904, 0.342, 0.2953, 0.2506, 0.2075, 0.1663,
+                              0.1269, 0.0893, 0.0535, 0.0216]),
+    inertia_kgm2=30 * 1.468e-5, safety_factor=0.6, start_pps=5546.0,
+    friction_torque_nm=0.0438, holding_torque_nm=0.59, max_pps=22416.0,
+    tolerances=(("friction_torque_nm", 0.0, 0.0438),))
+
+
+@pytest.mark.slow  # about 5 s: a failed tightening, then the last lever's
+def test_a_large_inertia_is_planned_with_the_ramp_floored_and_the_start_lowered() -> None:
+    """Before, the band rounds lowered the start and the slow band together until no table
+    fitted (a ramp share below the friction) and the plan failed (best 102.9°); with no
+    band below RAMP_FLOOR and the start going on down, it is within the aim at the
+    motor's own top speed, SAFE by the unchanged verdict."""
+    from profiles.motor.tolerance import corners, worst_case_motor
+    from profiles.ppmc312.planner.tightening import tighten
+
+    def make(m: Motor, s: Shaping | None = None) -> Plan:
+        return plan(m, None, 127, 4000, None, shaping=s)
+
+    with pytest.raises(PlanError, match="best 10"):  # the band rounds alone
+        tighten(worst_case_motor(HEAVY), make, 75.0,
+                judges=[c.motor for c in corners(HEAVY)])
+    got = plan_free_curve(HEAVY, pulses=4000, load_angle_deg=75.0)
+    assert got.extras["worst_load_angle_deg"] <= 75.0
+    assert "top_lowered_pps" not in got.extras and got.extras["untightened_s"] < got.duration_s
+    assert min(got.extras["shaping"].scale) >= RAMP_FLOOR - 1e-12
+    verdict = judge_safety(got.table, HEAVY, aim_deg=75.0)
+    assert verdict.safe and verdict.within_aim
+
+
+@pytest.mark.slow  # about 25 s: a dozen tightenings, some at a lower top speed
+def test_the_top_speed_is_the_last_lever_and_then_what_would_help() -> None:
+    """At a 40° aim the floored ramp and the lowest start are not enough at 22 416 pps:
+    the top speed is lowered TOP_STEP a round until the table is within the aim, SAFE by
+    the unchanged verdict; at 30° nothing is, and the closest says what would help."""
+    got = plan_free_curve(HEAVY, pulses=4000, load_angle_deg=40.0)
+    was, now = got.extras["top_lowered_pps"]
+    assert was == HEAVY.top_pps and now < was
+    assert any(now == pytest.approx(was * TOP_STEP ** k) for k in range(1, TOP_ROUNDS + 1))
+    assert got.table.clock.hz / got.table.rates[0] <= now * 1.0001
+    verdict = judge_safety(got.table, HEAVY, aim_deg=40.0)
+    assert verdict.safe and verdict.within_aim
+    closest = plan_free_curve(HEAVY, pulses=4000, load_angle_deg=30.0)
+    assert closest.extras["worst_load_angle_deg"] > 30.0
+    assert closest.extras["fix"].startswith("a lower load inertia or more drive current")
+    assert judge_safety(closest.table, HEAVY, aim_deg=30.0).safe  # below the peak
+
+
+def test_the_last_lever_keeps_the_first_top_speed_within_the_aim(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """lower_top's rounds, with the tightening stood in for: the motor's own top with the
+    ramp floored first, then × TOP_STEP a round; the first within the aim is kept, named
+    with its top speed; none below the peak at any top: a PlanError naming what would
+    help."""
+    import types
+
+    from profiles.ppmc312.planner import free_curve
+
+    asked: list[tuple[float, float]] = []
+    worst = iter([90.0, 80.0, 70.0])
+
+    def tighten(m: Motor, make: object, aim: float, **kw: object) -> Plan:
+        asked.append((m.top_pps, float(kw["ramp_floor"])))  # type: ignore[arg-type]
+        return Plan(FreeCurveTable(Clock.named("8MHz"), (400, 800), (10, 20)), 2.0, "", "",
+                    extras={"worst_load_angle_deg": next(worst), "plans": 3})
+
+    monkeypatch.setattr(free_curve, "tighten", tighten)
+    plain = types.SimpleNamespace(duration_s=1.0)
+    got = free_curve.lower_top(HEAVY, lambda m, s: plain, 75.0, [HEAVY], True, None,
+                               None)  # type: ignore[arg-type]
+    top = HEAVY.top_pps
+    assert asked == [(top, RAMP_FLOOR), (top * TOP_STEP, RAMP_FLOOR),
+                     (top * TOP_STEP ** 2, RAMP_FLOOR)]
+    assert got.extras["top_lowered_pps"] == (top, top * TOP_STEP ** 2)
+    assert got.extras["untightened_s"] == 1.0 and got.extras["plans"] == 9
+
+    def refuse(*a: object, **kw: object) -> object:
+        raise PlanError("no table keeps the load angle below 90°")
+
+    monkeypatch.setattr(free_curve, "tighten", refuse)
+    with pytest.raises(PlanError, match=r"^no table keeps .*; what would help: a lower load "
+                                        r"inertia or more drive current"):
+        free_curve.lower_top(HEAVY, lambda m, s: plain, 75.0, [HEAVY], True, None,
+                             PlanError("no table keeps the load angle below 90°"))  # type: ignore[arg-type]

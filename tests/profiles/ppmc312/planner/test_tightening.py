@@ -307,9 +307,16 @@ def test_uniform_tightening_steps_down_then_bisects_back(monkeypatch: pytest.Mon
         deg=np.array([next(worst)])))
     got = tighten_uniform(NEMA23, make, AIM_DEG, stops=False)  # type: ignore[arg-type]
     scales = [1.0 if s is None else s.scale[0] for s in asked]
-    assert scales == pytest.approx([1.0, 0.85, 0.7225, (0.7225 + 0.85) / 2,
-                                    ((0.7225 + 0.85) / 2 + 0.85) / 2])
-    assert got.extras["shaping"] == Shaping.uniform(scales[3])  # the last within the aim
+    mid = (0.7225 + 0.85) / 2
+    judged_scales = [1.0, 0.85, 0.7225, mid, (mid + 0.85) / 2]
+    # the descent makes its next step's plan on a side thread while it judges this one,
+    # so the calls come in any order, and the step after the last may be made and dropped
+    made = [x for x in scales if not any(x == pytest.approx(e) for e in judged_scales)]
+    assert all(any(x == pytest.approx(e) for x in scales) for e in judged_scales), scales
+    assert all(x == pytest.approx(0.7225 * 0.85) for x in made), scales
+    shaping = got.extras["shaping"]
+    assert shaping == Shaping.uniform(shaping.scale[0])  # uniform, and
+    assert shaping.scale[0] == pytest.approx(mid)  # the last within the aim
     assert got.extras["plans"] == 5
     worst = iter([60.0])
     asked.clear()

@@ -1,9 +1,10 @@
-"""Fuzzing the `stepramp` command in-process: hostile files and command lines.
+"""The fuzz campaign's generators: hostile files and command lines for `stepramp`,
+run in-process and held to the CLI's contract.
 
 Every case runs `verify.cli.main(argv)` on a mutated input file (tables, motors, upload
 files in each format, table-read answers, MC-200 packet files, A-Link settings, axes
-files, duty-cycle and vendor-curve CSVs) or a mutated command line and holds it to the
-CLI's contract:
+files, duty-cycle and vendor-curve CSVs) or a mutated command line, and `judge` lists
+every way it breaks the contract:
 - the exit code is 0, 1 or 2;
 - no traceback and no "internal error" (the error contract's catch-all: a bug);
 - exit 2 prints exactly one line on stderr, naming the command;
@@ -13,21 +14,17 @@ CLI's contract:
   rules written here (exit 1 exactly when one is broken);
 - an answer within `CASE_TIMEOUT_S` (a hostile input must not buy unbounded work).
 
-Every command of `verify.cli.COMMANDS` has templates here (`covered_commands`; the tests
-check it). The planner-bound ones (sync, plan, compare, sweep, a motor's plan) are in
-the HEAVY lists: the fast tests run the light lists once, the slow ones everything.
-Every case runs in its own temporary folder, and the campaign runs with that folder as
-the working directory: nothing is ever written beside the repository.
-
-`tests/contract/test_fuzz.py` drives the same generators from hypothesis; this script runs a
-longer seeded campaign and prints counts per command:
-
-    python tools/fuzz.py [--cases 20000] [--seed 1]
+Every command of `verify.cli.COMMANDS` has templates here (`covered_commands`;
+tests/contract/test_fuzz.py checks it: a new command needs its templates here). The
+planner-bound ones (sync, plan, compare, sweep, a motor's plan) are in the HEAVY lists.
+Every choice a case makes (the template, the edits, the hostile values) is drawn from
+the `rnd` it is given: hypothesis's `st.randoms()` (`file_cases`, `argv_cases`), so a
+failing case shrinks and replays from hypothesis's database. The campaign is
+tests/contract/test_fuzz.py under the `fuzz` hypothesis profile (tests/conftest.py).
 """
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import io
 import json
@@ -39,16 +36,14 @@ import signal
 import sys
 import tempfile
 import threading
-import time
-from collections import Counter, defaultdict
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:
-    sys.path.insert(0, str(ROOT))
+from hypothesis import strategies as st
+
+from tests.support.paths import ROOT
 
 EXAMPLES = ROOT / "examples"
 MOTORS = sorted((ROOT / "profiles" / "data").glob("motor-*.json"))
@@ -604,84 +599,69 @@ def case_folder() -> Iterator[Path]:
             os.chdir(before)
 
 
-def campaign(cases: int, seed: int, *, heavy: bool = True) -> Iterator[Outcome]:
-    rnd = random.Random(seed)
-    seed_data = seeds()
-    files = FILE_COMMANDS + (HEAVY_FILE_COMMANDS if heavy else [])
-    argvs = ARGV_TEMPLATES + (HEAVY_ARGV_TEMPLATES if heavy else [])
-    with case_folder() as folder:
-        for _ in range(cases):
-            if rnd.random() < 0.75:
-                yield file_case(rnd, seed_data, folder, commands=files)
-            else:
-                yield argv_case(rnd, folder, templates=argvs)
+# --- hypothesis strategies and the campaign's summary ------------------------------------
+ALL_FILE_COMMANDS = FILE_COMMANDS + HEAVY_FILE_COMMANDS
+ALL_ARGV_TEMPLATES = ARGV_TEMPLATES + HEAVY_ARGV_TEMPLATES
 
 
-def main() -> int:
-    global CASE_TIMEOUT_S
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--cases", type=int, default=20_000)
-    ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--show", type=int, default=20, help="problem cases to print")
-    ap.add_argument("--light", action="store_true",
-                    help="leave out the planner-bound templates (sync, plan, compare, sweep)")
-    ap.add_argument("--timeout", type=float, default=CASE_TIMEOUT_S,
-                    help=f"seconds a case may run (default {CASE_TIMEOUT_S:g})")
-    ap.add_argument("--results", action="store_true",
-                    help="write bench/results/fuzz.json (the README's table) instead of "
-                         "printing the table")
-    args = ap.parse_args()
-    started = time.monotonic()
-    counts: dict[str, Counter[str]] = defaultdict(Counter)
-    shown = 0
-    CASE_TIMEOUT_S = args.timeout
-    for k, o in enumerate(campaign(args.cases, args.seed, heavy=not args.light), start=1):
-        if k % 1000 == 0:
-            print(f"{k} cases, {time.monotonic() - started:.0f} s", file=sys.stderr, flush=True)
-        c = counts[o.command]
-        c["cases"] += 1
-        c[f"exit {o.code}"] += 1
-        if o.problems:
-            c["problems"] += 1
-            if shown < args.show:
-                shown += 1
-                print(f"PROBLEM {o.command}: {o.problems} argv={o.argv[:6]}", file=sys.stderr)
-    total = Counter[str]()
-    rows = []
-    for name in sorted(counts):
-        c = counts[name]
-        total.update(c)
-        rows.append([name, c["cases"], c["exit 0"], c["exit 1"], c["exit 2"], c["problems"]])
-    rows.append(["**all**", total["cases"], total["exit 0"], total["exit 1"], total["exit 2"],
-                 total["problems"]])
-    seconds = time.monotonic() - started
-    if args.results:
-        report(counts, rows, seconds, args)
-    else:
-        print("| command | cases | exit 0 | exit 1 | exit 2 | contract broken |")
-        print("|---|---|---|---|---|---|")
-        print("\n".join("| " + " | ".join(str(c) for c in row) + " |" for row in rows))
-        print(f"({seconds:.0f} s, seed {args.seed})")
-    return 1 if total["problems"] else 0
+def case_randoms() -> st.SearchStrategy[random.Random]:
+    """The source of a case's choices: hypothesis's own, so a case shrinks and replays."""
+    return st.randoms(use_true_random=False)
 
 
-def report(counts: dict[str, Counter[str]], rows: list[list[Any]], seconds: float,
-           args: argparse.Namespace) -> None:
-    """The campaign as bench/results/fuzz.json (the shared results format), the README's
-    table generated from it by bench/readme.py."""
-    sys.path.insert(0, str(ROOT / "bench"))
-    from benchlib import Results
-
-    res = Results("fuzz", folder="tools")
-    res.values = {"seed": args.seed, "cases": sum(c["cases"] for c in counts.values()),
-                  "seconds": round(seconds), "light": args.light,
-                  "per_command": {k: dict(v) for k, v in sorted(counts.items())}}
-    res.section("campaign", ["command", "cases", "exit 0", "exit 1", "exit 2",
-                             "contract broken"], rows,
-                f"{res.values['cases']} cases in {seconds:.0f} s, seed {args.seed}"
-                f"{' (light templates only)' if args.light else ''}.")
-    res.write()
+SUMMARY_ENV = "STEPRAMP_FUZZ_SUMMARY"  # where the campaign writes its summary, if set
+SUMMARY_COMMAND = ("HYPOTHESIS_PROFILE=fuzz STEPRAMP_FUZZ_SUMMARY=reports/fuzz.json "
+                   "python -m pytest -p no:tests.support.repo_clean -q "
+                   "tests/contract/test_fuzz.py")
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+class Tally:
+    """Every case a test module ran, by command and exit code, and the contract's breaks."""
+
+    def __init__(self) -> None:
+        self.counts: dict[str, dict[str, int]] = {}
+        self.load_before = os.getloadavg()[0]
+
+    def add(self, outcome: Outcome) -> None:
+        c = self.counts.setdefault(outcome.command, {})
+        for key in ("cases", f"exit {outcome.code}") + (("problems",) if outcome.problems
+                                                        else ()):
+            c[key] = c.get(key, 0) + 1
+
+    def document(self, seconds: float, examples: int) -> dict[str, Any]:
+        """The summary in the README generator's format (bench/readme.py)."""
+        import datetime as dt
+        import platform
+
+        import hypothesis
+
+        rows, total = [], {"cases": 0, "exit 0": 0, "exit 1": 0, "exit 2": 0, "problems": 0}
+        for name in sorted(self.counts):
+            c = self.counts[name]
+            for key in total:
+                total[key] += c.get(key, 0)
+            rows.append([name, *(str(c.get(k, 0)) for k in total)])
+        rows.append(["**all**", *(str(v) for v in total.values())])
+        note = (f"{total['cases']} cases in {seconds:.0f} s: hypothesis {hypothesis.__version__}, "
+                f"profile fuzz, {examples} examples a template (readers on mutated and random "
+                "bytes too, not counted here).")
+        return {"name": "fuzz", "command": SUMMARY_COMMAND,
+                "measured_at": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+                "machine": {"cpus": os.cpu_count(), "python": platform.python_version(),
+                            "load_avg_before": round(self.load_before, 2),
+                            "load_avg_after": round(os.getloadavg()[0], 2),
+                            "note": "2-core machine shared with other sessions"},
+                "values": {"examples": examples, "seconds": round(seconds),
+                           "per_command": self.counts},
+                "sections": {"campaign": {
+                    "columns": ["command", "cases", "exit 0", "exit 1", "exit 2",
+                                "contract broken"], "rows": rows, "note": note}}}
+
+    def write(self, path: Path, seconds: float, examples: int) -> None:
+        """`path`, whole or not at all."""
+        text = json.dumps(self.document(seconds, examples), indent=1, ensure_ascii=False)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text + "\n")
+        os.replace(tmp, path)
