@@ -226,16 +226,22 @@ RULES: dict[str, tuple[tuple[str, str], tuple[str, str]]] = {
 
 
 def family_verdicts(ramp: AlinkRamp, homing: HomingSettings | None, rot: Rotors,
-                    aim_deg: float) -> list[tuple[str, MotionVerdict]]:
-    """The decel stops from every pulse of the ramp and, with `homing`, its legs (a search
-    ramping OL → OH in the ramp's shape and stopping at once, the creep at OL), over every
-    row of `rot`."""
-    out = []
-    if ramp.ramp_pulses > 1:
+                    aim_deg: float, families: Sequence[str] | None = None
+                    ) -> list[tuple[str, Any]]:
+    """The decel stops from every pulse of the ramp, the immediate stops, the speed
+    changes and the limit runs (envelopes: `EnvelopeVerdict`) and, with `homing`, its legs
+    (a search ramping OL → OH in the ramp's shape and stopping at once, the creep at OL),
+    over every row of `rot`; `families` narrows them (`alink_families`)."""
+    out: list[tuple[str, Any]] = []
+    families = FAMILY_ORDER if families is None else families
+    judges = {"stop": stop_envelope, "change-speed": change_envelope,
+              "limit": limit_envelope}
+    if ramp.ramp_pulses > 1 and "decel-stop" in families:
         out.append(("decel-stop", _verdict("decel-stop", "decel stops (STOP 31) from every "
                                            "pulse of the ramp",
                                            motion_angles(ramp, "stop", rot), rot, aim_deg)))
-    if homing is not None:
+    out += [(name, judges[name](ramp, rot, aim_deg)) for name in families if name in judges]
+    if homing is not None and "homing" in families:
         out.append(("homing", homing_verdict(homing, (ramp.shape,), rot, aim_deg)))
     return out
 
@@ -282,3 +288,281 @@ def nominal_rotors(motor: Motor) -> Rotors:
     """The motor's own rows (each direction)."""
     return box_rotors([motor], ways_of(motor))
 
+
+
+# --- the commands that run the ramp at a speed the machine chooses (issue 33) ------------------
+
+# The unit's commands (`stepramp alink command` names) and the families of the verdict they
+# run besides the moves (judged always: MOVE_R, MOVE_A, OFFSET, RESET_POS run the ramp as a
+# move). STOP: both forms (28 at once, 31 decelerating); the homing commands: the legs.
+COMMAND_FAMILIES: dict[str, tuple[str, ...]] = {
+    "move-r": (), "move-a": (), "offset": (), "reset-pos": (),
+    "stop": ("decel-stop", "stop"), "decel-stop": ("decel-stop",),
+    "change-speed": ("change-speed",), "limit": ("limit",),
+    **{name: ("homing",) for name in ("home", "homing", "p-search", "m-search", "p-org",
+                                        "m-org")}}
+FAMILY_ORDER = ("decel-stop", "stop", "change-speed", "limit", "homing")
+ENVELOPE_GRID = 17     # target speeds an envelope is judged at (with H and the cap)
+
+
+def alink_families(commands: Iterable[str] | None) -> tuple[str, ...]:
+    """The families of the unit's verdict `commands` (names of `stepramp alink command`;
+    None: every one) run, in `FAMILY_ORDER`; an unknown name is refused, naming them."""
+    from profiles.errors import FormatError, echo
+
+    if commands is None:
+        return FAMILY_ORDER
+    chosen: set[str] = set()
+    for item in commands:
+        name = str(item).strip().lower()
+        if name not in COMMAND_FAMILIES:
+            raise FormatError(f"commands: {echo(item)} is not an A-Link command that runs the "
+                              f"ramp ({', '.join(COMMAND_FAMILIES)})")
+        chosen.update(COMMAND_FAMILIES[name])
+    return tuple(f for f in FAMILY_ORDER if f in chosen)
+
+
+ENVELOPE_TITLES = {"stop": "immediate stops (STOP 28, the EL and STP inputs) from every pulse",
+                   "change-speed": "speed changes during a move (CHANGE_SPD)",
+                   "limit": "limit runs (LIMIT) stopped by EL at once or SD decelerating"}
+
+
+@dataclass(frozen=True)
+class EnvelopeVerdict:
+    """A family run at a speed the machine chooses, on the load angle: the worst angle
+    at each speed of `speeds_pps` (a stop, a limit run: of everything up to that speed;
+    a speed change: of the change to it from a cruise at H), the use the settings always
+    leave (`use_pps`: a stop from L, a limit run at L, no speed change) and the unit's own
+    use (`top_pps`: from H, at H, to the cap). Safe when the use left is below the 90°
+    peak (as the PPMC-312's `command-envelope` families); the envelope is how far the
+    speed may go within the aim."""
+
+    name: str
+    aim_deg: float
+    speeds_pps: tuple[float, ...]
+    degs: tuple[float, ...]
+    use_pps: float
+    top_pps: float
+    direction: int
+    executions: int
+    note: str = ""          # a family the unit does not run (change-speed in S-curve)
+
+    def _deg_at(self, speed: float) -> float:
+        return self.degs[self.speeds_pps.index(speed)] if self.degs else 0.0
+
+    @property
+    def use_deg(self) -> float:
+        return self._deg_at(self.use_pps)
+
+    @property
+    def top_deg(self) -> float:
+        return self._deg_at(self.top_pps)
+
+    @property
+    def safe(self) -> bool:
+        return self.use_deg < PEAK_DEG
+
+    @property
+    def within_aim(self) -> bool:
+        return self.use_deg <= self.aim_deg
+
+    def reach(self, limit: float, upward: bool = True) -> float | None:
+        """The farthest speed from the use left (up, or down) with every speed between
+        within `limit` (PEAK_DEG: below the peak); None: not even the use."""
+        ok = (lambda d: d < limit) if limit >= PEAK_DEG else (lambda d: d <= limit)
+        k = self.speeds_pps.index(self.use_pps) if self.degs else 0
+        if not self.degs or not ok(self.degs[k]):
+            return None
+        step = 1 if upward else -1
+        while 0 <= k + step < len(self.degs) and ok(self.degs[k + step]):
+            k += step
+        return self.speeds_pps[k]
+
+    def describe(self) -> str:
+        head = ENVELOPE_TITLES[self.name]
+        if self.note:
+            return f"{head}: {self.note}"
+        fast = self.reach(self.aim_deg)
+        if fast is None:
+            text = f"none within the {self.aim_deg:g}° aim, even at {self.use_pps:g} pps"
+        elif self.name == "change-speed":
+            low = self.reach(self.aim_deg, upward=False)
+            text = (f"within the {self.aim_deg:g}° aim up to {fast:g} pps and down to "
+                    f"{low:g} pps")
+        else:
+            text = f"within the {self.aim_deg:g}° aim at {fast:g} pps and slower"
+        at = "to" if self.name == "change-speed" else "at"
+        return f"{head}: {text}; {at} {self.top_pps:g} pps: {self.top_deg:.1f}°"
+
+    def findings(self) -> list[Finding]:
+        if self.within_aim:
+            return []
+        if not self.safe:
+            return [Finding("error", "alink-command-envelope", self.describe() + ": no use "
+                            "of it keeps the rotor below the 90° peak with these settings")]
+        return [Finding("warning", "alink-command-envelope", self.describe() + ": no use of "
+                        f"it keeps the rotor within the {self.aim_deg:g}° aim")]
+
+    def to_json(self) -> dict[str, Any]:
+        return {"command": self.name, "safe": self.safe, "within_aim": self.within_aim,
+                "worst_load_angle_deg": self.top_deg, "worst_at_pps": self.top_pps,
+                "worst_direction": "forward" if self.direction > 0 else "backward",
+                "executions": self.executions, "what": ENVELOPE_TITLES[self.name],
+                "note": self.note or None,
+                "envelope": {
+                    "fastest_pps": self.reach(self.aim_deg),
+                    "fastest_safe_pps": self.reach(PEAK_DEG),
+                    "lowest_pps": (self.reach(self.aim_deg, upward=False)
+                                   if self.name == "change-speed" else None),
+                    "use_pps": self.use_pps, "use_deg": self.use_deg,
+                    "top_pps": self.top_pps, "top_deg": self.top_deg,
+                    "speeds_pps": list(self.speeds_pps), "load_angle_deg": list(self.degs)}}
+
+
+def change_cap_pps(ramp: AlinkRamp) -> float:
+    """The fastest a CHANGE_SPD (and, our reading, a LIMIT run's speed) goes: MAX_SPEED,
+    or without it twice the high speed (§11-7 (1)), within the unit's 100 kpps."""
+    from profiles.alink.model import SPEED_MAX_PPS
+
+    return float(min(ramp.max_pps or 2 * ramp.high_pps, SPEED_MAX_PPS))
+
+
+def _grid(ramp: AlinkRamp, lo: float, hi: float) -> list[float]:
+    """Target speeds lo..hi on the unit's steps (multiples of the multiplier above L), with
+    L, H and hi themselves."""
+    m = ramp.multiplier
+    base = ramp.start_pps
+    points = np.linspace(lo, hi, ENVELOPE_GRID)
+    steps = {base + round((p - base) / m) * m for p in points.tolist()}
+    steps |= {lo, hi, float(ramp.high_pps), float(ramp.start_pps)}
+    return sorted(s for s in steps if lo <= s <= hi)
+
+
+def _settle(rot: Rotors, speeds: Sequence[float]) -> list[int]:
+    """Pulses of a cruise at each speed after which every row of `rot` has settled."""
+    v = np.asarray(speeds, float)
+    ones = np.ones(len(v), np.int64)
+    _, dense = dwell_sampling([rot.rotor(i) for i in range(len(rot))], v, ones,
+                              np.full(len(v), MOVE_PULSES_MAX, np.int64), 1)
+    return [int(d) for d in dense]
+
+
+def _rate(speed: float) -> int:
+    return round(RAMP_HZ / speed)
+
+
+def _run(motions: list[list[tuple[int, int]]], rot: Rotors) -> tuple[np.ndarray, np.ndarray]:
+    """Hand-built motions (lists of (rate, pulses)) on the kernel: (worst angle per motion
+    over the rows [°], the row of it)."""
+    rate = np.array([r for m in motions for r, n in m if n > 0], np.int64)
+    count = np.array([n for m in motions for _, n in m if n > 0], np.int64)
+    sizes = [sum(1 for _, n in m if n > 0) for m in motions]
+    offsets = np.concatenate(([0], np.cumsum(sizes))).astype(np.int64)
+    x = np.arange(1, len(motions) + 1, dtype=np.int64)
+    b = MoveBatch(x, np.zeros(len(x), np.int64), np.zeros(len(rate), np.int64), rate, count,
+                  offsets)
+    lag, _ = judge(b, RAMP_HZ, rot)
+    deg = np.degrees(lag * rot.c_e)
+    return deg.max(axis=0), deg.argmax(axis=0)
+
+
+def _stages(ramp: AlinkRamp) -> list[tuple[int, int]]:
+    return list(zip(ramp.rates.tolist(), ramp.pulses.tolist(), strict=True))
+
+
+def stop_envelope(ramp: AlinkRamp, rot: Rotors, aim_deg: float) -> EnvelopeVerdict:
+    """STOP 28 (and an EL or STP input, 「即時停止」) from every pulse of every move: the
+    ramp's stops at once (the homing search's motion on the unit's ramp), from each speed
+    of the ramp and from the cruise at H; the worst at a speed counts every stop up to it."""
+    found = motion_angles(ramp, "search", rot)
+    ends = np.cumsum(ramp.pulses)
+    stage = np.searchsorted(ends, found.x, side="left")
+    speeds = np.where(stage < len(ends), ramp.speeds_pps[np.minimum(stage, len(ends) - 1)]
+                      if len(ends) else ramp.high_pps, ramp.high_pps)
+    worst = found.deg.max(axis=0)
+    grid = sorted({float(ramp.start_pps), float(ramp.high_pps), *speeds.tolist()})
+    degs = [float(worst[speeds <= s + 1e-9].max(initial=0.0)) for s in grid]
+    _, row, _ = found.worst()
+    return EnvelopeVerdict("stop", aim_deg, tuple(grid), _cummax(degs),
+                           float(ramp.start_pps), float(ramp.high_pps),
+                           int(rot.direction[row]), found.deg.size)
+
+
+def _cummax(degs: Sequence[float]) -> tuple[float, ...]:
+    return tuple(np.maximum.accumulate(np.asarray(degs, float)).tolist()) if len(degs) else ()
+
+
+def limit_envelope(ramp: AlinkRamp, rot: Rotors, aim_deg: float) -> EnvelopeVerdict:
+    """LIMIT at each speed s (0: H) up to the cap: the ramp L → s at UP_TIME in MODE's
+    shape, then either an EL input stopping it at once from any pulse (「+EL検出で即時
+    停止」) or an SD input decelerating it to a stop along the ramp (「SD信号は減速停止に
+    なります」) from the settled cruise; the worst at s counts every run up to s. A linear
+    ramp to s is the first steps of the ramp to the cap: its stops at once from the ramp
+    are judged once, on that ramp."""
+    grid = _grid(ramp, float(ramp.start_pps), change_cap_pps(ramp))
+    settle = _settle(rot, grid)
+    ramps = [build_ramp(ramp.start_pps, s, ramp.accel_pps2, ramp.multiplier, ramp.shape)
+             for s in grid]
+    motions = []
+    for s, dwell, r in zip(grid, settle, ramps, strict=True):
+        up = _stages(r)
+        motions += [[*up, (_rate(s), dwell)], [*up, (_rate(s), dwell), *up[::-1]]]
+    deg, row = _run(motions, rot)
+    degs = deg.reshape(len(grid), 2).max(axis=1)
+    way = int(rot.direction[int(row[int(np.argmax(deg))])])
+    executions = len(motions) * len(rot)
+    if ramp.shape == "linear":
+        ramp_stops = [_ramp_stops(ramps[-1], rot)]
+    else:
+        ramp_stops = [_ramp_stops(r, rot) for r in ramps]
+    for speeds, worst, n in ramp_stops:
+        executions += n
+        for k, s in enumerate(grid):
+            below = worst[speeds <= s + 1e-9]
+            if len(below) and below.max() > degs[k]:
+                degs[k] = float(below.max())
+    return EnvelopeVerdict("limit", aim_deg, tuple(grid), _cummax(degs.tolist()),
+                           float(ramp.start_pps), float(ramp.high_pps), way, executions)
+
+
+def _ramp_stops(ramp: AlinkRamp, rot: Rotors) -> tuple[np.ndarray, np.ndarray, int]:
+    """The stops at once from every pulse of `ramp` (not its cruise): (the speed of each
+    stop judged, its worst angle over the rows, the executions)."""
+    found = motion_angles(ramp, "search", rot)
+    on_ramp = found.x <= ramp.ramp_pulses
+    stage = np.searchsorted(np.cumsum(ramp.pulses), found.x[on_ramp], side="left")
+    return (ramp.speeds_pps[stage], found.deg[:, on_ramp].max(axis=0, initial=0.0),
+            found.deg.size)
+
+
+def change_envelope(ramp: AlinkRamp, rot: Rotors, aim_deg: float) -> EnvelopeVerdict:
+    """CHANGE_SPD from the settled cruise at H to each speed above L up to the cap, under
+    both readings the manual leaves open (it says only 「駆動中の軸速度を変更します」): (a)
+    at once, (b) along the unit's steps at UP_TIME; then the cruise at the new speed and
+    the decel along the ramp from it (a counted move's end). Not in S-curve (「S字駆動時は
+    変更できません」: a Nak)."""
+    high = float(ramp.high_pps)
+    if ramp.shape == "s_curve":
+        return EnvelopeVerdict("change-speed", aim_deg, (high,), (0.0,), high, high, 1, 0,
+                               "the unit refuses them in S-curve (a Nak): none to judge")
+    cap = change_cap_pps(ramp)
+    grid = [s for s in _grid(ramp, float(ramp.start_pps), cap) if s > ramp.start_pps]
+    if high not in grid:
+        grid.append(high)
+        grid.sort()
+    settle = _settle(rot, [high, *grid])
+    up = _stages(ramp)
+    motions = []
+    for s, dwell in zip(grid, settle[1:], strict=True):
+        to = build_ramp(ramp.start_pps, s, ramp.accel_pps2, ramp.multiplier)
+        down = _stages(to)[::-1]
+        head = [*up, (_rate(high), settle[0])]
+        stepped = ([st for st in _stages(to) if RAMP_HZ / st[0] >= high - 1e-9] if s > high
+                   else [st for st in _stages(ramp)[::-1] if s < RAMP_HZ / st[0] < high])
+        for between in ([], stepped):
+            motions.append([*head, *between, (_rate(s), dwell), *down])
+    deg, row = _run(motions, rot)
+    pair = deg.reshape(len(grid), 2).max(axis=1)
+    k = int(np.argmax(deg))
+    return EnvelopeVerdict("change-speed", aim_deg, tuple(grid), tuple(pair.tolist()),
+                           high, cap, int(rot.direction[int(row[k])]), len(motions) * len(rot))

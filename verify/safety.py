@@ -216,7 +216,7 @@ def judge_safety(table: FreeCurveTable | InitTable | AlinkRamp, motor: Motor, *,
     if not isinstance(table, FreeCurveTable | InitTable):  # the A-Link unit's ramp
         return _judge_ramp(table, motor, pulses=pulses, samples=samples, seed=seed,
                            aim_deg=aim_deg, load_angle=load_angle, homing=homing,
-                           strict=strict)
+                           strict=strict, commands=commands)
     families = judged_families(commands)  # an unknown command is refused before any work
     stages = as_free_curve(table)
     moves = None if pulses is None else tuple(sorted({int(n) for n in pulses}))
@@ -248,11 +248,15 @@ def judge_safety(table: FreeCurveTable | InitTable | AlinkRamp, motor: Motor, *,
 
 def _judge_ramp(ramp: AlinkRamp, motor: Motor, *, pulses: Iterable[int] | None,
                 samples: int, seed: int, aim_deg: float, load_angle: bool,
-                homing: HomingSettings | None, strict: bool) -> SafetyVerdict:
-    """`judge_safety` on the A-Link unit's ramp (verify.alink_safety)."""
+                homing: HomingSettings | None, strict: bool,
+                commands: Iterable[str] | None = None) -> SafetyVerdict:
+    """`judge_safety` on the A-Link unit's ramp (verify.alink_safety); `commands` names
+    the unit's commands (`stepramp alink command`) whose families are judged."""
     from profiles.motor.tolerance import corners, worst_case_motor
 
     from . import alink_safety as al
+
+    families = al.alink_families(commands)  # an unknown command is refused before any work
 
     moves = None if pulses is None else tuple(sorted({int(n) for n in pulses}))
     criterion = al.ramp_criterion(ramp, worst_case_motor(motor) if motor.tolerances
@@ -278,7 +282,7 @@ def _judge_ramp(ramp: AlinkRamp, motor: Motor, *, pulses: Iterable[int] | None,
                        box.worst_where, box.first_unstable_pulses, box.slips,
                        box.executions, box.sample_failures)
     return SafetyVerdict(moves, aim_deg, tuple(criterion), la, box, resonance,
-                         tuple(al.family_verdicts(ramp, homing, rot, aim_deg)))
+                         tuple(al.family_verdicts(ramp, homing, rot, aim_deg, families)))
 
 
 def _ramp_box(ramp: AlinkRamp, motor: Motor, found: Any, corner: LoadAngle, n_corners: int,

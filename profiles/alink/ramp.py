@@ -71,6 +71,7 @@ class AlinkRamp:
     pulses: np.ndarray = field(repr=False)
     triangle_avoidance: bool = False
     steps: int = 0                    # the unit's speed steps (K) the stages stand for
+    max_pps: int = 0                  # MAX_SPEED (0: not set): a speed change's cap
 
     kind = "alink_ramp"
 
@@ -95,7 +96,8 @@ class AlinkRamp:
     def key(self) -> tuple[object, ...]:
         """The values a verdict depends on (for remembering one)."""
         return (self.shape, self.start_pps, self.high_pps, self.accel_pps2,
-                self.triangle_avoidance, self.pulses.tobytes(), self.speeds_pps.tobytes())
+                self.triangle_avoidance, self.max_pps, self.pulses.tobytes(),
+                self.speeds_pps.tobytes())
 
     def describe(self) -> str:
         shape = "S-curve" if self.shape == "s_curve" else "linear"
@@ -109,12 +111,13 @@ def ramp_of(settings: AlinkSettings) -> AlinkRamp:
     """The ramp the unit runs with `settings` (module doc: the model)."""
     return build_ramp(settings.start_pps, settings.high_pps, settings.accel_pps2,
                       settings.multiplier, "s_curve" if settings.s_curve else "linear",
-                      triangle_avoidance=settings.triangle_avoidance)
+                      triangle_avoidance=settings.triangle_avoidance,
+                      max_pps=settings.max_pps)
 
 
 def build_ramp(start_pps: float, high_pps: float, accel_pps2: float, multiplier: int,
-               shape: RampShape = "linear", *, triangle_avoidance: bool = False
-               ) -> AlinkRamp:
+               shape: RampShape = "linear", *, triangle_avoidance: bool = False,
+               max_pps: int = 0) -> AlinkRamp:
     """The ramp from `start_pps` to `high_pps` in speed steps of `multiplier` at
     `accel_pps2` (the average for the S-curve)."""
     if not 0 < start_pps <= high_pps:
@@ -125,7 +128,7 @@ def build_ramp(start_pps: float, high_pps: float, accel_pps2: float, multiplier:
     if k_steps == 0:
         empty = np.zeros(0)
         return AlinkRamp(shape, start_pps, high_pps, accel_pps2, multiplier, empty,
-                         empty.astype(np.int64), triangle_avoidance, 0)
+                         empty.astype(np.int64), triangle_avoidance, 0, max_pps)
     k = np.arange(k_steps + 1, dtype=float)
     v = start_pps + k[:-1] * multiplier
     top = start_pps + k_steps * multiplier
@@ -144,7 +147,7 @@ def build_ramp(start_pps: float, high_pps: float, accel_pps2: float, multiplier:
         v = moved / np.maximum(counts, 1)   # each pulse at its own step's speed, averaged
     kept = counts > 0
     return AlinkRamp(shape, start_pps, high_pps, accel_pps2, multiplier, v[kept],
-                     counts[kept], triangle_avoidance, k_steps)
+                     counts[kept], triangle_avoidance, k_steps, max_pps)
 
 
 def _step_pulses(t: list[float], v: list[float]) -> list[int]:

@@ -386,6 +386,8 @@ FILE_COMMANDS: list[tuple[str, str, list[str]]] = [
                                 "OUT"]),
     ("check --motor", "alink-json", ["check", "FILE", "--motor", "nema17-1600",
                                      "--samples", "0"]),
+    ("check --motor", "alink-hex", ["check", "FILE", "--motor", "nema17-1600",
+                                    "--samples", "0", "--commands", "stop,limit"]),
     ("show", "table-free", ["show", "FILE", "--format", "json"]),
     ("show", "table-init", ["show", "FILE", "--format", "csv", "-o", "OUT"]),
     ("show --motor", "motor", ["show", "EXAMPLE", "--motor", "FILE"]),

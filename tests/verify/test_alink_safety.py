@@ -111,3 +111,72 @@ def test_decel_stop_against_the_oracle() -> None:
         speeds = unit_ramp[:x] + unit_ramp[:stage_end][::-1]
         found = motion_angles(ramp, "stop", nominal_rotors(load_motor(motor)), [x])
         assert float(found.deg.max()) == pytest.approx(oracle_deg(motor, speeds), abs=0.5)
+
+
+def test_immediate_stops_report_the_fastest_speed_within_the_aim() -> None:
+    """STOP 28 (and EL) from every pulse: safe when a stop from L is, its envelope the
+    fastest speed whose stops (and every slower one's) stay within the aim, and a stop
+    from H still reported; the worst at a speed is the worst of the stops at once up to
+    it on the kernel."""
+    from verify.alink_safety import motion_angles, nominal_rotors, stop_envelope
+
+    motor = load_motor(resolve("nema17-1600"))
+    ramp = build_ramp(800, 48000, 147_059.0, 20, "linear")
+    rot = nominal_rotors(motor)
+    v = stop_envelope(ramp, rot, 75.0)
+    assert v.safe and v.within_aim and v.top_deg > 90
+    fast = v.reach(75.0)
+    assert fast is not None and ramp.start_pps <= fast < ramp.high_pps
+    assert v.top_deg == pytest.approx(float(motion_angles(ramp, "search", rot).deg.max()))
+    env = v.to_json()["envelope"]
+    assert env["fastest_pps"] == fast and env["top_pps"] == 48000
+    above = [d for s, d in zip(v.speeds_pps, v.degs, strict=True) if s > fast]
+    assert above and above[0] > 75.0
+
+
+def test_change_speed_is_refused_in_s_curve_and_judged_both_readings_in_linear() -> None:
+    """CHANGE_SPD: none to judge in S-curve (a Nak); in linear the change from the cruise
+    at H to each speed up to the cap (2 × H without MAX_SPEED, else MAX_SPEED), the worse
+    of at once and stepped."""
+    from verify.alink_safety import change_envelope, nominal_rotors
+
+    motor = load_motor(resolve("nema17-1600"))
+    rot = nominal_rotors(motor)
+    s_curve = change_envelope(build_ramp(800, 4000, 20_000.0, 2, "s_curve"), rot, 75.0)
+    assert s_curve.safe and s_curve.note and s_curve.executions == 0
+    linear = change_envelope(build_ramp(800, 4000, 20_000.0, 2), rot, 75.0)
+    assert max(linear.speeds_pps) == 8000 and linear.use_pps == 4000
+    capped = change_envelope(build_ramp(800, 4000, 20_000.0, 2, max_pps=5000), rot, 75.0)
+    assert max(capped.speeds_pps) == 5000
+    j = linear.to_json()["envelope"]
+    assert j["lowest_pps"] is not None and j["lowest_pps"] <= 4000 <= j["fastest_pps"]
+
+
+def test_commands_narrow_the_units_families() -> None:
+    """--commands with the unit's command names: the moves alone, STOP's two forms, and an
+    unknown name refused before any work."""
+    from profiles.errors import FormatError
+
+    motor = load_motor(resolve("nema17-1600"))
+    ramp = build_ramp(800, 4000, 20_000.0, 2)
+    assert judge_safety(ramp, motor, samples=0, commands=["move-a"]).commands == ()
+    names = [n for n, _ in judge_safety(ramp, motor, samples=0, commands=["stop"]).commands]
+    assert names == ["decel-stop", "stop"]
+    every = [n for n, _ in judge_safety(ramp, motor, samples=0).commands]
+    assert every == ["decel-stop", "stop", "change-speed", "limit"]
+    with pytest.raises(FormatError, match="accel"):
+        judge_safety(ramp, motor, commands=["accel"])
+
+
+def test_limit_runs_count_every_slower_run_and_fail_from_a_fast_start() -> None:
+    """LIMIT at s: the worst of its runs up to s (cumulative); a start speed far above the
+    motor's self-start speed leaves no safe limit run (EL stops at once from L)."""
+    from verify.alink_safety import limit_envelope, nominal_rotors
+
+    motor = load_motor(resolve("nema17-1600"))
+    rot = nominal_rotors(motor)
+    ok = limit_envelope(build_ramp(800, 4000, 20_000.0, 2), rot, 75.0)
+    assert list(ok.degs) == sorted(ok.degs) and ok.safe
+    bad = limit_envelope(build_ramp(20_000, 22_000, 20_000.0, 20), rot, 75.0)
+    assert not bad.safe and bad.findings()[0].rule == "alink-command-envelope"
+    assert bad.findings()[0].severity == "error"

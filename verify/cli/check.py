@@ -45,7 +45,9 @@ def add_subparser(sub: Any) -> None:
                    help="with --motor: the motion commands the machine runs, by code or name "
                         "(82,81 or accel,decel-stop): besides every move (82), the verdict "
                         "judges a decel stop (81) at every pulse of the ramp under every "
-                        "reading; leave out a command the machine never uses (default: all)")
+                        "reading; leave out a command the machine never uses (default: all); "
+                        "for A-Link settings the unit's commands (move-a,stop,change-speed,"
+                        "limit,home…)")
     c.add_argument("--no-physics", dest="physics", action="store_false",
                    help="with --motor: skip the load-angle judge (the criterion only)")
     add_sample_options(c, "with --motor: ")
@@ -77,9 +79,17 @@ def _do_check(args: argparse.Namespace) -> int:
     # silently not run and the table pass).
     motor = load_motor(args.motor) if args.motor is not None else None
     if args.commands is not None:
+        from verify.alink_safety import COMMAND_FAMILIES, alink_families
         from verify.command_verdicts import command_names
 
-        command_names(args.commands)  # an unknown one: one line, before any file is read
+        try:  # an unknown one: one line, before any file is read
+            command_names(args.commands)
+        except FormatError as e:
+            try:  # A-Link settings files take the unit's command names
+                alink_families(args.commands)
+            except FormatError:
+                raise FormatError(f"{e}; or A-Link commands ("
+                                  + ", ".join(sorted(COMMAND_FAMILIES)) + ")") from None
     with progress_bar("check over the tolerance box", unit="part") as progress:
         results = [check_file(path, motor, args.extck_hz, pulses=args.pulses,
                               physics=args.physics, samples=args.samples, seed=args.seed,

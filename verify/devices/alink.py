@@ -86,7 +86,8 @@ def ramp_of_commands(commands: Sequence[Command]) -> tuple[Any, Any, str | None]
     mode = last[Cmd.MODE].para if Cmd.MODE in last else MODE_DEFAULT
     ramp = build_ramp(run.start_pps, run.high_pps, run.accel_pps2, run.multiplier,
                       "s_curve" if mode & MODE_S_CURVE else "linear",
-                      triangle_avoidance=bool(mode & MODE_TRIANGLE_AVOID))
+                      triangle_avoidance=bool(mode & MODE_TRIANGLE_AVOID),
+                      max_pps=last[Cmd.MAX_SPEED].para if Cmd.MAX_SPEED in last else 0)
     homing = None
     if {Cmd.OL_SPEED, Cmd.OH_SPEED, Cmd.O_UPTIME} <= set(last) and \
             last[Cmd.O_UPTIME].func == FUNC_ACCEL_PARA and \
@@ -111,12 +112,12 @@ def safety_findings(commands: Sequence[Command], options: CheckOptions, notes: l
     verdict = judge_safety(ramp, options.motor, pulses=options.pulses,
                            samples=options.samples, seed=options.seed, strict=options.strict,
                            load_angle=options.physics, homing=homing,
-                           progress=options.progress)
+                           progress=options.progress, commands=options.commands)
     details["safety"] = verdict.to_json()
     notes.append(f"the unit's ramp: {ramp.describe()}")
     if options.commands is not None:
-        notes.append("--commands names PPMC-312 motion commands: the unit's decel stops "
-                     "(STOP 31) and homing legs are judged whatever it says")
+        notes.append("--commands: the unit's command families judged: " + (", ".join(
+            name for name, _ in verdict.commands) or "the moves alone"))
     notes.extend(verdict.notes())
     return verdict.findings()
 
@@ -137,10 +138,21 @@ def settings_judge(motor: Motor, *, aim_deg: float) -> SettingsJudge:
         rules = {f.rule for f in v.criterion}
         worst, speed, what = _worst_speed(ramp, v)
         near_start = speed <= ramp.start_pps + START_SHARE * (ramp.high_pps - ramp.start_pps)
-        start = "stall-start-speed" in rules or (not rules and near_start)
+        # a command family past the aim at its use from L (a stop at once, a limit run)
+        from_start = any(not c.within_aim and name in ("stop", "limit")
+                         for name, c in v.commands)
+        start = "stall-start-speed" in rules or from_start or (not rules and near_start)
         return Judgement(v.within_aim and v.safe, worst, "start" if start else "ramp", what)
 
     return judged
+
+
+def sync_judge_for(motor: Motor) -> SettingsJudge:
+    """The judge sync's time planner tightens each A-Link axis on
+    (`profiles.alink.sync.plan_sync`): `settings_judge` at the 75° aim."""
+    from verify.safety import AIM_DEG
+
+    return settings_judge(motor, aim_deg=AIM_DEG)
 
 
 START_SHARE = 0.3   # a worst angle peaking below L + this × (H − L) is the start speed's

@@ -14,8 +14,14 @@ from ..devices import get
 
 def plan_axes(axes: AxesFile) -> Any:
     """The synchronised plan for an axes file (its device and mode)."""
-    sync = get(axes.device).sync_module()
+    device = get(axes.device)
+    sync = device.sync_module()
     sync.check_axis_names([a.name for a in axes.axes])
+    # a device whose planner tightens on the one verdict gives the judge of each motor
+    judge_for = getattr(device.judge_module(), "sync_judge_for", None)
+    if judge_for is not None:
+        plan_tightened: Any = sync.plan_sync  # the A-Link's takes the judge
+        return plan_tightened(motor_axes(axes), axes.mode, judge_for)
     return sync.plan_sync(motor_axes(axes), axes.mode)
 
 

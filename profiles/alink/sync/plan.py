@@ -28,7 +28,7 @@ deviation of the modelled joint path.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
@@ -49,6 +49,7 @@ from .. import (
     multiplier,
     plan_settings,
 )
+from ..planner import SettingsJudge, tighten_settings
 
 SPEED_POINTS = 400          # an axis's modelled speed: between this many of its pulses
 LINE_HIGH_CANDIDATES = 24   # leader high speeds tried (the fastest multiples)
@@ -153,9 +154,10 @@ def _least_para(motor: Motor, v0: int, vh: int, m: int) -> int | None:
     return para if para <= PARA_RANGE[m][1] else None
 
 
-def slow_to(motor: Motor, pulses: int, target_s: float, fastest: AlinkSettings
-            ) -> AlinkSettings:
-    """Settings whose move lasts closest to `target_s` without exceeding it (see module)."""
+def slow_to(motor: Motor, pulses: int, target_s: float, fastest: AlinkSettings, *,
+            start_cap: int | None = None) -> AlinkSettings:
+    """Settings whose move lasts closest to `target_s` without exceeding it (see module);
+    `start_cap`: a start speed no higher (a tightened axis's)."""
     best: tuple[float, AlinkSettings] = (target_s - move_time_s(fastest, pulses).duration_s,
                                          fastest)
     m_top = fastest.multiplier
@@ -163,7 +165,8 @@ def slow_to(motor: Motor, pulses: int, target_s: float, fastest: AlinkSettings
         m = multiplier(vh)
         if vh % m or m > m_top:
             continue
-        v0 = min(int(min(motor.start_pps, motor.jump_pps)) // m * m, vh)
+        v0 = min(int(min(motor.start_pps, motor.jump_pps, start_cap or math.inf)) // m * m,
+                 vh)
         if v0 < m:
             continue
         least = _least_para(motor, v0, vh, m)
@@ -191,20 +194,48 @@ def slow_to(motor: Motor, pulses: int, target_s: float, fastest: AlinkSettings
     return best[1]
 
 
-def plan_time_sync(axes: Sequence[tuple[str, Motor, int]]) -> AlinkSyncPlan:
-    """Both axes end together: the slower keeps its fastest settings."""
-    plans = [plan_settings(m, pulses=abs(p)) for _, m, p in axes]
-    times = [move_time_s(pl.table, abs(p)).duration_s
-             for pl, (_, _, p) in zip(plans, axes, strict=True)]
+JudgeFor = Callable[[Motor], SettingsJudge]   # a motor's load-angle judge
+TIGHTEN_ROUNDS = 4   # a tightened follower that ends late makes a new target, this often
+
+
+def plan_time_sync(axes: Sequence[tuple[str, Motor, int]],
+                   judge_for: JudgeFor | None = None, aim_deg: float = 75.0
+                   ) -> AlinkSyncPlan:
+    """Both axes end together: the slower keeps its fastest settings. With `judge_for`
+    (a motor's load-angle judge, `tighten_settings`' levers), each axis's fastest settings
+    are tightened first, and a follower slowed to the target that the judge still finds
+    past the aim is tightened too; when it then ends later, that is the new target."""
+    fastest = [plan_settings(m, pulses=abs(p)).table for _, m, p in axes]
+    judges = [None if judge_for is None else judge_for(m) for _, m, _ in axes]
+
+    def tight(i: int, s: AlinkSettings) -> AlinkSettings:
+        judge = judges[i]
+        if judge is None or judge(s).within_aim:
+            return s
+        _, motor, p = axes[i]
+        return tighten_settings(motor, s, judge, aim_deg=aim_deg, pulses=abs(p)).settings
+
+    fastest = [tight(i, s) for i, s in enumerate(fastest)]
+    times = [move_time_s(s, abs(p)).duration_s
+             for s, (_, _, p) in zip(fastest, axes, strict=True)]
     target = max(times)
+    chosen = list(fastest)
+    for i, ((_, motor, p), t) in enumerate(zip(axes, times, strict=True)):
+        if t >= target:
+            continue
+        base = fastest[i]
+        for _ in range(TIGHTEN_ROUNDS):  # slowed, judged, tightened, slowed from there
+            slowed = slow_to(motor, abs(p), target, base,
+                             start_cap=None if judges[i] is None else base.start_pps)
+            chosen[i] = tight(i, slowed)
+            if chosen[i] == slowed or move_time_s(chosen[i], abs(p)).duration_s > target:
+                break
+            base = chosen[i]
     out = []
-    for (name, motor, p), pl, t in zip(axes, plans, times, strict=True):
-        if t < target:
-            s = slow_to(motor, abs(p), target, pl.table)
-            how = (f"high {s.high_pps} pps (fastest {pl.table.high_pps}), para "
-                   f"{s.accel_para} (fastest {pl.table.accel_para})")
-        else:
-            s, how = pl.table, "slowest axis: fastest settings"
+    for (name, motor, p), s, best, t in zip(axes, chosen, fastest, times, strict=True):
+        how = (f"high {s.high_pps} pps (fastest {best.high_pps}), para {s.accel_para} "
+               f"(fastest {best.accel_para})" if s != best else
+               "slowest axis: fastest settings")
         out.append(AlinkAxisMove(name, p, motor, s, t, how))
     return AlinkSyncPlan("time", tuple(out), f"time: both axes end at {target * 1e3:.6g} ms")
 
@@ -269,11 +300,13 @@ def plan_line_sync(axes: Sequence[tuple[str, Motor, int]]) -> AlinkSyncPlan:
     return AlinkSyncPlan("line", tuple(out), f"line: modelled deviation {dev:.4g} pulses")
 
 
-def plan_sync(axes: Sequence[tuple[str, Motor, int]], mode: Mode) -> AlinkSyncPlan:
+def plan_sync(axes: Sequence[tuple[str, Motor, int]], mode: Mode,
+              judge_for: JudgeFor | None = None) -> AlinkSyncPlan:
+    """The two axes' settings for `mode`; `judge_for` (time mode): tightened on it."""
     if len(axes) > 2:
         raise AlinkSyncError(f"an A-Link ALUM unit has two axes, not {len(axes)}")
     if mode == "time":
-        return plan_time_sync(axes)
+        return plan_time_sync(axes, judge_for)
     if mode == "line":
         return plan_line_sync(axes)
     raise AlinkSyncError(f"mode: {echo(mode)} is not 'time' or 'line'")

@@ -286,3 +286,22 @@ def test_check_motor_judges_the_commands_the_table_was_planned_for(
     families, rules, text = judged(planned, "--commands", "82")
     assert families == [] and "commands-narrower" in rules
     assert "warning [commands-narrower]: planned for the commands 81,82, judged for 82" in text
+
+
+def test_check_commands_takes_the_alink_units_names(tmp_path: Path,
+                                                    capsys: pytest.CaptureFixture[str]
+                                                    ) -> None:
+    """An A-Link settings file: --commands names the unit's commands and narrows its
+    families (the JSON "commands" object); a name neither device knows is exit 2, naming
+    both lists."""
+    target = tmp_path / "s.alink.txt"
+    assert run(capsys, "alink", "settings", "--start-pps", "800", "--high-pps", "4000",
+               "--accel-ms-per-kpps", "50", "-o", target)[0] == 0
+    code, out, _ = run(capsys, "check", target, "--motor", "nema17-1600", "--samples", "0",
+                       "--commands", "move-a,limit", "--format", "json")
+    assert code == 0
+    commands = json.loads(out)["files"][0]["safety"]["commands"]
+    assert set(commands) == {"limit"}
+    assert commands["limit"]["envelope"]["fastest_pps"] >= 800
+    code, _, err = run(capsys, "check", target, "--motor", "nema17-1600", "--commands", "jog")
+    assert code == 2 and "A-Link commands" in err and "move-a" in err
