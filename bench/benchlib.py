@@ -108,8 +108,8 @@ def forget() -> None:
     """Forget what the library remembers between calls (each table's move model, the
     verdicts judged, moves' and decel stops', the plans planned), so a repeated call costs
     what a first one does."""
-    from profiles.ppmc312.execution import forget_tables
     from profiles.ppmc312.load_angle import forget_verdicts
+    from profiles.ppmc312.move_batch import forget_tables
     from profiles.ppmc312.planner.free_curve import forget_plans
     from profiles.ppmc312.stops import forget_stop_verdicts
 

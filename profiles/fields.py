@@ -213,7 +213,7 @@ class Frame:
     name: str
     fields: tuple[FieldT, ...]
     _fixed: int = field(init=False, repr=False, compare=False)
-    _plan: _Plan | None = field(init=False, repr=False, compare=False)
+    _layout: _Layout | None = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         for f in self.fields[:-1]:
@@ -221,7 +221,7 @@ class Frame:
                 raise TypeError(f"{self.name}: an Array must be the last field")
         fixed = sum(f.size for f in self.fields if not isinstance(f, Array))
         object.__setattr__(self, "_fixed", fixed)
-        object.__setattr__(self, "_plan", _compile(self))
+        object.__setattr__(self, "_layout", _compile(self))
 
     @property
     def size(self) -> int | None:
@@ -230,10 +230,10 @@ class Frame:
 
     def encode(self, values: Mapping[str, Any] | None = None, /, **kw: Any) -> bytes:
         vals: Mapping[str, Any] = dict(values or {}, **kw) if kw else (values or {})
-        plan = self._plan
-        if plan is not None:
+        layout = self._layout
+        if layout is not None:
             try:
-                return plan.encode(vals)
+                return layout.encode(vals)
             except _Invalid:
                 pass  # the interpreter below raises the precise, documented error
         return self._encode_slow(vals)
@@ -267,9 +267,9 @@ class Frame:
     @property
     def item(self) -> UInt:
         """The item of the frame's trailing Array."""
-        plan = self._plan
-        if plan is not None and plan.array is not None:
-            return plan.array.item
+        layout = self._layout
+        if layout is not None and layout.array is not None:
+            return layout.array.item
         last = self.fields[-1]
         if not isinstance(last, Array):
             raise TypeError(f"{self.name} has no Array")
@@ -295,30 +295,30 @@ class Frame:
 
     def encode_fixed(self, values: Mapping[str, Any]) -> bytes:
         """The fields before the trailing Array: a prefix to put before packed items."""
-        plan = self._plan
-        if plan is None or plan.array is None or plan.checksum is not None:
+        layout = self._layout
+        if layout is None or layout.array is None or layout.checksum is not None:
             raise TypeError(f"{self.name}: no compiled prefix")
-        return plan.encode_fixed(values)
+        return layout.encode_fixed(values)
 
     def decode_fixed(self, prefix: bytes) -> dict[str, Any] | None:
         """The fields before the trailing Array, from exactly those bytes; None when they
         do not decode (then `decode` of the whole frame says why)."""
-        plan = self._plan
-        if plan is None or plan.array is None or plan.checksum is not None:
+        layout = self._layout
+        if layout is None or layout.array is None or layout.checksum is not None:
             raise TypeError(f"{self.name}: no compiled prefix")
-        if len(prefix) != plan.struct.size:
+        if len(prefix) != layout.struct.size:
             return None
         try:
-            return plan.decode_prefix(prefix)
+            return layout.decode_prefix(prefix)
         except _Invalid:
             return None
 
     def decode(self, data: bytes, *, block: int | None = None) -> dict[str, Any]:
         data = bytes(data)
-        plan = self._plan
-        if plan is not None:
+        layout = self._layout
+        if layout is not None:
             try:
-                return plan.decode(data)
+                return layout.decode(data)
             except _Invalid:
                 pass  # the interpreter below raises the precise, documented error
         try:
@@ -467,7 +467,7 @@ def _unpack_run(item: UInt, data: bytes, offset: int) -> list[int]:
     return values
 
 
-class _Plan:
+class _Layout:
     """The compiled form of one Frame."""
 
     def __init__(self, frame: Frame) -> None:
@@ -655,8 +655,8 @@ class _Plan:
         return out
 
 
-def _compile(frame: Frame) -> _Plan | None:
+def _compile(frame: Frame) -> _Layout | None:
     try:
-        return _Plan(frame)
+        return _Layout(frame)
     except TypeError:
         return None  # a layout the compiler does not know: the interpreter serves it

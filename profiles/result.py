@@ -16,7 +16,7 @@ from typing import Any, Generic, Protocol, TypeVar
 T = TypeVar("T")
 
 
-class Clock(Protocol):
+class TimeBase(Protocol):
     """What a plan result says of the clock a device's table runs on (the PPMC-312's
     `profiles.ppmc312.clock.Clock` is one): the shared noun knows no device."""
 
@@ -47,7 +47,7 @@ class PlanResult(Generic[T]):
     binds: str
     info: str
     pulses: int | None = None
-    clock: Clock | None = None
+    clock: TimeBase | None = None
     solve_s: float = 0.0
     warnings: tuple[str, ...] = ()
     extras: Mapping[str, Any] = field(default_factory=dict, hash=False)

@@ -35,13 +35,12 @@ from profiles.alink.ramp import (
     parts,
     segments,
 )
+from profiles.findings import Finding
 from profiles.motor import Motor
 from profiles.motor.angles import PEAK_DEG
 from profiles.motor.rotor import Rotors, rotors
-from profiles.ppmc312.execution import MoveBatch
 from profiles.ppmc312.load_angle import dwell_sampling, judge, refine, sample_grid
-
-from .findings import Finding
+from profiles.ppmc312.move_batch import MoveBatch
 
 S_CURVE_PEAK = math.pi / 2   # the 1 − cos law's peak over its average acceleration
 

@@ -39,6 +39,7 @@ from functools import partial
 from itertools import pairwise
 
 from profiles.errors import FormatError
+from profiles.findings import Finding
 from profiles.ppmc312.clock import MAX_OUTPUT_PPS
 from profiles.ppmc312.limits import (
     MIN_STAGE_TICKS,
@@ -49,8 +50,6 @@ from profiles.ppmc312.limits import (
     STAGES_MIN,
 )
 from profiles.ppmc312.table import FreeCurveTable, InitTable, Table
-
-from .findings import Finding
 
 STOP_SPEED_WARN_PPS = 62_500.0   # 8 MHz / 0x80: the chip over-runs at the stop rate
 SHORT_STAGE_FRACTION = 0.1       # a stage under 1/10 of its neighbours' mean duration

@@ -28,9 +28,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from profiles.findings import Finding
 from profiles.motor.angles import PEAK_DEG
-
-from .findings import Finding
 
 if TYPE_CHECKING:
     from profiles.motor import Motor

@@ -26,8 +26,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from profiles.errors import DecodeError
-
-from .findings import Finding
+from profiles.findings import Finding
 
 if TYPE_CHECKING:
     from profiles.fields import Frame

@@ -26,6 +26,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from profiles.errors import FormatError, echo
+from profiles.findings import Finding
 from profiles.motor import Motor
 from profiles.motor.angles import PEAK_DEG
 from profiles.ppmc312.table import FreeCurveTable
@@ -33,7 +34,6 @@ from profiles.progress import Progress
 
 from .command_families import CODES as ENVELOPE_FAMILIES
 from .command_families import family_judge
-from .findings import Finding
 
 DECEL_STOP = "decel-stop"
 ACCEL = "accel"   # the move (82): always judged, the table's own verdict

@@ -53,7 +53,7 @@ class Comparison:
 
     @property
     def criterion(self) -> list[Any]:
-        """The criterion's findings on the move (verify.findings.Finding)."""
+        """The criterion's findings on the move (profiles.findings.Finding)."""
         return list(self.move_verdict.criterion)
 
     @property

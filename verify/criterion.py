@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from profiles.findings import Finding
 from profiles.motor import Motor
 from profiles.ppmc312.criterion import (
     REL_TOL,
@@ -26,8 +27,6 @@ from profiles.ppmc312.criterion import (
     length_problems,
 )
 from profiles.ppmc312.table import FreeCurveTable
-
-from .findings import Finding
 
 
 def _side(table: FreeCurveTable, counts: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:

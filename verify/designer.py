@@ -219,7 +219,7 @@ class Design:
 
 
 @dataclass(frozen=True)
-class Verdict:
+class DesignVerdict:
     """What the designer says of one design: `level` "safe", "past-aim" (stable, but the
     load angle is past the aim) or "unsafe"; `text` one line saying why."""
 
@@ -231,32 +231,32 @@ class Verdict:
         return self.level in ("safe", "past-aim")
 
 
-def verdict(result: Design) -> Verdict:
+def verdict(result: Design) -> DesignVerdict:
     """The verdict on `result`: the one safety verdict (`verify.safety.judge_safety`) over
     every move the table can run, as `stepramp check --motor` gives it. Every view shows
     this one function's answer."""
     v = result.verdict
     if result.final and not result.complete:
         said = verdict(dataclasses.replace(result, judged=None))
-        return Verdict(said.level, f"{said.text}; {JUDGING}")
+        return DesignVerdict(said.level, f"{said.text}; {JUDGING}")
     if not result.final:
-        return Verdict("tightening", f"{TIGHTENING} a first table by the stall criterion "
+        return DesignVerdict("tightening", f"{TIGHTENING} a first table by the stall criterion "
                                      "alone, not yet judged for the load angle: wait for the "
                                      "final table")
     if v is None:
         if result.margins["min"] < 1:
-            return Verdict("unsafe", f"UNSAFE: stall margin {result.margins['min']:.3f} < 1")
-        return Verdict("safe", "safe by the stall criterion (load angle not judged)")
+            return DesignVerdict("unsafe", f"UNSAFE: stall margin {result.margins['min']:.3f} < 1")
+        return DesignVerdict("safe", "safe by the stall criterion (load angle not judged)")
     la = v.load_angle
     worst = "" if la is None else (f"worst load angle {la.worst_deg:.1f}° el. on a move of "
                                    f"{la.worst_pulses} pulses")
     if not v.safe:
-        return Verdict("unsafe", f"UNSAFE ({', '.join(v.failed)}): {worst} "
+        return DesignVerdict("unsafe", f"UNSAFE ({', '.join(v.failed)}): {worst} "
                                  f"(peak {PEAK_DEG:g}°)".replace(":  (", ": ("))
     if not v.within_aim:
-        return Verdict("past-aim", f"PAST THE AIM: {worst} > aim {v.aim_deg:g}° "
+        return DesignVerdict("past-aim", f"PAST THE AIM: {worst} > aim {v.aim_deg:g}° "
                                    f"(stable below {PEAK_DEG:g}°)")
-    return Verdict("safe", f"SAFE over every move: {worst} ≤ aim {v.aim_deg:g}°")
+    return DesignVerdict("safe", f"SAFE over every move: {worst} ≤ aim {v.aim_deg:g}°")
 
 
 def loaded_motor(motor: Motor, settings: Settings) -> Motor:
@@ -905,7 +905,7 @@ def _escape(text: str) -> str:
 
 
 __all__: Sequence[str] = (
-    "TIGHTENING", "ControlSpec", "Design", "DesignFigure", "Designer", "Settings", "Verdict",
-    "control_specs", "design", "design_files", "design_stem", "design_steps", "designer",
-    "first_design", "judged_in_full", "loaded_motor", "render_figure", "settings_from",
-    "verdict", "write_design")
+    "TIGHTENING", "ControlSpec", "Design", "DesignFigure", "DesignVerdict", "Designer",
+    "Settings", "control_specs", "design", "design_files", "design_stem", "design_steps",
+    "designer", "first_design", "judged_in_full", "loaded_motor", "render_figure",
+    "settings_from", "verdict", "write_design")

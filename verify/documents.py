@@ -19,8 +19,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from profiles.errors import FormatError
+from profiles.findings import Finding
 
-from .findings import Finding
 from .report import FileResult
 
 if TYPE_CHECKING:

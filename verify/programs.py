@@ -21,9 +21,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
+from profiles.findings import Finding
 from profiles.motor.angles import AIM_DEG, PEAK_DEG
-
-from .findings import Finding
 
 if TYPE_CHECKING:
     from profiles.motor import Motor

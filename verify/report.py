@@ -6,8 +6,8 @@
   no finding already says, then one summary line. A rule with more than
   `FOLD_OVER` findings in one file is summarised in up to three lines: the count
   and the stages (the first few ranges), the worst finding (the largest need /
-  capability, `findings.excess`) and the one with the shortest move
-  (`findings.move_pulses`), or the first when the rule has no such numbers;
+  capability, `excess`) and the one with the shortest move
+  (`move_pulses`), or the first when the rule has no such numbers;
   `verbose` lists every finding in the order the checks found them.
 - json: `{"files": [{"path", "ok", "findings": [...]}]}`, each finding as
   `Finding.to_json()` (chip_code as "0x18" or null); "error" only on files
@@ -20,15 +20,15 @@
 
 from __future__ import annotations
 
+import math
 import re
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from profiles.errors import FormatError, echo
+from profiles.findings import Finding
 from profiles.reading import display_path, json_text
-
-from .findings import Finding, excess, move_pulses
 
 FORMATS: tuple[str, ...] = ("text", "json", "junit")
 FOLD_OVER = 3       # more findings of one rule in one file than this: summarised (text)
@@ -207,3 +207,36 @@ def _one_line(s: str) -> str:
 
 def _s(n: int) -> str:
     return "" if n == 1 else "s"
+
+
+# --- what a report needs to rank findings of one rule ---------------------------------------
+# Findings carry no numbers besides their stage: the move and the shortfall are read back
+# from the messages verify.criterion writes (tests/verify/test_report.py pins them on real findings,
+# so a change of wording there fails a test instead of silently unranking a report).
+_NUMBER = r"([0-9.]+(?:e[+-]?[0-9]+)?)"
+_MOVE = re.compile(r"shortest move that runs it: (\d+) pulses")
+_NEED_GIVES = re.compile(rf"needs {_NUMBER} pps², the motor gives {_NUMBER} pps²")
+_JUMP = re.compile(rf"\(\+{_NUMBER}\), above the largest jump {_NUMBER} pps")
+_TOP = re.compile(rf"runs {_NUMBER} pps, above the motor's top usable speed {_NUMBER} pps")
+_START = re.compile(rf"\({_NUMBER} pps\), above the start speed {_NUMBER} pps")
+_CANNOT = re.compile(r"the motor cannot (?:accel|decel)erate between .* at all")
+
+
+def move_pulses(f: Finding) -> int | None:
+    """The shortest move that runs the finding's problem [pulses], when it names one."""
+    m = _MOVE.search(f.message)
+    return int(m.group(1)) if m else None
+
+
+def excess(f: Finding) -> float | None:
+    """How far the finding is past its limit, need / capability (inf: the motor cannot make
+    the step at all), when its message says; None for rules without such numbers."""
+    text = f.message
+    if _CANNOT.search(text):
+        return math.inf
+    for pattern in (_NEED_GIVES, _JUMP, _TOP, _START):
+        m = pattern.search(text)
+        if m:
+            need, limit = float(m.group(1)), float(m.group(2))
+            return need / limit if limit > 0 else math.inf
+    return None

@@ -3,11 +3,10 @@ resonance bands (the rules: profiles.motor.resonance)."""
 
 from __future__ import annotations
 
+from profiles.findings import Finding
 from profiles.motor import Motor
 from profiles.ppmc312.resonance import forbidden_dwells
 from profiles.ppmc312.table import FreeCurveTable
-
-from .findings import Finding
 
 
 def resonance_findings(table: FreeCurveTable, motor: Motor, *,

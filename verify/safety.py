@@ -24,13 +24,13 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from profiles.findings import Finding
 from profiles.motor import Motor
 from profiles.motor.angles import AIM_DEG, PEAK_DEG
 from profiles.ppmc312.table import FreeCurveTable, InitTable
 from profiles.progress import Progress
 
 from .check_options import DEFAULT_SAMPLES
-from .findings import Finding
 
 if TYPE_CHECKING:
     from profiles.alink.homing import HomingSettings

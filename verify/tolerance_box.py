@@ -20,8 +20,8 @@ from profiles.motor import Motor
 from profiles.motor.angles import PEAK_DEG
 from profiles.motor.rotor import Rotors, rotors
 from profiles.motor.tolerance import clopper_pearson_upper, corners, sample_params
-from profiles.ppmc312.execution import MoveBatch, moves
 from profiles.ppmc312.load_angle import judge, worst_load_angles
+from profiles.ppmc312.move_batch import MoveBatch, moves
 from profiles.ppmc312.table import FreeCurveTable
 from profiles.progress import Progress, report
 

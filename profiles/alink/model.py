@@ -220,14 +220,14 @@ def quantise_settings(start_pps: float, high_pps: float, accel_ms_per_kpps: floa
 
 # --- move-time model ---------------------------------------------------------------------------
 
-Shape = Literal["trapezoid", "triangle", "avoided_triangle"]
+UnitMoveShape = Literal["trapezoid", "triangle", "avoided_triangle"]
 
 
 @dataclass(frozen=True)
 class MoveTime:
     duration_s: float
     peak_pps: float
-    shape: Shape
+    shape: UnitMoveShape
     ramp_pulses: float  # pulses of one (accel) ramp
 
 
@@ -263,7 +263,7 @@ def move_time_s(settings: AlinkSettings, pulses: int) -> MoveTime:
     require_int("pulses", pulses, 1, MOVE_PULSES_MAX)
     t, vp, shape, ramp = move_times(settings.start_pps, settings.high_pps, settings.accel_pps2,
                                      pulses, settings.triangle_avoidance)
-    shapes: tuple[Shape, Shape, Shape] = ("trapezoid", "triangle", "avoided_triangle")
+    shapes: tuple[UnitMoveShape, ...] = ("trapezoid", "triangle", "avoided_triangle")
     return MoveTime(float(t), float(vp), shapes[int(shape)], float(ramp))
 
 

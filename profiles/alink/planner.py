@@ -26,7 +26,7 @@ from .model import (
     SPEED_MAX_PPS,
     STEPS_MAX,
     AlinkSettings,
-    Shape,
+    UnitMoveShape,
     max_setting,
     move_time_s,
     move_times,
@@ -58,7 +58,7 @@ def high_speeds(top: float, max_int: int, motor_top: float) -> tuple[np.ndarray,
     return np.concatenate(vh_all), np.concatenate(m_all)
 
 
-def _binds(shape: Shape | None, at_fastest: bool, top: float, motor_top: float,
+def _binds(shape: UnitMoveShape | None, at_fastest: bool, top: float, motor_top: float,
            max_int: int, ramp_limit_s: float | None) -> str:
     """What limits the chosen settings (`ramp_limit_s`: planned without a move length)."""
     if shape == "triangle":
@@ -132,7 +132,7 @@ def plan_settings(motor: Motor, *, pulses: int | None = None, max_pps: float = 0
     settings = AlinkSettings(int(v0[best]), int(vh[best]), int(para[best]), max_int, s_curve,
                              False, tuple(warnings))
     predicted = None
-    shape: Shape | None = None
+    shape: UnitMoveShape | None = None
     if pulses is not None:
         mt = move_time_s(settings, pulses)
         predicted, shape = mt.duration_s, mt.shape

@@ -1,6 +1,6 @@
 """The chip's moves assembled into flat segment arrays, compiled (numba, cached on disk).
 
-`execution._assemble` holds the method in numpy and stays the one every command uses;
+`move_batch._assemble` holds the method in numpy and stays the one every command uses;
 this is its compiled twin for the load-angle verdict, which builds some 600 moves of
 ~150 segments per table and already pays for numba (the rotor kernel): there numpy's
 passes over every segment were a third of a verdict. `stepramp simulate` and `show`
@@ -17,7 +17,7 @@ from ..compiling import watch
 
 watch()  # the first compilation on a machine is said (profiles.compiling)
 
-ACCEL, CRUISE, DECEL = 0, 1, 2   # execution.PHASES
+ACCEL, CRUISE, DECEL = 0, 1, 2   # move_batch.PHASES
 
 
 @nb.njit(cache=True, nogil=True, inline="always")

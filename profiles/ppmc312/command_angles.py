@@ -43,8 +43,8 @@ from ..motor.angles import AIM_DEG, PEAK_DEG, SLIP_DEG
 from ..motor.rotor import Rotors, follow, rotor_of, rotors, settle_s
 from ..remembered import Remembered
 from .command_runs import Motion, ProgramCommand, Stairs, run_program
-from .execution import PHASE_CODES, MoveBatch, Phase
 from .load_angle import PHASE_SAMPLES, directions, dwell_sampling, judge
+from .move_batch import PHASE_CODES, MoveBatch, Phase
 from .table import FreeCurveTable, InitTable
 
 GRID = 12           # rates judged across a range before the bisection

@@ -48,12 +48,12 @@ from .clock import Clock
 from .execution import (
     PULSE_TIMES_CSV_MAX,
     Execution,
-    Phase,
     Segment,
     pulse_times_csv_chunks,
     simulate_move,
 )
 from .init_model import as_free_curve
+from .move_batch import Phase
 from .table import FreeCurveTable, InitTable
 
 FOREVER = -1   # the pulses of a cruise that runs until something stops it
@@ -136,7 +136,7 @@ class Motion:
         return self.pieces[-1].rate
 
     def runs(self) -> list[tuple[Phase, int, int]]:
-        """The pieces as (phase, rate, pulses), as `execution.MoveBatch.runs` gives a move."""
+        """The pieces as (phase, rate, pulses), as `move_batch.MoveBatch.runs` gives a move."""
         return [(p.phase, p.rate, p.pulses) for p in self.pieces]
 
     def legs(self) -> list[list[Piece]]:

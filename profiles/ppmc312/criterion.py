@@ -37,8 +37,9 @@ from typing import Literal
 import numpy as np
 
 from ..motor import Motor
-from .execution import MOVE_PULSES_MAX, Execution, move_families, simulate_move
+from .execution import Execution, move_families, simulate_move
 from .init_model import as_free_curve
+from .move_batch import MOVE_PULSES_MAX
 from .table import FreeCurveTable, InitTable
 
 # Planners round pulse counts up with exact float arithmetic; this relative slack

@@ -72,7 +72,7 @@ ALARM_DOUBLE_WRITE = 0x01  # F4 status: 命令の多重書込み (an unread comm
 
 
 @dataclass
-class Verdict:
+class UploadVerdict:
     ok: bool
     responses: list[bytes]
     error_code: int | None = None  # the F0 parameter-error status (or F1 status / F6 length)
@@ -283,13 +283,13 @@ class ChipEmulator:
 _NAMES = ("rate", "accel", "decel")
 
 
-def accept_upload(blocks: Sequence[bytes], emulator: ChipEmulator | None = None) -> Verdict:
+def accept_upload(blocks: Sequence[bytes], emulator: ChipEmulator | None = None) -> UploadVerdict:
     """Feed a whole upload from power-on; stop at the first refusal."""
     chip = emulator if emulator is not None else ChipEmulator()
     chip.reset()
     items = block_list(blocks)
     if not items:
-        return Verdict(False, [], message="empty upload: nothing was sent")
+        return UploadVerdict(False, [], message="empty upload: nothing was sent")
     responses: list[bytes] = []
     for index, block in enumerate(items):
         try:
@@ -301,13 +301,13 @@ def accept_upload(blocks: Sequence[bytes], emulator: ChipEmulator | None = None)
         kind = response[2]
         if kind in (RESP_PARAM_ERROR, RESP_STATE_ERROR, RESP_SIZE_ERROR):
             code = response[3]
-            return Verdict(False, responses, code, index, message=f"block {index}: "
+            return UploadVerdict(False, responses, code, index, message=f"block {index}: "
                            f"{chip.last_message}", response_code=kind)
     if chip.busy:
-        return Verdict(False, responses, None, len(items),
+        return UploadVerdict(False, responses, None, len(items),
                        message="the upload ends before the last block (header 01): the chip "
                                "is still waiting for data")
-    return Verdict(True, responses, None, None, chip.accel_total, chip.decel_total,
+    return UploadVerdict(True, responses, None, None, chip.accel_total, chip.decel_total,
                    chip.last_message)
 
 

@@ -34,7 +34,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import Literal, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
@@ -55,9 +55,8 @@ from .init_model import (
     START_RATE_MIN,
     expand_init,
 )
-from .table import FreeCurveTable, InitTable
+from .table import FreeCurveTable, InitShape, InitTable
 
-Shape = Literal["linear", "s_curve"]
 CANDIDATES_KEPT = 32   # candidate lists remembered (a tightening plans some motors twice)
 
 
@@ -67,7 +66,7 @@ class InitCandidate:
     stages: FreeCurveTable  # the modelled staircase the chip would build
 
 
-def init_candidates(motor: Motor, shape: Shape, *, clock: Clock | None = None,
+def init_candidates(motor: Motor, shape: InitShape, *, clock: Clock | None = None,
                     separate_decel: bool = True, highs: int = 16,
                     progress: Progress | None = None) -> list[InitCandidate]:
     """For `highs` high speeds spread geometrically from just above the start speed to
@@ -116,7 +115,7 @@ def forget_candidates() -> None:
     _candidates.clear()
 
 
-def plan_init(motor: Motor, shape: Shape, pulses: int, *, clock: Clock | None = None,
+def plan_init(motor: Motor, shape: InitShape, pulses: int, *, clock: Clock | None = None,
               separate_decel: bool = True,
               candidates: list[InitCandidate] | None = None,
               progress: Progress | None = None) -> PlanResult[InitTable]:
@@ -162,7 +161,7 @@ def plan_init(motor: Motor, shape: Shape, pulses: int, *, clock: Clock | None = 
                       extras={"stages": cand.stages, "shape_run": run_shape})
 
 
-def _smallest_safe(motor: Motor, clock: Clock, shape: Shape, start: int, high: int,
+def _smallest_safe(motor: Motor, clock: Clock, shape: InitShape, start: int, high: int,
                    separate: bool) -> InitCandidate | None:
     def table(accel: int, decel: int | None) -> InitTable:
         return InitTable(clock, shape, start, high, accel,
@@ -286,7 +285,7 @@ def _factor(worst_deg: float, aim_deg: float) -> float:
     return float(np.clip(aim_deg / worst_deg, 0.6, 0.95))
 
 
-def tighten_init(motor: Motor, shape: Shape, pulses: int, judge: InitJudge, *,
+def tighten_init(motor: Motor, shape: InitShape, pulses: int, judge: InitJudge, *,
                  clock: Clock | None = None, separate_decel: bool = False,
                  aim_deg: float = AIM_DEG, progress: Progress | None = None
                  ) -> PlanResult[InitTable]:

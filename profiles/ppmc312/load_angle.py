@@ -49,8 +49,9 @@ from ..motor.rotor import (
 )
 from ..remembered import Remembered
 from ..threads import pool
-from .execution import SHAPES, Execution, MoveBatch, families, moves
+from .execution import Execution
 from .init_model import as_free_curve
+from .move_batch import SHAPES, MoveBatch, families, moves
 from .table import FreeCurveTable, InitTable
 
 REJOIN_TOL_DEG = 0.05

@@ -49,7 +49,7 @@ from .command_runs import (
     Stairs,
     run_program,
 )
-from .execution import CHIP_BAD_PULSE_COUNT, CHIP_RATE_OUT_OF_RANGE, MOVE_PULSES_MAX
+from .move_batch import CHIP_BAD_PULSE_COUNT, CHIP_RATE_OUT_OF_RANGE, MOVE_PULSES_MAX
 from .table import FreeCurveTable, InitTable
 
 FORMAT = "stepramp.program/1"

@@ -38,9 +38,10 @@ from ..motor import Motor
 from ..motor.rotor import PEAK_DEG, Rotors, rotor_of, rotors
 from ..remembered import Remembered
 from .criterion import StepProblem, runs_problems
-from .execution import Execution, MoveBatch, Phase, Segment
+from .execution import Execution, Segment
 from .init_model import as_free_curve
 from .load_angle import directions, dwell_sampling, judge, sample_grid
+from .move_batch import MoveBatch, Phase
 from .table import FreeCurveTable, InitTable
 
 READINGS = ("a", "b", "c")
@@ -292,7 +293,7 @@ def dwell_ranges(table: FreeCurveTable | InitTable, ramp_limit: int | None = Non
 def ramp_reach(table: FreeCurveTable | InitTable, lengths: Sequence[int]) -> int:
     """The furthest pulse of the ramp the moves of `lengths` run (their accel pulses):
     a decel stop during one of them comes at most there."""
-    from .execution import moves
+    from .move_batch import moves
 
     runs = moves(table, np.asarray(lengths, dtype=np.int64))
     accel = np.where(runs.phase == 0, runs.count, 0)

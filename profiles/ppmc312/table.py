@@ -34,7 +34,7 @@ RATE_FIELD_MAX = 0xFFFF          # 2-byte rate entries
 PULSES_FIELD_MAX = 0xFFFFFF      # 3-byte pulse counts
 STAGE_COUNT_FIELD_MAX = 0xFF     # 1-byte stage counts
 
-Shape = Literal["linear", "s_curve"]
+InitShape = Literal["linear", "s_curve"]
 
 
 @dataclass(frozen=True)
@@ -122,7 +122,7 @@ class FreeCurveTable:
 @dataclass(frozen=True)
 class InitTable:
     clock: Clock
-    shape: Shape
+    shape: InitShape
     start_rate: int
     high_rate: int
     accel_pulses: int

@@ -18,7 +18,8 @@ from profiles.ppmc312.criterion import (
     execution_problems,
     switch_safe,
 )
-from profiles.ppmc312.execution import MOVE_PULSES_MAX, move_families, simulate_move
+from profiles.ppmc312.execution import move_families, simulate_move
+from profiles.ppmc312.move_batch import MOVE_PULSES_MAX
 from profiles.ppmc312.planner import plan_duty_cycle, plan_free_curve
 from profiles.ppmc312.table import FreeCurveTable
 from verify.criterion import check_stall

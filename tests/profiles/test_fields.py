@@ -106,7 +106,7 @@ def _outcome(fn: object, *args: object) -> tuple[str, object]:
 
 def test_every_codec_frame_is_compiled() -> None:
     assert len(FRAMES) > 20
-    assert all(f._plan is not None for f in FRAMES)
+    assert all(f._layout is not None for f in FRAMES)
 
 
 @given(st.sampled_from(FRAMES), st.binary(max_size=40), st.data())

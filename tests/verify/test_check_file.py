@@ -7,12 +7,12 @@ from typing import Any
 
 import pytest
 
+from profiles.findings import Finding
 from profiles.motor import load_motor
 from profiles.ppmc312.formats import render
 from tests.support.ascii_frames import by_hand
 from tests.support.paths import ROOT
 from verify.check_file import check_file, dedupe
-from verify.findings import Finding
 
 GOOD = ROOT / "examples" / "free-curve-nema17.json"
 

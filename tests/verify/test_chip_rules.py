@@ -10,12 +10,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from profiles.findings import Finding
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.init_model import init_stage_problem
 from profiles.ppmc312.table import FreeCurveTable, InitTable, load_table
 from tests.support.paths import ROOT
 from verify.chip_rules import check_table
-from verify.findings import Finding
 
 EXAMPLES = ROOT / "examples"
 

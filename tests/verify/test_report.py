@@ -9,10 +9,10 @@ from pathlib import Path
 import pytest
 
 from profiles.errors import FormatError
+from profiles.findings import Finding
 from profiles.ppmc312.table import load_table
 from tests.support.paths import ROOT
 from verify.chip_rules import check_table
-from verify.findings import Finding
 from verify.report import FileResult, finding_line, render
 
 EXAMPLES = ROOT / "examples"
@@ -127,7 +127,7 @@ def test_excess_and_move_are_read_from_the_stall_messages() -> None:
     # Pinned on real findings: a change of wording in verify/criterion.py must fail here.
     import math
 
-    from verify.findings import excess, move_pulses
+    from verify.report import excess, move_pulses
 
     found = heavy_findings()
     by_rule: dict[str, list[Finding]] = {}
@@ -151,7 +151,7 @@ def test_excess_and_move_are_read_from_the_stall_messages() -> None:
 
 
 def test_many_findings_of_a_rule_are_summarised() -> None:
-    from verify.findings import excess, move_pulses
+    from verify.report import excess, move_pulses
 
     found = heavy_findings()
     result = [FileResult("t.json", False, found)]

@@ -305,10 +305,11 @@ def _init(args: argparse.Namespace, planned: Any, motor: Any) -> tuple[Any, dict
     asked) finds it within the aim (profiles.ppmc312.init_planner.tighten_init), planned
     for `planned` (the motor with the cruise reserve's top speed)."""
     from profiles.motor.angles import PEAK_DEG
-    from profiles.ppmc312.init_planner import Shape, tighten_init
+    from profiles.ppmc312.init_planner import tighten_init
+    from profiles.ppmc312.table import InitShape
     from verify.init_judge import init_judge
 
-    shape: Shape = "s_curve" if args.kind == "s-curve" else "linear"
+    shape: InitShape = "s_curve" if args.kind == "s-curve" else "linear"
     # LE=0 by default: the table then exports to both interfaces (docs/manual-notes.md).
     separate = bool(args.separate_decel)
     aim = min(args.load_angle, PEAK_DEG)

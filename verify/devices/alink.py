@@ -11,8 +11,8 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 from profiles.errors import CorruptedError, StepRampError
+from profiles.findings import Finding, Severity
 
-from ..findings import Finding, Severity
 from .common import dedupe, device_result, integrity_findings
 
 if TYPE_CHECKING:

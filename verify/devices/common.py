@@ -6,7 +6,8 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import TYPE_CHECKING
 
-from ..findings import Finding
+from profiles.findings import Finding
+
 from ..report import FileResult
 
 if TYPE_CHECKING:

@@ -9,8 +9,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from profiles.errors import CorruptedError
+from profiles.findings import Finding
 
-from ..findings import Finding
 from .common import device_result, integrity_findings
 
 if TYPE_CHECKING:

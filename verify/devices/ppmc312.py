@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from profiles.errors import CorruptedError, DecodeError, FormatError
+from profiles.findings import Finding
 
 from ..command_rules import (
     frame_payload,
@@ -33,7 +34,6 @@ from ..command_rules import (
     serial_move_findings,
     serial_move_notes,
 )
-from ..findings import Finding
 from ..report import FileResult
 from .common import dedupe, integrity_findings
 
@@ -48,14 +48,14 @@ PROGRAM_FORMAT = "stepramp.program/1"
 
 
 @dataclass
-class Verdict:
+class FileFindings:
     """What the judges found in one file (or one upload of a C header)."""
 
     findings: list[Finding] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     details: dict[str, object] = field(default_factory=dict)
 
-    def add(self, other: Verdict, prefix: str) -> None:
+    def add(self, other: FileFindings, prefix: str) -> None:
         """`other`'s findings and notes, each naming `prefix` (an upload's symbols)."""
         self.findings += [Finding(f.severity, f.rule, f"{prefix}: {f.message}", f.chip_code,
                                   f.stage) for f in other.findings]
@@ -98,7 +98,7 @@ def is_program(raw: bytes) -> bool:
     return document_format(raw) == PROGRAM_FORMAT
 
 
-def program_file_verdict(raw: bytes, path: str, options: CheckOptions) -> Verdict:
+def program_file_verdict(raw: bytes, path: str, options: CheckOptions) -> FileFindings:
     """A program file: what the chip runs for it, judged with the motor (verify/programs.py)."""
     from profiles.ppmc312.program import load_program
 
@@ -108,10 +108,10 @@ def program_file_verdict(raw: bytes, path: str, options: CheckOptions) -> Verdic
         raise FormatError("--pulses names the moves of a table to judge: a program says what "
                           "it runs (give the program alone)")
     program = load_program(path, raw=raw)
-    return Verdict(*program_verdict(program, options.motor, physics=options.physics))
+    return FileFindings(*program_verdict(program, options.motor, physics=options.physics))
 
 
-def file_verdict(raw: bytes, path: str, options: CheckOptions) -> Verdict:
+def file_verdict(raw: bytes, path: str, options: CheckOptions) -> FileFindings:
     """The verdict on an upload, move or table-read file in any format."""
     from profiles.ppmc312.formats import parse_handshake
     from profiles.reading import require_shallow_json
@@ -120,7 +120,7 @@ def file_verdict(raw: bytes, path: str, options: CheckOptions) -> Verdict:
     try:
         parsed, answers = parse_handshake(raw, path)
     except CorruptedError as e:  # the file's own check failed: a verdict, not unusable input
-        return Verdict([Finding("error", "upload-corrupted", str(e))])
+        return FileFindings([Finding("error", "upload-corrupted", str(e))])
     # A file without a check (hand-made, or bin: no room for one) is judged, with a warning.
     blocks = list(parsed.items)
     verdict = blocks_verdict(blocks, options)
@@ -149,32 +149,32 @@ def handshake_note(blocks: list[bytes], fmt: str, answers: list[bytes] | None,
             "re-export it for the answers and, in a bus script, the reads"]
 
 
-def c_set_verdict(raw: bytes, names: list[str], options: CheckOptions) -> Verdict:
+def c_set_verdict(raw: bytes, names: list[str], options: CheckOptions) -> FileFindings:
     """Every upload of a C header of several (sync's axes.h), each by its prefix."""
     from profiles.ppmc312.formats import parse_c_set
 
-    out = Verdict(notes=[f"C header of {len(names)} uploads: {', '.join(names)}"])
+    out = FileFindings(notes=[f"C header of {len(names)} uploads: {', '.join(names)}"])
     try:
         uploads = parse_c_set(raw)
     except CorruptedError as e:
-        return Verdict([Finding("error", "upload-corrupted", str(e))])
+        return FileFindings([Finding("error", "upload-corrupted", str(e))])
     for name, parsed in uploads.items():
         out.add(blocks_verdict(list(parsed.items), options), name)
     return out
 
 
-def blocks_verdict(blocks: list[bytes], options: CheckOptions) -> Verdict:
+def blocks_verdict(blocks: list[bytes], options: CheckOptions) -> FileFindings:
     """The verdict on the blocks (or ASCII frames) of one command file."""
     if not blocks:
         raise DecodeError("the file holds no blocks")
     if blocks[0][:1] and blocks[0][0] & 0x80:
         payloads = [frame_payload(f, i) for i, f in enumerate(blocks)]
         if all(is_serial_move(p) for p in payloads):
-            return Verdict([f for i, p in enumerate(payloads)
+            return FileFindings([f for i, p in enumerate(payloads)
                             for f in serial_move_findings(p, i)],
                            serial_move_notes(payloads) + motor_note(options))
     elif all(is_move_block(b) for b in blocks):
-        return Verdict([f for i, b in enumerate(blocks) for f in move_block_findings(b, i)],
+        return FileFindings([f for i, b in enumerate(blocks) for f in move_block_findings(b, i)],
                        move_notes(blocks) + motor_note(options))
     elif is_table_read(blocks):
         from profiles.ppmc312.upload import decode_table_read
@@ -209,13 +209,13 @@ def read_clock(options: CheckOptions) -> Clock:
     return Clock.extck(options.extck_hz, "rising")
 
 
-def upload_verdict(blocks: list[bytes], options: CheckOptions) -> Verdict:
+def upload_verdict(blocks: list[bytes], options: CheckOptions) -> FileFindings:
     """A table upload, judged first by what the chip would answer, then as its table."""
     from profiles.ppmc312.upload import decode_upload
 
     refused = chip_refusal(blocks)
     if refused is not None:
-        return Verdict([refused])
+        return FileFindings([refused])
     out = table_verdict(decode_upload(blocks, extck_hz=options.extck_hz), options)
     out.findings[:0] = block_size_findings(blocks)
     return out
@@ -257,11 +257,11 @@ def chip_refusal(blocks: list[bytes]) -> Finding | None:
     return Finding("error", "chip-rejects-upload", answer.message, chip_code=code, stage=None)
 
 
-def table_verdict(table: FreeCurveTable | InitTable, options: CheckOptions) -> Verdict:
+def table_verdict(table: FreeCurveTable | InitTable, options: CheckOptions) -> FileFindings:
     """The chip rules of a table and, with a motor, its safety verdict."""
     from verify.chip_rules import check_table
 
-    out = Verdict(check_table(table))
+    out = FileFindings(check_table(table))
     out.findings += provenance_findings(table, options, out.notes)
     if options.motor is not None:
         out.findings += safety_findings(table, options, out.notes, out.details)

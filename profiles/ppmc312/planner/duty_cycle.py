@@ -2,7 +2,7 @@
 the lengths candidate tables are planned for, and the time of every length of the mix
 with a table, all at once.
 
-Timing is the chip's own move model (`execution.moves`, the one `simulate_move` runs),
+Timing is the chip's own move model (`move_batch.moves`, the one `simulate_move` runs),
 numpy over moves: a move's ticks are Σ rate × pulses over its segments. A trapezoid
 (a move of at least the table's accel + decel totals, SPEC §1.6) runs every stage and
 then cruises at the fastest rate, so the trapezoids of a mix differ only in their
@@ -22,7 +22,7 @@ from ...errors import PlanError, require_int, require_number
 from ...motor import Motor
 from ...threads import pool
 from ..clock import Clock
-from ..execution import MOVE_PULSES_MAX, MoveBatch, moves
+from ..move_batch import MOVE_PULSES_MAX, MoveBatch, moves
 from ..table import FreeCurveTable
 from .free_curve import plan_free_curve
 from .problem import Plan, check_plan_args

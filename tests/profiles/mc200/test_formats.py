@@ -368,20 +368,6 @@ def test_long_text_files_are_read_in_chunks_with_true_line_numbers(
         parse(("\n".join(lines) + "\n").encode(), fmt=fmt)
 
 
-def test_text_chunks_number_lines_and_locate_a_bad_byte() -> None:
-    from profiles.errors import DecodeError
-    from profiles.formats import text_chunks
-
-    raw = b"".join(b"line %d\n" % k for k in range(1, 201))
-    chunks = list(text_chunks(raw, size=64))
-    assert len(chunks) > 10 and "".join(t for _, t in chunks) == raw.decode()
-    for first, text in chunks:
-        assert text.startswith(f"line {first}\n")
-    bad = raw[:1000] + b"\xff" + raw[1000:]
-    with pytest.raises(DecodeError, match="byte 1000"):
-        list(text_chunks(bad, size=64))
-
-
 @pytest.mark.parametrize("fmt", ["json", "c"])
 def test_json_and_c_streams_past_16_mib_are_refused_in_one_line(
         fmt: str, monkeypatch: pytest.MonkeyPatch) -> None:

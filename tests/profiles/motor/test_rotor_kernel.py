@@ -96,8 +96,9 @@ def test_every_family_is_sampled_by_its_own_slowest_changing_stage() -> None:
     (found here from its shortest and longest moves), and its samples run from its
     shortest move to where that dwell has settled without a gap wider than the
     spacing."""
-    from profiles.ppmc312.execution import move_families, moves
+    from profiles.ppmc312.execution import move_families
     from profiles.ppmc312.load_angle import samples
+    from profiles.ppmc312.move_batch import moves
 
     motor = plain_motor(damping_ratio=0.3)
     rotor = rotor_of(motor)

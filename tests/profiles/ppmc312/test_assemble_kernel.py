@@ -10,7 +10,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from profiles.ppmc312.execution import MOVE_PULSES_MAX, MoveBatch, move_families, moves
+from profiles.ppmc312.execution import move_families
+from profiles.ppmc312.move_batch import MOVE_PULSES_MAX, MoveBatch, moves
 from profiles.ppmc312.table import FreeCurveTable
 from tests.support.strategies import MHZ1
 from tests.support.strategies import stage_tables as tables
@@ -51,7 +52,7 @@ def test_compiled_assembly_of_no_moves_and_of_one() -> None:
 def test_families_found_by_either_assembly_are_the_same(table: FreeCurveTable) -> None:
     """The load-angle verdict finds a table's families with the compiled assembly, the
     criterion with numpy's; whichever comes first is remembered for both."""
-    from profiles.ppmc312.execution import families, forget_tables
+    from profiles.ppmc312.move_batch import families, forget_tables
 
     forget_tables()
     compiled = families(table, compiled=True)

@@ -13,21 +13,20 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from profiles import mc200 as M
-from profiles.errors import FieldRangeError, StepRampError
+from profiles.errors import FieldRangeError, MoveParameterError, StepRampError
 from profiles.motor import load_motor
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.execution import (
     LATENCY_S,
-    MOVE_PULSES_MAX,
     STATUS,
     Execution,
-    MoveParameterError,
     pulse_times_csv,
     samples_csv,
     simulate_move,
     simulate_moves,
     to_csv,
 )
+from profiles.ppmc312.move_batch import MOVE_PULSES_MAX
 from profiles.ppmc312.table import FreeCurveTable, InitTable
 from tests.support.paths import ROOT
 from tests.support.strategies import MHZ1
@@ -308,7 +307,7 @@ def test_every_shape_emits_exactly_the_requested_pulses(table: FreeCurveTable, p
 
 
 def _move_error(table: FreeCurveTable, pulses: object, high_rate: object = 0) -> int | None:
-    from profiles.ppmc312.execution import MoveParameterError
+    from profiles.errors import MoveParameterError
 
     try:
         simulate_move(table, pulses, high_rate=high_rate)  # type: ignore[arg-type]

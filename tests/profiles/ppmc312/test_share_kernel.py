@@ -16,8 +16,8 @@ from hypothesis import strategies as st
 
 from profiles.motor import Motor
 from profiles.ppmc312.clock import Clock
-from profiles.ppmc312.execution import MoveBatch, moves
 from profiles.ppmc312.load_angle import angles, worst_load_angle
+from profiles.ppmc312.move_batch import MoveBatch, moves
 from profiles.ppmc312.table import FreeCurveTable
 from tests.support.oracle_moves import kernel_step_counts, whole_move
 
@@ -236,8 +236,8 @@ def test_only_moves_that_part_at_the_references_rate_are_cut() -> None:
     source (a comparison running past its last segment would read F's, R's dwell
     exactly). F and G part from R at another rate: no family, not cut, though their
     first segments alone would make one."""
-    from profiles.ppmc312.execution import PHASES
     from profiles.ppmc312.load_angle import shared_dwells
+    from profiles.ppmc312.move_batch import PHASES
 
     a, c, d = (PHASES.index(p) for p in ("accel", "cruise", "decel"))
     moves_ = [[(a, 300, 2), (a, 200, 3), (c, 100, 50), (d, 200, 3), (d, 300, 2)],  # R

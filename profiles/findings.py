@@ -1,9 +1,8 @@
-"""A finding: one thing a check has to say about a table, upload or plan."""
+"""A finding: one thing a check has to say about a table, upload, plan or any file of a
+device; the shared noun every judge speaks in, wherever its rules live."""
 
 from __future__ import annotations
 
-import math
-import re
 from collections.abc import Callable
 from typing import Any, Literal, NoReturn
 
@@ -99,36 +98,3 @@ class Finding:
     def to_json(self) -> dict[str, Any]:
         return {"severity": self.severity, "rule": self.rule, "chip_code": self.chip_code_hex,
                 "stage": self.stage, "message": self.message}
-
-
-# --- what a report needs to rank findings of one rule ---------------------------------------
-# Findings carry no numbers besides their stage: the move and the shortfall are read back
-# from the messages verify.criterion writes (tests/verify/test_report.py pins them on real findings,
-# so a change of wording there fails a test instead of silently unranking a report).
-_NUMBER = r"([0-9.]+(?:e[+-]?[0-9]+)?)"
-_MOVE = re.compile(r"shortest move that runs it: (\d+) pulses")
-_NEED_GIVES = re.compile(rf"needs {_NUMBER} pps², the motor gives {_NUMBER} pps²")
-_JUMP = re.compile(rf"\(\+{_NUMBER}\), above the largest jump {_NUMBER} pps")
-_TOP = re.compile(rf"runs {_NUMBER} pps, above the motor's top usable speed {_NUMBER} pps")
-_START = re.compile(rf"\({_NUMBER} pps\), above the start speed {_NUMBER} pps")
-_CANNOT = re.compile(r"the motor cannot (?:accel|decel)erate between .* at all")
-
-
-def move_pulses(f: Finding) -> int | None:
-    """The shortest move that runs the finding's problem [pulses], when it names one."""
-    m = _MOVE.search(f.message)
-    return int(m.group(1)) if m else None
-
-
-def excess(f: Finding) -> float | None:
-    """How far the finding is past its limit, need / capability (inf: the motor cannot make
-    the step at all), when its message says; None for rules without such numbers."""
-    text = f.message
-    if _CANNOT.search(text):
-        return math.inf
-    for pattern in (_NEED_GIVES, _JUMP, _TOP, _START):
-        m = pattern.search(text)
-        if m:
-            need, limit = float(m.group(1)), float(m.group(2))
-            return need / limit if limit > 0 else math.inf
-    return None
