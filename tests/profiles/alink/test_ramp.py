@@ -3,8 +3,6 @@ of the unit (multiplier, decel stops, triangles, resonance dwells)."""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 
@@ -12,38 +10,8 @@ from profiles.alink.model import quantise_settings
 from profiles.alink.ramp import RAMP_HZ, build_ramp, parts, ramp_of, segments
 from profiles.motor import load_motor
 from profiles.motor.catalogue import resolve
+from tests.support.alink_oracle import stepped
 from verify.safety import judge_safety
-
-
-def stepped(start: float, high: float, accel: float, m: int, shape: str, n: int
-            ) -> list[float]:
-    """The unit stepped pulse by pulse, independently of the model's arrays: each pulse
-    lasts one period of the speed step in force when it begins; a move of n pulses runs
-    the first ⌈n/2⌉ pulses of the ramp up and the first ⌊n/2⌋ reversed down (or the
-    whole ramp, a cruise at `high`, the ramp reversed). Returns each pulse's speed."""
-    steps = int((high - start) // m)
-    ramp_s = (high - start) / accel
-
-    def speed(t: float) -> float:
-        if shape == "linear":
-            k = math.floor(accel * t / m + 1e-9)
-        else:
-            x = (1 - math.cos(math.pi * min(t, ramp_s) / ramp_s)) / 2 if ramp_s else 1.0
-            k = math.floor(x * steps + 1e-9)
-        return start + min(k, steps) * m
-
-    ramp: list[float] = []
-    t = 0.0
-    top = start + steps * m
-    while steps and len(ramp) < n:
-        v = speed(t)
-        if v >= top:
-            break
-        ramp.append(v)
-        t += 1 / v
-    if n >= 2 * len(ramp):
-        return ramp + [high] * (n - 2 * len(ramp)) + ramp[::-1]
-    return ramp[:(n + 1) // 2] + ramp[:n // 2][::-1]
 
 
 @pytest.mark.parametrize("shape", ["linear", "s_curve"])
