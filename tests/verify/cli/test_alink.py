@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 
 from profiles import alink as A
 from profiles.alink.commands import COMMANDS, Value, decode_command, encode_command
+from tests.support.alink_figures import BY_HAND
 from tests.support.cli import run
 from verify import cli
 from verify.check_file import check_file
@@ -43,70 +44,6 @@ def test_settings_take_a_motor_or_the_speeds_never_both(
     assert capsys.readouterr().err == ("stepramp alink: give either --motor or "
                                        "--start-pps/--high-pps/--accel-ms-per-kpps\n")
 
-
-# (name, nn, value) → the words with pair code 1, from the figure by hand
-BY_HAND: list[tuple[str, int, int, tuple[int, int, int]]] = [
-    ("logic", 0, 0x14, (0x401C, 0x4000, 0x4014)),          # §11-1's LOGIC example
-    ("mode", 0, 0x15, (0x401D, 0x4000, 0x4015)),
-    ("l-speed", 1, 500, (0x4112, 0x4000, 0x41F4)),
-    ("h-speed", 1, 10000, (0x4113, 0x4000, 0x6710)),
-    ("up-time", 2, 2000, (0x4214, 0x4000, 0x47D0)),
-    ("up-time", 1, 39320, (0x4114, 0x4002, 0x5998)),
-    ("max-speed", 1, 100000, (0x4115, 0x4006, 0x46A0)),
-    ("mode-sig", 0, 0x20, (0x401E, 0x4000, 0x4020)),
-    ("ol-speed", 1, 200, (0x4118, 0x4000, 0x40C8)),
-    ("oh-speed", 1, 800, (0x4119, 0x4000, 0x4320)),
-    ("o-uptime", 2, 20, (0x421A, 0x4000, 0x4014)),
-    ("o-uptime", 1, 4, (0x411A, 0x4000, 0x4004)),
-    ("setting", 29, 1000, (0x5D17, 0x4000, 0x43E8)),
-    ("setting", 30, -1, (0x5E17, 0x7FFF, 0x7FFF)),
-    ("setting", 30, 134217727, (0x5E17, 0x5FFF, 0x7FFF)),
-    ("move-r", 28, -1, (0x5C21, 0x7FFF, 0x7FFF)),
-    ("move-a", 28, 100000, (0x5C22, 0x4006, 0x46A0)),       # §11-1's MOVE_A figure
-    ("move-a", 28, -134217728, (0x5C22, 0x6000, 0x4000)),
-    ("stop", 28, 0, (0x5C2F, 0x4000, 0x4000)),
-    ("stop", 31, 0, (0x5F2F, 0x4000, 0x4000)),
-    ("home", 1, 0, (0x4131, 0x4000, 0x4000)),
-    ("home", 2, 0, (0x4231, 0x4000, 0x4000)),
-    ("home", 3, 0, (0x4331, 0x4000, 0x4000)),
-    ("home", 4, 0, (0x4431, 0x4000, 0x4000)),
-    ("p-search", 28, 0, (0x5C3C, 0x4000, 0x4000)),
-    ("p-search", 30, 0, (0x5E3C, 0x4000, 0x4000)),
-    ("m-search", 28, 0, (0x5C3D, 0x4000, 0x4000)),
-    ("m-search", 30, 0, (0x5E3D, 0x4000, 0x4000)),
-    ("p-org", 28, 0, (0x5C3E, 0x4000, 0x4000)),
-    ("p-org", 30, 0, (0x5E3E, 0x4000, 0x4000)),
-    ("m-org", 28, 0, (0x5C3F, 0x4000, 0x4000)),
-    ("m-org", 30, 0, (0x5E3F, 0x4000, 0x4000)),
-    ("out-m", 28, 1, (0x5C4C, 0x4000, 0x4001)),
-    ("out-b", 28, 0, (0x5C4D, 0x4000, 0x4000)),
-    ("out-s", 28, 1, (0x5C4E, 0x4000, 0x4001)),
-    ("out-g", 28, 8, (0x5C4F, 0x4000, 0x4008)),
-    ("out-g", 31, 1, (0x5F4F, 0x4000, 0x4001)),
-    ("read-stat", 0, 7, (0x4045, 0x4000, 0x4007)),
-    ("read", 0, 0xA, (0x4046, 0x4000, 0x400A)),
-    ("read", 3, 0, (0x4346, 0x4000, 0x4000)),
-    ("change-speed", 1, 12000, (0x4151, 0x4000, 0x6EE0)),
-    ("change-speed", 0, 150, (0x4051, 0x4000, 0x4096)),
-    ("limit", 0, 0, (0x4052, 0x4000, 0x4000)),
-    ("limit", 3, 5000, (0x4352, 0x4000, 0x5388)),
-    ("clear-el", 0, 0, (0x405C, 0x4000, 0x4000)),
-    ("delay", 0, 500, (0x4058, 0x4000, 0x41F4)),
-    ("offset", 0, 1000, (0x405A, 0x4000, 0x43E8)),
-    ("offset", 0, -1300, (0x405A, 0x7FFF, 0x7AEC)),         # §12-1 (3)'s example
-    ("reset-pos", 0, 1000, (0x405B, 0x4000, 0x43E8)),
-    ("logic-r", 0, 0, (0x408C, 0x4000, 0x4000)),
-    ("mode-r", 0, 0, (0x408D, 0x4000, 0x4000)),
-    ("l-speed-r", 0, 0, (0x4082, 0x4000, 0x4000)),
-    ("h-speed-r", 0, 0, (0x4083, 0x4000, 0x4000)),
-    ("up-time-r", 0, 0, (0x4084, 0x4000, 0x4000)),
-    ("max-speed-r", 0, 0, (0x4085, 0x4000, 0x4000)),
-    ("mode-sig-r", 0, 0, (0x408E, 0x4000, 0x4000)),
-    ("ol-speed-r", 0, 0, (0x4088, 0x4000, 0x4000)),
-    ("oh-speed-r", 0, 0, (0x4089, 0x4000, 0x4000)),
-    ("o-uptime-r", 0, 0, (0x408A, 0x4000, 0x4000)),
-    ("setting-r", 29, 0, (0x5D87, 0x4000, 0x4000)),
-]
 
 
 @pytest.mark.parametrize(("name", "nn", "value", "words"), BY_HAND)
