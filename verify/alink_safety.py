@@ -42,6 +42,8 @@ from profiles.motor.rotor import Rotors, rotors
 from profiles.ppmc312.load_angle import dwell_sampling, judge, refine, sample_grid
 from profiles.ppmc312.move_batch import MoveBatch
 
+from .command_families import envelope_findings
+
 S_CURVE_PEAK = math.pi / 2   # the 1 − cos law's peak over its average acceleration
 
 
@@ -402,13 +404,9 @@ class EnvelopeVerdict:
         return f"{head}: {text}; {at} {self.top_pps:g} pps: {self.top_deg:.1f}°"
 
     def findings(self) -> list[Finding]:
-        if self.within_aim:
-            return []
-        if not self.safe:
-            return [Finding("error", "alink-command-envelope", self.describe() + ": no use "
-                            "of it keeps the rotor below the 90° peak with these settings")]
-        return [Finding("warning", "alink-command-envelope", self.describe() + ": no use of "
-                        f"it keeps the rotor within the {self.aim_deg:g}° aim")]
+        return envelope_findings("alink-command-envelope", self.describe(), "these settings",
+                                 safe=self.safe, within_aim=self.within_aim,
+                                 aim_deg=self.aim_deg)
 
     def to_json(self) -> dict[str, Any]:
         return {"command": self.name, "safe": self.safe, "within_aim": self.within_aim,

@@ -93,13 +93,11 @@ class FamilyVerdict:
         return f"{head}{box}: {_envelope_text(self.name, f, self.aim_deg)}"
 
     def findings(self) -> list[Finding]:
-        if self.judged is None or self.within_aim:
+        if self.judged is None:
             return []
-        if not self.safe:
-            return [Finding("error", "command-envelope", self.describe() + ": no use of it "
-                            "keeps the rotor below the 90° peak with this table")]
-        return [Finding("warning", "command-envelope", self.describe() + ": no use of it "
-                        f"keeps the rotor within the {self.aim_deg:g}° aim")]
+        return envelope_findings("command-envelope", self.describe(), "this table",
+                                 safe=self.safe, within_aim=self.within_aim,
+                                 aim_deg=self.aim_deg)
 
     def to_json(self) -> dict[str, Any]:
         f = self.family
@@ -162,3 +160,17 @@ def judge_family(name: str, table: FreeCurveTable, motor: Motor, *, aim_deg: flo
 
 
 __all__ = ["CODES", "FamilyVerdict", "family_judge", "judge_family"]
+
+
+def envelope_findings(rule: str, described: str, source: str, *, safe: bool,
+                      within_aim: bool, aim_deg: float) -> list[Finding]:
+    """A command family's finding, on any device: none while some use of it stays within
+    the aim, a warning when none does, an error when none even stays below the 90° peak
+    with `source` (the table or the settings)."""
+    if within_aim:
+        return []
+    if not safe:
+        return [Finding("error", rule, f"{described}: no use of it keeps the rotor below "
+                        f"the 90° peak with {source}")]
+    return [Finding("warning", rule, f"{described}: no use of it keeps the rotor within "
+                    f"the {aim_deg:g}° aim")]
