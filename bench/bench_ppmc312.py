@@ -26,11 +26,11 @@ sys.path.insert(0, str(ROOT))
 
 from benchlib import Results, count, verdict  # noqa: E402
 
+from profiles.ppmc312.chip_rules import check_table  # noqa: E402
 from profiles.ppmc312.clock import Clock  # noqa: E402
 from profiles.ppmc312.emulator import accept_upload  # noqa: E402
 from profiles.ppmc312.table import FreeCurveTable, table_from_json  # noqa: E402
 from profiles.ppmc312.upload import decode_free_curve, encode_free_curve  # noqa: E402
-from verify.chip_rules import check_table  # noqa: E402
 
 
 def random_table(rng: random.Random, stages: int = 127) -> FreeCurveTable:

@@ -32,9 +32,9 @@ from profiles.motor.tolerance import samples  # noqa: E402
 from profiles.ppmc312.execution import simulate_move  # noqa: E402
 from profiles.ppmc312.load_angle import worst_load_angle  # noqa: E402
 from profiles.ppmc312.planner import plan_free_curve  # noqa: E402
+from profiles.ppmc312.tolerance_box import sample_peaks  # noqa: E402
 from verify.safety import judge_safety  # noqa: E402
 from verify.sweep import jobs_of, run_sweep  # noqa: E402
-from verify.tolerance_box import sample_peaks  # noqa: E402
 
 
 def boxed(path: Path) -> tuple[Motor, Motor]:

@@ -9,7 +9,7 @@
   steps the compiled model took, against the plain-Python oracle (tests/support/rotor_oracle.py)
   integrating the same executions each from rest (a sample of them, timed and scaled to
   all), which also checks the worst angles agree on that sample;
-- 1 000 Monte Carlo samples of a tolerance box (`verify.tolerance_box.sample_peaks` on
+- 1 000 Monte Carlo samples of a tolerance box (`profiles.ppmc312.tolerance_box.sample_peaks` on
   examples/motor-nema17-tolerances.json, on the moves its corners are worst at; goal
   ≤ 1 s), the whole box verdict (`judge_safety`: corners over every move, then the
   samples), and the oracle on a few samples, scaled;
@@ -54,9 +54,9 @@ from profiles.ppmc312.load_angle import (  # noqa: E402
 )
 from profiles.ppmc312.planner import choose_clock, plan_free_curve  # noqa: E402
 from profiles.ppmc312.table import FreeCurveTable  # noqa: E402
+from profiles.ppmc312.tolerance_box import sample_peaks  # noqa: E402
 from tests.support.oracle_moves import kernel_step_counts, whole_move  # noqa: E402
 from verify.safety import judge_safety  # noqa: E402
-from verify.tolerance_box import sample_peaks  # noqa: E402
 
 AIM_DEG = 75.0
 JUDGE_GOAL_S = 0.025

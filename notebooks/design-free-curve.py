@@ -17,7 +17,7 @@ from profiles.motor import bundled_motor_paths
 from verify import compare_table
 from verify.plot import motor_figure
 from verify.references import exact_optimum
-from verify.criterion import stall_margins
+from profiles.ppmc312.criterion import stall_margins
 
 PULSES = 10_000
 for path in bundled_motor_paths():

@@ -17,7 +17,7 @@ from profiles.motor import bundled_motor_paths
 from profiles.ppmc312 import FreeCurveTable, simulate_move
 from profiles.ppmc312.sync import (line_deviation, plan_line_sync, plan_time_sync,
                                    spread_tolerance_s)
-from verify.criterion import check_stall
+from profiles.ppmc312.criterion import check_stall
 from verify.sync import ruckig_sync, sync_figure
 
 motors = {p.stem: load_motor(p) for p in bundled_motor_paths()}

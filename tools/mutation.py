@@ -12,7 +12,7 @@ otherwise. A survivor listed in tools/mutation.toml's `[[equivalent]]` (by the m
 id: its code, never its line) with the reason it cannot change behaviour is
 *equivalent*. Score = (killed + timeout) / (mutants − equivalent).
 
-Why not mutmut or cosmic-ray (measured on this repository, verify/chip_rules.py and its
+Why not mutmut or cosmic-ray (measured on this repository, profiles/ppmc312/chip_rules.py and its
 two test files, on the shared 2-core machine): mutmut 3.8 skips every decorated
 function, so it makes no mutant of the numba kernels (profiles/motor/rotor_kernel.py:
 0 of its 406 sites); cosmic-ray 8.7 mutates them but makes 981 mutants of chip_rules

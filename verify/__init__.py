@@ -9,12 +9,13 @@ from typing import TYPE_CHECKING
 from profiles.lazy import lazy_exports
 
 if TYPE_CHECKING:
-    from .chip_rules import check_table
+    from profiles.ppmc312.chip_rules import check_table
+
     from .compare import compare_table
     from .safety import SafetyVerdict, judge_safety
 
 __getattr__ = lazy_exports(__name__, {
-    "check_table": ".chip_rules", "compare_table": ".compare",
+    "check_table": "profiles.ppmc312.chip_rules", "compare_table": ".compare",
     "judge_safety": ".safety", "SafetyVerdict": ".safety",
 })
 

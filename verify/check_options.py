@@ -6,14 +6,14 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+# the tolerance box's Monte Carlo samples unless told otherwise (profiles.verdict, read
+# without numpy): every judge's default, check's and sweep's --samples
+from profiles.verdict import DEFAULT_SAMPLES
+
 if TYPE_CHECKING:
     from profiles.motor import Motor
     from profiles.progress import Progress
 
-# Monte Carlo samples of a motor's tolerance box, unless told otherwise: the default of
-# check's and sweep's --samples and of the library's judges, here where the CLI reads it
-# without numpy
-DEFAULT_SAMPLES = 1000
 
 
 @dataclass(frozen=True)
@@ -21,7 +21,7 @@ class CheckOptions:
     """`motor` adds the safety verdict (over every execution; `pulses`: only the moves of
     those lengths; `physics`: the load angle too; `samples`/`seed`: the tolerance box's
     Monte Carlo; `strict`: resonance dwells are errors; `commands`: the motion commands
-    judged besides every move, names or hex codes, None: all, verify.command_verdicts).
+    judged besides every move, names or hex codes, None: all, profiles.ppmc312.command_verdicts).
     `extck_hz`: the external clock of EXTCK uploads; `clock`: the clock of a table-read
     answer (which does not carry it)."""
 

@@ -2,7 +2,7 @@
 
 The table's time is what the chip runs (`profiles.ppmc312.execution`, exact ticks); the
 references are continuous profiles on the same move (`verify.references`);
-the stall margin is capability / need over the table's stages (`verify.criterion`).
+the stall margin is capability / need over the table's stages (`profiles.ppmc312.criterion`).
 The table is judged by the one verdict (`verify.safety.judge_safety`) twice: on the move
 asked for, and on every move the table can run (what the chip does with it for other
 lengths); `safe` is the move's verdict.
@@ -180,12 +180,13 @@ class Comparison:
         return float(self.references["exact"].v_pps[0])
 
     def load_angle_curves(self) -> list[tuple[str, Any]]:
-        """The move's load angle against time (`verify.load_angle.LoadAngleTrace`), each
-        with its label: the nominal motor forward, and the motor and direction where the
-        move's verdict found its worst when that is another (a tolerance-box corner or the
-        backward move); none when the load angle was not judged (--no-physics)."""
+        """The move's load angle against time
+        (`profiles.ppmc312.load_angle_trace.LoadAngleTrace`), each with its label: the
+        nominal motor forward, and the motor and direction where the move's verdict found
+        its worst when that is another (a tolerance-box corner or the backward move); none
+        when the load angle was not judged (--no-physics)."""
         from profiles.motor.tolerance import corners
-        from verify.load_angle import trace_load_angle
+        from profiles.ppmc312.load_angle_trace import trace_load_angle
 
         worst = self.move_verdict.load_angle
         if worst is None:
@@ -237,24 +238,27 @@ def compare_table(table: Table, motor: Motor, pulses: int, *,
                   physics: bool = True) -> Comparison:
     """The table's move of `pulses` against the references, and the safety verdict on that
     move and on every move (`physics`: with the load angle)."""
+    from profiles.ppmc312.criterion import stall_margins
     from profiles.ppmc312.execution import simulate_move
     from profiles.ppmc312.init_model import as_free_curve
-    from verify.criterion import stall_margins
     from verify.references import best_reference, solve_references
     from verify.safety import judge_safety
 
     table = as_free_curve(table)
     execution = simulate_move(table, pulses)
+    # the continuous side first, then the device's: the motor goes down into the device's
+    # room (its one verdict, twice, then its margins) and does not come back up
+    # (tests/repo/test_walk.py)
+    start = from_start(motor, pulses, execution)
     refs, failed = solve_references(motor, pulses, include=include)
     best = best_reference(refs)
     optimum = next(name for name, r in refs.items() if r is best)
+    move_verdict = judge_safety(table, motor, pulses=[pulses], load_angle=physics)
+    every_verdict = judge_safety(table, motor, load_angle=physics)
     return Comparison(table=table, motor=motor, pulses=pulses, execution=execution,
                       references=refs, optimum=optimum, margins=stall_margins(table, motor),
-                      move_verdict=judge_safety(table, motor, pulses=[pulses],
-                                                load_angle=physics),
-                      every_verdict=judge_safety(table, motor, load_angle=physics),
-                      failed_references=failed,
-                      from_table_start=from_start(motor, pulses, execution))
+                      move_verdict=move_verdict, every_verdict=every_verdict,
+                      failed_references=failed, from_table_start=start)
 
 
 def from_start(motor: Motor, pulses: int, execution: Any) -> Any:

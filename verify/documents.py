@@ -68,10 +68,10 @@ def axes_result(raw: bytes, path: str, options: CheckOptions) -> FileResult:
 def table_axes(axes: AxesFile) -> tuple[list[Finding], str]:
     """Each table's chip rules (naming its axis) and the finish spread of their moves."""
     from profiles.joint import spread_tolerance_s
+    from profiles.ppmc312.chip_rules import check_table
     from profiles.ppmc312.execution import simulate_move
     from profiles.ppmc312.table import load_table
 
-    from .chip_rules import check_table
     from .devices import get
 
     device = get(axes.device)

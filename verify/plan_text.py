@@ -195,7 +195,7 @@ def _reserve(kept: Any) -> str:
 def _verdict(verdict: Any) -> str:
     """`verdict: SAFE for every move length: worst load angle 70.0° (a decel stop, stage
     89), margin +5.0° to the 75° aim` (the 90° peak is beyond the aim)."""
-    from verify.command_verdicts import DECEL_STOP
+    from profiles.ppmc312.command_verdicts import DECEL_STOP
 
     head = "SAFE" if verdict.safe else "UNSAFE (failed: " + ", ".join(verdict.failed) + ")"
     scope = ("every move length" if verdict.moves is None
@@ -214,8 +214,8 @@ def _verdict(verdict: Any) -> str:
 def _commands(verdict: Any, check: str) -> list[str]:
     """The other motion commands (their codes) have their own speed limits: one line, and
     the command that lists each one's limit."""
-    from verify.command_families import CODES
-    from verify.command_verdicts import DECEL_STOP
+    from profiles.ppmc312.command_families import CODES
+    from profiles.ppmc312.command_verdicts import DECEL_STOP
 
     codes = [CODES.get(name, name) for name, _ in verdict.commands if name != DECEL_STOP]
     if not codes:

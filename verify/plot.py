@@ -43,8 +43,8 @@ def comparison_figure(comparison: Any, angles: Any = None,
     """Speed against time (a zoom of the ramp below it when the ramp is a sliver of the
     move) and against position (staircase as steps, references as lines), the move's
     load angle against time with the aim and the 90° peak (`angles`: (label,
-    `verify.load_angle.LoadAngleTrace`) pairs; none: no panel) and the stall margin of
-    each stage. `motor_label` names a motor whose file has no name."""
+    `profiles.ppmc312.load_angle_trace.LoadAngleTrace`) pairs; none: no panel) and the
+    stall margin of each stage. `motor_label` names a motor whose file has no name."""
     plt = pyplot()
     zoom_end = ramp_zoom_end_s(comparison)
     rows = [("t", 3.0)] + ([("zoom", 2.0)] if zoom_end else []) + [("x", 3.0)] + \

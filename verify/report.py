@@ -211,8 +211,9 @@ def _s(n: int) -> str:
 
 # --- what a report needs to rank findings of one rule ---------------------------------------
 # Findings carry no numbers besides their stage: the move and the shortfall are read back
-# from the messages verify.criterion writes (tests/verify/test_report.py pins them on real findings,
-# so a change of wording there fails a test instead of silently unranking a report).
+# from the messages profiles.ppmc312.criterion writes (tests/verify/test_report.py pins
+# them on real findings, so a change of wording there fails a test instead of silently
+# unranking a report).
 _NUMBER = r"([0-9.]+(?:e[+-]?[0-9]+)?)"
 _MOVE = re.compile(r"shortest move that runs it: (\d+) pulses")
 _NEED_GIVES = re.compile(rf"needs {_NUMBER} pps², the motor gives {_NUMBER} pps²")

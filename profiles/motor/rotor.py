@@ -1,6 +1,6 @@
 """The rotor of a hybrid stepper following a commanded staircase: the load-angle model.
 
-A model of the motor (verify.load_angle turns it into verdicts; planners use it to
+A model of the motor (profiles.ppmc312.load_angle_trace turns it into verdicts; planners use it to
 tighten). In pulses (one pulse = one commanded step of the driver):
 
     lag  L = x_cmd(t) − x(t)                  [pulses; > 0 when the rotor is behind]

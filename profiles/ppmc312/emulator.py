@@ -184,7 +184,7 @@ class ChipEmulator:
         # The chip ignores the x bits of the mode byte: clear them before parsing.
         clean = data[:3] + bytes([data[3] & 0x1F]) + data[4:]
         f = (INIT_SEPARATE if separate else INIT_COMMON).decode(clean)
-        # The rate rules (codes 01–04) live in one place, shared with verify.chip_rules.
+        # The rate rules (codes 01–04) live in one place, shared with profiles.ppmc312.chip_rules.
         # Pulse counts outside 0x10..0xFFFFF have no documented code: the emulator
         # does not invent one, and verify reports them (init-pulses-field).
         # (The clock does not enter the rate rules; EXTCK's frequency is not in the bytes.)

@@ -53,7 +53,7 @@ MIN_BUILT_STAGE_PULSES = 3    # a built stage of ≤ 2 pulses is error 0x05
 def init_rate_problems(table: InitTable) -> list[tuple[int, str, str]]:
     """Every way the rate parameters break the chip's rules, as (chip code, rule id,
     message saying what to change); the one source of these rules for the model and
-    for `verify.chip_rules`. Order: 0x01 ranges; then 0x03 (start or stop ≤ high); else
+    for `profiles.ppmc312.chip_rules`. Order: 0x01 ranges; then 0x03 (start or stop ≤ high); else
     0x02 for the slower end within 127 of high and 0x04 for the faster one."""
     out: list[tuple[int, str, str]] = []
     rates = [("start_rate", table.start_rate, START_RATE_MIN, START_RATE_MAX)]

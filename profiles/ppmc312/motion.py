@@ -5,7 +5,7 @@ frames of §16 (§15-5 for 05), each described once as a `profiles.fields.Frame`
 `COMMANDS` is the one registry: a command's name (`stop`, `decel-stop`, `accel`, …) gives
 its code, its parallel frames, its serial frames by how it starts, what parameters it
 takes and the rates its figure allows. The CLI (`stepramp move --command NAME`) and
-`stepramp check` (verify/command_rules.py) look commands up there, never in if-chains.
+`stepramp check` (profiles/ppmc312/command_rules.py) look commands up there, never in if-chains.
 
 Parameters, the same for every command (each command takes some of them):
 - `rate`: a rate divisor (82's is its high-rate override; 0 = the table's high rate where
@@ -432,7 +432,7 @@ def _not_motion(data: bytes) -> str:
             f"(header 03; codes {codes})")
 
 
-# --- reading what the chip would refuse (verify/command_rules.py) ---------------------
+# --- reading what the chip would refuse (profiles/ppmc312/command_rules.py) ---------------------
 def parallel_form(block: bytes) -> tuple[Command | None, Frame | None]:
     """The motion command a parallel block names (header 02/03 and its code), and the
     form of it the block's size and length byte fit (None: none does)."""

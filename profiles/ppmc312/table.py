@@ -8,7 +8,7 @@ Two kinds, as the chip has two ways to get a table:
 Loading refuses what cannot even be represented on the wire (a value that does
 not fit its byte field, a negative count, an unknown key: `StepRampError`).
 What fits the wire but breaks a chip rule (rate 1, 200 stages, a stage of
-1 pulse …) loads fine and is reported by `verify.chip_rules`, with the chip's code.
+1 pulse …) loads fine and is reported by `profiles.ppmc312.chip_rules`, with the chip's code.
 """
 
 from __future__ import annotations

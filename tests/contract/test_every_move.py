@@ -15,6 +15,7 @@ from profiles.motor.angles import AIM_DEG
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.criterion import (
     all_length_problems,
+    check_stall,
     execution_problems,
     switch_safe,
 )
@@ -22,7 +23,6 @@ from profiles.ppmc312.execution import move_families, simulate_move
 from profiles.ppmc312.move_batch import MOVE_PULSES_MAX
 from profiles.ppmc312.planner import plan_duty_cycle, plan_free_curve
 from profiles.ppmc312.table import FreeCurveTable
-from verify.criterion import check_stall
 from verify.safety import judge_safety
 
 CLK = Clock.internal("8MHz")

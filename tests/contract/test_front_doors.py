@@ -25,10 +25,10 @@ def test_every_listed_name_is_there(door: object) -> None:
 
 def test_the_names_are_the_deep_objects() -> None:
     from profiles.motor import Motor, load_motor
+    from profiles.ppmc312.chip_rules import check_table
     from profiles.ppmc312.formats import render
     from profiles.ppmc312.planner import plan_free_curve
     from profiles.ppmc312.upload import encode_table
-    from verify.chip_rules import check_table
     from verify.compare import compare_table
     from verify.safety import judge_safety
 

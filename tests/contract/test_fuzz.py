@@ -251,7 +251,7 @@ def test_argparse_errors_are_one_line() -> None:
 
 def test_an_internal_error_is_one_line_exit_2_and_debug_shows_it(
         monkeypatch: pytest.MonkeyPatch) -> None:
-    from verify import chip_rules as checks
+    from profiles.ppmc312 import chip_rules as checks
 
     def boom(*_: object) -> list[object]:
         raise ZeroDivisionError("planted")

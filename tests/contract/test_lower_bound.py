@@ -10,9 +10,9 @@ from __future__ import annotations
 import pytest
 
 from profiles.motor import Motor, bundled_motor_paths, load_motor
+from profiles.ppmc312.criterion import check_stall
 from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.planner import plan_free_curve
-from verify.criterion import check_stall
 from verify.references import exact_optimum
 
 MOTORS = [load_motor(p) for p in bundled_motor_paths()]

@@ -402,7 +402,7 @@ def test_json_examples_load() -> None:
 def test_le1_example_is_what_the_guide_says() -> None:
     import json
 
-    from verify.chip_rules import check_table
+    from profiles.ppmc312.chip_rules import check_table
 
     [le1] = [json.loads("\n".join(b)) for _, b in fenced_blocks("json") if "decel_pulses" in
              "\n".join(b)]

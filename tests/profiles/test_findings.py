@@ -8,9 +8,9 @@ from functools import partial
 import pytest
 
 from profiles.findings import Finding
+from profiles.ppmc312.chip_rules import check_table
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.table import FreeCurveTable
-from verify.chip_rules import check_table
 
 
 class Writer:

@@ -13,11 +13,11 @@ def test_every_front_end_draws_the_same_number_of_samples_by_default() -> None:
     import inspect
     import re
 
+    from profiles.ppmc312.tolerance_box import judge_box
     from verify import cli
     from verify.check_options import DEFAULT_SAMPLES, CheckOptions
     from verify.cli._common import sample_count
     from verify.safety import judge_safety
-    from verify.tolerance_box import judge_box
 
     for fn in (check_file, judge_safety, judge_box):
         assert inspect.signature(fn).parameters["samples"].default == DEFAULT_SAMPLES, fn

@@ -10,9 +10,9 @@ import pytest
 
 from profiles.errors import FormatError
 from profiles.findings import Finding
+from profiles.ppmc312.chip_rules import check_table
 from profiles.ppmc312.table import load_table
 from tests.support.paths import ROOT
-from verify.chip_rules import check_table
 from verify.report import FileResult, finding_line, render
 
 EXAMPLES = ROOT / "examples"
@@ -117,14 +117,14 @@ def test_real_check_results_render_in_every_format() -> None:
 def heavy_findings() -> list[Finding]:
     """The example NEMA17 table on the heavy NEMA23: 84 criterion findings of 5 rules."""
     from profiles.motor import load_motor
-    from verify.criterion import check_stall
+    from profiles.ppmc312.criterion import check_stall
 
     table = load_table(EXAMPLES / "free-curve-nema17.json")
     return check_stall(table, load_motor("nema23-heavy"))
 
 
 def test_excess_and_move_are_read_from_the_stall_messages() -> None:
-    # Pinned on real findings: a change of wording in verify/criterion.py must fail here.
+    # Pinned on real findings: a change of wording in profiles/ppmc312/criterion.py must fail here.
     import math
 
     from verify.report import excess, move_pulses

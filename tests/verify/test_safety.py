@@ -10,9 +10,9 @@ from profiles.motor import bundled_motor_paths, load_motor
 from profiles.motor.angles import PEAK_DEG
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.execution import simulate_move
+from profiles.ppmc312.load_angle_trace import trace_load_angle
 from profiles.ppmc312.table import FreeCurveTable
 from tests.support.paths import ROOT
-from verify.load_angle import trace_load_angle
 from verify.safety import judge_safety
 
 MHZ1 = Clock.internal("1MHz")

@@ -301,7 +301,7 @@ def refuse_table_errors(path: str, table: Any, remedy: str) -> bool:
     """Print the chip-rule errors of `table` (each as `check` states it) and a "refused"
     line on stderr, and say whether there were any: a command that turns a table into
     something the chip runs gives the same verdict as `check` (exit 1), never an error."""
-    from verify.chip_rules import check_table
+    from profiles.ppmc312.chip_rules import check_table
 
     errors = [f for f in check_table(table) if f.severity == "error"]
     for f in errors:

@@ -103,7 +103,7 @@ def _do_plan(args: argparse.Namespace) -> int:
             raise FormatError(f"--kind {args.kind} needs --pulses: an init table is chosen "
                               "for the move it runs")
     if args.commands is not None:
-        from verify.command_verdicts import command_names
+        from profiles.ppmc312.command_verdicts import command_names
 
         command_names(args.commands)  # an unknown one: one line, before any work
     reserve = cruise_reserve(args)
@@ -305,9 +305,9 @@ def _init(args: argparse.Namespace, planned: Any, motor: Any) -> tuple[Any, dict
     asked) finds it within the aim (profiles.ppmc312.init_planner.tighten_init), planned
     for `planned` (the motor with the cruise reserve's top speed)."""
     from profiles.motor.angles import PEAK_DEG
+    from profiles.ppmc312.init_judge import init_judge
     from profiles.ppmc312.init_planner import tighten_init
     from profiles.ppmc312.table import InitShape
-    from verify.init_judge import init_judge
 
     shape: InitShape = "s_curve" if args.kind == "s-curve" else "linear"
     # LE=0 by default: the table then exports to both interfaces (docs/manual-notes.md).
@@ -354,7 +354,7 @@ def plan_provenance(args: argparse.Namespace, motor: Any) -> Any:
         moves = FileRef(display_path(args.moves), hashlib.sha256(raw).hexdigest())
     commands = None
     if args.commands is not None:
-        from verify.command_verdicts import command_names
+        from profiles.ppmc312.command_verdicts import command_names
 
         commands = command_names(args.commands)
     return planned_for(args.motor, motor, pulses=pulses, moves_file=moves,

@@ -192,9 +192,9 @@ def _is_program(path: str) -> bool:
 def _simulate_program(args: argparse.Namespace) -> int:
     from profiles.errors import FormatError
     from profiles.ppmc312.program import load_program
+    from profiles.ppmc312.program_verdict import timeline
     from profiles.reading import json_text
     from verify.output import Data, write_output, write_outputs
-    from verify.programs import timeline
 
     if args.high_rate or args.samples:
         raise FormatError("a program gives its own rates and runs several motions: "

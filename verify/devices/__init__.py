@@ -13,6 +13,8 @@ Each `Device` says where its parts are, as import paths loaded only when used (s
 - `judge`: its module in verify/devices/: `check(raw, path, options)`, the verdict
   `stepramp check` gives on one of its files, and, for a device with synchronised moves,
   `axis_verdict(axis)`, each axis's safety in sync's report;
+- `safety`: its safety verdict on what its planners make (`judge_safety` hands it the
+  tables whose type its package made: `safety_judge`), "module:function";
 - `command`: its own command group (verify/cli/<command>.py), and `reader`, the command
   that reads its files back (a file `decode` cannot read names it);
 - `axes`: its entry in axes files (profiles/axes.py): how many axes, how many pulses;
@@ -36,6 +38,7 @@ from typing import TYPE_CHECKING, Any, Protocol, cast
 if TYPE_CHECKING:
     from profiles.axes import AxesEntry, AxesFile
     from profiles.formats import FormatTable
+    from profiles.verdict import SafetyVerdict
     from verify.report import FileResult
 
     from ..check_options import CheckOptions
@@ -80,6 +83,7 @@ class Device:
     axes: tuple[int, int] | None = None  # (most axes, most pulses of one axis's move)
     sync: str | None = None   # module
     simulates: bool = False
+    safety: str | None = None  # "module:function": its verdict on its tables
 
     def format_table(self) -> FormatTable[Any]:
         return cast("FormatTable[Any]", _attribute(self.formats))
@@ -111,12 +115,13 @@ DEVICES: tuple[Device, ...] = (
     Device("ppmc312", "PPMC-312", "upload", "stepramp decode", "profiles.ppmc312",
            "profiles.ppmc312.formats:FORMATS", "verify.devices.ppmc312",
            documents=("stepramp.table/1", "stepramp.program/1"), axes=(16, 0xFFFFFFFF),
-           sync="profiles.ppmc312.sync", simulates=True),
+           sync="profiles.ppmc312.sync", simulates=True,
+           safety="profiles.ppmc312.safety:judge_table"),
     Device("alink", "A-Link ALUM", "settings", "stepramp alink read", "profiles.alink",
            "profiles.alink.formats:FORMATS", "verify.devices.alink",
            detect="profiles.alink.formats:is_settings_file", command="alink",
            axes=(2, (1 << 27) - 1),  # one unit's two axes; MOVE_R's 28-bit signed para
-           sync="profiles.alink.sync"),
+           sync="profiles.alink.sync", safety="verify.devices.alink:judge_ramp"),
     Device("mc200", "MC-200", "stream", "stepramp mc200 decode", "profiles.mc200",
            "profiles.mc200.formats:FORMATS", "verify.devices.mc200",
            detect="profiles.mc200.formats:is_stream_file", command="mc200"),
@@ -156,6 +161,19 @@ def detect(raw: bytes) -> Device:
             if d.claims(raw):
                 return d
     return DEFAULT
+
+
+def safety_judge(table: Any) -> Callable[..., SafetyVerdict]:
+    """The safety verdict of the device whose package made `table`'s type (a PPMC-312
+    table, an A-Link ramp): its registry entry's `safety`; a FormatError otherwise."""
+    from profiles.errors import FormatError
+
+    module = type(table).__module__
+    for d in DEVICES:
+        if d.safety is not None and module.startswith(d.package + "."):
+            return cast("Callable[..., SafetyVerdict]", _attribute(d.safety))
+    raise FormatError(f"no device judges a {type(table).__name__} (judged: "
+                      f"{', '.join(d.name for d in DEVICES if d.safety is not None)})")
 
 
 def synchronised() -> tuple[Device, ...]:

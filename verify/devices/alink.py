@@ -7,24 +7,27 @@ against the rule the planner plans by."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from typing import TYPE_CHECKING, Any
 
 from profiles.errors import CorruptedError, StepRampError
 from profiles.findings import Finding, Severity
+from profiles.verdict import DEFAULT_SAMPLES
 
 from .common import dedupe, device_result, integrity_findings
 
 if TYPE_CHECKING:
     from profiles.alink import AlinkSettings, Command
+    from profiles.alink.homing import HomingSettings
     from profiles.alink.planner import SettingsJudge
     from profiles.alink.ramp import AlinkRamp
     from profiles.alink.unit import Answer, Issue
     from profiles.motor import Motor
+    from profiles.progress import Progress
+    from profiles.verdict import LoadAngle, SafetyVerdict
 
     from ..check_options import CheckOptions
     from ..report import FileResult
-    from ..safety import SafetyVerdict
 
 TITLE = "A-Link settings"
 
@@ -33,8 +36,8 @@ def check(raw: bytes, path: str, options: CheckOptions) -> FileResult:
     """`stepramp check`'s verdict on one of the device's files: its own check, then the
     device's rules (a file whose own check fails has that one finding: its content
     cannot be trusted for more); with a motor, the one safety verdict
-    (`verify.safety.judge_safety`) on the unit's ramp for the settings the file leaves
-    (its JSON in `details["safety"]`, as a PPMC-312 table's)."""
+    (`verify.safety.judge_safety`, `judge_ramp` below) on the unit's ramp for the
+    settings the file leaves (its JSON in `details["safety"]`, as a PPMC-312 table's)."""
     from profiles.alink.formats import parse
 
     from ..report import FileResult
@@ -102,17 +105,15 @@ def safety_findings(commands: Sequence[Command], options: CheckOptions, notes: l
                     details: dict[str, object]) -> list[Finding]:
     """The safety verdict's findings for the ramp the commands leave; its summaries go to
     `notes`, its JSON to `details["safety"]`."""
-    from verify.safety import judge_safety
-
     assert options.motor is not None
     ramp, homing, why = ramp_of_commands(commands)
     if ramp is None:
         notes.append(str(why))
         return []
-    verdict = judge_safety(ramp, options.motor, pulses=options.pulses,
-                           samples=options.samples, seed=options.seed, strict=options.strict,
-                           load_angle=options.physics, homing=homing,
-                           progress=options.progress, commands=options.commands)
+    verdict = judge_ramp(ramp, options.motor, pulses=options.pulses,
+                         samples=options.samples, seed=options.seed, strict=options.strict,
+                         load_angle=options.physics, homing=homing,
+                         progress=options.progress, commands=options.commands)
     details["safety"] = verdict.to_json()
     notes.append(f"the unit's ramp: {ramp.describe()}")
     if options.commands is not None:
@@ -130,11 +131,10 @@ def settings_judge(motor: Motor, *, aim_deg: float) -> SettingsJudge:
     ramp."""
     from profiles.alink.planner import Judgement
     from profiles.alink.ramp import ramp_of
-    from verify.safety import judge_safety
 
     def judged(settings: AlinkSettings) -> Judgement:
         ramp = ramp_of(settings)
-        v = judge_safety(ramp, motor, samples=0, aim_deg=aim_deg)
+        v = judge_ramp(ramp, motor, samples=0, aim_deg=aim_deg)
         rules = {f.rule for f in v.criterion}
         worst, speed, what = _worst_speed(ramp, v)
         near_start = speed <= ramp.start_pps + START_SHARE * (ramp.high_pps - ramp.start_pps)
@@ -150,7 +150,7 @@ def settings_judge(motor: Motor, *, aim_deg: float) -> SettingsJudge:
 def sync_judge_for(motor: Motor) -> SettingsJudge:
     """The judge sync's time planner tightens each A-Link axis on
     (`profiles.alink.sync.plan_sync`): `settings_judge` at the 75° aim."""
-    from verify.safety import AIM_DEG
+    from profiles.motor.angles import AIM_DEG
 
     return settings_judge(motor, aim_deg=AIM_DEG)
 
@@ -194,10 +194,9 @@ def axis_verdict(axis: Any) -> tuple[bool, dict[str, Any]]:
     (`judge_safety`, every move length: its JSON as a PPMC-312 axis's `safety`)."""
     from profiles.alink.ramp import ramp_of
     from profiles.alink.sync import is_stall_safe
-    from verify.safety import judge_safety
 
     rule = is_stall_safe(axis.settings, axis.motor)
-    verdict = judge_safety(ramp_of(axis.settings), axis.motor)
+    verdict = judge_ramp(ramp_of(axis.settings), axis.motor)
     return rule and verdict.safe, {"stall_safe": rule, "safety": verdict.to_json()}
 
 
@@ -325,3 +324,92 @@ def _unit_findings(last: dict[int, Command]) -> list[Finding]:
     # at the list's drive commands or at its end (`_settings_findings`)
     return [Finding("warning", "alink-corrected", f"the unit silently changes it: {note}")
             for note in run.corrections]
+
+
+# --- the unit's safety verdict (the registry's `safety` entry of the A-Link) -----------
+
+def judge_ramp(ramp: AlinkRamp, motor: Motor, *, pulses: Iterable[int] | None = None,
+               samples: int = DEFAULT_SAMPLES, seed: int = 0, aim_deg: float | None = None,
+               strict: bool = False, load_angle: bool = True,
+               commands: Iterable[str] | None = None, progress: Progress | None = None,
+               homing: HomingSettings | None = None) -> SafetyVerdict:
+    """`judge_safety` on the A-Link unit's ramp (verify.alink_safety; the registry's
+    `safety` entry of the A-Link): the unit's criterion, every move length on the load
+    angle over the box, and as its command families the decel stops (STOP 31) from every
+    pulse of the ramp and, with `homing`, the homing legs (OL/OH, O_UPTIME, the stop at
+    once at the origin); `commands` names the unit's commands (`stepramp alink
+    command`) whose families are judged. `progress` is not reported: the unit's verdict
+    is one batch."""
+    from profiles.motor.tolerance import corners, worst_case_motor
+    from profiles.verdict import LoadAngle, SafetyVerdict, require_aim
+
+    from .. import alink_safety as al
+
+    if aim_deg is None:  # the motor's landmarks load numpy: read on use
+        from profiles.motor.angles import AIM_DEG
+
+        aim_deg = AIM_DEG
+    require_aim(aim_deg)
+
+    families = al.alink_families(commands)  # an unknown command is refused before any work
+
+    moves = None if pulses is None else tuple(sorted({int(n) for n in pulses}))
+    criterion = al.ramp_criterion(ramp, worst_case_motor(motor) if motor.tolerances
+                                  else motor, homing)
+    if motor.tolerances:
+        criterion = [f.with_message(f.message + " (at the tolerance box's worst case)")
+                     for f in criterion]
+    resonance = tuple(al.ramp_resonance(ramp, motor, strict=strict))
+    if not load_angle:
+        return SafetyVerdict(moves, aim_deg, tuple(criterion), None, None, resonance)
+    box_corners = corners(motor) if motor.tolerances else []
+    ways = al.ways_of(motor)
+    rot = al.box_rotors([c.motor for c in box_corners] or [motor], ways)
+    found = al.motion_angles(ramp, "move", rot, moves)
+    deg, row, e = found.worst()
+    where = box_corners[row // len(ways)].describe() if box_corners else "nominal"
+    la = LoadAngle(deg, int(found.x[e]), int(rot.direction[row]), where,
+                   found.first_unstable(), bool(found.slipped.any()), found.deg.size)
+    box = _ramp_box(ramp, motor, found, la, len(box_corners), len(ways), samples, seed) \
+        if box_corners else None
+    if box is not None:
+        la = LoadAngle(box.worst_angle_deg, box.worst_pulses, box.worst_direction,
+                       box.worst_where, box.first_unstable_pulses, box.slips,
+                       box.executions, box.sample_failures)
+    return SafetyVerdict(moves, aim_deg, tuple(criterion), la, box, resonance,
+                         tuple(al.family_verdicts(ramp, homing, rot, aim_deg, families)))
+
+
+def _ramp_box(ramp: AlinkRamp, motor: Motor, found: Any, corner: LoadAngle, n_corners: int,
+              n_ways: int, samples: int, seed: int) -> Any:
+    """The tolerance box's verdict on the unit's moves: the corners (rows of `found`), the
+    Monte Carlo samples on the moves worst at some corner."""
+    import numpy as np
+
+    from profiles.alink.ramp import RAMP_HZ
+    from profiles.motor.angles import PEAK_DEG
+    from profiles.motor.tolerance import clopper_pearson_upper
+    from profiles.ppmc312.tolerance_box import batch_sample_peaks
+    from profiles.verdict import CONFIDENCE, BoxVerdict
+
+    from .. import alink_safety as al
+
+    per_corner = found.deg.reshape(n_corners, n_ways, -1).max(axis=1)
+    sampled = tuple(sorted({int(found.x[k]) for k in np.argmax(per_corner, axis=1)}))
+    worst = (corner.worst_deg, corner.worst_at, corner.worst_pulses, corner.worst_direction)
+    sample_worst, failures, unstable = -1.0, 0, corner.first_unstable_pulses
+    if samples:
+        peaks, which, way = batch_sample_peaks(al.batch(ramp, "move", np.asarray(sampled)),
+                                               RAMP_HZ, motor, samples, seed)
+        failures = int(np.sum(peaks >= PEAK_DEG))
+        i = int(np.argmax(peaks))
+        sample_worst = float(peaks[i])
+        if sample_worst > worst[0]:
+            worst = (sample_worst, f"sample {i}", sampled[int(which[i])], int(way[i]))
+        if failures:
+            first = min(sampled[int(k)] for k in which[peaks >= PEAK_DEG])
+            unstable = first if unstable is None else min(unstable, first)
+    bound = clopper_pearson_upper(failures, samples, CONFIDENCE) if samples else 1.0
+    return BoxVerdict(worst[0], worst[1], worst[2], worst[3], n_corners, corner.worst_deg,
+                      samples, seed, sample_worst, failures, sampled, bound, unstable,
+                      corner.slips, corner.executions + samples * len(sampled))

@@ -3,14 +3,14 @@ from it, by what its blocks (or ASCII frames) hold:
 
 - a table file, or a table upload (free curve, init; parallel blocks or an ASCII init
   frame), asked first what the chip would answer (profiles/ppmc312/emulator.py), then
-  the chip rules (verify/chip_rules.py) and, with a motor, the one safety verdict
+  the chip rules (profiles/ppmc312/chip_rules.py) and, with a motor, the one safety verdict
   (verify/safety.py);
 - motion commands (80–88, 10, 11, 05: `stepramp move --command`), parallel or ASCII:
-  the chip's rules for them (verify/command_rules.py);
+  the chip's rules for them (profiles/ppmc312/command_rules.py);
 - the chip's table-read answer (41): the table it holds, judged like a table file; the
   answer does not carry the clock, so `--clock` says it;
 - a program file (`stepramp.program/1`): what the chip runs for its commands, judged with
-  the motor as the table's moves are (verify/programs.py);
+  the motor as the table's moves are (profiles/ppmc312/program_verdict.py);
 - a C header of several uploads (sync's axes.h): each upload by its symbol prefix,
   verified against its own CRC-32 and judged as above.
 
@@ -24,8 +24,7 @@ from typing import TYPE_CHECKING, Any
 
 from profiles.errors import CorruptedError, DecodeError, FormatError
 from profiles.findings import Finding
-
-from ..command_rules import (
+from profiles.ppmc312.command_rules import (
     frame_payload,
     is_move_block,
     is_serial_move,
@@ -34,6 +33,7 @@ from ..command_rules import (
     serial_move_findings,
     serial_move_notes,
 )
+
 from ..report import FileResult
 from .common import dedupe, integrity_findings
 
@@ -99,10 +99,10 @@ def is_program(raw: bytes) -> bool:
 
 
 def program_file_verdict(raw: bytes, path: str, options: CheckOptions) -> FileFindings:
-    """A program file: what the chip runs for it, judged with the motor (verify/programs.py)."""
+    """A program file: what the chip runs for it, judged with the motor
+    (profiles/ppmc312/program_verdict.py)."""
     from profiles.ppmc312.program import load_program
-
-    from ..programs import program_verdict
+    from profiles.ppmc312.program_verdict import program_verdict
 
     if options.pulses is not None:
         raise FormatError("--pulses names the moves of a table to judge: a program says what "
@@ -259,7 +259,7 @@ def chip_refusal(blocks: list[bytes]) -> Finding | None:
 
 def table_verdict(table: FreeCurveTable | InitTable, options: CheckOptions) -> FileFindings:
     """The chip rules of a table and, with a motor, its safety verdict."""
-    from verify.chip_rules import check_table
+    from profiles.ppmc312.chip_rules import check_table
 
     out = FileFindings(check_table(table))
     out.findings += provenance_findings(table, options, out.notes)
@@ -307,7 +307,7 @@ def safety_findings(table: FreeCurveTable | InitTable, options: CheckOptions,
     JSON to `details["safety"]`."""
     from profiles.errors import InitBuildError
     from profiles.ppmc312.init_model import as_free_curve
-    from verify.safety import judge_safety
+    from profiles.ppmc312.safety import judge_table
 
     assert options.motor is not None
     try:
@@ -315,10 +315,10 @@ def safety_findings(table: FreeCurveTable | InitTable, options: CheckOptions,
     except InitBuildError:
         return []
     commands, found = planned_commands(table, options.commands, notes)
-    verdict = judge_safety(stages, options.motor, pulses=options.pulses,
-                           samples=options.samples, seed=options.seed, strict=options.strict,
-                           load_angle=options.physics, commands=commands,
-                           progress=options.progress)
+    verdict = judge_table(stages, options.motor, pulses=options.pulses,
+                          samples=options.samples, seed=options.seed, strict=options.strict,
+                          load_angle=options.physics, commands=commands,
+                          progress=options.progress)
     found += verdict.findings()
     details["safety"] = verdict.to_json()
     notes.extend(verdict.notes())
@@ -333,7 +333,7 @@ def planned_commands(table: FreeCurveTable | InitTable, given: tuple[str, ...] |
     recorded one, it draws `commands-narrower`: the verdict no longer covers a command the
     machine was planned to run. Wider than the record (or with no record) judges more than
     was planned for: no warning, whatever it finds is the machine's to answer."""
-    from verify.command_verdicts import command_names
+    from profiles.ppmc312.command_verdicts import command_names
 
     planned = table.provenance
     recorded = None if planned is None else planned.commands
@@ -369,9 +369,9 @@ def axis_verdict(axis: Any) -> tuple[bool, dict[str, Any]]:
     """Whether one axis of a synchronised move is safe, and what sync's report says of it:
     the safety verdict of its table over every move length (over the motor's tolerance box
     when it has one)."""
-    from verify.safety import judge_safety
+    from profiles.ppmc312.safety import judge_table
 
-    verdict = judge_safety(axis.table, axis.motor)
+    verdict = judge_table(axis.table, axis.motor)
     return verdict.safe, {"safety": verdict.to_json()}
 
 

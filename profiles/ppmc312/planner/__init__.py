@@ -7,7 +7,7 @@ refinement, jerk and switch-safe counts), `free_curve` (both LE variants, the ta
 
 The planner chooses the stage rates of a PPMC-312 free curve (fastest first on
 the wire, slowest first here) and their pulse counts so that the table obeys
-the stall-safety criterion of `verify.criterion` and the chip's free-curve rules,
+the stall-safety criterion of `profiles.ppmc312.criterion` and the chip's free-curve rules,
 and minimises the move time of `pulses`:
 
     T = Σ_{k<N} w_k / f_k + (pulses − Σ_{k<N} w_k) / f_N,

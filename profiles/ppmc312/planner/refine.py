@@ -127,9 +127,9 @@ def _refine_top(pb: Problem, ev: Staircase, budget: int, offsets: np.ndarray) ->
 
 
 def jerk_counts(pb: Problem, ev: Staircase, budget: int) -> Staircase | None:
-    """Raise counts so that the stall-jerk rule of verify.criterion holds: stage by stage from
-    the slowest, the smallest count whose slope change from the previous stage is within
-    max_jerk_pps3 (σ = 0 before the first stage and in the top stage)."""
+    """Raise counts so that the stall-jerk rule of profiles.ppmc312.criterion holds: stage
+    by stage from the slowest, the smallest count whose slope change from the previous
+    stage is within max_jerk_pps3 (σ = 0 before the first stage and in the top stage)."""
     jerk = pb.motor.max_jerk_pps3
     if jerk is None:
         return ev

@@ -2,7 +2,7 @@
 plans by, over every execution the chip can run with the table.
 
 - the criterion over every move length (`criterion.all_length_safe`, the one
-  `verify.criterion.check_stall` reports), on the motor's worst case over its tolerance
+  `profiles.ppmc312.criterion.check_stall` reports), on the motor's worst case over its tolerance
   box when it has one (as `plan_free_curve` plans);
 - the load angle over every execution (`load_angle.worst_load_angles`, at every corner
   of the tolerance box), a decel stop (81) at every pulse of the ramp under every

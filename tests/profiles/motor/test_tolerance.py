@@ -26,9 +26,9 @@ from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.load_angle import worst_load_angle
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312.table import dump_table
+from profiles.ppmc312.tolerance_box import judge_box, sample_peaks
 from tests.support.paths import ROOT
 from verify import cli
-from verify.tolerance_box import judge_box, sample_peaks
 
 DATA = ROOT / "profiles" / "data"
 

@@ -181,8 +181,8 @@ def test_init_error_codes(block: bytes, code: int) -> None:
 def test_init_pulse_counts_out_of_range_have_no_chip_code(block: bytes) -> None:
     # The manual's 01 is "rate data out of range"; no code covers pulse counts, so the
     # emulator invents none and the check reports them (same rules, one place).
+    from profiles.ppmc312.chip_rules import check_table
     from profiles.ppmc312.upload import decode_init
-    from verify.chip_rules import check_table
 
     assert accept_upload([block]).ok
     errors = [(f.rule, f.chip_code) for f in check_table(decode_init(block))

@@ -10,6 +10,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from profiles.errors import FieldRangeError, InitBuildError, StepRampError
+from profiles.ppmc312.chip_rules import check_table
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.init_model import (
     expand_init,
@@ -17,7 +18,6 @@ from profiles.ppmc312.init_model import (
     init_stage_problem,
 )
 from profiles.ppmc312.table import FreeCurveTable, InitTable
-from verify.chip_rules import check_table
 
 C8 = Clock.internal("8MHz")
 

@@ -12,7 +12,10 @@ from profiles.errors import InitPlanError
 from profiles.motor import Motor, bundled_motor_paths, load_motor
 from profiles.motor.angles import AIM_DEG
 from profiles.motor.tolerance import worst_case_motor
+from profiles.ppmc312.chip_rules import check_table
 from profiles.ppmc312.clock import Clock
+from profiles.ppmc312.criterion import check_stall
+from profiles.ppmc312.init_judge import init_judge
 from profiles.ppmc312.init_model import expand_init
 from profiles.ppmc312.init_planner import (
     RAMP_FLOOR,
@@ -26,10 +29,7 @@ from profiles.ppmc312.init_planner import (
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312.table import FreeCurveTable, InitTable
 from tests.support.cli import run
-from verify.chip_rules import check_table
 from verify.cli import main
-from verify.criterion import check_stall
-from verify.init_judge import init_judge
 from verify.plan_text import LINE_MAX, fix_lines, init_tightening
 from verify.safety import judge_safety
 

@@ -8,13 +8,13 @@ import pytest
 
 from profiles.errors import StepRampError
 from profiles.motor import Motor, bundled_motor_paths, load_motor
+from profiles.ppmc312.chip_rules import check_table
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.planner import choose_clock
 from profiles.ppmc312.quantise import quantise_reference
 from profiles.ppmc312.table import FreeCurveTable
 from profiles.result import PlanResult
-from verify.chip_rules import check_table
 from verify.references import Reference, ruckig_reference, toppra_reference
 
 MOTORS = {p.stem: load_motor(p) for p in bundled_motor_paths()}

@@ -101,7 +101,8 @@ def test_loader_refuses_with_one_clear_line(obj: Any, exc: type[Exception], word
 
 
 def test_chip_rule_breaks_still_load() -> None:
-    # Rate 1 and 1-pulse stages fit the wire: verify.chip_rules reports them, not the loader.
+    # Rate 1 and 1-pulse stages fit the wire: profiles.ppmc312.chip_rules reports them, not
+    # the loader.
     t = table_from_json(with_(FREE, rates=[1, 500, 600], accel_pulses=[1, 1, 1]))
     assert isinstance(t, FreeCurveTable) and t.rates[0] == 1
 

@@ -1,5 +1,5 @@
 """`stepramp move --command NAME` (every PPMC-312 motion command, verify/cli/move.py) and
-`stepramp check` on the files it writes (verify/command_rules.py): the figures' bytes
+`stepramp check` on the files it writes (profiles/ppmc312/command_rules.py): the figures' bytes
 from the command line, every format, options a command does not take refused naming
 them, and the chip's parameter errors as findings with its codes."""
 

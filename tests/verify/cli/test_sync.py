@@ -20,13 +20,13 @@ from profiles.alink.sync import (
 from profiles.joint import spread_tolerance_s
 from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312 import decode_upload
+from profiles.ppmc312.criterion import check_stall
 from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.formats import parse, parse_c_set
 from profiles.ppmc312.table import load_table
 from profiles.ppmc312.upload import decode_move
 from tests.support.paths import ROOT
 from verify.cli import main
-from verify.criterion import check_stall
 from verify.devices import load_axes
 from verify.safety import judge_safety
 from verify.sync import output_names

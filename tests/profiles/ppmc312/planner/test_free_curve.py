@@ -11,6 +11,7 @@ import pytest
 from profiles.errors import PlanError, StepRampError
 from profiles.motor import Motor, bundled_motor_paths, load_motor
 from profiles.ppmc312.clock import Clock
+from profiles.ppmc312.criterion import check_stall
 from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.planner import (
     Shaping,
@@ -25,7 +26,6 @@ from profiles.ppmc312.planner.free_curve import RAMP_FLOOR, TOP_ROUNDS, TOP_STEP
 from profiles.ppmc312.planner.problem import Plan
 from profiles.ppmc312.quantise import quantise_reference
 from profiles.ppmc312.table import FreeCurveTable
-from verify.criterion import check_stall
 from verify.safety import judge_safety
 
 MOTORS = {p.stem: load_motor(p) for p in bundled_motor_paths()}
@@ -35,7 +35,7 @@ MOVES = (300, 2000, 10000, 100000, None)
 
 
 def assert_chip_legal(table: FreeCurveTable, pulses: int | None) -> None:
-    """SPEC §1.4 free-curve rules, written out here independently of verify.chip_rules."""
+    """SPEC §1.4 free-curve rules, written out here independently of profiles.ppmc312.chip_rules."""
     rates = np.asarray(table.rates)
     for counts in (table.accel_pulses, table.decel):
         c = np.asarray(counts)

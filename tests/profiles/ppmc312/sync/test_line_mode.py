@@ -11,6 +11,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from profiles.motor import bundled_motor_paths, load_motor
+from profiles.ppmc312.criterion import check_stall
 from profiles.ppmc312.execution import Execution
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312.sync import (
@@ -19,7 +20,6 @@ from profiles.ppmc312.sync import (
     plan_line_sync,
     spread_tolerance_s,
 )
-from verify.criterion import check_stall
 
 MOTORS = [load_motor(p) for p in bundled_motor_paths()]
 

@@ -8,6 +8,7 @@ from hypothesis import strategies as st
 
 from profiles.errors import SyncError
 from profiles.motor import bundled_motor_paths, load_motor
+from profiles.ppmc312.criterion import check_stall
 from profiles.ppmc312.execution import Execution, simulate_move
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312.sync import (
@@ -15,7 +16,6 @@ from profiles.ppmc312.sync import (
     spread_tolerance_s,
 )
 from profiles.ppmc312.upload import decode_move
-from verify.criterion import check_stall
 from verify.sync import sync_report
 
 MOTORS = [load_motor(p) for p in bundled_motor_paths()]

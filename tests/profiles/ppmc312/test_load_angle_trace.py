@@ -1,4 +1,5 @@
-"""verify.load_angle and profiles.motor.rotor: the load angle (electrical degrees) of executions."""
+"""profiles.ppmc312.load_angle_trace and profiles.motor.rotor: the load angle (electrical
+degrees) of executions."""
 
 from __future__ import annotations
 
@@ -12,8 +13,8 @@ from profiles.motor import Motor, bundled_motor_paths, load_motor
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.execution import move_families, simulate_move
 from profiles.ppmc312.load_angle import worst_load_angle
+from profiles.ppmc312.load_angle_trace import trace_load_angle
 from profiles.ppmc312.table import FreeCurveTable
-from verify.load_angle import trace_load_angle
 
 MHZ1 = Clock.internal("1MHz")
 
@@ -191,7 +192,7 @@ def test_a_verdict_that_would_take_too_long_is_refused_in_one_line(
                                                    (-45.0, True)])
 def test_a_trace_at_the_90_degree_peak_is_not_stable(worst_deg: float, stable: bool) -> None:
     """At 90° the torque is at its peak: any more load and the rotor falls back."""
-    from verify.load_angle import LoadAngleTrace
+    from profiles.ppmc312.load_angle_trace import LoadAngleTrace
 
     none = np.zeros(0)
     trace = LoadAngleTrace(worst_deg, 0.0, False, None, none, none, 90.0)

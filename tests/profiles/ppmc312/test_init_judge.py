@@ -1,4 +1,4 @@
-"""verify.init_judge: how an init table's verdict blames short moves, early stops and
+"""profiles.ppmc312.init_judge: how an init table's verdict blames short moves, early stops and
 commands, samples past the peak and criterion findings on the ramp."""
 
 from __future__ import annotations
@@ -8,8 +8,8 @@ from typing import Any
 
 from profiles.motor.angles import AIM_DEG
 from profiles.ppmc312.clock import Clock
+from profiles.ppmc312.init_judge import judgement
 from profiles.ppmc312.table import InitTable
-from verify.init_judge import judgement
 
 
 def _verdict(moves: tuple[float, int], stop: tuple[float, int], families: dict[str, float],

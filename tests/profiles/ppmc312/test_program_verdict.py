@@ -1,8 +1,8 @@
 """Program files (`stepramp.program/1`, profiles/ppmc312/program.py): the reader's one-line
 refusals naming the key, the schema beside the others, `stepramp simulate PROGRAM` and
-`stepramp check PROGRAM --motor M` through the one verdict (verify/programs.py) on clear
-cases, and the load angle through a motion with a reversal against the plain-Python
-oracle (profiles/ppmc312/command_angles.py)."""
+`stepramp check PROGRAM --motor M` through the one verdict
+(profiles/ppmc312/program_verdict.py) on clear cases, and the load angle through a
+motion with a reversal against the plain-Python oracle (profiles/ppmc312/command_angles.py)."""
 
 from __future__ import annotations
 

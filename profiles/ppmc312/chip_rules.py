@@ -3,7 +3,7 @@
 `check_table(table)` returns every rule a table breaks (errors: the chip refuses
 it or cannot output it) and every legal-but-suspect property (warnings), errors
 first, then by stage. Stage numbers index the table's fastest-first lists.
-Stall safety needs a motor and lives in `verify.criterion`, not here.
+Stall safety needs a motor and lives in `profiles.ppmc312.criterion`, not here.
 
 Rules (SPEC §1.3–1.4, manual §7-1, §7-2, §11-6; choices in docs/manual-notes.md):
 

@@ -1,4 +1,4 @@
-"""verify.command_rules: a motion command's rules, as findings."""
+"""profiles.ppmc312.command_rules: a motion command's rules, as findings."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from profiles.ppmc312.motion import COMMANDS
        st.binary(min_size=11, max_size=11))
 def test_any_block_of_a_motion_command_is_judged_never_unusable(case: Any,
                                                                 noise: bytes) -> None:
-    from verify.command_rules import move_block_findings, move_notes
+    from profiles.ppmc312.command_rules import move_block_findings, move_notes
 
     command, frame = case
     assert frame.size is not None

@@ -1,4 +1,4 @@
-"""verify.chip_rules: every PPMC-312 chip rule, its code, its stage and its advice."""
+"""profiles.ppmc312.chip_rules: every PPMC-312 chip rule, its code, its stage and its advice."""
 
 from __future__ import annotations
 
@@ -11,11 +11,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from profiles.findings import Finding
+from profiles.ppmc312.chip_rules import check_table
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.init_model import init_stage_problem
 from profiles.ppmc312.table import FreeCurveTable, InitTable, load_table
 from tests.support.paths import ROOT
-from verify.chip_rules import check_table
 
 EXAMPLES = ROOT / "examples"
 

@@ -37,12 +37,12 @@ def init_judge(motor: Motor, *, aim_deg: float = AIM_DEG,
                commands: Iterable[str] | None = None) -> Callable[[InitTable], InitJudgement]:
     """The judge `tighten_init` takes: `judge_safety` on `motor` at `aim_deg` over the
     motion commands `commands` (None: all), as `judgement`."""
-    from .safety import judge_safety
+    from .safety import judge_table
 
     kept = None if commands is None else tuple(commands)
 
     def judge(table: InitTable) -> InitJudgement:
-        return judgement(judge_safety(table, motor, aim_deg=aim_deg, commands=kept), table)
+        return judgement(judge_table(table, motor, aim_deg=aim_deg, commands=kept), table)
 
     return judge
 

@@ -12,7 +12,6 @@
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -24,55 +23,7 @@ from profiles.ppmc312.load_angle import judge, worst_load_angles
 from profiles.ppmc312.move_batch import MoveBatch, moves
 from profiles.ppmc312.table import FreeCurveTable
 from profiles.progress import Progress, report
-
-from .check_options import DEFAULT_SAMPLES
-
-CONFIDENCE = 0.95
-
-
-@dataclass(frozen=True)
-class BoxVerdict:
-    """The load angle over a tolerance box."""
-
-    worst_angle_deg: float           # over corners and samples
-    worst_where: str                 # which corner or sample, with its parameters
-    worst_pulses: int                # the move length there
-    worst_direction: int             # 1 forward, −1 backward
-    corners: int
-    corner_worst_deg: float
-    samples: int
-    seed: int
-    sample_worst_deg: float
-    sample_failures: int             # samples past the 90° peak
-    sampled_pulses: tuple[int, ...]  # the executions the samples were judged on
-    stall_probability_upper: float   # Clopper–Pearson one-sided upper bound
-    first_unstable_pulses: int | None
-    slips: bool                      # some corner's move slips a pole
-    executions: int                  # (move, rotor) pairs integrated
-
-    @property
-    def safe(self) -> bool:
-        return self.worst_angle_deg < PEAK_DEG and self.sample_failures == 0
-
-    def describe(self) -> str:
-        text = (f"tolerance box: {self.corners} corners over every move length"
-                + (f", {self.samples} samples (seed {self.seed}) on the moves of "
-                   f"{', '.join(map(str, self.sampled_pulses))} pulses" if self.samples else ""))
-        if self.samples:
-            text += (f"; {self.sample_failures} of {self.samples} samples past the 90° peak: "
-                     f"stall probability < {self.stall_probability_upper:.3%} at "
-                     f"{CONFIDENCE:.0%} (exact Clopper–Pearson bound)")
-        return text
-
-    def to_json(self) -> dict[str, object]:
-        return {"worst_load_angle_deg": self.worst_angle_deg, "worst_at": self.worst_where,
-                "worst_pulses": self.worst_pulses, "corners": self.corners,
-                "corner_worst_deg": self.corner_worst_deg, "samples": self.samples,
-                "seed": self.seed, "sample_worst_deg": self.sample_worst_deg,
-                "sample_failures": self.sample_failures,
-                "sampled_pulses": list(self.sampled_pulses),
-                "stall_probability_upper": self.stall_probability_upper,
-                "confidence": CONFIDENCE, "safe": self.safe}
+from profiles.verdict import CONFIDENCE, DEFAULT_SAMPLES, BoxVerdict
 
 
 def judge_box(table: FreeCurveTable, motor: Motor, *, pulses: Iterable[int] | None = None,

@@ -2,7 +2,7 @@
 31 item 4): constant (83), origin-search (10), origin-return (11), stop (80, and the /FL
 /BL limits), change-speed (87), set-speed (88), each judged by the rotor model
 (`profiles.ppmc312.command_angles`) and given to the one safety verdict
-(`verify.command_verdicts.FAMILIES`, `judge_safety(commands=…)`).
+(`profiles.ppmc312.command_verdicts.FAMILIES`, `judge_safety(commands=…)`).
 
 These commands run at a rate, or at a moment, the machine chooses: what a table owes them
 is a safe way to run them, and what the user needs is how far that goes (the envelope).
@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Any
 
 from profiles.findings import Finding
 from profiles.motor.angles import PEAK_DEG
+from profiles.verdict import envelope_findings
 
 if TYPE_CHECKING:
     from profiles.motor import Motor
@@ -135,7 +136,7 @@ def _envelope_text(name: str, f: Family, aim: float) -> str:
 
 
 def family_judge(name: str) -> Any:
-    """The judge `verify.command_verdicts.FAMILIES` takes for family `name`."""
+    """The judge `profiles.ppmc312.command_verdicts.FAMILIES` takes for family `name`."""
     def judge(table: FreeCurveTable, motor: Motor, *, aim_deg: float, load_angle: bool,
               **_: Any) -> FamilyVerdict:
         return judge_family(name, table, motor, aim_deg=aim_deg, load_angle=load_angle)
@@ -160,17 +161,3 @@ def judge_family(name: str, table: FreeCurveTable, motor: Motor, *, aim_deg: flo
 
 
 __all__ = ["CODES", "FamilyVerdict", "family_judge", "judge_family"]
-
-
-def envelope_findings(rule: str, described: str, source: str, *, safe: bool,
-                      within_aim: bool, aim_deg: float) -> list[Finding]:
-    """A command family's finding, on any device: none while some use of it stays within
-    the aim, a warning when none does, an error when none even stays below the 90° peak
-    with `source` (the table or the settings)."""
-    if within_aim:
-        return []
-    if not safe:
-        return [Finding("error", rule, f"{described}: no use of it keeps the rotor below "
-                        f"the 90° peak with {source}")]
-    return [Finding("warning", rule, f"{described}: no use of it keeps the rotor within "
-                    f"the {aim_deg:g}° aim")]

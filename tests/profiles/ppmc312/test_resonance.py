@@ -1,4 +1,4 @@
-"""verify.resonance: `resonance-dwell` findings."""
+"""profiles.ppmc312.resonance: `resonance-dwell` findings."""
 
 from __future__ import annotations
 
@@ -11,10 +11,10 @@ import pytest
 
 from profiles.motor import Motor, load_motor
 from profiles.ppmc312.planner import plan_free_curve
+from profiles.ppmc312.resonance import resonance_findings
 from profiles.ppmc312.table import FreeCurveTable, dump_table
 from tests.support.paths import ROOT
 from verify import cli
-from verify.resonance import resonance_findings
 
 NEMA17 = ROOT / "profiles" / "data" / "motor-nema17-1600.json"
 

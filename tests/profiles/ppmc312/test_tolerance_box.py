@@ -1,4 +1,4 @@
-"""verify.tolerance_box: samples of a motor's tolerance box judged."""
+"""profiles.ppmc312.tolerance_box: samples of a motor's tolerance box judged."""
 
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ from profiles.motor.tolerance import (
 )
 from profiles.ppmc312.load_angle import worst_load_angle
 from profiles.ppmc312.planner import plan_free_curve
+from profiles.ppmc312.tolerance_box import judge_box
 from tests.support.paths import ROOT
-from verify.tolerance_box import judge_box
 
 DATA = ROOT / "profiles" / "data"
 

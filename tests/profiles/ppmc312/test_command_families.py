@@ -1,4 +1,4 @@
-"""The command families a table's verdict reports (verify/command_families.py): safe and
+"""The command families a table's verdict reports (profiles/ppmc312/command_families.py): safe and
 within the aim by the use the table always leaves, the envelope in JSON and a note, a
 command-envelope finding when no use of a family is safe."""
 
@@ -7,9 +7,9 @@ from __future__ import annotations
 import pytest
 
 from profiles.motor import load_motor
+from profiles.ppmc312.command_families import CODES, judge_family
 from profiles.ppmc312.table import load_table
 from tests.support.paths import ROOT
-from verify.command_families import CODES, judge_family
 
 TABLE = load_table(ROOT / "examples" / "free-curve-nema17.json")
 

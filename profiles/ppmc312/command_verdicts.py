@@ -14,14 +14,14 @@ executions worst at some corner), findings past the 90° peak (errors) and past 
   once, one stage down; LOW). The verdict is the worst reading, named.
 - **constant**, **origin-search**, **origin-return**, **stop** (80, /FL, /BL),
   **change-speed**, **set-speed**: each a safe use the table leaves and the envelope the
-  user needs (verify/command_families.py).
+  user needs (profiles/ppmc312/command_families.py).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 
@@ -31,6 +31,7 @@ from profiles.motor import Motor
 from profiles.motor.angles import PEAK_DEG
 from profiles.ppmc312.table import FreeCurveTable
 from profiles.progress import Progress
+from profiles.verdict import CommandVerdict
 
 from .command_families import CODES as ENVELOPE_FAMILIES
 from .command_families import family_judge
@@ -240,22 +241,6 @@ def _stop_angles(table: FreeCurveTable, motor: Motor, aim_deg: float, samples: i
 
 
 # --- which commands a verdict judges --------------------------------------------------
-
-class CommandVerdict(Protocol):
-    """What every family's verdict gives the one safety verdict."""
-
-    @property
-    def safe(self) -> bool: ...
-
-    @property
-    def within_aim(self) -> bool: ...
-
-    def findings(self) -> list[Finding]: ...
-
-    def describe(self) -> str: ...
-
-    def to_json(self) -> dict[str, Any]: ...
-
 
 Judge = Callable[..., CommandVerdict]
 FAMILIES: dict[str, Judge] = {DECEL_STOP: judge_decel_stops,

@@ -35,8 +35,8 @@ def program_verdict(program: Program, motor: Motor | None, *, physics: bool = Tr
                     aim_deg: float = AIM_DEG) -> tuple[list[Finding], list[str], dict[str, Any]]:
     """(findings, notes, details) of a program: the table's chip rules, and with a motor
     the criterion and (`physics`) the load angle of every motion under every reading."""
+    from profiles.ppmc312.chip_rules import check_table
     from profiles.ppmc312.init_model import as_free_curve
-    from verify.chip_rules import check_table
 
     runs = program.runs()
     findings = [Finding(f.severity, f.rule, f"table {program.table_path}: {f.message}",
