@@ -37,8 +37,8 @@ from benchlib import Results, forget, gmean, verdict  # noqa: E402
 
 from profiles.motor import Motor, bundled_motor_paths, load_motor  # noqa: E402
 from profiles.ppmc312.execution import simulate_move  # noqa: E402
-from profiles.ppmc312.init_planner import init_candidates, plan_init  # noqa: E402
 from profiles.ppmc312.planner import plan_baseline, plan_free_curve  # noqa: E402
+from profiles.ppmc312.planner.init_planner import init_candidates, plan_init  # noqa: E402
 from profiles.ppmc312.table import FreeCurveTable  # noqa: E402
 from verify.compare import compare_table  # noqa: E402
 from verify.references import exact_optimum, toppra_reference  # noqa: E402

@@ -16,7 +16,7 @@ from IPython.display import HTML, display
 
 from profiles import load_motor, plan_free_curve, plan_init
 from profiles.motor import bundled_motor_paths
-from profiles.ppmc312.init_planner import init_candidates
+from profiles.ppmc312.planner.init_planner import init_candidates
 
 LENGTHS = (300, 2_000, 10_000, 100_000)
 SHAPES = ("linear", "s_curve")

@@ -15,8 +15,8 @@ from .ppmc312.table import FreeCurveTable, InitTable, Table, load_table, table_f
 if TYPE_CHECKING:
     from .motor import Motor, load_motor
     from .ppmc312.formats import render
-    from .ppmc312.init_planner import plan_init
     from .ppmc312.planner import plan_free_curve
+    from .ppmc312.planner.init_planner import plan_init
     from .ppmc312.upload import decode_upload, encode_table
 
 # The front door: motor → plan → table → bytes in one import. The motor model and the
@@ -24,7 +24,7 @@ if TYPE_CHECKING:
 # without `--motor`) never does, so they load on first use.
 __getattr__ = lazy_exports(__name__, {
     "Motor": ".motor", "load_motor": ".motor",
-    "plan_free_curve": ".ppmc312.planner", "plan_init": ".ppmc312.init_planner",
+    "plan_free_curve": ".ppmc312.planner", "plan_init": ".ppmc312.planner.init_planner",
     "encode_table": ".ppmc312.upload", "decode_upload": ".ppmc312.upload",
     "render": ".ppmc312.formats",
 })

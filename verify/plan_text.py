@@ -106,7 +106,7 @@ def fix_lines(fix: str) -> list[str]:
 
 
 def init_tightening(plan: Any, aim_deg: float) -> list[str]:
-    """What tightening an init table changed (profiles.ppmc312.init_planner.Levers:
+    """What tightening an init table changed (profiles.ppmc312.planner.init_planner.Levers:
     `extras["levers"]`, against the plain table `extras["untightened"]`) and its price,
     in plain words: `start speed lowered to 4 540 pps (from 5 544 pps) to keep the rotor
     within 75° under every command judged` and `price: a move of 4000 pulses takes

@@ -1,8 +1,8 @@
 """PPMC-312 pulse-controller LSI, split by role.
 
 - `table`: free-curve and init tables (`FreeCurveTable`, `InitTable`, `load_table`);
-- `planner`: the fastest stall-safe free curve (`plan_free_curve`); `init_planner` the
-  best init table (`plan_init`);
+- `planner`: the fastest stall-safe free curve (`plan_free_curve`), the
+  best init table (`planner.init_planner.plan_init`) and the table following a reference;
 - `upload`: tables and motion commands into the bytes the chip takes and back (the
   codec below); `motion` every motion command by name (`encode_command`); `ascii` the
   serial frames; `formats` the upload file formats (`render`, `parse`);
@@ -40,10 +40,10 @@ if TYPE_CHECKING:
     from .execution import simulate_move
     from .formats import parse, parse_upload, render
     from .init_model import expand_init
-    from .init_planner import plan_init
     from .link import Link
     from .motion import decode_command, encode_command
     from .planner import plan_free_curve
+    from .planner.init_planner import plan_init
     from .program import load_program
     from .table import FreeCurveTable, InitTable, Table, load_table
 
@@ -52,7 +52,7 @@ __getattr__ = lazy_exports(__name__, {
     "ChipEmulator": ".emulator", "accept_upload": ".emulator",
     "simulate_move": ".execution", "parse": ".formats", "parse_upload": ".formats",
     "render": ".formats",
-    "expand_init": ".init_model", "plan_init": ".init_planner", "Link": ".link",
+    "expand_init": ".init_model", "plan_init": ".planner.init_planner", "Link": ".link",
     "decode_command": ".motion", "encode_command": ".motion",
     "plan_free_curve": ".planner", "load_program": ".program",
     "FreeCurveTable": ".table", "InitTable": ".table", "Table": ".table",

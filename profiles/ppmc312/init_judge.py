@@ -1,6 +1,6 @@
 """The one safety verdict as the init-table planner's judge (issue 33 item 2).
 
-`profiles.ppmc312.init_planner.tighten_init` plans an init table again, gentler, while
+`profiles.ppmc312.planner.init_planner.tighten_init` plans an init table again, gentler, while
 its judge says the table is past the load-angle aim; profiles never import verify, so
 the planner takes the judge as a callable and `stepramp plan --kind linear|s-curve`
 hands it this one: `verify.safety.judge_safety` on the table (every move length, every
@@ -26,7 +26,7 @@ from typing import Any
 
 from profiles.motor import Motor
 from profiles.motor.angles import AIM_DEG, PEAK_DEG
-from profiles.ppmc312.init_planner import START_PARTS, InitJudgement
+from profiles.ppmc312.planner.init_planner import START_PARTS, InitJudgement
 from profiles.ppmc312.table import InitTable
 
 START_SHARE = 0.25   # the share of the accel ramp (from rest) whose ringing the start drives

@@ -137,8 +137,8 @@ def test_following_ruckig_on_a_long_move_plans(capsys: pytest.CaptureFixture[str
     """The stand-in motor took the decel side's torque where friction already brakes, so
     it could not accelerate: "the motor cannot accelerate from rest", blamed on the
     user's motor."""
+    from profiles.ppmc312.planner.reference_plan import reference_motor
     from verify import references
-    from verify.reference_plan import reference_motor
 
     motor = load_motor(NEMA17)
     ref = references.ruckig_reference(motor, 100_000)

@@ -6,7 +6,7 @@ import pytest
 
 from profiles import mc200 as M
 from profiles.motor import load_motor
-from profiles.ppmc312.init_planner import init_candidates
+from profiles.ppmc312.planner.init_planner import init_candidates
 from profiles.progress import Progress, chunks, track
 from tests.support.paths import ROOT
 

@@ -286,11 +286,16 @@ def _echo(text: str) -> str:
 def _from_reference(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str, Any]]:
     from profiles.errors import FormatError
     from profiles.motor.angles import PEAK_DEG
-    from verify.reference_plan import plan_from_reference
+    from profiles.ppmc312.planner.reference_plan import plan_from_reference, reference_basis
+    from verify import references
 
     if args.pulses is None:
         raise FormatError("--from needs --pulses: a reference is a move of N pulses")
-    followed = plan_from_reference(motor, args.pulses, args.source, clock=args.clock,
+    # the planner follows the reference as data (profiles never import verify): solved here
+    solve: dict[str, Any] = {"ruckig": references.ruckig_reference,
+                             "toppra": references.toppra_reference}
+    ref = solve[args.source](reference_basis(motor), args.pulses)
+    followed = plan_from_reference(motor, args.pulses, args.source, ref, clock=args.clock,
                                    max_stages=_max_stages(args),
                                    load_angle_deg=min(args.load_angle, PEAK_DEG))
     table = followed.plan.table
@@ -302,11 +307,11 @@ def _from_reference(args: argparse.Namespace, motor: Any) -> tuple[Any, dict[str
 
 def _init(args: argparse.Namespace, planned: Any, motor: Any) -> tuple[Any, dict[str, Any]]:
     """The init table tightened until the one verdict (on `motor`, over the commands
-    asked) finds it within the aim (profiles.ppmc312.init_planner.tighten_init), planned
+    asked) finds it within the aim (profiles.ppmc312.planner.init_planner.tighten_init), planned
     for `planned` (the motor with the cruise reserve's top speed)."""
     from profiles.motor.angles import PEAK_DEG
     from profiles.ppmc312.init_judge import init_judge
-    from profiles.ppmc312.init_planner import tighten_init
+    from profiles.ppmc312.planner.init_planner import tighten_init
     from profiles.ppmc312.table import InitShape
 
     shape: InitShape = "s_curve" if args.kind == "s-curve" else "linear"

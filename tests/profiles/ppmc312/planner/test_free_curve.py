@@ -24,7 +24,7 @@ from profiles.ppmc312.planner import (
 )
 from profiles.ppmc312.planner.free_curve import RAMP_FLOOR, TOP_ROUNDS, TOP_STEP
 from profiles.ppmc312.planner.problem import Plan
-from profiles.ppmc312.quantise import quantise_reference
+from profiles.ppmc312.planner.quantise import quantise_reference
 from profiles.ppmc312.table import FreeCurveTable
 from verify.safety import judge_safety
 

@@ -38,15 +38,15 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..errors import InitBuildError, InitPlanError
-from ..motor import Motor
-from ..motor.angles import AIM_DEG, PEAK_DEG
-from ..progress import Progress, track
-from ..remembered import Remembered
-from ..result import PlanResult
-from .clock import Clock
-from .criterion import all_length_safe
-from .init_model import (
+from ...errors import InitBuildError, InitPlanError
+from ...motor import Motor
+from ...motor.angles import AIM_DEG, PEAK_DEG
+from ...progress import Progress, track
+from ...remembered import Remembered
+from ...result import PlanResult
+from ..clock import Clock
+from ..criterion import all_length_safe
+from ..init_model import (
     HIGH_RATE_MIN,
     INIT_PULSES_FIELD_MAX,
     INIT_PULSES_MIN,
@@ -55,7 +55,7 @@ from .init_model import (
     START_RATE_MIN,
     expand_init,
 )
-from .table import FreeCurveTable, InitShape, InitTable
+from ..table import FreeCurveTable, InitShape, InitTable
 
 CANDIDATES_KEPT = 32   # candidate lists remembered (a tightening plans some motors twice)
 
@@ -73,7 +73,7 @@ def init_candidates(motor: Motor, shape: InitShape, *, clock: Clock | None = Non
     the motor's top, the init table with the fewest stall-safe pulses (LE=1 with the
     decel counts minimised separately when `separate_decel`). `progress` hears
     (candidates searched, candidates)."""
-    from .planner import choose_clock
+    from .problem import choose_clock
 
     if shape not in ("linear", "s_curve"):
         raise InitPlanError(f"shape: {shape!r} is not 'linear' or 's_curve'")
@@ -128,7 +128,7 @@ def plan_init(motor: Motor, shape: InitShape, pulses: int, *, clock: Clock | Non
     """
     from profiles.ppmc312.execution import simulate_move
 
-    from .planner import choose_clock
+    from .problem import choose_clock
 
     started = time.perf_counter()
     if candidates is None:
@@ -297,7 +297,7 @@ def tighten_init(motor: Motor, shape: InitShape, pulses: int, judge: InitJudge, 
     `judgement` (the judge's word on the table), `untightened` (the plain plan, for the
     price), `plans` (how many were judged) and, when no table is within the aim, `fix`
     (what would help) and the closest table."""
-    from ..motor.tolerance import worst_case_motor
+    from ...motor.tolerance import worst_case_motor
 
     if not 1.0 <= aim_deg <= PEAK_DEG:
         raise InitPlanError(f"load angle aim: {aim_deg:g}° is outside 1..{PEAK_DEG:g}°")
@@ -378,7 +378,7 @@ def what_would_help(judged: InitJudgement, motor: Motor, aim_deg: float) -> str:
                      "in --load, or friction_torque_nm)")
     families = [f for f in judged.failing if f not in ("moves", "decel-stop")]
     if families and len(families) == len(judged.failing):
-        from .motion import COMMANDS
+        from ..motion import COMMANDS
 
         kept = ",".join(f"{c.code:02X}" for n, c in COMMANDS.items() if n not in families)
         helps.append(f"--commands {kept} if the machine never runs "

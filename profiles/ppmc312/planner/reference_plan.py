@@ -1,6 +1,6 @@
 """A table that follows a continuous reference (ruckig, toppra) and is safe: `plan --from`.
 
-Quantising a reference's samples pulse by pulse (profiles.ppmc312.quantise) keeps its
+Quantising a reference's samples pulse by pulse (profiles.ppmc312.planner.quantise) keeps its
 timing but not the motor's rules: its stages jump by several times the jump limit, and
 no scaling of the reference repairs that (bench-measured: every bundled motor, both
 references, scales down to 0.44, still unsafe). So the reference is followed by its
@@ -15,13 +15,16 @@ phase. It is never above the motor's own capability.
 
 The summary sets the table's move time beside the reference's and the planner's own
 plan for the same move: what following that reference costs.
+
+The reference comes in as data (its speeds and positions, a `Trajectory`): profiles never
+import verify, whose references solve it (`stepramp plan --from` solves it on
+`reference_basis(motor)` and hands it here).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Protocol
 
 import numpy as np
 
@@ -33,6 +36,28 @@ from profiles.ppmc312.planner.free_curve import plan
 from profiles.ppmc312.planner.tightening import tighten
 
 CURVE_POINTS = 64
+
+
+class Trajectory(Protocol):
+    """A continuous reference move as data (verify.references' `Reference` is one): its
+    samples' speeds and positions, rest or the start speed at both ends, and its time."""
+
+    @property
+    def v_pps(self) -> np.ndarray: ...
+
+    @property
+    def x_pulses(self) -> np.ndarray: ...
+
+    @property
+    def duration_s(self) -> float: ...
+
+
+def reference_basis(motor: Motor) -> Motor:
+    """The motor a reference to follow is solved on: the tolerance box's worst case when
+    `motor` has one (what the follower may ask of every motor of the box), else itself."""
+    from profiles.motor.tolerance import worst_case_motor
+
+    return worst_case_motor(motor) if motor.tolerances else motor
 
 
 @dataclass(frozen=True)
@@ -56,18 +81,15 @@ class ReferencePlan:
                 "table/planner": self.move_time_s / self.planner_s}
 
 
-def plan_from_reference(motor: Motor, pulses: int, source: str, *, clock: Clock | None = None,
-                        max_stages: int = 127, load_angle_deg: float) -> ReferencePlan:
-    """The fastest safe table shaped like `source`'s reference for a move of `pulses`
-    (module docstring). PlanError when no table of that shape is safe."""
-    from profiles.motor.tolerance import corners, worst_case_motor
-    from verify import references
+def plan_from_reference(motor: Motor, pulses: int, source: str, ref: Trajectory, *,
+                        clock: Clock | None = None, max_stages: int = 127,
+                        load_angle_deg: float) -> ReferencePlan:
+    """The fastest safe table shaped like `ref`, `source`'s reference for a move of
+    `pulses` solved on `reference_basis(motor)` (module docstring). PlanError when no
+    table of that shape is safe."""
+    from profiles.motor.tolerance import corners
 
-    makers: dict[str, Callable[..., Any]] = {"ruckig": references.ruckig_reference,
-                                             "toppra": references.toppra_reference}
-    judged = worst_case_motor(motor) if motor.tolerances else motor
-    ref = makers[source](judged, pulses)
-    follower = reference_motor(judged, ref.v_pps, ref.x_pulses)
+    follower = reference_motor(reference_basis(motor), ref.v_pps, ref.x_pulses)
     judges = [c.motor for c in corners(motor)] if motor.tolerances else [motor]
 
     def make(m: Motor, shaping: object = None) -> Plan:
@@ -81,7 +103,7 @@ def plan_from_reference(motor: Motor, pulses: int, source: str, *, clock: Clock 
             from None
     own = plan_free_curve(motor, clock=clock, max_stages=max_stages, pulses=pulses,
                           load_angle_deg=load_angle_deg)
-    return ReferencePlan(source, table_plan, ref.duration_s, float(own.duration_s or 0.0),
+    return ReferencePlan(source, table_plan, float(ref.duration_s), float(own.duration_s or 0.0),
                          follower)
 
 

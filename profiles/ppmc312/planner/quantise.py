@@ -17,11 +17,11 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import FieldRangeError, PlanError
-from ..result import PlanResult
-from .clock import MAX_OUTPUT_PPS, Clock
-from .execution import simulate_move
-from .limits import (
+from ...errors import FieldRangeError, PlanError
+from ...result import PlanResult
+from ..clock import MAX_OUTPUT_PPS, Clock
+from ..execution import simulate_move
+from ..limits import (
     MIN_STAGE_TICKS,
     RATE_MAX,
     RATE_MIN,
@@ -30,8 +30,8 @@ from .limits import (
     STAGE_PULSES_MIN,
     STAGES_MIN,
 )
-from .planner import check_plan_args
-from .table import FreeCurveTable
+from ..table import FreeCurveTable
+from .problem import check_plan_args
 
 QUANTISE_MAX_PULSES = 10_000_000  # the quantiser keeps a few float arrays of one entry per pulse
 _EPS_TICKS = 1e-6      # float slack of the internal "never early" test, in clock ticks

@@ -12,7 +12,7 @@ from profiles.ppmc312.chip_rules import check_table
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.planner import choose_clock
-from profiles.ppmc312.quantise import quantise_reference
+from profiles.ppmc312.planner.quantise import quantise_reference
 from profiles.ppmc312.table import FreeCurveTable
 from profiles.result import PlanResult
 from verify.references import Reference, ruckig_reference, toppra_reference

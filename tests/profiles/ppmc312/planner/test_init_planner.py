@@ -17,7 +17,8 @@ from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.criterion import check_stall
 from profiles.ppmc312.init_judge import init_judge
 from profiles.ppmc312.init_model import expand_init
-from profiles.ppmc312.init_planner import (
+from profiles.ppmc312.planner import plan_free_curve
+from profiles.ppmc312.planner.init_planner import (
     RAMP_FLOOR,
     InitJudgement,
     Levers,
@@ -26,7 +27,6 @@ from profiles.ppmc312.init_planner import (
     tighten_init,
     what_would_help,
 )
-from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312.table import FreeCurveTable, InitTable
 from tests.support.cli import run
 from verify.cli import main
@@ -232,7 +232,7 @@ def test_the_cli_refusal_names_the_fix(capsys: pytest.CaptureFixture[str], tmp_p
     """`plan` refuses (exit 1) a table the verdict finds unsafe and says what would help
     (the planner's `fix`): a judge that never passes stands in for a motor nothing is safe
     for, and the verdict for the one that would fail it."""
-    from profiles.ppmc312 import init_planner
+    from profiles.ppmc312.planner import init_planner
 
     plain = init_planner.tighten_init
 
@@ -287,7 +287,7 @@ def test_init_refusals_by_the_criterion_name_what_would_help(
     from dataclasses import replace
 
     from profiles.errors import InitPlanError
-    from profiles.ppmc312 import init_planner
+    from profiles.ppmc312.planner import init_planner
 
     motor = load_motor(next(p for p in bundled_motor_paths() if "nema17" in p.stem))
     crowded = replace(motor, max_pps=motor.start_pps * 1.01)  # no room for a high rate
@@ -304,7 +304,7 @@ def test_init_refusals_by_the_criterion_name_what_would_help(
 def test_a_tightening_reports_progress_for_every_search(datasheet_path: Path) -> None:
     """The plain table's candidate search and each gentler one's: a long tightening keeps
     its progress bar moving."""
-    from profiles.ppmc312.init_planner import forget_candidates
+    from profiles.ppmc312.planner.init_planner import forget_candidates
 
     motor = load_motor(datasheet_path)
     heard: list[tuple[int, int]] = []
