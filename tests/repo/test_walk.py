@@ -19,9 +19,12 @@ profiles/motor, …); repeats of one room are collapsed.
   every room, and without profiles/motor (the motor's own model: its rotors, its
   tolerance corners and worst case, which a device's judge consults as it goes).
 
-On failure the walk is printed. Before the rooms (the tree of 67140f2, the reviewer's
-measure gave 5 / 14): 11 climbs back up, 27 returns over every room, 21 without the
-motor's.
+On failure the walk is printed. Before the rooms (the tree of 67140f2; the reviewer's
+reading gave 5 climbs / 14 returns): 10 climbs back up, 21 returns beside the motor's room
+(27 over every room); after (issue 34 item 2): 1 climb (`compare_table` asks the one
+verdict a second time, for every move), 3 returns beside the motor's room (verify twice:
+the verdict asked twice; the device's room once), 14 over every room (the device's
+judge consulting the motor's model as it goes).
 """
 
 from __future__ import annotations
