@@ -3,7 +3,7 @@ device; the shared noun every judge speaks in, wherever its rules live."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from typing import Any, Literal, NoReturn
 
 Severity = Literal["error", "warning"]
@@ -98,3 +98,15 @@ class Finding:
     def to_json(self) -> dict[str, Any]:
         return {"severity": self.severity, "rule": self.rule, "chip_code": self.chip_code_hex,
                 "stage": self.stage, "message": self.message}
+
+
+def integrity_findings(prefix: str, fmt: str, integrity: str, detail: str) -> list[Finding]:
+    """`PREFIX-unchecked` (a warning) for a file nothing vouches for; none for a verified
+    one."""
+    return ([] if integrity == "verified" else
+            [Finding("warning", f"{prefix}-unchecked", f"{fmt} file: {detail}")])
+
+
+def dedupe(findings: Iterable[Finding]) -> list[Finding]:
+    """`findings` in order, each equal finding once (two checks may report the same)."""
+    return list(dict.fromkeys(findings))

@@ -301,3 +301,13 @@ def _finite(obj: Any) -> Any:
     if isinstance(obj, list | tuple):
         return [_finite(v) for v in obj]
     return obj
+
+
+_DOCUMENT_FORMAT = re.compile(rb'\A\s*\{[^{}]*?"format"\s*:\s*"(stepramp\.[a-z0-9-]+/\d+)"')
+
+
+def document_format(raw: bytes) -> str | None:
+    """The "format" of a stepramp JSON document, when it names one early (before any nested
+    object): "stepramp.table/1", "stepramp.axes/1", … (None for anything else)."""
+    m = _DOCUMENT_FORMAT.match(raw[:4096])
+    return m.group(1).decode() if m else None

@@ -14,10 +14,15 @@ angle's landmarks are read where they are used.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 from .findings import Finding
+
+if TYPE_CHECKING:
+    from .motor import Motor
+    from .progress import Progress
 
 # Monte Carlo samples of a motor's tolerance box, unless told otherwise: the default of
 # check's and sweep's --samples and of the library's judges
@@ -30,6 +35,44 @@ def _peak_deg() -> float:
     from .motor.angles import PEAK_DEG
 
     return PEAK_DEG
+
+
+class JudgeOptions(Protocol):
+    """What a device's file judge is told (`stepramp check`'s options,
+    `verify.check_options.CheckOptions`): the motor whose verdict to add (None: the rules
+    alone), the moves, the load angle or not, the tolerance box's samples and seed,
+    resonance dwells as errors, progress, the motion commands judged; the external clock
+    of EXTCK uploads and the clock of a table-read answer."""
+
+    @property
+    def motor(self) -> Motor | None: ...
+
+    @property
+    def extck_hz(self) -> float | None: ...
+
+    @property
+    def clock(self) -> str | None: ...
+
+    @property
+    def pulses(self) -> Iterable[int] | None: ...
+
+    @property
+    def physics(self) -> bool: ...
+
+    @property
+    def samples(self) -> int: ...
+
+    @property
+    def seed(self) -> int: ...
+
+    @property
+    def strict(self) -> bool: ...
+
+    @property
+    def progress(self) -> Progress | None: ...
+
+    @property
+    def commands(self) -> tuple[str, ...] | None: ...
 
 
 class CommandVerdict(Protocol):
@@ -260,5 +303,6 @@ def envelope_findings(rule: str, described: str, source: str, *, safe: bool,
                     f"the {aim_deg:g}° aim")]
 
 
-__all__ = ["CONFIDENCE", "DEFAULT_SAMPLES", "BoxVerdict", "CommandVerdict", "LoadAngle",
+__all__ = ["CONFIDENCE", "DEFAULT_SAMPLES", "BoxVerdict", "CommandVerdict", "JudgeOptions",
+           "LoadAngle",
            "SafetyVerdict", "envelope_findings", "require_aim"]

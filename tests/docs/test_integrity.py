@@ -76,12 +76,12 @@ def test_check_and_decode_report_a_corrupted_file(tmp_path: Path,
     import json
 
     from profiles.ppmc312.clock import Clock
+    from profiles.ppmc312.file_verdict import load_checkable
     from profiles.ppmc312.formats import render
     from profiles.ppmc312.table import FreeCurveTable
     from profiles.ppmc312.upload import encode_free_curve
     from verify.check_file import check_file
     from verify.cli import main
-    from verify.devices.ppmc312 import load_checkable
 
     blocks = encode_free_curve(FreeCurveTable(Clock.internal("8MHz"), (400, 800, 2000),
                                               (100, 50, 20)))

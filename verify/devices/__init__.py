@@ -29,11 +29,13 @@ entry in `DEVICES` (docs/architecture.md).
 from __future__ import annotations
 
 import importlib
-import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol, cast
+
+# a stepramp document's "format", read early (its devices' `documents` are told by it)
+from profiles.reading import document_format
 
 if TYPE_CHECKING:
     from profiles.axes import AxesEntry, AxesFile
@@ -137,16 +139,6 @@ def get(name: str) -> Device:
         if d.name == name:
             return d
     raise FormatError(f"device: {echo(name)} is not one of {', '.join(d.name for d in DEVICES)}")
-
-
-_FORMAT = re.compile(rb'\A\s*\{[^{}]*?"format"\s*:\s*"(stepramp\.[a-z0-9-]+/\d+)"')
-
-
-def document_format(raw: bytes) -> str | None:
-    """The "format" of a stepramp JSON document, when it names one early (before any nested
-    object): "stepramp.table/1", "stepramp.axes/1", … (None for anything else)."""
-    m = _FORMAT.match(raw[:4096])
-    return m.group(1).decode() if m else None
 
 
 def detect(raw: bytes) -> Device:

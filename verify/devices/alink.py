@@ -11,10 +11,10 @@ from collections.abc import Iterable, Sequence
 from typing import TYPE_CHECKING, Any
 
 from profiles.errors import CorruptedError, StepRampError
-from profiles.findings import Finding, Severity
+from profiles.findings import Finding, Severity, dedupe, integrity_findings
 from profiles.verdict import DEFAULT_SAMPLES
 
-from .common import dedupe, device_result, integrity_findings
+from .common import device_result
 
 if TYPE_CHECKING:
     from profiles.alink import AlinkSettings, Command

@@ -10,9 +10,9 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from profiles.errors import CorruptedError
-from profiles.findings import Finding
+from profiles.findings import Finding, integrity_findings
 
-from .common import device_result, integrity_findings
+from .common import device_result
 
 if TYPE_CHECKING:
     from ..check_options import CheckOptions

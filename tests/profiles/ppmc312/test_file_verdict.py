@@ -1,4 +1,5 @@
-"""verify.devices.ppmc312: the PPMC-312 judge: which files are tables, uploads and programs."""
+"""profiles.ppmc312.file_verdict: the PPMC-312 file judge: which files are tables, uploads
+and programs."""
 
 from __future__ import annotations
 
@@ -9,13 +10,13 @@ import pytest
 
 from profiles.errors import FormatError
 from profiles.ppmc312.clock import Clock
+from profiles.ppmc312.file_verdict import load_checkable, looks_like_table_json, planned_commands
 from profiles.ppmc312.formats import render
 from profiles.ppmc312.table import FreeCurveTable, load_table
 from profiles.ppmc312.upload import encode_table
 from profiles.provenance import FileRef, PlanProvenance
 from tests.support.paths import ROOT
 from verify.check_file import check_file
-from verify.devices.ppmc312 import load_checkable, looks_like_table_json, planned_commands
 
 GOOD = ROOT / "examples" / "free-curve-nema17.json"
 
@@ -61,8 +62,8 @@ TABLE = ROOT / "examples" / "free-curve-nema17.json"
 
 
 def test_the_judge_tells_programs_by_the_readers_format() -> None:
+    from profiles.ppmc312.file_verdict import PROGRAM_FORMAT, is_program
     from profiles.ppmc312.program import FORMAT
-    from verify.devices.ppmc312 import PROGRAM_FORMAT, is_program
 
     assert PROGRAM_FORMAT == FORMAT
     assert is_program(EXAMPLE.read_bytes()) and not is_program(TABLE.read_bytes())
