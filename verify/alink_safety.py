@@ -38,9 +38,9 @@ from profiles.alink.ramp import (
 from profiles.findings import Finding
 from profiles.motor import Motor
 from profiles.motor.angles import PEAK_DEG
+from profiles.motor.batch import MoveBatch
+from profiles.motor.batch_angle import dwell_sampling, judge, refine, sample_grid
 from profiles.motor.rotor import Rotors, rotors
-from profiles.ppmc312.load_angle import dwell_sampling, judge, refine, sample_grid
-from profiles.ppmc312.move_batch import MoveBatch
 from profiles.verdict import envelope_findings
 
 S_CURVE_PEAK = math.pi / 2   # the 1 − cos law's peak over its average acceleration

@@ -40,11 +40,12 @@ import numpy as np
 
 from ..motor import Motor
 from ..motor.angles import AIM_DEG, PEAK_DEG, SLIP_DEG
+from ..motor.batch import PHASE_CODES, MoveBatch, Phase
+from ..motor.batch_angle import PHASE_SAMPLES, dwell_sampling, judge
 from ..motor.rotor import Rotors, follow, rotor_of, rotors, settle_s
 from ..remembered import Remembered
 from .command_runs import Motion, ProgramCommand, Stairs, run_program
-from .load_angle import PHASE_SAMPLES, directions, dwell_sampling, judge
-from .move_batch import PHASE_CODES, MoveBatch, Phase
+from .load_angle import directions
 from .table import FreeCurveTable, InitTable
 
 GRID = 12           # rates judged across a range before the bisection

@@ -44,6 +44,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..errors import FieldRangeError, FormatError, MotionRefused
+from ..motor.batch import Phase
 from .clock import Clock
 from .execution import (
     PULSE_TIMES_CSV_MAX,
@@ -53,7 +54,6 @@ from .execution import (
     simulate_move,
 )
 from .init_model import as_free_curve
-from .move_batch import Phase
 from .table import FreeCurveTable, InitTable
 
 FOREVER = -1   # the pulses of a cruise that runs until something stops it

@@ -39,14 +39,12 @@ from typing import Any
 import numpy as np
 
 from profiles.errors import FieldRangeError, require_int
+from profiles.motor.batch import MoveBatch, Phase, PhaseRuns
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.move_batch import (
     SHAPES,
-    MoveBatch,
     MoveModel,
     MoveShape,
-    Phase,
-    PhaseRuns,
     check_pulses,
     move_model,
 )

@@ -16,9 +16,9 @@ from typing import Any, Literal, NamedTuple
 import numpy as np
 
 from profiles.errors import FieldRangeError, MoveParameterError
+from profiles.motor.batch import MoveBatch, PhaseRuns, ranges
 from profiles.ppmc312.table import RATE_FIELD_MAX, STAGE_COUNT_FIELD_MAX, FreeCurveTable, InitTable
 
-Phase = Literal["accel", "cruise", "decel"]
 MoveShape = Literal["trapezoid", "triangle", "straight_triangle_decel", "straight_triangle_accel"]
 
 MOVE_PULSES_MAX = 0xFFFFFFFF
@@ -27,7 +27,6 @@ CHIP_BAD_PULSE_COUNT = 0x23     # parameter error: the move's pulse count is wro
 
 
 Stage = tuple[int, int, int]  # (index in the fastest-first lists, rate, pulses)
-PhaseRuns = list[tuple[Phase, int, int]]
 
 
 @dataclass(frozen=True)
@@ -324,50 +323,8 @@ class _Ladder:
         return n, self.rates[stage], counts
 
 
-PHASE_CODES = {"accel": 0, "cruise": 1, "decel": 2}
-PHASES: tuple[Phase, ...] = ("accel", "cruise", "decel")
 SHAPES: tuple[MoveShape, ...] = ("trapezoid", "triangle", "straight_triangle_decel",
                              "straight_triangle_accel")
-
-
-@dataclass(frozen=True)
-class MoveBatch:
-    """Moves of several lengths as flat segment arrays: move e is the segments
-    offsets[e]..offsets[e+1] of (phase, rate, count); phase indexes PHASES, shape
-    SHAPES."""
-
-    pulses: np.ndarray
-    shape: np.ndarray
-    phase: np.ndarray
-    rate: np.ndarray
-    count: np.ndarray
-    offsets: np.ndarray
-
-    def __len__(self) -> int:
-        return len(self.pulses)
-
-    def runs(self, e: int) -> PhaseRuns:
-        """Move e's segments as (phase, rate, pulses)."""
-        a, b = int(self.offsets[e]), int(self.offsets[e + 1])
-        return [(PHASES[f], r, c) for f, r, c in zip(self.phase[a:b].tolist(),
-                                                     self.rate[a:b].tolist(),
-                                                     self.count[a:b].tolist(), strict=True)]
-
-    def repeats(self) -> np.ndarray:
-        """For each move, whether it has the shape and the sequence of (phase, rate) of
-        the move before it (only the segments' counts differ)."""
-        size = np.diff(self.offsets)
-        same = np.zeros(len(size), bool)
-        same[1:] = (size[1:] == size[:-1]) & (self.shape[1:] == self.shape[:-1])
-        alike = np.flatnonzero(same & (size > 0))
-        if len(alike):
-            n = size[alike]
-            rows = _ranges(self.offsets[alike], n)
-            before = rows - np.repeat(n, n)  # the same segment of the move before
-            differ = (self.rate[rows] != self.rate[before]) | \
-                (self.phase[rows] != self.phase[before])
-            same[alike] = ~np.logical_or.reduceat(differ, np.cumsum(n) - n)
-        return same
 
 
 def _assemble(pulses: np.ndarray, shape: np.ndarray, ladders: tuple[_Ladder, ...],
@@ -391,7 +348,7 @@ def _assemble(pulses: np.ndarray, shape: np.ndarray, ladders: tuple[_Ladder, ...
     start = offsets[:-1] + np.concatenate((np.zeros((1, moves), np.int64),
                                            np.cumsum(sizes, axis=0)[:-1]))  # (5, moves)
     for i, (n, r, c) in enumerate(parts):
-        dest = _ranges(start[i], n)
+        dest = ranges(start[i], n)
         phase[dest] = 0 if i < 2 else (1 if i == 2 else 2)
         rate[dest] = r
         count[dest] = c
@@ -401,10 +358,10 @@ def _assemble(pulses: np.ndarray, shape: np.ndarray, ladders: tuple[_Ladder, ...
         # With LE=1 the split can end the accel below the stage the decel share starts
         # on; decelerating never speeds up, so those decel pulses run at the peak rate.
         firsts = offsets[:-1][clamped]
-        peak = np.minimum.reduceat(rate[_ranges(firsts, accel[clamped])],
+        peak = np.minimum.reduceat(rate[ranges(firsts, accel[clamped])],
                                    np.cumsum(accel[clamped]) - accel[clamped])
         decel = (sizes[3] + sizes[4])[clamped]
-        down = _ranges(offsets[1:][clamped] - decel, decel)
+        down = ranges(offsets[1:][clamped] - decel, decel)
         rate[down] = np.maximum(rate[down], np.repeat(peak, decel))
     # a part at the same phase and rate as the one before (in the same move) joins it
     new = np.ones(total, bool)
@@ -416,11 +373,6 @@ def _assemble(pulses: np.ndarray, shape: np.ndarray, ladders: tuple[_Ladder, ...
         phase, rate = phase[heads], rate[heads]
         offsets = np.concatenate(([0], np.cumsum(new)))[offsets]
     return MoveBatch(pulses, shape, phase, rate, count, offsets)
-
-
-def _ranges(starts: np.ndarray, lengths: np.ndarray) -> np.ndarray:
-    """The indices starts[i] .. starts[i] + lengths[i] − 1, concatenated."""
-    return np.repeat(starts - np.cumsum(lengths) + lengths, lengths) + np.arange(lengths.sum())
 
 
 def check_pulses(pulses: Any) -> None:

@@ -35,13 +35,14 @@ import numpy as np
 
 from ..errors import FieldRangeError, FormatError
 from ..motor import Motor
+from ..motor.batch import MoveBatch, Phase
+from ..motor.batch_angle import dwell_sampling, judge, sample_grid
 from ..motor.rotor import PEAK_DEG, Rotors, rotor_of, rotors
 from ..remembered import Remembered
 from .criterion import StepProblem, runs_problems
 from .execution import Execution, Segment
 from .init_model import as_free_curve
-from .load_angle import directions, dwell_sampling, judge, sample_grid
-from .move_batch import MoveBatch, Phase
+from .load_angle import directions
 from .table import FreeCurveTable, InitTable
 
 READINGS = ("a", "b", "c")

@@ -17,10 +17,10 @@ import numpy as np
 
 from profiles.motor import Motor
 from profiles.motor.angles import PEAK_DEG
-from profiles.motor.rotor import Rotors, rotors
+from profiles.motor.batch_angle import batch_sample_peaks
 from profiles.motor.tolerance import clopper_pearson_upper, corners, sample_params
-from profiles.ppmc312.load_angle import judge, worst_load_angles
-from profiles.ppmc312.move_batch import MoveBatch, moves
+from profiles.ppmc312.load_angle import worst_load_angles
+from profiles.ppmc312.move_batch import moves
 from profiles.ppmc312.table import FreeCurveTable
 from profiles.progress import Progress, report
 from profiles.verdict import CONFIDENCE, DEFAULT_SAMPLES, BoxVerdict
@@ -86,18 +86,3 @@ def stop_sample_peaks(table: FreeCurveTable, motor: Motor, stops: Sequence[tuple
                               motor, samples, seed)
 
 
-def batch_sample_peaks(runs: MoveBatch, hz: float, motor: Motor, samples: int, seed: int
-                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Each Monte Carlo sample's worst |load angle| over the executions of `runs` (both
-    directions when the box or the motor has a load torque), the execution and the
-    direction where it is worst."""
-    params = sample_params(motor, samples, seed)
-    lo, hi = motor.tolerance("load_torque_nm")
-    ways = (1, -1) if (lo or hi) else (1,)
-    rot = Rotors.stack([rotors(motor, params, direction=d) for d in ways])
-    lag, _ = judge(runs, hz, rot)
-    deg = np.degrees(lag * rot.c_e).reshape(len(ways), samples, len(runs))
-    flat = deg.transpose(1, 0, 2).reshape(samples, -1)       # (samples, ways × runs)
-    best = np.argmax(flat, axis=1)
-    return (flat[np.arange(samples), best], best % len(runs),
-            np.asarray(ways)[best // len(runs)])

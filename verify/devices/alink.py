@@ -388,8 +388,8 @@ def _ramp_box(ramp: AlinkRamp, motor: Motor, found: Any, corner: LoadAngle, n_co
 
     from profiles.alink.ramp import RAMP_HZ
     from profiles.motor.angles import PEAK_DEG
+    from profiles.motor.batch_angle import batch_sample_peaks
     from profiles.motor.tolerance import clopper_pearson_upper
-    from profiles.ppmc312.tolerance_box import batch_sample_peaks
     from profiles.verdict import CONFIDENCE, BoxVerdict
 
     from .. import alink_safety as al

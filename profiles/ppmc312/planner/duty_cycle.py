@@ -20,9 +20,10 @@ import numpy as np
 
 from ...errors import PlanError, require_int, require_number
 from ...motor import Motor
+from ...motor.batch import MoveBatch
 from ...threads import pool
 from ..clock import Clock
-from ..move_batch import MOVE_PULSES_MAX, MoveBatch, moves
+from ..move_batch import MOVE_PULSES_MAX, moves
 from ..table import FreeCurveTable
 from .free_curve import plan_free_curve
 from .problem import Plan, check_plan_args

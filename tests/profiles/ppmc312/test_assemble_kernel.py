@@ -10,8 +10,9 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from profiles.motor.batch import MoveBatch
 from profiles.ppmc312.execution import move_families
-from profiles.ppmc312.move_batch import MOVE_PULSES_MAX, MoveBatch, moves
+from profiles.ppmc312.move_batch import MOVE_PULSES_MAX, moves
 from profiles.ppmc312.table import FreeCurveTable
 from tests.support.strategies import MHZ1
 from tests.support.strategies import stage_tables as tables

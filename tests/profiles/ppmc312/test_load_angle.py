@@ -188,7 +188,7 @@ def test_refine_judges_every_length_around_the_worst_sample_and_before_the_first
     spacing of its worst sample (its ends excluded: they are samples), a family far
     below gets none, and a family whose samples pass 90° gets every length before its
     first unstable sample."""
-    from profiles.ppmc312.load_angle import refine
+    from profiles.motor.batch_angle import refine
 
     lengths = np.array([10, 20, 30, 40, 100, 110, 120, 200, 210, 220, 230])
     family = np.array([0, 0, 0, 0, 1, 1, 1, 2, 2, 2, 2])
@@ -217,7 +217,8 @@ def test_a_batch_on_threads_judges_every_cell_as_one_at_a_time() -> None:
     """Enough (rotor, execution) cells to be split over threads: every cell gets the
     angle its move gets judged alone (on the calling thread), the first and the last
     included."""
-    from profiles.ppmc312.load_angle import PARALLEL_MIN_CELLS, angles
+    from profiles.motor.batch_angle import PARALLEL_MIN_CELLS
+    from profiles.ppmc312.load_angle import angles
 
     motor = plain_motor(load_torque_nm=0.05, damping_ratio=0.3)
     table = FreeCurveTable(MHZ1, (120, 200, 400), (3, 3, 2))
@@ -243,7 +244,8 @@ def test_a_forked_child_judges_on_threads_of_its_own() -> None:
     sweep's worker) does not have them and must start its own, not wait forever."""
     import multiprocessing
 
-    from profiles.ppmc312.load_angle import PARALLEL_MIN_CELLS, angles
+    from profiles.motor.batch_angle import PARALLEL_MIN_CELLS
+    from profiles.ppmc312.load_angle import angles
 
     lengths = list(range(1, PARALLEL_MIN_CELLS + 3))
     motor = plain_motor(load_torque_nm=0.05, damping_ratio=0.3)

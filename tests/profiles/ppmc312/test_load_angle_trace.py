@@ -174,11 +174,11 @@ def test_a_verdict_that_would_take_too_long_is_refused_in_one_line(
     # the step budget of one verdict, lowered so that an ordinary table exhausts it: the
     # answer is a one-line refusal (the CLI's exit 2), never a hang
     from profiles.errors import StepRampError
-    from profiles.ppmc312 import load_angle
+    from profiles.motor import batch_angle
     from profiles.ppmc312.table import dump_table
     from verify.cli import main
 
-    monkeypatch.setattr(load_angle, "MAX_VERDICT_STEPS", 2_000)
+    monkeypatch.setattr(batch_angle, "MAX_VERDICT_STEPS", 2_000)
     table = ramp(400, 4000, 40, 100)
     with pytest.raises(StepRampError, match="too stiff, or too lightly damped"):
         worst_load_angle(table, nema17())

@@ -15,9 +15,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from profiles.motor import Motor
+from profiles.motor.batch import MoveBatch
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.load_angle import angles, worst_load_angle
-from profiles.ppmc312.move_batch import MoveBatch, moves
+from profiles.ppmc312.move_batch import moves
 from profiles.ppmc312.table import FreeCurveTable
 from tests.support.oracle_moves import kernel_step_counts, whole_move
 
@@ -194,7 +195,7 @@ def test_families_cut_alike_are_prefixes_of_their_source(decel: tuple[int, ...] 
     member: the triangles peaking at one stage, the trapezoids), has its pieces up to
     the end of that dwell equal to its source's first ones, so it starts from its
     source's state there. The reference is the longest trapezoid."""
-    from profiles.ppmc312.load_angle import dwells, shared_dwells
+    from profiles.motor.batch_angle import dwells, shared_dwells
 
     table = FreeCurveTable(MHZ1, (150, 220, 330), (4, 3, 2), decel)
     top = table.accel_total + table.decel_total
@@ -236,8 +237,8 @@ def test_only_moves_that_part_at_the_references_rate_are_cut() -> None:
     source (a comparison running past its last segment would read F's, R's dwell
     exactly). F and G part from R at another rate: no family, not cut, though their
     first segments alone would make one."""
-    from profiles.ppmc312.load_angle import shared_dwells
-    from profiles.ppmc312.move_batch import PHASES
+    from profiles.motor.batch import PHASES
+    from profiles.motor.batch_angle import shared_dwells
 
     a, c, d = (PHASES.index(p) for p in ("accel", "cruise", "decel"))
     moves_ = [[(a, 300, 2), (a, 200, 3), (c, 100, 50), (d, 200, 3), (d, 300, 2)],  # R
@@ -264,7 +265,7 @@ def test_thousands_of_trapezoids_are_not_cut_alike() -> None:
     """k trapezoids cut where every shorter one ends make ~k²/2 pieces: past
     SHARED_PIECES (a motor with no torque at the cruise samples 200 000 cruise
     lengths) the batch is judged as it is, never allocated quadratically."""
-    from profiles.ppmc312.load_angle import SHARED_PIECES, dwells, shared_dwells
+    from profiles.motor.batch_angle import SHARED_PIECES, dwells, shared_dwells
 
     table = FreeCurveTable(MHZ1, (150, 220, 330), (4, 3, 2))
     top = table.accel_total + table.decel_total
@@ -297,8 +298,9 @@ def test_a_family_starting_from_its_source_is_judged_as_alone(data: st.DataObjec
     from its source's state, the worst angles and slips are bit for bit those of each
     integrating its own dwell from the reference's state (the same spans, the same
     steps), in no more RK4 steps."""
+    from profiles.motor.batch_angle import judge
     from profiles.motor.rotor import Rotors, rotors
-    from profiles.ppmc312.load_angle import directions, judge, samples
+    from profiles.ppmc312.load_angle import directions, samples
 
     table = _random_table(data, 6, 30)
     m = motor(load_torque_nm=data.draw(st.sampled_from([0.0, 0.05])),
@@ -322,7 +324,7 @@ def test_cutting_never_takes_a_shared_prefix_away(data: st.DataObject) -> None:
     least the pulses with its source that it shared with the reference before the cut
     (cutting the reference's stage for a triangle family once made the trapezoids,
     which run that stage whole, part from it there: 10× the steps)."""
-    from profiles.ppmc312.load_angle import dwells, shared_dwells
+    from profiles.motor.batch_angle import dwells, shared_dwells
 
     table = _random_table(data, 12, 40)
     top = table.accel_total + table.decel_total
