@@ -3,8 +3,8 @@
 `judge_safety` hands the table to its device's judge, found in the registry
 (`verify.devices`: the device whose package made the table's type, its `safety` entry):
 the PPMC-312's tables to `profiles.ppmc312.safety.judge_table`, the A-Link unit's ramp to
-`verify.devices.alink.judge_ramp` (on `verify.alink_safety`). Each judge lives beside its
-device's rules, refuses an aim outside [1°, 90°] and speaks the verdict's nouns
+`profiles.alink.verdict.judge_ramp` (on `profiles.alink.safety`). Each judge lives beside
+its device's rules, refuses an aim outside [1°, 90°] and speaks the verdict's nouns
 (`profiles.verdict`: `SafetyVerdict`, `LoadAngle`, `BoxVerdict`).
 
 `aim_deg` (75° unless asked otherwise: `AIM_DEG`) is what planners aim at: a table
@@ -47,7 +47,7 @@ def judge_safety(table: FreeCurveTable | InitTable | AlinkRamp, motor: Motor, *,
     stops are judged over the whole ramp whatever `pulses` says.
 
     An A-Link ALUM ramp (`profiles.alink.ramp.AlinkRamp`, the unit's settings as stages)
-    is judged alike (`verify.alink_safety`): the unit's criterion, every move length on
+    is judged alike (`profiles.alink.safety`): the unit's criterion, every move length on
     the load angle over the box, and as its command families the decel stops (STOP 31)
     from every pulse of the ramp and, with `homing`, the homing legs (OL/OH, O_UPTIME, the
     stop at once at the origin)."""

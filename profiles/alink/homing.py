@@ -13,7 +13,7 @@ self-start range, whatever its rate.
 Conservative on purpose: a search could run faster and decelerate before the origin only
 with an SD input, which the unit has but a plan cannot count on. `plan_homing` is the one
 place the choice is made; `tighten_homing` then lowers OH until the homing legs' load-angle
-verdict (verify.alink_safety.homing_judge, the kernel every verdict runs) is within the aim.
+verdict (profiles.alink.safety.homing_judge, the kernel every verdict runs) is within the aim.
 
 The unit's multiplier for the homing speeds is not documented (appendix 2 names the high
 speed and MAX_SPEED only): every value chosen is a multiple of 20 — the largest
@@ -108,7 +108,7 @@ def tighten_homing(motor: Motor, homing: HomingSettings,
                    judge: Callable[[HomingSettings], Judgement], *, aim_deg: float
                    ) -> tuple[HomingSettings, Judgement, str]:
     """`homing` with OH (and OL with it) lowered, a round at a time, until `judge` (the
-    homing legs on the load angle: verify.alink_safety.homing_judge) finds them within the
+    homing legs on the load angle: profiles.alink.safety.homing_judge) finds them within the
     aim: (the settings, the judgement, the price in plain words, "" when nothing changed).
     Refused (PlanError, naming what would help) below OH = 40 pps."""
     h = homing

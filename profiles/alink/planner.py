@@ -159,7 +159,7 @@ MAX_ROUNDS = 40
 
 @dataclass(frozen=True)
 class Judgement:
-    """What a settings judge (verify.alink_safety.settings_judge) says of settings: within
+    """What a settings judge (profiles.alink.safety.settings_judge) says of settings: within
     the load-angle aim or not, the worst angle, the lever it blames ("start": short moves
     and early stops, near the start speed; "ramp": the ramp higher up) and one line."""
 

@@ -196,8 +196,8 @@ def _tightened(motor: Any, settings: Any, pulses: int | None) -> Any:
     the load-angle aim (`profiles.alink.planner.tighten_settings`, judged by
     `verify.safety.judge_safety` on the unit's ramp)."""
     from profiles.alink.planner import tighten_settings
+    from profiles.alink.verdict import settings_judge
     from profiles.motor.angles import AIM_DEG
-    from verify.devices.alink import settings_judge
 
     return tighten_settings(motor, settings, settings_judge(motor, aim_deg=AIM_DEG),
                             aim_deg=AIM_DEG, pulses=pulses)
@@ -266,10 +266,10 @@ def _do_homing(args: argparse.Namespace) -> int:
     from profiles.alink import homing_commands, plan_homing
     from profiles.alink.formats import C_NAME_DEFAULT, FORMATS, render
     from profiles.alink.homing import tighten_homing
+    from profiles.alink.safety import homing_judge
     from profiles.formats import Provenance
     from profiles.motor import load_motor
     from profiles.motor.angles import AIM_DEG
-    from verify.alink_safety import homing_judge
     from verify.output import write_output
 
     motor = load_motor(args.motor)

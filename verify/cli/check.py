@@ -79,8 +79,8 @@ def _do_check(args: argparse.Namespace) -> int:
     # silently not run and the table pass).
     motor = load_motor(args.motor) if args.motor is not None else None
     if args.commands is not None:
+        from profiles.alink.safety import COMMAND_FAMILIES, alink_families
         from profiles.ppmc312.command_verdicts import command_names
-        from verify.alink_safety import COMMAND_FAMILIES, alink_families
 
         try:  # an unknown one: one line, before any file is read
             command_names(args.commands)

@@ -123,7 +123,7 @@ DEVICES: tuple[Device, ...] = (
            "profiles.alink.formats:FORMATS", "verify.devices.alink",
            detect="profiles.alink.formats:is_settings_file", command="alink",
            axes=(2, (1 << 27) - 1),  # one unit's two axes; MOVE_R's 28-bit signed para
-           sync="profiles.alink.sync", safety="verify.devices.alink:judge_ramp"),
+           sync="profiles.alink.sync", safety="profiles.alink.verdict:judge_ramp"),
     Device("mc200", "MC-200", "stream", "stepramp mc200 decode", "profiles.mc200",
            "profiles.mc200.formats:FORMATS", "verify.devices.mc200",
            detect="profiles.mc200.formats:is_stream_file", command="mc200"),

@@ -1,4 +1,4 @@
-"""verify.alink_safety: the A-Link ramp's one verdict against the plain-Python rotor oracle
+"""profiles.alink.safety: the A-Link ramp's one verdict against the plain-Python rotor oracle
 (tests/support/rotor_oracle.py) on sampled moves and decel stops, and its homing legs."""
 
 from __future__ import annotations
@@ -69,7 +69,7 @@ def test_homing_legs_are_judged_and_a_fast_origin_stop_fails() -> None:
 def test_decel_stop_against_the_oracle() -> None:
     """A decel stop from pulse x of the ramp: the stepped unit's first x pulses, then its
     ramp reversed from the stage x is in, judged as the verdict's stop family is."""
-    from verify.alink_safety import motion_angles, nominal_rotors
+    from profiles.alink.safety import motion_angles, nominal_rotors
 
     motor = resolve("nema17-1600")
     ramp = build_ramp(800, 4000, 150_000.0, 20, "linear")   # 160 steps: exact stages
@@ -88,7 +88,7 @@ def test_immediate_stops_report_the_fastest_speed_within_the_aim() -> None:
     fastest speed whose stops (and every slower one's) stay within the aim, and a stop
     from H still reported; the worst at a speed is the worst of the stops at once up to
     it on the kernel."""
-    from verify.alink_safety import motion_angles, nominal_rotors, stop_envelope
+    from profiles.alink.safety import motion_angles, nominal_rotors, stop_envelope
 
     motor = load_motor(resolve("nema17-1600"))
     ramp = build_ramp(800, 48000, 147_059.0, 20, "linear")
@@ -108,7 +108,7 @@ def test_change_speed_is_refused_in_s_curve_and_judged_both_readings_in_linear()
     """CHANGE_SPD: none to judge in S-curve (a Nak); in linear the change from the cruise
     at H to each speed up to the cap (2 × H without MAX_SPEED, else MAX_SPEED), the worse
     of at once and stepped."""
-    from verify.alink_safety import change_envelope, nominal_rotors
+    from profiles.alink.safety import change_envelope, nominal_rotors
 
     motor = load_motor(resolve("nema17-1600"))
     rot = nominal_rotors(motor)
@@ -141,7 +141,7 @@ def test_commands_narrow_the_units_families() -> None:
 def test_limit_runs_count_every_slower_run_and_fail_from_a_fast_start() -> None:
     """LIMIT at s: the worst of its runs up to s (cumulative); a start speed far above the
     motor's self-start speed leaves no safe limit run (EL stops at once from L)."""
-    from verify.alink_safety import limit_envelope, nominal_rotors
+    from profiles.alink.safety import limit_envelope, nominal_rotors
 
     motor = load_motor(resolve("nema17-1600"))
     rot = nominal_rotors(motor)
@@ -155,7 +155,7 @@ def test_limit_runs_count_every_slower_run_and_fail_from_a_fast_start() -> None:
 def test_limit_reads_the_stops_the_stop_family_judged(monkeypatch: pytest.MonkeyPatch) -> None:
     """In S-curve the limit run's ramp to H is the unit's ramp: with the stop family's memo
     its stops at once are judged once, and the limit verdict is the one judged alone."""
-    from verify import alink_safety as al
+    from profiles.alink import safety as al
 
     motor = load_motor(resolve("nema17-1600"))
     rot = al.nominal_rotors(motor)
