@@ -5,7 +5,7 @@ The manual gives the unit's speeds as whole steps of its multiplier (「駆動�
 ×倍率」, appendix 2), one acceleration para for both ways (UP_TIME 「1000パルス増加するのに
 掛かる時間」, §11-2 (6)) and the choice 「加減速タイプ 0:直線 1:S字」 (MODE D4); it does not
 say how the unit steps its speed, nor how a move too short for the high speed ramps. The
-model, which the load-angle judge (verify.safety) runs:
+model, which the load-angle judge (verdict.judge_ramp, on safety.py) runs:
 
 1. Speed steps. The ramp climbs from the start speed L to the high speed H through every
    speed the unit can hold on the way, v_k = L + k·m (k = 0 … K−1, K = (H − L)/m, m the

@@ -1,5 +1,5 @@
 """The verdicts of the motion commands that run a table from places no move of 82 reaches
-(issue 31 item 4), beside the moves' in the one safety verdict (`verify.safety`).
+(issue 31 item 4), beside the moves' in the table's safety verdict (`safety.judge_table`).
 
 `FAMILIES` names each family judged and its judge; `judge_safety(commands=…)` narrows
 them (`stepramp check --commands 82,81`). Each family is judged as moves are: the

@@ -3,7 +3,8 @@
 `profiles.ppmc312.planner.init_planner.tighten_init` plans an init table again, gentler, while
 its judge says the table is past the load-angle aim; profiles never import verify, so
 the planner takes the judge as a callable and `stepramp plan --kind linear|s-curve`
-hands it this one: `verify.safety.judge_safety` on the table (every move length, every
+hands it this one: the table's verdict (`safety.judge_table`, which
+`verify.safety.judge_safety` gives too) on the table (every move length, every
 command family `commands` leaves, the tolerance box), its word cut down to what the
 planner needs (`InitJudgement`): safe, within the aim, and the worst angles by the
 lever they come from.
@@ -48,7 +49,7 @@ def init_judge(motor: Motor, *, aim_deg: float = AIM_DEG,
 
 
 def judgement(verdict: Any, table: InitTable) -> InitJudgement:
-    """A `verify.safety.SafetyVerdict` on `table` as the init planner reads it (module
+    """A `profiles.verdict.SafetyVerdict` on `table` as the init planner reads it (module
     docstring): each part's angle, blamed on the start or on the ramp."""
     zone = max(START_PULSES_MIN, int(table.accel_pulses * START_SHARE))
     parts: list[tuple[str, float, bool, str]] = []   # (name, deg, the start's, where)

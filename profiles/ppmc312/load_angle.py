@@ -19,7 +19,7 @@ dwell, and the dwells of a family (the trapezoids' at the top speed, the triangl
 at their peak) are cut alike, so each member starts from its family's longest
 member's state at the end of its own dwell (`share_kernel`). Several motors (a
 tolerance box's corners) are rows of one kernel call.
-`verify.safety` turns the result into the verdict; planners use it to tighten.
+`safety.judge_table` turns the result into the verdict; planners use it to tighten.
 """
 
 from __future__ import annotations
@@ -110,7 +110,7 @@ def angles(table: FreeCurveTable | InitTable, motors: Sequence[Motor], *,
 
     The last VERDICTS_KEPT all-length verdicts are remembered by table and motor values,
     and shared read-only: tightening judges a table, and the verdict that every command
-    gives (verify.safety) judges the same table again; a duty cycle tightens candidate
+    gives (safety.judge_table) judges the same table again; a duty cycle tightens candidate
     lengths whose tables coincide."""
     check_step(max_step_s)
     free = as_free_curve(table)

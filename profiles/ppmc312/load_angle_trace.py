@@ -3,7 +3,7 @@ designer draw.
 
 The model is `profiles.motor.rotor` (load angle in electrical degrees: the restoring
 torque peaks at 90° at the unscaled pull-out torque of the speed, the rotor slips a
-pole at 180°). The verdict over every execution is `verify.safety.judge_safety`.
+pole at 180°). The verdict over every execution is `safety.judge_table`.
 """
 
 from __future__ import annotations

@@ -1,5 +1,6 @@
 """The load angle over a motor's tolerance box (profiles.motor.tolerance), for
-`verify.safety` (the criterion over the box is judged there, at its worst case).
+the table's verdict (`safety.judge_table`: the criterion over the box is judged there, at
+its worst case).
 
 - every corner of the box over every move length: the corners are rows of one call of
   the compiled model (profiles.ppmc312.load_angle);

@@ -8,8 +8,8 @@ The walk is measured, not drawn: `compare_table` runs on a bundled motor under
 `profiles.motor.Motor` (the motor, or one derived from it: a tolerance corner, the
 worst case) as an argument other than `self` is a step (a Motor's own methods are the
 motor answering, not the motor carried somewhere). A step's **room** is the package
-folder of the called function (verify, verify/references, profiles/ppmc312/safety,
-profiles/motor, …); repeats of one room are collapsed.
+folder of the called function (verify, verify/references, profiles/ppmc312,
+profiles/ppmc312/planner, profiles/motor, …); repeats of one room are collapsed.
 
 - A **climb back up** is a step from a room of profiles/ into a room of verify/: the walk
   had gone down over the line (the import-linter layers: verify above the devices above
