@@ -31,6 +31,7 @@ from profiles.alink.ramp import (
     Kind,
     RampShape,
     build_ramp,
+    build_ramps,
     families,
     parts,
     segments,
@@ -41,6 +42,7 @@ from profiles.motor.angles import PEAK_DEG
 from profiles.motor.rotor import Rotors, rotors
 from profiles.ppmc312.load_angle import dwell_sampling, judge, refine, sample_grid
 from profiles.ppmc312.move_batch import MoveBatch
+from profiles.remembered import Remembered
 
 from .command_families import envelope_findings
 
@@ -67,11 +69,35 @@ class Angles:
 
 
 def batch(ramp: AlinkRamp, kind: Kind, x: np.ndarray) -> MoveBatch:
-    """The motions of `kind` at `x` as the kernel's flat segment lists."""
-    rate, count, offsets = segments(ramp, parts(ramp, kind, x))
-    zeros = np.zeros(len(x), np.int64)
-    return MoveBatch(np.asarray(x, np.int64), zeros, np.zeros(len(rate), np.int64), rate,
-                     count, offsets)
+    """The motions of `kind` at `x` as the kernel's flat segment lists: assembled by the
+    PPMC-312's compiled twin (`assemble_kernel.assemble`: an accel part up the ramp, the
+    cruise at H, a decel part down it; numpy's passes over the ~10⁶ segments of a
+    verdict's motions were half of it), or by `ramp.segments` when a middle runs below H
+    (an avoided triangle's). The kernel sees the same rates and counts either way (it
+    joins neighbours of one rate; the phases differ, which it does not read)."""
+    from profiles.ppmc312.assemble_kernel import assemble
+
+    p = parts(ramp, kind, x)
+    xs = np.asarray(x, np.int64)
+    shape = np.zeros(len(xs), np.int64)
+    if np.any((p.middle > 0) & (p.up < ramp.ramp_pulses)):
+        rate, count, offsets = segments(ramp, p)
+        return MoveBatch(xs, shape, np.zeros(len(rate), np.int64), rate, count, offsets)
+    zero = np.zeros_like(p.up)
+    phase, rate, count, offsets = assemble(np.stack((p.up, zero, p.middle, p.down, zero)),
+                                           *_ladders(ramp), ramp.high_rate, zero.astype(bool))
+    return MoveBatch(xs, shape, phase, rate, count, offsets)
+
+
+def _ladders(ramp: AlinkRamp) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The ramp as `assemble`'s five parts' stages (starts, rates, counts, cum): the ramp
+    for the first accel part and the first decel part, none for the others."""
+    n = len(ramp.pulses)
+    counts = np.asarray(ramp.pulses, np.int64)
+    cum = np.cumsum(counts)
+    starts = np.array([0, n, n, n, 2 * n, 2 * n], np.int64)
+    return (starts, np.concatenate((ramp.rates, ramp.rates)),
+            np.concatenate((counts, counts)), np.concatenate((cum, cum)))
 
 
 def motion_angles(ramp: AlinkRamp, kind: Kind, rot: Rotors,
@@ -108,6 +134,32 @@ def motion_angles(ramp: AlinkRamp, kind: Kind, rot: Rotors,
 def _angles(ramp: AlinkRamp, kind: Kind, xs: np.ndarray, rot: Rotors) -> Angles:
     lag, slipped = judge(batch(ramp, kind, xs), RAMP_HZ, rot)
     return Angles(xs, np.degrees(lag * rot.c_e), slipped)
+
+
+RAMP_VERDICTS_KEPT = 16   # the ramps' load-angle verdicts remembered (a few KB each)
+_kept: Remembered[tuple[Angles, tuple[tuple[str, Any], ...]]] = Remembered(RAMP_VERDICTS_KEPT)
+
+
+def judged(ramp: AlinkRamp, motor: Motor, rot: Rotors, moves: tuple[int, ...] | None,
+           homing: HomingSettings | None, aim_deg: float, families: Sequence[str]
+           ) -> tuple[Angles, tuple[tuple[str, Any], ...]]:
+    """The moves' angles (`motion_angles`, at `moves` or every length) and the command
+    families' verdicts (`family_verdicts`) of `ramp` for `motor`'s rows `rot`, the last
+    RAMP_VERDICTS_KEPT remembered by ramp, motor values and the rest, read-only: a
+    tightening judges settings and then sync's report or `check` asks for them again."""
+    def judge_now() -> tuple[Angles, tuple[tuple[str, Any], ...]]:
+        found = motion_angles(ramp, "move", rot, moves)
+        for a in (found.x, found.deg, found.slipped):
+            a.flags.writeable = False
+        return found, tuple(family_verdicts(ramp, homing, rot, aim_deg, families))
+
+    key = (ramp.key(), motor.values_key(), moves, homing, aim_deg, tuple(families))
+    return _kept.get(key, judge_now)[0]
+
+
+def forget_ramp_verdicts() -> None:
+    """Forget the remembered ramp verdicts (a benchmark times a first verdict)."""
+    _kept.clear()
 
 
 def box_rotors(motors: Sequence[Motor], ways: Sequence[int]) -> Rotors:
@@ -512,8 +564,7 @@ def limit_envelope(ramp: AlinkRamp, rot: Rotors, aim_deg: float, *,
     not judged again."""
     grid = _grid(ramp, float(ramp.start_pps), change_cap_pps(ramp))
     settle = _settle(rot, grid)
-    ramps = [build_ramp(ramp.start_pps, s, ramp.accel_pps2, ramp.multiplier, ramp.shape)
-             for s in grid]
+    ramps = build_ramps(ramp.start_pps, grid, ramp.accel_pps2, ramp.multiplier, ramp.shape)
     motions = []
     for s, dwell, r in zip(grid, settle, ramps, strict=True):
         up = _stages(r)
@@ -573,8 +624,8 @@ def change_envelope(ramp: AlinkRamp, rot: Rotors, aim_deg: float) -> EnvelopeVer
     settle = _settle(rot, [high, *grid])
     up = _stages(ramp)
     motions = []
-    for s, dwell in zip(grid, settle[1:], strict=True):
-        to = build_ramp(ramp.start_pps, s, ramp.accel_pps2, ramp.multiplier)
+    tos = build_ramps(ramp.start_pps, grid, ramp.accel_pps2, ramp.multiplier)
+    for s, dwell, to in zip(grid, settle[1:], tos, strict=True):
         down = _stages(to)[::-1]
         head = [*up, (_rate(high), settle[0])]
         stepped = ([st for st in _stages(to) if RAMP_HZ / st[0] >= high - 1e-9] if s > high

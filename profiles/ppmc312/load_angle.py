@@ -303,10 +303,12 @@ def judge(runs: MoveBatch, hz: float, rot: Rotors, *, max_step_s: float | None =
     ref_status = np.zeros(n_rot, np.int64)
     ref_slipped = np.zeros(n_rot, np.bool_)
     ref_used = np.zeros(n_rot, np.int64)
+    ref_valid = np.zeros(n_rot, np.int64)
     common = (rot.curve_v, rot.curve_t, rot.rows, steps, settles, runs.rate, runs.count)
     rk.references(*common, int(runs.offsets[ref]), int(runs.offsets[ref + 1]), hz, SLIP_DEG,
                   SETTLE_TOL_DEG, MAX_SETTLE_PERIODS, REJOIN_TOL_DEG, MAX_RK4_STEPS, ref_max,
-                  ref_lag, ref_s, suffix, limits, ref_status, ref_slipped, ref_used)
+                  ref_lag, ref_s, suffix, limits, ref_status, ref_slipped, ref_used,
+                  ref_valid)
     ref_worst = np.maximum.accumulate(ref_max, axis=1)
     # the sources' states at the end of each of their segments, for their members
     sources = np.unique(source[source >= 0])
@@ -331,8 +333,8 @@ def judge(runs: MoveBatch, hz: float, rot: Rotors, *, max_step_s: float | None =
     def cells(first: int, last: int) -> None:
         rk.executions(*common, runs.offsets, ref, source, slot, hz, MAX_SETTLE_PERIODS,
                       MAX_RK4_STEPS, ref_worst, ref_lag, ref_s, suffix, limits, ref_status,
-                      ref_slipped, fam_lag, fam_s, fam_worst, fam_known, order, first, last,
-                      lag, slipped, status, used)
+                      ref_slipped, ref_valid, fam_lag, fam_s, fam_worst, fam_known, order, first,
+                      last, lag, slipped, status, used)
 
     _in_parallel(cells, cuts)
     used[:, ref] += ref_used
