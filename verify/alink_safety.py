@@ -132,7 +132,7 @@ def motion_angles(ramp: AlinkRamp, kind: Kind, rot: Rotors,
 
 
 def _angles(ramp: AlinkRamp, kind: Kind, xs: np.ndarray, rot: Rotors) -> Angles:
-    lag, slipped = judge(batch(ramp, kind, xs), RAMP_HZ, rot)
+    lag, slipped = judge(batch(ramp, kind, xs), RAMP_HZ, rot, share_slipped=True)
     return Angles(xs, np.degrees(lag * rot.c_e), slipped)
 
 
@@ -148,10 +148,22 @@ def judged(ramp: AlinkRamp, motor: Motor, rot: Rotors, moves: tuple[int, ...] | 
     RAMP_VERDICTS_KEPT remembered by ramp, motor values and the rest, read-only: a
     tightening judges settings and then sync's report or `check` asks for them again."""
     def judge_now() -> tuple[Angles, tuple[tuple[str, Any], ...]]:
+        from profiles.threads import pool
+
+        # the families side by side: each call of the kernel runs on every core, but
+        # between them (a reference integrated alone, the batches built) one core
+        # idles; the stops at once and the limit runs together (the limit reads the
+        # stops' memo)
+        groups = [g for g in (("decel-stop",), ("stop", "limit"), ("change-speed",),
+                              ("homing",)) if set(g) & set(families)]
+        workers = pool("alink-verdict", len(groups) + 1)
+        parts = [workers.submit(family_verdicts, ramp, homing, rot, aim_deg,
+                                [f for f in g if f in families]) for g in groups]
         found = motion_angles(ramp, "move", rot, moves)
         for a in (found.x, found.deg, found.slipped):
             a.flags.writeable = False
-        return found, tuple(family_verdicts(ramp, homing, rot, aim_deg, families))
+        done = dict(v for part in parts for v in part.result())
+        return found, tuple((name, done[name]) for name in FAMILY_ORDER if name in done)
 
     key = (ramp.key(), motor.values_key(), moves, homing, aim_deg, tuple(families))
     return _kept.get(key, judge_now)[0]
@@ -518,7 +530,7 @@ def _run(motions: list[list[tuple[int, int]]], rot: Rotors) -> tuple[np.ndarray,
     x = np.arange(1, len(motions) + 1, dtype=np.int64)
     b = MoveBatch(x, np.zeros(len(x), np.int64), np.zeros(len(rate), np.int64), rate, count,
                   offsets)
-    lag, _ = judge(b, RAMP_HZ, rot)
+    lag, _ = judge(b, RAMP_HZ, rot, share_slipped=True)
     deg = np.degrees(lag * rot.c_e)
     return deg.max(axis=0), deg.argmax(axis=0)
 
@@ -565,14 +577,13 @@ def limit_envelope(ramp: AlinkRamp, rot: Rotors, aim_deg: float, *,
     grid = _grid(ramp, float(ramp.start_pps), change_cap_pps(ramp))
     settle = _settle(rot, grid)
     ramps = build_ramps(ramp.start_pps, grid, ramp.accel_pps2, ramp.multiplier, ramp.shape)
-    motions = []
-    for s, dwell, r in zip(grid, settle, ramps, strict=True):
-        up = _stages(r)
-        motions += [[*up, (_rate(s), dwell)], [*up, (_rate(s), dwell), *up[::-1]]]
-    deg, row = _run(motions, rot)
+    runs = np.stack([_limit_runs(r, dwell, rot) for r, dwell in zip(ramps, settle,
+                                                                   strict=True)], axis=1)
+    deg = runs.max(axis=0).reshape(-1)   # EL then SD at each speed, over the rows
+    row = runs.argmax(axis=0).reshape(-1)
     degs = deg.reshape(len(grid), 2).max(axis=1)
     way = int(rot.direction[int(row[int(np.argmax(deg))])])
-    executions = len(motions) * len(rot)
+    executions = len(deg) * len(rot)
     if ramp.shape == "linear":
         ramp_stops = [_ramp_stops(ramps[-1], rot, memo)]
     else:
@@ -585,6 +596,23 @@ def limit_envelope(ramp: AlinkRamp, rot: Rotors, aim_deg: float, *,
                 degs[k] = float(below.max())
     return EnvelopeVerdict("limit", aim_deg, tuple(grid), _cummax(degs.tolist()),
                            float(ramp.start_pps), float(ramp.high_pps), way, executions)
+
+
+def _limit_runs(ramp: AlinkRamp, dwell: int, rot: Rotors) -> np.ndarray:
+    """A limit run up `ramp` to its top, `dwell` pulses there, then stopped by EL at once
+    (a search's motion) or by SD down the ramp (a move's): their angles [°], rows × 2. One
+    call of the kernel each speed, whose reference, the SD run, the EL run follows to its
+    stop (all of them in one call, each but the reference integrated its ramp from rest:
+    most of the family's steps)."""
+    r = ramp.ramp_pulses
+    el = batch(ramp, "search", np.array([r + dwell]))
+    sd = batch(ramp, "move", np.array([2 * r + dwell]))
+    both = MoveBatch(np.concatenate((el.pulses, sd.pulses)), np.zeros(2, np.int64),
+                     np.concatenate((el.phase, sd.phase)), np.concatenate((el.rate, sd.rate)),
+                     np.concatenate((el.count, sd.count)),
+                     np.concatenate((el.offsets, sd.offsets[1:] + el.offsets[-1])))
+    lag, _ = judge(both, RAMP_HZ, rot, share_slipped=True)
+    return np.degrees(lag * rot.c_e)
 
 
 def _stops_key(ramp: AlinkRamp) -> tuple[object, ...]:
