@@ -156,7 +156,7 @@ def judged(ramp: AlinkRamp, motor: Motor, rot: Rotors, moves: tuple[int, ...] | 
         # stops' memo)
         groups = [g for g in (("decel-stop",), ("stop", "limit"), ("change-speed",),
                               ("homing",)) if set(g) & set(families)]
-        workers = pool("alink-verdict", len(groups) + 1)
+        workers = pool("alink-verdict", 4)
         parts = [workers.submit(family_verdicts, ramp, homing, rot, aim_deg,
                                 [f for f in g if f in families]) for g in groups]
         found = motion_angles(ramp, "move", rot, moves)
