@@ -101,7 +101,9 @@ def verdicts(res: Results, quick: bool, folder: str) -> None:
                 "linear, LIMIT, the homing legs) on the settings `stepramp alink settings "
                 "--motor M` writes; 17hs19: made in the run by `stepramp motor new` (its "
                 "tolerance box: every corner). At 67140f2, before the changes it came with, the "
-                "same verdicts took 0.3–0.4 s (linear) and 0.8–5.9 s (S-curve) on this machine.")
+                "same verdicts took 0.30–0.46 s CPU (linear) and 1.5–3.4 s CPU (S-curve), "
+                "measured beside this tree on the same settings (their JSON equal to 1e-6): "
+                "3–8× the CPU they take now.")
 
 
 def main() -> None:
