@@ -15,6 +15,7 @@ from profiles import alink as A
 from profiles import mc200 as M
 from profiles.formats import RenderOptions
 from profiles.mc200.formats import render as render_stream
+from tests.support.mc200_replies import SHORT_STREAM, packets_of
 from tests.support.paths import ROOT
 from verify.check_file import check_file
 from verify.cli import main
@@ -22,16 +23,6 @@ from verify.devices import detect
 
 SETTINGS = settings(max_examples=60, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])
-
-
-def _packets(data: bytes) -> list[bytes]:
-    return [data[i:i + 12] for i in range(0, len(data), 12)]
-
-
-POSITION_AT, DURATION = M.ruckig_profile(600, 8000.0, 8e4, 8e6)
-
-
-STREAM = M.stream_bytes(POSITION_AT, DURATION, 600, period_us=2000)
 
 
 SETTINGS_COMMANDS = A.settings_commands(A.quantise_settings(500, 10000, 20))
@@ -47,7 +38,7 @@ def _rules(path: Path) -> list[tuple[str, str]]:
 def test_check_a_planned_stream_in_every_format(tmp_path: Path) -> None:
     for fmt in ("hex", "json", "c", "ihex", "bin"):
         path = tmp_path / f"s.{fmt}"
-        path.write_bytes(render_stream(_packets(STREAM), fmt))
+        path.write_bytes(render_stream(packets_of(SHORT_STREAM), fmt))
         assert detect(path.read_bytes()).name == "mc200"
         want = [("warning", "mc200-unchecked")] if fmt == "bin" else []
         assert _rules(path) == want, fmt
@@ -56,7 +47,7 @@ def test_check_a_planned_stream_in_every_format(tmp_path: Path) -> None:
 
 def test_check_reports_what_the_driver_makes_of_a_stream(tmp_path: Path) -> None:
     path = tmp_path / "s.bin"
-    flipped = bytearray(STREAM)
+    flipped = bytearray(SHORT_STREAM)
     flipped[12 * 60 + 3] ^= 0x80  # position ±128: passes the packet checksum
     path.write_bytes(bytes(flipped))
     assert _rules(path) == [("warning", "mc200-unchecked"),
@@ -67,10 +58,11 @@ def test_check_reports_what_the_driver_makes_of_a_stream(tmp_path: Path) -> None
     assert ("error", "mc200-packet") in _rules(path)
     assert main(["check", str(path)]) == 1
 
-    path.write_bytes(STREAM[:-12 * 8])  # the hold cut short
+    path.write_bytes(SHORT_STREAM[:-12 * 8])  # the hold cut short
     assert _rules(path) == [("warning", "mc200-unchecked"), ("error", "mc200-hold")]
 
-    broken = STREAM[:12 * 3] + M.mode_switch(0, "position")[0].encode() + STREAM[12 * 5:]
+    broken = (SHORT_STREAM[:12 * 3] + M.mode_switch(0, "position")[0].encode()
+              + SHORT_STREAM[12 * 5:])
     path.write_bytes(broken)  # the second magic packet missing: SPI error
     rules = _rules(path)
     assert ("error", "mc200-spi-error") in rules and ("error", "mc200-hold") in rules
@@ -78,7 +70,7 @@ def test_check_reports_what_the_driver_makes_of_a_stream(tmp_path: Path) -> None
     from dataclasses import replace
 
     path.write_bytes(b"".join(replace(p, servo=False).encode()  # servo bit never set
-                              for p in M.decode_stream(STREAM)))
+                              for p in M.decode_stream(SHORT_STREAM)))
     assert _rules(path) == [("warning", "mc200-unchecked"), ("error", "mc200-servo"),
                             ("warning", "mc200-servo-off"), ("error", "mc200-hold")]
 
@@ -174,9 +166,9 @@ def test_a_stream_file_may_be_longer_than_other_inputs(tmp_path: Path) -> None:
     packet stream is 144 MB of hex); any other file that long is still refused."""
     from profiles.reading import MAX_INPUT_BYTES
 
-    hold = STREAM[-12:]
+    hold = SHORT_STREAM[-12:]
     path = tmp_path / "long.mc200.bin"
-    path.write_bytes(STREAM + hold * ((MAX_INPUT_BYTES - len(STREAM)) // 12 + 10))
+    path.write_bytes(SHORT_STREAM + hold * ((MAX_INPUT_BYTES - len(SHORT_STREAM)) // 12 + 10))
     assert _rules(path) == [("warning", "mc200-unchecked")]
     other = tmp_path / "long.txt"
     other.write_bytes(b"02 03 01 00 03\n" * (MAX_INPUT_BYTES // 15 + 1))
@@ -193,7 +185,7 @@ def test_check_reads_stdin_once(kind: str, monkeypatch: pytest.MonkeyPatch,
     root = ROOT / "examples"
     data = {"table": (root / "free-curve-nema17.json").read_bytes(),
             "upload": (root / "free-curve-nema17.json").read_bytes(),
-            "stream": render_stream(_packets(STREAM), "hex")}[kind]
+            "stream": render_stream(packets_of(SHORT_STREAM), "hex")}[kind]
     if kind == "upload":
         from profiles.ppmc312.formats import render
         from profiles.ppmc312.table import table_from_json

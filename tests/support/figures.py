@@ -1,8 +1,11 @@
-"""What every figure test asks of a matplotlib figure."""
+"""What every figure test asks of a matplotlib figure, and the figures a run saves."""
 
 from __future__ import annotations
 
 from typing import Any
+
+import pytest
+from matplotlib.figure import Figure
 
 from verify.plot import texts_outside
 
@@ -16,3 +19,17 @@ def problems(fig: Any) -> list[str]:
         out += [f"line without a legend entry: {line.get_label()!r}"
                 for line in ax.get_lines() if line.get_label() not in entries]
     return out
+
+
+def record_saved(monkeypatch: pytest.MonkeyPatch) -> list[Figure]:
+    """The figures `Figure.savefig` saves from now on (until the test ends), in the
+    order saved; each is still saved as asked."""
+    figures: list[Figure] = []
+    original = Figure.savefig
+
+    def record(self: Figure, *args: Any, **kwargs: Any) -> None:
+        figures.append(self)
+        original(self, *args, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", record)
+    return figures

@@ -9,18 +9,16 @@ not drawn and not judged).
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Iterator
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
 import pytest
-from matplotlib.figure import Figure
 
 from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312.planner import plan_free_curve
-from tests.support.figures import problems
+from tests.support.figures import problems, record_saved
 from tests.support.paths import ROOT
 from verify import cli
 from verify.compare import compare_table
@@ -30,17 +28,9 @@ EXAMPLES = ROOT / "examples"
 
 
 @pytest.fixture
-def saved(monkeypatch: pytest.MonkeyPatch) -> Iterator[list[Any]]:
+def saved(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
     """The figures saved while the test runs."""
-    figures: list[Any] = []
-    original = Figure.savefig
-
-    def record(self: Any, *args: Any, **kwargs: Any) -> None:
-        figures.append(self)
-        original(self, *args, **kwargs)
-
-    monkeypatch.setattr(Figure, "savefig", record)
-    yield figures
+    return record_saved(monkeypatch)
 
 
 def run_cli(argv: list[str], tmp_path: Path, exit_codes: tuple[int, ...] = (0,)) -> None:

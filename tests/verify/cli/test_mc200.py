@@ -6,55 +6,23 @@ import io
 import json
 import sys
 from pathlib import Path
-from typing import Any
 
-import numpy as np
 import pytest
 
 from profiles import mc200 as M
-from profiles.mc200.follow import commanded_positions
 from profiles.mc200.formats import render
 from profiles.mc200.formats import render as render_stream
-from tests.support.figures import problems
+from tests.support.figures import problems, record_saved
+from tests.support.mc200_replies import (
+    EXAMPLE_REPLIES,
+    EXAMPLE_STREAM,
+    GUIDE_STREAM,
+    lagging_replies,
+)
 from tests.support.paths import ROOT
 from verify import cli
 from verify.check_file import check_file
 from verify.cli import _common, main
-
-EXAMPLE_REPLIES = ROOT / "examples" / "move.mc200.replies.hex"
-
-
-EXAMPLE_STREAM = ROOT / "examples" / "move.mc200.hex"
-
-
-POSITION_AT, DURATION = M.ruckig_profile(3200, 20000.0, 2e5, 5e6)
-
-
-GUIDE_STREAM = M.stream_bytes(POSITION_AT, DURATION, 3200, period_us=1000)
-
-
-def lagging_replies(stream: bytes, lag: int, *, period_s: float = 1e-3, origin: int = 0,
-                    amps_per_pulse: float = 0.01, alarm_at: int | None = None) -> bytes:
-    """A driver `lag` packets behind the command it is given: the encoder at reply k is
-    ⌊the command of reply k − lag⌋ (+ `origin`, where the encoder counted from), the
-    servo on from the packet after the stream turns it on, in position from `lag`
-    replies after the command's end, the current proportional to the error. Written
-    straight from the definitions, one reply at a time."""
-    reading = M.read_stream(stream)
-    n = reading.packets
-    commanded = commanded_positions(reading.commands, np.full(n, origin), period_s)
-    commanded = np.nan_to_num(commanded, nan=float(origin))
-    final = np.flatnonzero(commanded != commanded[-1])
-    end = int(final[-1]) + 1 if len(final) else 0
-    mode = int(reading.commands.mode[-1])
-    out = []
-    for k in range(n):
-        encoder = int(np.floor(commanded[max(k - lag, 0)]))
-        on = reading.servo_on_at is not None and k > reading.servo_on_at
-        out.append(M.DriverPacket(
-            0, on, k == alarm_at, False, False, encoder,
-            amps_per_pulse * float(commanded[k] - encoder), on and k >= end + lag, mode).encode())
-    return b"".join(out)
 
 
 def test_the_example_stream_is_the_guides(tmp_path: Path) -> None:
@@ -95,16 +63,7 @@ def test_follow_text_json_and_figure(files: tuple[Path, Path], tmp_path: Path,
         "the command reaches 3200 pulses at reply 305 (305 ms)",
         "in position: from reply 308 (308 ms), 3 ms after the command's end, to the log's end"]
     assert len(out.splitlines()) == 6 + 2 + 20
-    figures: list[Any] = []
-    from matplotlib.figure import Figure
-
-    original = Figure.savefig
-
-    def record(self: Any, *args: Any, **kwargs: Any) -> None:
-        figures.append(self)
-        original(self, *args, **kwargs)
-
-    monkeypatch.setattr(Figure, "savefig", record)
+    figures = record_saved(monkeypatch)
     plot = tmp_path / "follow.png"
     code, out, _ = _run(capsys, "mc200", "follow", str(stream), str(replies), "--format",
                         "json", "--plot", str(plot))

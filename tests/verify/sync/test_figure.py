@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import json
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
-from matplotlib.figure import Figure
 
+from tests.support.figures import record_saved
 from tests.support.paths import ROOT
 from verify import cli
 
@@ -18,17 +17,9 @@ EXAMPLES = ROOT / "examples"
 
 
 @pytest.fixture
-def saved(monkeypatch: pytest.MonkeyPatch) -> Iterator[list[Any]]:
+def saved(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
     """The figures saved while the test runs."""
-    figures: list[Any] = []
-    original = Figure.savefig
-
-    def record(self: Any, *args: Any, **kwargs: Any) -> None:
-        figures.append(self)
-        original(self, *args, **kwargs)
-
-    monkeypatch.setattr(Figure, "savefig", record)
-    yield figures
+    return record_saved(monkeypatch)
 
 
 def run_cli(argv: list[str], tmp_path: Path, exit_codes: tuple[int, ...] = (0,)) -> None:
