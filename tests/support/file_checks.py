@@ -1,5 +1,6 @@
 """What the format tests of every device share: single-bit flips of a file, the
-one-line parse errors, and compiling C headers with the system's compiler."""
+one-line parse errors, what every format reads from garbage, and compiling C headers
+with the system's compiler."""
 
 from __future__ import annotations
 
@@ -47,6 +48,18 @@ def assert_one_line_error(read: Callable[[bytes], Any], data: bytes, words: str)
         read(data)
     assert isinstance(err.value, DecodeError | FormatError)
     assert "\n" not in str(err.value)
+
+
+def parsed_in_any_format(parse: Callable[..., Any], data: bytes,
+                         formats: Iterable[str]) -> Iterator[list[Any]]:
+    """The items `parse(data, fmt=…)` reads, by guess (fmt=None) and as each of `formats`,
+    wherever it reads any: a StepRampError is a refusal, any other exception fails."""
+    for fmt in (None, *formats):
+        try:
+            items = parse(data, fmt=fmt).items
+        except StepRampError:
+            continue
+        yield items
 
 
 def compile_and_run(folder: Path, files: dict[str, bytes], main_c: str
