@@ -15,10 +15,10 @@ from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.motion import COMMANDS
 from profiles.ppmc312.table import FreeCurveTable, dump_table, load_table
-from tests.support.ascii_frames import FIGURES
+from tests.support.ascii_frames import FIGURES, move_argv
 from tests.support.cli import run
+from tests.support.datasheet_motor import datasheet_motor_file
 from tests.support.paths import ROOT
-from verify import cli
 
 MOTORS = {p.stem: p for p in bundled_motor_paths()}
 
@@ -181,20 +181,6 @@ def test_check_with_motor_on_an_init_table_the_chip_refuses(
     assert [f["chip_code"] for f in json.loads(out)["files"][0]["findings"]] == ["0x03"]
 
 
-OPTION = {"rate": "--rate", "pulses": "--pulses", "override_at": "--override-at",
-          "on": "--on"}
-
-
-FLAG = {"ccw": "--ccw", "index": "--index"}
-
-
-def argv(name: str, params: dict[str, Any]) -> list[str]:
-    out = ["move", "--command", name]
-    for key, value in params.items():
-        out += [FLAG[key]] if key in FLAG else [OPTION[key], str(value)]
-    return out
-
-
 @pytest.mark.parametrize("name", sorted(COMMANDS))
 def test_every_command_in_every_format_is_judged_ok(capsys: pytest.CaptureFixture[str],
                                                    tmp_path: Path, name: str) -> None:
@@ -206,7 +192,7 @@ def test_every_command_in_every_format_is_judged_ok(capsys: pytest.CaptureFixtur
             if to == "ascii" and fmt == "bus":
                 continue  # the bus is parallel only
             out = tmp_path / f"{name}.{to}.{fmt}"
-            code, _, err = run(capsys, *argv(name, params), "--to", to, "--format", fmt,
+            code, _, err = run(capsys, *move_argv(name, params), "--to", to, "--format", fmt,
                                "-o", out)
             assert (code, err) == (0, ""), (fmt, to)
             code, text, err = run(capsys, "check", out)
@@ -214,17 +200,10 @@ def test_every_command_in_every_format_is_judged_ok(capsys: pytest.CaptureFixtur
             assert f"note: {COMMANDS[name].label if name != 'accel' else 'move'}" in text
 
 
-DATASHEET = ["motor", "new", "--holding-torque-nm", "0.59", "--rated-current-a", "2",
-             "--resistance-ohm", "1.4", "--inductance-mh", "3.0", "--rotor-inertia-gcm2", "82",
-             "--supply-v", "24", "--microstep", "8", "--current-a", "1.5",
-             "--load", "screw:lead_mm=8,mass_kg=4"]
-
-
 @pytest.fixture(scope="module")
 def datasheet_motor(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    path = tmp_path_factory.mktemp("motor") / "m.json"
-    assert cli.main([*DATASHEET, "--output", str(path)]) == 0
-    return path
+    """The datasheet NEMA17 on its lead screw (tests/support/datasheet_motor.py)."""
+    return datasheet_motor_file(tmp_path_factory.mktemp("motor") / "m.json")
 
 
 def test_check_motor_exits_1_on_an_unsafe_hand_written_file(

@@ -15,7 +15,7 @@ from profiles.motor.catalogue import (
 )
 from profiles.motor.travel import axis_units
 from tests.support.cli import run
-from tests.support.paths import ROOT
+from tests.support.motor_folders import motor_file, motor_folders
 from verify import cli
 from verify.cli import main
 
@@ -126,27 +126,9 @@ def test_vertical_axis_load_torque_is_written(tmp_path: Path,
     assert run_argv(["motor", "check", str(path)], capsys)[:2] == (0, f"{path}: ok\n")
 
 
-NEMA17 = ROOT / "profiles" / "data" / "motor-nema17-1600.json"
-
-
-def motor_file(folder: Path, file_name: str, name: str = "", steps: int = 400) -> Path:
-    obj = json.loads(NEMA17.read_text(encoding="utf-8"))
-    obj.update(name=name or file_name, steps_per_rev=steps)
-    del obj["holding_torque_nm"]  # `motor list` falls back on the curve at 0 pps
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / file_name
-    path.write_text(json.dumps(obj), encoding="utf-8")
-    return path
-
-
 @pytest.fixture
 def folders(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> tuple[Path, Path, Path]:
-    """Two STEPRAMP_MOTORS folders and the XDG config folder's motors, all empty."""
-    env_a, env_b, config = tmp_path / "env-a", tmp_path / "env-b", tmp_path / "config"
-    monkeypatch.setenv(ENV_VAR, f"{env_a}:{env_b}")
-    monkeypatch.setenv("XDG_CONFIG_HOME", str(config))
-    monkeypatch.chdir(tmp_path)
-    return env_a, env_b, config / "stepramp" / "motors"
+    return motor_folders(tmp_path, monkeypatch)
 
 
 def test_motor_list_text_and_json(folders: tuple[Path, Path, Path],

@@ -18,8 +18,11 @@ from profiles.ppmc312.ascii import decode_serial_init
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.init_model import expand_init
+from profiles.ppmc312.planner import duty_cycle
 from profiles.ppmc312.table import InitTable, load_table
 from tests.support.cli import run
+from tests.support.datasheet_motor import datasheet_motor_file
+from tests.support.motor_folders import LEAD_MM, screw_motor_file
 from tests.support.paths import ROOT
 from verify.cli import main
 from verify.plan_text import pps
@@ -60,6 +63,17 @@ def test_plan_moves_names_the_file_line_and_field(
     assert code == 2 and says in err, err
     assert len(err.splitlines()) == 1 and len(err) < 300  # one short line, never the field
     assert "--pulses" not in err and "motor" not in err
+
+
+def test_plan_moves_caps_its_rows(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(duty_cycle, "MIX_ROWS_MAX", 3)
+    code, err = plan_moves(tmp_path, capsys, "pulses,weight\n300,1\n400,1\n300,1\n400,1\n")
+    assert code == 2 and "more than 3 rows, the cap of plan --moves" in err
+    monkeypatch.setattr(duty_cycle, "MIX_ROWS_MAX", 10)
+    monkeypatch.setattr(duty_cycle, "MIX_LENGTHS_MAX", 1)
+    code, err = plan_moves(tmp_path, capsys, "pulses,weight\n300,1\n400,1\n")
+    assert code == 2 and "2 distinct move lengths, more than the 1 plan --moves takes" in err
 
 
 def test_plan_moves_names_the_first_byte_that_is_not_utf8(
@@ -240,22 +254,14 @@ def test_plan_moves_from_stdin_carries_the_mix_hash(tmp_path: Path,
     assert hashlib.sha256(mix).hexdigest() in json.dumps(provenance)
 
 
-# a datasheet NEMA17 on a lead screw: the plain init table's origin return (11) reverses
-# by twice a start speed the rotor cannot follow (the report of issue 33)
-DATASHEET = ["--name", "17hs19", "--holding-torque-nm", "0.59", "--rated-current-a", "2",
-             "--current-a", "1.5", "--resistance-ohm", "1.4", "--inductance-mh", "3.0",
-             "--rotor-inertia-gcm2", "82", "--supply-v", "24", "--microstep", "8",
-             "--load", "screw:lead_mm=8,mass_kg=4"]
-
-
 PULSES = 4000
 
 
 @pytest.fixture(scope="module")
 def datasheet_path(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    path = tmp_path_factory.mktemp("motor") / "17hs19.json"
-    assert main(["motor", "new", *DATASHEET, "-o", str(path)]) == 0
-    return path
+    """The datasheet NEMA17 on its lead screw (tests/support/datasheet_motor.py)."""
+    return datasheet_motor_file(tmp_path_factory.mktemp("motor") / "17hs19.json",
+                                "--name", "17hs19")
 
 
 def test_plan_tightens_the_datasheet_motors_linear_table(
@@ -298,16 +304,10 @@ def test_plan_commands_narrows_the_verdict_and_refuses_an_unknown_one(
     assert code == 2 and len(err.strip().splitlines()) == 1 and "'warp'" in err
 
 
-LEAD_MM = 8.0   # nema17-1600 (1600 pulses/rev) on an 8 mm lead: 0.005 mm per pulse
-
-
 @pytest.fixture
 def screw(tmp_path: Path) -> str:
     """The bundled nema17-1600 with an 8 mm lead screw's travel."""
-    obj = json.loads(resolve("nema17-1600").read_text())
-    path = tmp_path / "screw.json"
-    path.write_text(json.dumps({**obj, "travel_mm_per_rev": LEAD_MM}))
-    return str(path)
+    return screw_motor_file(tmp_path)
 
 
 def test_plan_gives_mm_beside_pulses(screw: str, tmp_path: Path,
