@@ -17,6 +17,11 @@ def run(capsys: pytest.CaptureFixture[str], *argv: object) -> tuple[int, str, st
     return code, out, err
 
 
+def exits(argv: list[str], codes: tuple[int, ...] = (0,)) -> None:
+    """`stepramp ARGV` exits with one of `codes` (its output left to the test)."""
+    assert main(argv) in codes, argv
+
+
 def parsers(parser: argparse.ArgumentParser, name: str = "stepramp"
             ) -> list[tuple[str, argparse.ArgumentParser]]:
     """`parser` and every sub-command's parser below it, each with its command line

@@ -1,4 +1,5 @@
-"""What every figure test asks of a matplotlib figure, and the figures a run saves."""
+"""What every figure test asks of a matplotlib figure, the figures a run saves, a figure's
+second scales, and closing a figure."""
 
 from __future__ import annotations
 
@@ -33,3 +34,15 @@ def record_saved(monkeypatch: pytest.MonkeyPatch) -> list[Figure]:
 
     monkeypatch.setattr(Figure, "savefig", record)
     return figures
+
+
+def scale_labels(ax: Any) -> list[str]:
+    """The labels of the second scales (real units) on `ax`."""
+    return [c.get_ylabel() or c.get_xlabel() for c in ax.child_axes]
+
+
+def close(fig: Any) -> None:
+    """Close `fig` (pyplot keeps every figure it made open)."""
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)

@@ -19,6 +19,7 @@ from profiles.motor import load_motor
 from profiles.motor.tolerance import worst_case_motor
 from profiles.ppmc312.criterion import all_length_problems
 from profiles.ppmc312.planner import plan_free_curve
+from tests.support.figures import close
 from tests.support.motor_folders import LEAD_MM, screw_motor_file
 from tests.support.paths import ROOT
 from verify.sweep import COLUMNS, jobs_of, run_sweep
@@ -246,12 +247,6 @@ def test_ctrl_c_cancels_the_cluster_jobs_and_writes_nothing(cluster: Cluster,
         while any(client.processing().values()):
             assert time.monotonic() < deadline
             time.sleep(0.2)
-
-
-def close(fig: Any) -> None:
-    import matplotlib.pyplot as plt
-
-    plt.close(fig)
 
 
 def sweep_row(motor: str, pulses: int, worst_pulses: int, angle: float) -> dict[str, Any]:

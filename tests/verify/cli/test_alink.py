@@ -16,10 +16,12 @@ from profiles.alink.commands import COMMANDS, decode_command, encode_command
 from tests.support.alink_figures import BY_HAND
 from tests.support.cli import run
 from tests.support.datasheet_motor import datasheet_motor_file
+from tests.support.file_checks import alink_file, rules_of
 from tests.support.strategies import alink_commands
 from verify import cli
-from verify.check_file import check_file
 from verify.cli import main
+
+SETTINGS_COMMANDS = A.settings_commands(A.quantise_settings(500, 10000, 20))
 
 
 @pytest.mark.parametrize(("word", "code"), [("0xFFFF", 0), ("65535", 0), ("0x10000", 2),
@@ -149,24 +151,6 @@ def test_alink_homing_writes_a_checked_file(tmp_path: Path,
     assert capsys.readouterr().err.startswith("stepramp alink: --max-pps: -1.0 is outside")
 
 
-SETTINGS_COMMANDS = A.settings_commands(A.quantise_settings(500, 10000, 20))
-
-
-def _rules(path: Path) -> list[tuple[str, str]]:
-    result = check_file(str(path))
-    assert result.error is None, result.error
-    return [(f.severity, f.rule) for f in result.findings]
-
-
-# --- check: A-Link ------------------------------------------------------------------------------
-def _write(tmp_path: Path, name: str, commands: list[A.Command], fmt: str = "hex") -> Path:
-    from profiles.alink.formats import render
-
-    path = tmp_path / name
-    path.write_bytes(render(commands, fmt))
-    return path
-
-
 def test_alink_read_and_corrupted_settings(tmp_path: Path,
                                            capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["alink", "settings", "--start-pps", "500", "--high-pps", "10000",
@@ -176,9 +160,9 @@ def test_alink_read_and_corrupted_settings(tmp_path: Path,
     assert main(["alink", "read", str(tmp_path / "a.json"), "--format", "json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["start_pps"] == 500 and doc["commands"][0]["address"] == "0x086"
-    path = _write(tmp_path, "a.h", SETTINGS_COMMANDS, "c")
+    path = alink_file(tmp_path, "a.h", SETTINGS_COMMANDS, "c")
     path.write_text(path.read_text().replace("0x4112", "0x4113"))  # L_SPEED → H_SPEED
-    assert _rules(path) == [("error", "alink-corrupted")]
+    assert rules_of(path) == [("error", "alink-corrupted")]
     assert main(["alink", "read", str(path)]) == 2
     err = capsys.readouterr().err
     assert err.startswith("stepramp alink: corrupted: STEPRAMP_ALINK_CRC32 says CRC-32")

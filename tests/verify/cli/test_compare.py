@@ -8,25 +8,17 @@ from pathlib import Path
 import pytest
 
 from profiles.motor import bundled_motor_paths
-from profiles.ppmc312.clock import Clock
-from profiles.ppmc312.table import FreeCurveTable, dump_table, load_table
+from profiles.ppmc312.table import load_table
 from tests.support.cli import run
 from tests.support.motor_folders import LEAD_MM, screw_motor_file
 from tests.support.paths import ROOT
+from tests.support.switching_table import switching_table
 from verify.cli import main
 
 MOTORS = {p.stem: p for p in bundled_motor_paths()}
 
 
 NEMA23 = MOTORS["motor-nema23-heavy"]
-
-
-def switching_table(tmp_path: Path) -> Path:
-    # LE=1, decel counts heavy at the slow end: short triangles switch down
-    table = FreeCurveTable(Clock.internal("8MHz"), (1455, 1873, 2500), (40, 40, 40), (2, 2, 200))
-    path = tmp_path / "switch.table.json"
-    path.write_text(dump_table(table))
-    return path
 
 
 def test_compare_exits_1_on_an_unsafe_move(tmp_path: Path,

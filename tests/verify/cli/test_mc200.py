@@ -13,11 +13,14 @@ from profiles import mc200 as M
 from profiles.mc200.formats import render
 from profiles.mc200.formats import render as render_stream
 from tests.support.figures import problems, record_saved
+from tests.support.file_checks import rules_of
 from tests.support.mc200_replies import (
     EXAMPLE_REPLIES,
     EXAMPLE_STREAM,
     GUIDE_STREAM,
+    SHORT_STREAM,
     lagging_replies,
+    packets_of,
 )
 from tests.support.paths import ROOT
 from verify import cli
@@ -170,29 +173,13 @@ def test_stream_files_in_every_mode_check_clean(tmp_path: Path, mode: str,
     assert code == 0 and "value_kind=raw" not in text  # read with the other page's magic
 
 
-def _packets(data: bytes) -> list[bytes]:
-    return [data[i:i + 12] for i in range(0, len(data), 12)]
-
-
-POSITION_AT_DEV, DURATION_DEV = M.ruckig_profile(600, 8000.0, 8e4, 8e6)
-
-
-STREAM = M.stream_bytes(POSITION_AT_DEV, DURATION_DEV, 600, period_us=2000)
-
-
-def _rules(path: Path) -> list[tuple[str, str]]:
-    result = check_file(str(path))
-    assert result.error is None, result.error
-    return [(f.severity, f.rule) for f in result.findings]
-
-
 def test_stream_file_corrupted_and_hand_made(tmp_path: Path,
                                              capsys: pytest.CaptureFixture[str]) -> None:
-    text = render_stream(_packets(STREAM), "hex").decode().splitlines()
+    text = render_stream(packets_of(SHORT_STREAM), "hex").decode().splitlines()
     text[30] = text[30][:-1] + ("1" if text[30][-1] != "1" else "2")
     bad = tmp_path / "bad.mc200.hex"
     bad.write_text("\n".join(text) + "\n")
-    assert _rules(bad) == [("error", "mc200-corrupted")]
+    assert rules_of(bad) == [("error", "mc200-corrupted")]
     assert main(["check", str(bad)]) == 1
     capsys.readouterr()
     assert main(["mc200", "decode", str(bad)]) == 2
@@ -201,12 +188,13 @@ def test_stream_file_corrupted_and_hand_made(tmp_path: Path,
     assert len(err.splitlines()) == 1
 
     hand = tmp_path / "hand.mc200.hex"
-    hand.write_text("\n".join(line for line in render_stream(_packets(STREAM), "hex").decode()
-                              .splitlines() if not line.startswith("#")) + "\n")
-    assert _rules(hand) == [("warning", "mc200-unchecked")]
+    rendered = render_stream(packets_of(SHORT_STREAM), "hex").decode()
+    hand.write_text("\n".join(line for line in rendered.splitlines()
+                              if not line.startswith("#")) + "\n")
+    assert rules_of(hand) == [("warning", "mc200-unchecked")]
     assert main(["mc200", "decode", str(hand), "--format", "json"]) == 0
     out, err = capsys.readouterr()
-    assert len(json.loads(out)["packets"]) == len(STREAM) // 12
+    assert len(json.loads(out)["packets"]) == len(SHORT_STREAM) // 12
     assert err.startswith(f"stepramp mc200: warning: {hand}: no CRC-32 in the file")
 
 
@@ -218,7 +206,7 @@ def test_mc200_stream_cli_writes_every_format(tmp_path: Path) -> None:
         path = tmp_path / name
         assert main([*args, "-o", str(path), *extra]) == 0
         assert main(["mc200", "decode", str(path)]) == 0
-        assert _rules(path) == []
+        assert rules_of(path) == []
     assert b"stepramp mc200 stream --vmax 8000" in (tmp_path / "s.h").read_bytes()
     assert b"x_axis_packets[X_AXIS_PACKET_COUNT][12]" in (tmp_path / "s.txt").read_bytes()
     assert main([*args, "--name", "x"]) == 2  # --name is for C

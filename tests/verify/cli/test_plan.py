@@ -8,6 +8,7 @@ import json
 import re
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -32,6 +33,7 @@ MOTORS = {p.stem: p for p in bundled_motor_paths()}
 
 
 PK566 = MOTORS["motor-pk566-5phase-half"]
+NEMA17 = MOTORS["motor-nema17-1600"]
 
 
 # --- plan --moves --------------------------------------------------------------------------------
@@ -393,3 +395,41 @@ def test_plan_distance_refusals_name_the_flag_and_unit(
     assert main(["plan", *argv]) == 2
     err = capsys.readouterr().err
     assert text in err and len(err.splitlines()) == 1
+
+
+# --- plan --from ---------------------------------------------------------------------------------
+def plan_from(capsys: pytest.CaptureFixture[str], tmp_path: Path, motor: str, source: str,
+              pulses: int) -> tuple[int, dict[str, Any], Path]:
+    """`stepramp plan --from SOURCE` for `motor`: (exit code, its JSON or its stderr, the
+    table's path)."""
+    out_path = tmp_path / f"{source}-{pulses}.json"
+    code, out, err = run(capsys, "plan", "--motor", motor, "--pulses", str(pulses), "--from",
+                         source, "--format", "json", "-o", out_path)
+    return code, json.loads(out) if code == 0 else {"err": err}, out_path
+
+
+@pytest.mark.parametrize("source", ["ruckig", "toppra"])
+def test_plan_from_a_reference_gives_a_safe_table_and_its_price(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], source: str) -> None:
+    code, doc, out_path = plan_from(capsys, tmp_path, NEMA17, source, 2000)
+    assert code == 0 and out_path.exists()
+    assert doc["safety"]["safe"] and doc["safety"]["within_aim"]
+    table = load_table(out_path)
+    assert doc["move_time_s"] == pytest.approx(simulate_move(table, 2000).duration_s)
+    # what following the reference costs: its time beside the reference's and the planner's
+    assert doc["table/planner"] == pytest.approx(doc["move_time_s"] / doc["planner_s"])
+    assert doc["table/reference"] == pytest.approx(doc["move_time_s"] / doc["reference_s"])
+    code, _, _ = run(capsys, "check", out_path, "--motor", NEMA17)
+    assert code == 0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("pulses", [2000, 10_000])
+@pytest.mark.parametrize("source", ["ruckig", "toppra"])
+@pytest.mark.parametrize("motor", [NEMA17, MOTORS["motor-nema23-heavy"], PK566])
+def test_plan_from_every_bundled_motor_and_reference(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], motor: str, source: str,
+        pulses: int) -> None:
+    code, doc, out_path = plan_from(capsys, tmp_path, motor, source, pulses)
+    assert code == 0, doc
+    assert run(capsys, "check", out_path, "--motor", motor)[0] == 0

@@ -24,7 +24,7 @@ from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.formats import parse, parse_c_set
 from profiles.ppmc312.table import load_table
 from profiles.ppmc312.upload import decode_move
-from tests.support.figures import record_saved
+from tests.support.figures import record_saved, scale_labels
 from tests.support.paths import ROOT
 from verify.cli import main
 from verify.criterion import check_stall
@@ -226,11 +226,6 @@ def test_simulate_axes_reports_the_spread_of_tables_that_do_not_end_together(
     spread = simulate_move(loaded, 3000).duration_s - simulate_move(loaded, 1000).duration_s
     assert spread > 0
     assert doc["finish_spread_s"] == pytest.approx(spread, rel=1e-12)
-
-
-def scale_labels(ax: Any) -> list[str]:
-    """The labels of the second scales (real units) on `ax`."""
-    return [c.get_ylabel() or c.get_xlabel() for c in ax.child_axes]
 
 
 @pytest.mark.slow  # plans a two-axis line move (~3 s); CI runs it

@@ -9,9 +9,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from tests.support.figures import record_saved
+from tests.support.cli import exits
+from tests.support.figures import close, record_saved
 from tests.support.paths import ROOT
-from verify import cli
 
 EXAMPLES = ROOT / "examples"
 
@@ -22,19 +22,14 @@ def saved(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
     return record_saved(monkeypatch)
 
 
-def run_cli(argv: list[str], tmp_path: Path, exit_codes: tuple[int, ...] = (0,)) -> None:
-    code = cli.main(argv)
-    assert code in exit_codes, argv
-
-
 @pytest.mark.slow
 def test_sync_figure_positions_are_signed(tmp_path: Path, saved: list[Any],
                                           capsys: pytest.CaptureFixture[str]) -> None:
     # axes-xy.json: x +12 000, y −5 000 pulses
     axes = json.loads((EXAMPLES / "axes-xy.json").read_text())
     assert [a["pulses"] for a in axes["axes"]] == [12000, -5000]
-    run_cli(["sync", str(EXAMPLES / "axes-xy.json"), "--mode", "line", "-o",
-             str(tmp_path / "out"), "--plot", str(tmp_path / "line.png")], tmp_path, (0, 1))
+    exits(["sync", str(EXAMPLES / "axes-xy.json"), "--mode", "line", "-o",
+             str(tmp_path / "out"), "--plot", str(tmp_path / "line.png")], (0, 1))
     [fig] = saved
     path_ax, _, speed_ax = fig.axes
     executed, line = path_ax.get_lines()
@@ -42,12 +37,6 @@ def test_sync_figure_positions_are_signed(tmp_path: Path, saved: list[Any],
     assert list(line.get_xdata()) == [0, 12000] and list(line.get_ydata()) == [0, -5000]
     y_speed = next(ln for ln in speed_ax.get_lines() if ln.get_label().startswith("y ("))
     assert max(y_speed.get_ydata()) < 0  # y runs CCW the whole move (from its start speed)
-
-
-def close(fig: Any) -> None:
-    import matplotlib.pyplot as plt
-
-    plt.close(fig)
 
 
 def test_sync_deviation_is_an_envelope_with_its_worst_marked() -> None:
