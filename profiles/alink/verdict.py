@@ -28,7 +28,7 @@ def judge_ramp(ramp: AlinkRamp, motor: Motor, *, pulses: Iterable[int] | None = 
                strict: bool = False, load_angle: bool = True,
                commands: Iterable[str] | None = None, progress: Progress | None = None,
                homing: HomingSettings | None = None) -> SafetyVerdict:
-    """`judge_safety` on the A-Link unit's ramp (verify.alink_safety; the registry's
+    """`judge_safety` on the A-Link unit's ramp (safety.py; the registry's
     `safety` entry of the A-Link): the unit's criterion, every move length on the load
     angle over the box, and as its command families the decel stops (STOP 31) from every
     pulse of the ramp and, with `homing`, the homing legs (OL/OH, O_UPTIME, the stop at
@@ -60,7 +60,7 @@ def judge_ramp(ramp: AlinkRamp, motor: Motor, *, pulses: Iterable[int] | None = 
     box_corners = corners(motor) if motor.tolerances else []
     ways = al.ways_of(motor)
     rot = al.box_rotors([c.motor for c in box_corners] or [motor], ways)
-    found = al.motion_angles(ramp, "move", rot, moves)
+    found, verdicts = al.judged(ramp, motor, rot, moves, homing, aim_deg, families)
     deg, row, e = found.worst()
     where = box_corners[row // len(ways)].describe() if box_corners else "nominal"
     la = LoadAngle(deg, int(found.x[e]), int(rot.direction[row]), where,
@@ -71,8 +71,7 @@ def judge_ramp(ramp: AlinkRamp, motor: Motor, *, pulses: Iterable[int] | None = 
         la = LoadAngle(box.worst_angle_deg, box.worst_pulses, box.worst_direction,
                        box.worst_where, box.first_unstable_pulses, box.slips,
                        box.executions, box.sample_failures)
-    return SafetyVerdict(moves, aim_deg, tuple(criterion), la, box, resonance,
-                         tuple(al.family_verdicts(ramp, homing, rot, aim_deg, families)))
+    return SafetyVerdict(moves, aim_deg, tuple(criterion), la, box, resonance, verdicts)
 
 
 def _ramp_box(ramp: AlinkRamp, motor: Motor, found: Any, corner: LoadAngle, n_corners: int,

@@ -90,7 +90,7 @@ class MoveModel:
             shape = np.where(trap, 0, np.where(tri, 1, np.where(straight_up, 3, 2)))
         clamp = shape == SHAPES.index("triangle")
         if compiled:
-            from .assemble_kernel import assemble
+            from ..motor.assemble_kernel import assemble
 
             batch = assemble(np.stack(x), *self.packed_parts, self.cruise_rate, clamp)
             return MoveBatch(p, shape, *batch)
@@ -116,7 +116,7 @@ class MoveModel:
 
     def compiled_families(self) -> FamilyBounds:
         """`families`, assembled by the compiled twin when not found yet (the same
-        arrays, pinned by tests/profiles/ppmc312/test_assemble_kernel.py)."""
+        arrays, pinned by tests/profiles/motor/test_assemble_kernel.py)."""
         if "families" not in self.__dict__:
             self.__dict__["families"] = self._families(compiled=True)
         return self.families

@@ -68,7 +68,7 @@ def test_a_read_only_install_finds_a_cache_folder(tmp_path: Path) -> None:
     env = read_only_copy(tmp_path)
     code = ("from profiles.compiling import announce; announce(print)\n"
             "import threading, importlib\n"  # under threads: an ImportError before
-            "names = ['profiles.motor.rotor_kernel', 'profiles.ppmc312.assemble_kernel',\n"
+            "names = ['profiles.motor.rotor_kernel', 'profiles.motor.assemble_kernel',\n"
             "         'profiles.motor.share_kernel', 'profiles.ppmc312.planner.dp_kernel']\n"
             "ts = [threading.Thread(target=importlib.import_module, args=(n,)) for n in names]\n"
             "[t.start() for t in ts]; [t.join() for t in ts]\n"

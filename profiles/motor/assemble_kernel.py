@@ -1,11 +1,12 @@
-"""The chip's moves assembled into flat segment arrays, compiled (numba, cached on disk).
+"""Moves assembled into flat segment arrays (`batch.MoveBatch`), compiled (numba, cached on
+disk): the PPMC-312's executions and the A-Link unit's motions alike.
 
 `move_batch._assemble` holds the method in numpy and stays the one every command uses;
 this is its compiled twin for the load-angle verdict, which builds some 600 moves of
 ~150 segments per table and already pays for numba (the rotor kernel): there numpy's
 passes over every segment were a third of a verdict. `stepramp simulate` and `show`
 never import numba (its import and first call cost about a second). The twin is
-pinned equal, array for array, by tests/profiles/ppmc312/test_assemble_kernel.py.
+pinned equal, array for array, by tests/profiles/motor/test_assemble_kernel.py.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from ..compiling import watch
 
 watch()  # the first compilation on a machine is said (profiles.compiling)
 
-ACCEL, CRUISE, DECEL = 0, 1, 2   # move_batch.PHASES
+ACCEL, CRUISE, DECEL = 0, 1, 2   # batch.PHASES
 
 
 @nb.njit(cache=True, nogil=True, inline="always")
