@@ -687,10 +687,15 @@ def limit_envelope(ramp: AlinkRamp, rot: Rotors, aim_deg: float, *,
     degs = deg.reshape(len(grid), 2).max(axis=1)
     way = int(rot.direction[int(row[int(np.argmax(deg))])])
     executions = len(deg) * len(rot)
+    # what the verdict reads (the envelope's speeds, the use at L, the worst at H) is
+    # settled by the stops up to H and up to the first speed whose run passes the peak
+    # (every crossing comes by then): a ramp's faster stops are not judged
+    past = np.flatnonzero(degs >= PEAK_DEG)
+    bound = max(float(ramp.high_pps), grid[int(past[0])] if len(past) else math.inf)
     if ramp.shape == "linear":
-        ramp_stops = [_ramp_stops(ramps[-1], rot, aim_deg, memo)]
+        ramp_stops = [_ramp_stops(ramps[-1], rot, aim_deg, memo, bound)]
     else:
-        ramp_stops = [_ramp_stops(r, rot, aim_deg, memo) for r in ramps]
+        ramp_stops = [_ramp_stops(r, rot, aim_deg, memo, bound) for r in ramps]
     for speeds, worst, n in ramp_stops:
         executions += n
         for k, s in enumerate(grid):
@@ -724,14 +729,16 @@ def _stops_key(ramp: AlinkRamp) -> tuple[object, ...]:
 
 
 def _ramp_stops(ramp: AlinkRamp, rot: Rotors, aim_deg: float,
-                memo: dict[tuple[object, ...], Angles] | None = None
-                ) -> tuple[np.ndarray, np.ndarray, int]:
-    """The stops at once from every pulse of `ramp` (not its cruise; `memo`'s when it has
-    them; where the first past `aim_deg` comes exact): (the speed of each stop judged, its
-    worst angle over the rows, the executions)."""
+                memo: dict[tuple[object, ...], Angles] | None = None,
+                upto_pps: float = math.inf) -> tuple[np.ndarray, np.ndarray, int]:
+    """The stops at once from every pulse of `ramp` up to `upto_pps` (not its cruise;
+    `memo`'s when it has them; where the first past `aim_deg` comes exact): (the speed
+    of each stop judged, its worst angle over the rows, the executions)."""
     found = (memo or {}).get(_stops_key(ramp))
     if found is None:
-        found = motion_angles(ramp, "search", rot, upto=ramp.ramp_pulses, aim_deg=aim_deg)
+        slow = np.cumsum(ramp.pulses)[ramp.speeds_pps <= upto_pps + 1e-9]
+        upto = min(ramp.ramp_pulses, int(slow[-1]) if len(slow) else 1)
+        found = motion_angles(ramp, "search", rot, upto=upto, aim_deg=aim_deg)
     on_ramp = found.x <= ramp.ramp_pulses
     stage = np.searchsorted(np.cumsum(ramp.pulses), found.x[on_ramp], side="left")
     return (ramp.speeds_pps[stage], found.deg[:, on_ramp].max(axis=0, initial=0.0),

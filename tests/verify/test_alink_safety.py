@@ -239,3 +239,24 @@ def test_stops_sampled_along_the_ramp_find_the_every_pulse_worst(
         past = every.x[want > 75.0]
         past_got = got.x[got.deg.max(axis=0) > 75.0]
         assert (past[0] if len(past) else None) == (past_got[0] if len(past_got) else None)
+
+
+def test_limit_stops_past_h_and_the_first_slipping_run_change_nothing_read(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """LIMIT's ramps judged only up to H and the first speed whose run passes the peak:
+    the envelope's speeds, the use at L and the worst at H are those of judging every
+    ramp whole."""
+    from verify import alink_safety as al
+
+    rot = al.nominal_rotors(load_motor(resolve("nema17-1600")))
+    ramp = build_ramp(800, 30_000, 94_340.0, 20, "s_curve")
+    bounded = al.limit_envelope(ramp, rot, 75.0)
+    plain = al._ramp_stops
+    monkeypatch.setattr(al, "_ramp_stops", lambda r, rows, aim, memo=None, upto_pps=0.0:
+                        plain(r, rows, aim, memo))
+    whole = al.limit_envelope(ramp, rot, 75.0)
+    assert bounded.executions < whole.executions
+    assert bounded.reach(75.0) == whole.reach(75.0)
+    assert bounded.reach(90.0) == whole.reach(90.0)
+    assert bounded.use_deg == pytest.approx(whole.use_deg, abs=0.1)
+    assert bounded.top_deg == pytest.approx(whole.top_deg, abs=0.1)
