@@ -36,7 +36,7 @@ import numpy as np
 from ..errors import FieldRangeError, FormatError
 from ..motor import Motor
 from ..motor.batch import MoveBatch, Phase
-from ..motor.batch_angle import dwell_sampling, judge, sample_grid
+from ..motor.batch_angle import dwell_sampling, judge, refine_toward, sample_grid
 from ..motor.rotor import PEAK_DEG, Rotors, rotor_of, rotors
 from ..remembered import Remembered
 from .criterion import StepProblem, runs_problems
@@ -60,7 +60,6 @@ DECEL_STOP_CODE = 0x81
 # at most 1.0° above the samples' on the bundled motors' plans (bench/bench_stops.py
 # checks the sampled verdict against every dwell); the moves' 3° (load_angle.REFINE_DEG)
 # would refine most stages of a tightened table, whose stops all come near the aim.
-STOP_REFINE_DEG = 1.5
 Runs = list[tuple[Phase, int, int]]
 
 
@@ -448,39 +447,6 @@ def stop_samples(table: FreeCurveTable, motors: Sequence[Motor], ranges: Dwells
     dwell, family = sample_grid(lo, spacing, dense, hi)
     keys, first = np.unique(ranges.base[family] + dwell, return_index=True)
     return keys, family[first], spacing
-
-
-def refine_toward(keys: np.ndarray, family: np.ndarray, worst_deg: np.ndarray) -> np.ndarray:
-    """The dwells still to judge (`Dwells` keys), as `load_angle.refine` finds them for
-    move lengths, but on one side of each range's worst sample: the worst angle varies with
-    the dwell as the ringing's phase at the step down, smooth over the eighth of a period
-    between samples, so its peak lies between the worst sample and the larger of its two
-    neighbours (both sides when they are not equally far), for the ranges within
-    STOP_REFINE_DEG of the worst; and every dwell before a range's first sample past the
-    90° peak. (Half of `refine`'s dwells, on fewer ranges: after tightening, most
-    stages' stops come near the aim.)"""
-    best = float(worst_deg.max())
-    extra: list[np.ndarray] = []
-    starts = np.flatnonzero(np.diff(family, prepend=-1))
-    ends = np.append(starts[1:], len(family))
-    top = np.maximum.reduceat(worst_deg, starts)
-    wanted = (top >= best - STOP_REFINE_DEG) | (top >= PEAK_DEG)
-    for a, b in zip(starts[wanted].tolist(), ends[wanted].tolist(), strict=True):
-        w, at = worst_deg[a:b], keys[a:b]
-        k = int(np.argmax(w))
-        if w[k] >= best - STOP_REFINE_DEG:
-            left = float(w[k - 1]) if k > 0 else -np.inf
-            right = float(w[k + 1]) if k + 1 < len(w) else -np.inf
-            even = 0 < k < len(w) - 1 and at[k] - at[k - 1] == at[k + 1] - at[k]
-            lo = at[k - 1] + 1 if k > 0 and (left >= right or not even) else at[k]
-            hi = at[k + 1] - 1 if k + 1 < len(w) and (right > left or not even) else at[k]
-            extra.append(np.arange(lo, hi + 1))
-        unstable = np.flatnonzero(w >= PEAK_DEG)
-        if len(unstable) and unstable[0] > 0:
-            extra.append(np.arange(at[unstable[0] - 1] + 1, at[unstable[0]]))
-    if not extra:
-        return np.zeros(0, dtype=np.int64)
-    return np.setdiff1d(np.concatenate(extra), keys)
 
 
 def stop_problems(table: FreeCurveTable | InitTable, motor: Motor,
