@@ -26,7 +26,7 @@ import tempfile
 from collections.abc import Iterator
 
 import pytest
-from hypothesis import HealthCheck, settings
+from hypothesis import HealthCheck, Phase, settings
 
 settings.register_profile("ci", derandomize=True, deadline=None, print_blob=True)
 settings.register_profile("dev", deadline=None)
@@ -34,6 +34,10 @@ settings.register_profile("quick", deadline=None, max_examples=30)
 settings.register_profile("fuzz", deadline=None, print_blob=True,
                           max_examples=int(os.environ.get("STEPRAMP_FUZZ_EXAMPLES", "100")),
                           suppress_health_check=list(HealthCheck))
+# tools/mutation.py's runs: a mutant needs only *a* failing example, and shrinking one can
+# take longer than every other test together
+settings.register_profile("mutation", derandomize=True, deadline=None, database=None,
+                          phases=(Phase.explicit, Phase.reuse, Phase.generate))
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE")
                       or ("ci" if os.environ.get("CI") else "dev"))
 
