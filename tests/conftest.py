@@ -6,7 +6,8 @@ No deadline anywhere: a 2-core machine running two workers is no place to time
 single examples (speed goals live in bench/). The quick local suite (`pytest -m
 "not slow"`, outside CI) runs each property on 30 examples instead of hypothesis's
 100, unless the test sets its own count: a first look, not the verdict (CI and the
-mutation runs, which set CI, keep the full count).
+mutation runs keep the full count). tools/mutation.py's runs use the `mutation` profile
+(derandomised, no database, no shrinking).
 
 The fuzz campaign is the `fuzz` profile (`HYPOTHESIS_PROFILE=fuzz`, or pytest's
 `--hypothesis-profile=fuzz`): tests/contract/test_fuzz.py's campaign tests then run

@@ -39,12 +39,14 @@ import shutil
 import sqlite3
 import subprocess
 import sys
+import tempfile
 import time
 import tomllib
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+import cosmic_ray.commands
 import cosmic_ray.plugins
 from cosmic_ray.mutating import mutate_code
 from cosmic_ray.work_db import WorkDB, use_db
@@ -94,6 +96,13 @@ def mutant_id(source: str, spec: MutationSpec) -> str:
             after += new[j1:j2]
     return (f"{spec.definition_name or '<module>'}: "
             f"{' / '.join(s.strip() for s in before)} → {' / '.join(s.strip() for s in after)}")
+
+
+def mutants_at(path: Path, lines: set[int]) -> list[MutationSpec]:
+    """The module's mutants (cosmic-ray's own enumeration, every operator) on `lines`."""
+    with tempfile.TemporaryDirectory() as tmp, use_db(f"{tmp}/s.sqlite") as db:
+        cosmic_ray.commands.init([path], db, {})
+        return [w.mutations[0] for w in db.work_items if w.mutations[0].start_pos[0] in lines]
 
 
 def forget(session: Path, job_ids: list[str]) -> None:
@@ -180,6 +189,7 @@ def run_module(name: str, config: dict[str, Any], sample: int, again: bool) -> b
     state = json.loads(state_path.read_text()) if state_path.exists() else {}
     env = {**os.environ, "CI": "true", "HYPOTHESIS_PROFILE": "mutation", "MPLBACKEND": "Agg",
            "NUMBA_CACHE_DIR": str(WORK / "numba"), **config.get("env", {}).get(name, {})}
+    load = round(os.getloadavg()[0], 2)
     t0 = time.monotonic()
     base = subprocess.run(test_command(tests), cwd=src, env=env, capture_output=True, text=True)
     base_s = time.monotonic() - t0
@@ -191,10 +201,9 @@ def run_module(name: str, config: dict[str, Any], sample: int, again: bool) -> b
     cfg.write_text(session_config(name, tests, timeout, run), encoding="utf-8")
     if state.get("sha") != digest or not session.exists():
         state = {"sha": digest, "seconds": 0.0}
-        for argv in (["cosmic-ray", "init", "--force", cfg, session],
-                     ["cr-filter-operators", session, cfg]):
-            subprocess.run([str(BIN / argv[0]), *map(str, argv[1:])], cwd=src, env=env,
-                           check=True)
+        for argv in (["cosmic-ray", "init", "--force", str(cfg), str(session)],
+                     ["cr-filter-operators", str(session), str(cfg)]):
+            subprocess.run([str(BIN / argv[0]), *argv[1:]], cwd=src, env=env, check=True)
     with use_db(str(session)) as db:
         if again:
             forget(session, [j for j, r in db.results if r.test_outcome == TestOutcome.SURVIVED])
@@ -205,7 +214,9 @@ def run_module(name: str, config: dict[str, Any], sample: int, again: bool) -> b
     t1 = time.monotonic()
     subprocess.run([str(BIN / "cosmic-ray"), "exec", str(cfg), str(session)], cwd=src,
                    env=env, check=True)
+    state.setdefault("load_avg_before", load)
     state.update(sample=sample, baseline_s=round(base_s, 1),
+                 at=datetime.now(UTC).isoformat(timespec="seconds"),
                  seconds=round(state["seconds"] + time.monotonic() - t1, 1))
     state_path.write_text(json.dumps(state), encoding="utf-8")
     return True
@@ -275,7 +286,9 @@ def report(config: dict[str, Any]) -> dict[str, Any]:
             "module's mutants (`--sample N`, seeded by the module's name; cosmic-ray's "
             "operators, less those tools/mutation.toml leaves out). Every module, its "
             "survivors and the equivalent mutants with their reasons: reports/mutation.json.")
-    load = os.getloadavg()[0]
+    states = [{"at": datetime.fromtimestamp(p.stat().st_mtime, UTC).isoformat(
+        timespec="seconds"), "load_avg_before": None, **json.loads(p.read_text())}
+        for p in (WORK / f"{n}.json" for n in names)]
     return {
         "name": "mutation",
         "command": "python tools/mutation.py run " + ", ".join(
@@ -283,9 +296,10 @@ def report(config: dict[str, Any]) -> dict[str, Any]:
             if len([n for n in names if values[n]["sample"] == s]) <= 3 else
             f"--sample {s} ({len([n for n in names if values[n]['sample'] == s])} modules)"
             for s in samples) + "; python tools/mutation.py report",
-        "measured_at": datetime.now(UTC).isoformat(timespec="seconds"),
+        "measured_at": max(s["at"] for s in states),
         "machine": {"cpus": os.cpu_count(), "python": sys.version.split()[0],
-                    "load_avg_before": round(load, 2),
+                    "load_avg_before": next((s["load_avg_before"] for s in states
+                                             if s["load_avg_before"] is not None), None),
                     "note": "2-core machine shared with other sessions; one mutant at a time"},
         "values": {"modules": values},
         "sections": {"summary": {"columns": ["module", "mutants", "killed", "timeout",
