@@ -29,6 +29,7 @@ into reports/mutation.json; `python bench/readme.py` writes the README's block f
 from __future__ import annotations
 
 import argparse
+import ast
 import difflib
 import hashlib
 import json
@@ -59,6 +60,7 @@ REPORT = ROOT / "reports" / "mutation.json"
 NOT_SAMPLED = "not in the sample"
 FILTERED = "Filtered operator"  # cosmic-ray's operators filter says so
 EQUIVALENT = "equivalent: "
+ANNOTATION = "in an annotation (never evaluated)"
 BIN = Path(sys.executable).parent  # cosmic-ray's commands, installed beside python
 # the load-angle model: its modules each get a row of the README's block
 LOAD_ANGLE = ("profiles.motor.rotor", "profiles.motor.rotor_kernel", "profiles.ppmc312.load_angle")
@@ -103,6 +105,32 @@ def mutants_at(path: Path, lines: set[int]) -> list[MutationSpec]:
     with tempfile.TemporaryDirectory() as tmp, use_db(f"{tmp}/s.sqlite") as db:
         cosmic_ray.commands.init([path], db, {})
         return [w.mutations[0] for w in db.work_items if w.mutations[0].start_pos[0] in lines]
+
+
+def digest(source: str) -> str:
+    return hashlib.sha256(source.encode()).hexdigest()[:16]
+
+
+def annotation_spans(source: str) -> list[tuple[tuple[int, int], tuple[int, int]]]:
+    """Where the module's annotations are, when it never evaluates them."""
+    if "from __future__ import annotations" not in source:
+        return []
+    spans = []
+    for node in ast.walk(ast.parse(source)):
+        found = [node.returns] if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef) else []
+        found += [node.annotation] if isinstance(node, ast.arg | ast.AnnAssign) else []
+        spans += [((a.lineno, a.col_offset), (a.end_lineno or 0, a.end_col_offset or 0))
+                  for a in found if a is not None]
+    return spans
+
+
+def annotation_filter(db: WorkDB, source: str) -> None:
+    """A mutant inside an annotation is none (`from __future__ import annotations`: never
+    evaluated): skipped, and not counted, like an excluded operator's."""
+    spans = annotation_spans(source)
+    hits = [w.job_id for w in db.work_items
+            if any(a <= w.mutations[0].start_pos < b for a, b in spans)]
+    db.set_multiple_results(hits, WorkResult(WorkerOutcome.SKIPPED, output=ANNOTATION))
 
 
 def forget(session: Path, job_ids: list[str]) -> None:
@@ -179,28 +207,18 @@ def session_config(name: str, tests: list[str], timeout: float, run: dict[str, A
             f"[cosmic-ray.filters.operators-filter]\nexclude-operators = [{excluded}]\n")
 
 
-def run_module(name: str, config: dict[str, Any], sample: int, again: bool) -> bool:
-    """One module's session: set up (or resumed), filtered, executed. False when the
-    unmutated module fails its tests."""
-    src, tests, run = WORK / "src", config["modules"][name], config["run"]
-    session, cfg, state_path = (WORK / f"{name}{s}" for s in (".sqlite", ".toml", ".json"))
+def prepare(name: str, config: dict[str, Any], sample: int, again: bool,
+            env: dict[str, str]) -> int:
+    """The module's session set up (anew when its source changed) and filtered; how many
+    mutants are left to run."""
+    src, session, cfg = WORK / "src", WORK / f"{name}.sqlite", WORK / f"{name}.toml"
     source = module_path(name, src).read_text(encoding="utf-8")
-    digest = hashlib.sha256(source.encode()).hexdigest()[:16]
+    state_path = WORK / f"{name}.json"
     state = json.loads(state_path.read_text()) if state_path.exists() else {}
-    env = {**os.environ, "CI": "true", "HYPOTHESIS_PROFILE": "mutation", "MPLBACKEND": "Agg",
-           "NUMBA_CACHE_DIR": str(WORK / "numba"), **config.get("env", {}).get(name, {})}
-    load = round(os.getloadavg()[0], 2)
-    t0 = time.monotonic()
-    base = subprocess.run(test_command(tests), cwd=src, env=env, capture_output=True, text=True)
-    base_s = time.monotonic() - t0
-    if base.returncode != 0:
-        print(f"{name}: the tests fail on the unmutated module:\n{base.stdout[-3000:]}",
-              file=sys.stderr)
-        return False
-    timeout = max(float(run["timeout-min"]), float(run["timeout-factor"]) * base_s)
-    cfg.write_text(session_config(name, tests, timeout, run), encoding="utf-8")
-    if state.get("sha") != digest or not session.exists():
-        state = {"sha": digest, "seconds": 0.0}
+    if state.get("sha") != digest(source) or not session.exists():
+        state_path.unlink(missing_ok=True)
+        cfg.write_text(session_config(name, config["modules"][name], 0.0, config["run"]),
+                       encoding="utf-8")
         for argv in (["cosmic-ray", "init", "--force", str(cfg), str(session)],
                      ["cr-filter-operators", str(session), str(cfg)]):
             subprocess.run([str(BIN / argv[0]), *argv[1:]], cwd=src, env=env, check=True)
@@ -208,16 +226,43 @@ def run_module(name: str, config: dict[str, Any], sample: int, again: bool) -> b
         if again:
             forget(session, [j for j, r in db.results if r.test_outcome == TestOutcome.SURVIVED])
         sample_filter(db, session, name, sample)
+        annotation_filter(db, source)
         equivalent_filter(db, session, name, source, equivalents(config))
-        print(f"{name}: {len(db.pending_work_items)} mutants to run, baseline {base_s:.0f} s",
-              file=sys.stderr, flush=True)
-    t1 = time.monotonic()
-    subprocess.run([str(BIN / "cosmic-ray"), "exec", str(cfg), str(session)], cwd=src,
-                   env=env, check=True)
-    state.setdefault("load_avg_before", load)
-    state.update(sample=sample, baseline_s=round(base_s, 1),
-                 at=datetime.now(UTC).isoformat(timespec="seconds"),
-                 seconds=round(state["seconds"] + time.monotonic() - t1, 1))
+        return len(db.pending_work_items)
+
+
+def run_module(name: str, config: dict[str, Any], sample: int, again: bool) -> bool:
+    """One module's session: set up (or resumed), filtered, executed. False when the
+    unmutated module fails its tests."""
+    src, tests, state_path = WORK / "src", config["modules"][name], WORK / f"{name}.json"
+    env = {**os.environ, "CI": "true", "HYPOTHESIS_PROFILE": "mutation", "MPLBACKEND": "Agg",
+           "NUMBA_CACHE_DIR": str(WORK / "numba"), **config.get("env", {}).get(name, {})}
+    load = round(os.getloadavg()[0], 2)
+    pending = prepare(name, config, sample, again, env)
+    state = json.loads(state_path.read_text()) if state_path.exists() else {}
+    state.update(sha=digest(module_path(name, src).read_text(encoding="utf-8")),
+                 sample=sample)
+    if pending:
+        t0 = time.monotonic()
+        base = subprocess.run(test_command(tests), cwd=src, env=env, capture_output=True,
+                              text=True)
+        base_s = time.monotonic() - t0
+        if base.returncode != 0:
+            print(f"{name}: the tests fail on the unmutated module:\n{base.stdout[-3000:]}",
+                  file=sys.stderr)
+            return False
+        print(f"{name}: {pending} mutants to run, baseline {base_s:.0f} s", file=sys.stderr,
+              flush=True)
+        timeout = max(float(config["run"]["timeout-min"]),
+                      float(config["run"]["timeout-factor"]) * base_s)
+        cfg = WORK / f"{name}.toml"
+        cfg.write_text(session_config(name, tests, timeout, config["run"]), encoding="utf-8")
+        subprocess.run([str(BIN / "cosmic-ray"), "exec", str(cfg), str(WORK / f"{name}.sqlite")],
+                       cwd=src, env=env, check=True)
+        state.setdefault("load_avg_before", load)
+        state.update(baseline_s=round(base_s, 1),
+                     at=datetime.now(UTC).isoformat(timespec="seconds"),
+                     seconds=round(state.get("seconds", 0.0) + time.monotonic() - t0, 1))
     state_path.write_text(json.dumps(state), encoding="utf-8")
     return True
 
@@ -228,7 +273,7 @@ def verdict(result: WorkResult | None) -> str:
     if result.worker_outcome == WorkerOutcome.SKIPPED:
         out = result.output or ""
         return ("equivalent" if out.startswith(EQUIVALENT)
-                else "filtered" if out == FILTERED else "not run")
+                else "filtered" if out in (FILTERED, ANNOTATION) else "not run")
     if result.worker_outcome != WorkerOutcome.NORMAL:
         return "error"
     if result.test_outcome == TestOutcome.KILLED:
@@ -255,8 +300,8 @@ def module_summary(name: str, config: dict[str, Any]) -> dict[str, Any]:
            if v in ("survived", "equivalent")}
     return {"mutants": len(items) - count.pop("filtered"), **count,
             "score": round(caught / (caught + survived), 4) if caught + survived else None,
-            "sample": state.get("sample", 0), "seconds": state["seconds"],
-            "current": state["sha"] == hashlib.sha256(source.encode()).hexdigest()[:16],
+            "sample": state.get("sample", 0), "seconds": state.get("seconds", 0.0),
+            "current": state["sha"] == digest(source),
             "survivors": sorted({"id": ids[w.job_id], "line": w.mutations[0].start_pos[0]}
                                 for w, v in items if v == "survived"),
             "equivalent_mutants": sorted({"id": ids[w.job_id], "why": known.get(

@@ -131,6 +131,29 @@ def test_the_equivalents_filter_marks_them_skipped_with_their_reason(tmp_path: P
         assert dict(db.results) == {}
 
 
+def test_a_mutant_in_an_annotation_is_none(tmp_path: Path) -> None:
+    """Annotations are never evaluated (`from __future__ import annotations`): a mutant
+    there is skipped and not counted; a default value's is kept, and so is every mutant of
+    a module that evaluates its annotations."""
+    line = "def f(a: int | None, b: int = 1 | 2) -> int | None:"
+    body = f"{line}\n    x: int | None = a\n    return x\n"
+    default = (4, line.index("1 | 2") + 2)  # the `|` of the default value
+    for future in (True, False):
+        text = ("from __future__ import annotations\n\n\n" if future else "\n\n\n") + body
+        _, db_path = session(tmp_path / str(future), text)
+        with use_db(str(db_path)) as db:
+            tool.annotation_filter(db, text)
+            done = dict(db.results)
+            skipped = {w.mutations[0].start_pos for w in db.work_items if w.job_id in done}
+            kept = {w.mutations[0].start_pos for w in db.work_items if w.job_id not in done}
+            assert {tool.verdict(r) for r in done.values()} <= {"filtered"}
+        assert default in kept
+        if future:
+            assert skipped == {(4, line.index("|")), (4, line.rindex("|"))}
+        else:
+            assert not skipped
+
+
 def test_a_sample_is_fixed_and_a_larger_one_extends_it(tmp_path: Path) -> None:
     _, db_path = session(tmp_path)
     _, again = session(tmp_path / "again")
