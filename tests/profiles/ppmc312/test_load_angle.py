@@ -273,3 +273,34 @@ def test_after_the_last_pulse_a_loaded_rotor_creeping_to_its_held_lag_is_followe
     fast = worst_load_angle(table, motor, pulses=[1]).worst_angle_deg
     assert fast == pytest.approx(worst_whole_move(table, motor, 1), abs=AGREE_DEG)
     assert fast > 7.1
+
+
+def test_the_options_are_keyword_only() -> None:
+    with pytest.raises(TypeError, match="positional argument"):
+        worst_load_angles(None, [], None)  # type: ignore[arg-type, misc]
+
+
+def test_refine_names_whole_lengths_up_to_the_first_sample_past_the_peak() -> None:
+    """A family whose last sample passes the 90° peak: every length between the sample
+    before it and it (so the shortest unstable move is named exactly), as whole
+    lengths, none of those already judged."""
+    from profiles.ppmc312.load_angle import PEAK_DEG, refine
+
+    extra = refine(np.array([10, 20, 30]), np.array([0, 0, 0]), np.array([10]),
+                   np.array([10.0, 20.0, PEAK_DEG + 5.0]))
+    assert extra.dtype.kind == "i"
+    assert extra.tolist() == list(range(21, 30))
+
+
+def test_a_slow_rotors_dwell_settles_within_periods_of_at_most_1_s() -> None:
+    """`dwell_sampling`: the densely judged runs last SETTLE_CRUISE_PERIODS natural
+    periods of the dwell, each counted as at most 1 s (a rotor with a 4 s period at
+    rest: 10 s of dwell, not 40)."""
+    from profiles.ppmc312.load_angle import SETTLE_CRUISE_PERIODS, dwell_sampling
+
+    rotor = rotor_of(load_motor(bundled_motor_paths()[0]))
+    slow = replace(rotor, k=rotor.k * (rotor.natural_period_s(0.0) / 4.0) ** 2)
+    speed = np.array([10.0])
+    assert slow.natural_periods_s(speed)[0] > 2.0
+    _, dense = dwell_sampling([slow], speed, np.array([0]), np.array([10**6]), 1)
+    assert dense.tolist() == [math.ceil(10.0 * SETTLE_CRUISE_PERIODS * 1.0)]
