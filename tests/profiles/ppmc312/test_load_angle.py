@@ -304,3 +304,13 @@ def test_a_slow_rotors_dwell_settles_within_periods_of_at_most_1_s() -> None:
     assert slow.natural_periods_s(speed)[0] > 2.0
     _, dense = dwell_sampling([slow], speed, np.array([0]), np.array([10**6]), 1)
     assert dense.tolist() == [math.ceil(10.0 * SETTLE_CRUISE_PERIODS * 1.0)]
+
+
+def test_refine_judges_around_the_worst_families_only() -> None:
+    """Every length within a spacing of the worst sample of a family within REFINE_DEG of
+    the worst of all; a family far below it (and below the peak) is left sampled."""
+    from profiles.ppmc312.load_angle import refine
+
+    extra = refine(np.array([10, 20, 30, 40, 50, 60]), np.array([0, 0, 0, 1, 1, 1]),
+                   np.array([10, 10]), np.array([10.0, 50.0, 20.0, 5.0, 8.0, 6.0]))
+    assert extra.tolist() == [*range(11, 20), *range(21, 30)]
