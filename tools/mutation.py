@@ -40,15 +40,15 @@ import shutil
 import sqlite3
 import subprocess
 import sys
-import tempfile
 import time
 import tomllib
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-import cosmic_ray.commands
 import cosmic_ray.plugins
+from cosmic_ray.ast import ast_nodes, get_ast
+from cosmic_ray.ast.ast_query import ASTQuery
 from cosmic_ray.mutating import mutate_code
 from cosmic_ray.work_db import WorkDB, use_db
 from cosmic_ray.work_item import MutationSpec, TestOutcome, WorkerOutcome, WorkItem, WorkResult
@@ -81,13 +81,9 @@ def equivalents(config: dict[str, Any]) -> dict[tuple[str, str], str]:
             for i, why in ids.items()}
 
 
-def mutant_id(source: str, spec: MutationSpec) -> str:
-    """The mutant by its code: the enclosing function or class, then the changed line(s)
+def code_id(definition: str | None, source: str, mutated: str) -> str:
+    """A mutant by its code: the enclosing function or class, then the changed line(s)
     before → after (never a line number: moving code keeps the id)."""
-    operator = cosmic_ray.plugins.get_operator(spec.operator_name)(**spec.operator_args)
-    mutated = mutate_code(source, operator, spec.occurrence)
-    if mutated is None:
-        return f"{spec.definition_name or '<module>'}: ({spec.operator_name}: no mutant)"
     old, new = source.splitlines(), mutated.splitlines()
     before: list[str] = []
     after: list[str] = []
@@ -96,15 +92,51 @@ def mutant_id(source: str, spec: MutationSpec) -> str:
         if tag != "equal":
             before += old[i1:i2]
             after += new[j1:j2]
-    return (f"{spec.definition_name or '<module>'}: "
+    return (f"{definition or '<module>'}: "
             f"{' / '.join(s.strip() for s in before)} → {' / '.join(s.strip() for s in after)}")
 
 
-def mutants_at(path: Path, lines: set[int]) -> list[MutationSpec]:
-    """The module's mutants (cosmic-ray's own enumeration, every operator) on `lines`."""
-    with tempfile.TemporaryDirectory() as tmp, use_db(f"{tmp}/s.sqlite") as db:
-        cosmic_ray.commands.init([path], db, {})
-        return [w.mutations[0] for w in db.work_items if w.mutations[0].start_pos[0] in lines]
+def mutant_id(source: str, spec: MutationSpec) -> str:
+    """The id of a session's mutant."""
+    operator = cosmic_ray.plugins.get_operator(spec.operator_name)(**spec.operator_args)
+    mutated = mutate_code(source, operator, spec.occurrence)
+    if mutated is None:
+        return f"{spec.definition_name or '<module>'}: ({spec.operator_name}: no mutant)"
+    return code_id(spec.definition_name, source, mutated)
+
+
+def spans(node: Any, lines: set[int]) -> bool:
+    return any(node.start_pos[0] <= line <= node.end_pos[0] for line in lines)
+
+
+def mutant_ids_at(source: str, lines: set[int]) -> set[str]:
+    """The ids of the module's mutants (every cosmic-ray operator) changing `lines`, as a
+    session makes them, without enumerating the whole module's: each top-level statement
+    holding one of them on its own, at its place (after as many empty lines)."""
+    return {i for top in get_ast(source).children if spans(top, lines)
+            for i in _ids_in("\n" * (top.start_pos[0] - 1) + top.get_code(include_prefix=False),
+                             lines)}
+
+
+def _ids_in(source: str, lines: set[int]) -> set[str]:
+    near = [n for n in ast_nodes(get_ast(source)) if spans(n, lines)]
+    ids = set()
+    for name in cosmic_ray.plugins.operator_names():
+        kind = cosmic_ray.plugins.get_operator(name)
+        if kind.arguments():
+            continue
+        for node in near:
+            for index, (start, _) in enumerate(kind().mutation_positions(node)):
+                if start[0] not in lines:
+                    continue
+                tree = get_ast(source)  # a fresh tree for each mutant
+                twin = next(n for n in ast_nodes(tree) if (n.type, n.start_pos, n.end_pos)
+                            == (node.type, node.start_pos, node.end_pos))
+                definition = ASTQuery(twin).get_definition_name()
+                siblings = twin.parent.children
+                siblings[siblings.index(twin)] = kind().mutate(twin, index)
+                ids.add(code_id(definition, source, tree.get_code()))
+    return ids
 
 
 def digest(source: str) -> str:
