@@ -8,9 +8,10 @@ with the reason it cannot change behaviour. For each module this
 1. writes a cosmic-ray configuration: the module, the test command (pytest on the
    module's tests, -x, no slow tests, hypothesis's `mutation` profile), the timeout;
 2. runs `cosmic-ray init` and cosmic-ray's operators filter (`cr-filter-operators`,
-   [run] exclude-operators), then two filters of its own that mark work items skipped:
-   a random sample (`--sample N`: a fixed order seeded by the module's name, so a sample
-   is reproducible and a larger one extends it; the rest "not in the sample") and the
+   [run] exclude-operators), then filters of its own that mark work items skipped: a
+   random sample (`--sample N`: a fixed order seeded by the module's name, so a sample
+   is reproducible and a larger one extends it; the rest "not in the sample"), mutants
+   inside annotations (never evaluated: no mutant at all, not counted) and the
    equivalent mutants ("equivalent: <why>");
 3. checks the unmutated module passes its tests (their time sets the timeout) and runs
    `cosmic-ray exec` (one mutant at a time).
@@ -361,7 +362,8 @@ def report(config: dict[str, Any]) -> dict[str, Any]:
     samples = sorted({values[n]["sample"] for n in names})
     note = ("Score = (killed + timeout) / (run − equivalent), over a random sample of each "
             "module's mutants (`--sample N`, seeded by the module's name; cosmic-ray's "
-            "operators, less those tools/mutation.toml leaves out). Every module, its "
+            "operators, less those tools/mutation.toml leaves out and any change inside an "
+            "annotation). Every module, its "
             "survivors and the equivalent mutants with their reasons: reports/mutation.json.")
     states = [{"at": datetime.fromtimestamp(p.stat().st_mtime, UTC).isoformat(
         timespec="seconds"), "load_avg_before": None, **json.loads(p.read_text())}
