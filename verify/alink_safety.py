@@ -31,6 +31,7 @@ from profiles.alink.ramp import (
     Kind,
     RampShape,
     build_ramp,
+    build_ramps,
     families,
     parts,
     segments,
@@ -41,6 +42,7 @@ from profiles.motor.angles import PEAK_DEG
 from profiles.motor.rotor import Rotors, rotors
 from profiles.ppmc312.load_angle import dwell_sampling, judge, refine, sample_grid
 from profiles.ppmc312.move_batch import MoveBatch
+from profiles.remembered import Remembered
 
 from .command_families import envelope_findings
 
@@ -67,11 +69,35 @@ class Angles:
 
 
 def batch(ramp: AlinkRamp, kind: Kind, x: np.ndarray) -> MoveBatch:
-    """The motions of `kind` at `x` as the kernel's flat segment lists."""
-    rate, count, offsets = segments(ramp, parts(ramp, kind, x))
-    zeros = np.zeros(len(x), np.int64)
-    return MoveBatch(np.asarray(x, np.int64), zeros, np.zeros(len(rate), np.int64), rate,
-                     count, offsets)
+    """The motions of `kind` at `x` as the kernel's flat segment lists: assembled by the
+    PPMC-312's compiled twin (`assemble_kernel.assemble`: an accel part up the ramp, the
+    cruise at H, a decel part down it; numpy's passes over the ~10⁶ segments of a
+    verdict's motions were half of it), or by `ramp.segments` when a middle runs below H
+    (an avoided triangle's). The kernel sees the same rates and counts either way (it
+    joins neighbours of one rate; the phases differ, which it does not read)."""
+    from profiles.ppmc312.assemble_kernel import assemble
+
+    p = parts(ramp, kind, x)
+    xs = np.asarray(x, np.int64)
+    shape = np.zeros(len(xs), np.int64)
+    if np.any((p.middle > 0) & (p.up < ramp.ramp_pulses)):
+        rate, count, offsets = segments(ramp, p)
+        return MoveBatch(xs, shape, np.zeros(len(rate), np.int64), rate, count, offsets)
+    zero = np.zeros_like(p.up)
+    phase, rate, count, offsets = assemble(np.stack((p.up, zero, p.middle, p.down, zero)),
+                                           *_ladders(ramp), ramp.high_rate, zero.astype(bool))
+    return MoveBatch(xs, shape, phase, rate, count, offsets)
+
+
+def _ladders(ramp: AlinkRamp) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The ramp as `assemble`'s five parts' stages (starts, rates, counts, cum): the ramp
+    for the first accel part and the first decel part, none for the others."""
+    n = len(ramp.pulses)
+    counts = np.asarray(ramp.pulses, np.int64)
+    cum = np.cumsum(counts)
+    starts = np.array([0, n, n, n, 2 * n, 2 * n], np.int64)
+    return (starts, np.concatenate((ramp.rates, ramp.rates)),
+            np.concatenate((counts, counts)), np.concatenate((cum, cum)))
 
 
 def motion_angles(ramp: AlinkRamp, kind: Kind, rot: Rotors,
@@ -106,8 +132,46 @@ def motion_angles(ramp: AlinkRamp, kind: Kind, rot: Rotors,
 
 
 def _angles(ramp: AlinkRamp, kind: Kind, xs: np.ndarray, rot: Rotors) -> Angles:
-    lag, slipped = judge(batch(ramp, kind, xs), RAMP_HZ, rot)
+    lag, slipped = judge(batch(ramp, kind, xs), RAMP_HZ, rot, share_slipped=True)
     return Angles(xs, np.degrees(lag * rot.c_e), slipped)
+
+
+RAMP_VERDICTS_KEPT = 16   # the ramps' load-angle verdicts remembered (a few KB each)
+_kept: Remembered[tuple[Angles, tuple[tuple[str, Any], ...]]] = Remembered(RAMP_VERDICTS_KEPT)
+
+
+def judged(ramp: AlinkRamp, motor: Motor, rot: Rotors, moves: tuple[int, ...] | None,
+           homing: HomingSettings | None, aim_deg: float, families: Sequence[str]
+           ) -> tuple[Angles, tuple[tuple[str, Any], ...]]:
+    """The moves' angles (`motion_angles`, at `moves` or every length) and the command
+    families' verdicts (`family_verdicts`) of `ramp` for `motor`'s rows `rot`, the last
+    RAMP_VERDICTS_KEPT remembered by ramp, motor values and the rest, read-only: a
+    tightening judges settings and then sync's report or `check` asks for them again."""
+    def judge_now() -> tuple[Angles, tuple[tuple[str, Any], ...]]:
+        from profiles.threads import pool
+
+        # the families side by side: each call of the kernel runs on every core, but
+        # between them (a reference integrated alone, the batches built) one core
+        # idles; the stops at once and the limit runs together (the limit reads the
+        # stops' memo)
+        groups = [g for g in (("decel-stop",), ("stop", "limit"), ("change-speed",),
+                              ("homing",)) if set(g) & set(families)]
+        workers = pool("alink-verdict", len(groups) + 1)
+        parts = [workers.submit(family_verdicts, ramp, homing, rot, aim_deg,
+                                [f for f in g if f in families]) for g in groups]
+        found = motion_angles(ramp, "move", rot, moves)
+        for a in (found.x, found.deg, found.slipped):
+            a.flags.writeable = False
+        done = dict(v for part in parts for v in part.result())
+        return found, tuple((name, done[name]) for name in FAMILY_ORDER if name in done)
+
+    key = (ramp.key(), motor.values_key(), moves, homing, aim_deg, tuple(families))
+    return _kept.get(key, judge_now)[0]
+
+
+def forget_ramp_verdicts() -> None:
+    """Forget the remembered ramp verdicts (a benchmark times a first verdict)."""
+    _kept.clear()
 
 
 def box_rotors(motors: Sequence[Motor], ways: Sequence[int]) -> Rotors:
@@ -466,7 +530,7 @@ def _run(motions: list[list[tuple[int, int]]], rot: Rotors) -> tuple[np.ndarray,
     x = np.arange(1, len(motions) + 1, dtype=np.int64)
     b = MoveBatch(x, np.zeros(len(x), np.int64), np.zeros(len(rate), np.int64), rate, count,
                   offsets)
-    lag, _ = judge(b, RAMP_HZ, rot)
+    lag, _ = judge(b, RAMP_HZ, rot, share_slipped=True)
     deg = np.degrees(lag * rot.c_e)
     return deg.max(axis=0), deg.argmax(axis=0)
 
@@ -512,16 +576,14 @@ def limit_envelope(ramp: AlinkRamp, rot: Rotors, aim_deg: float, *,
     not judged again."""
     grid = _grid(ramp, float(ramp.start_pps), change_cap_pps(ramp))
     settle = _settle(rot, grid)
-    ramps = [build_ramp(ramp.start_pps, s, ramp.accel_pps2, ramp.multiplier, ramp.shape)
-             for s in grid]
-    motions = []
-    for s, dwell, r in zip(grid, settle, ramps, strict=True):
-        up = _stages(r)
-        motions += [[*up, (_rate(s), dwell)], [*up, (_rate(s), dwell), *up[::-1]]]
-    deg, row = _run(motions, rot)
+    ramps = build_ramps(ramp.start_pps, grid, ramp.accel_pps2, ramp.multiplier, ramp.shape)
+    runs = np.stack([_limit_runs(r, dwell, rot) for r, dwell in zip(ramps, settle,
+                                                                   strict=True)], axis=1)
+    deg = runs.max(axis=0).reshape(-1)   # EL then SD at each speed, over the rows
+    row = runs.argmax(axis=0).reshape(-1)
     degs = deg.reshape(len(grid), 2).max(axis=1)
     way = int(rot.direction[int(row[int(np.argmax(deg))])])
-    executions = len(motions) * len(rot)
+    executions = len(deg) * len(rot)
     if ramp.shape == "linear":
         ramp_stops = [_ramp_stops(ramps[-1], rot, memo)]
     else:
@@ -534,6 +596,23 @@ def limit_envelope(ramp: AlinkRamp, rot: Rotors, aim_deg: float, *,
                 degs[k] = float(below.max())
     return EnvelopeVerdict("limit", aim_deg, tuple(grid), _cummax(degs.tolist()),
                            float(ramp.start_pps), float(ramp.high_pps), way, executions)
+
+
+def _limit_runs(ramp: AlinkRamp, dwell: int, rot: Rotors) -> np.ndarray:
+    """A limit run up `ramp` to its top, `dwell` pulses there, then stopped by EL at once
+    (a search's motion) or by SD down the ramp (a move's): their angles [°], rows × 2. One
+    call of the kernel each speed, whose reference, the SD run, the EL run follows to its
+    stop (all of them in one call, each but the reference integrated its ramp from rest:
+    most of the family's steps)."""
+    r = ramp.ramp_pulses
+    el = batch(ramp, "search", np.array([r + dwell]))
+    sd = batch(ramp, "move", np.array([2 * r + dwell]))
+    both = MoveBatch(np.concatenate((el.pulses, sd.pulses)), np.zeros(2, np.int64),
+                     np.concatenate((el.phase, sd.phase)), np.concatenate((el.rate, sd.rate)),
+                     np.concatenate((el.count, sd.count)),
+                     np.concatenate((el.offsets, sd.offsets[1:] + el.offsets[-1])))
+    lag, _ = judge(both, RAMP_HZ, rot, share_slipped=True)
+    return np.degrees(lag * rot.c_e)
 
 
 def _stops_key(ramp: AlinkRamp) -> tuple[object, ...]:
@@ -573,8 +652,8 @@ def change_envelope(ramp: AlinkRamp, rot: Rotors, aim_deg: float) -> EnvelopeVer
     settle = _settle(rot, [high, *grid])
     up = _stages(ramp)
     motions = []
-    for s, dwell in zip(grid, settle[1:], strict=True):
-        to = build_ramp(ramp.start_pps, s, ramp.accel_pps2, ramp.multiplier)
+    tos = build_ramps(ramp.start_pps, grid, ramp.accel_pps2, ramp.multiplier)
+    for s, dwell, to in zip(grid, settle[1:], tos, strict=True):
         down = _stages(to)[::-1]
         head = [*up, (_rate(high), settle[0])]
         stepped = ([st for st in _stages(to) if RAMP_HZ / st[0] >= high - 1e-9] if s > high

@@ -270,7 +270,7 @@ def _judge_ramp(ramp: AlinkRamp, motor: Motor, *, pulses: Iterable[int] | None,
     box_corners = corners(motor) if motor.tolerances else []
     ways = al.ways_of(motor)
     rot = al.box_rotors([c.motor for c in box_corners] or [motor], ways)
-    found = al.motion_angles(ramp, "move", rot, moves)
+    found, verdicts = al.judged(ramp, motor, rot, moves, homing, aim_deg, families)
     deg, row, e = found.worst()
     where = box_corners[row // len(ways)].describe() if box_corners else "nominal"
     la = LoadAngle(deg, int(found.x[e]), int(rot.direction[row]), where,
@@ -281,8 +281,7 @@ def _judge_ramp(ramp: AlinkRamp, motor: Motor, *, pulses: Iterable[int] | None,
         la = LoadAngle(box.worst_angle_deg, box.worst_pulses, box.worst_direction,
                        box.worst_where, box.first_unstable_pulses, box.slips,
                        box.executions, box.sample_failures)
-    return SafetyVerdict(moves, aim_deg, tuple(criterion), la, box, resonance,
-                         tuple(al.family_verdicts(ramp, homing, rot, aim_deg, families)))
+    return SafetyVerdict(moves, aim_deg, tuple(criterion), la, box, resonance, verdicts)
 
 
 def _ramp_box(ramp: AlinkRamp, motor: Motor, found: Any, corner: LoadAngle, n_corners: int,

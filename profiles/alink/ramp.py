@@ -42,7 +42,7 @@ model's clock `RAMP_HZ`, the form the compiled load-angle kernel takes.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -120,24 +120,55 @@ def build_ramp(start_pps: float, high_pps: float, accel_pps2: float, multiplier:
                max_pps: int = 0) -> AlinkRamp:
     """The ramp from `start_pps` to `high_pps` in speed steps of `multiplier` at
     `accel_pps2` (the average for the S-curve)."""
-    if not 0 < start_pps <= high_pps:
-        raise FieldRangeError("start_pps", start_pps, 1, high_pps)
+    return build_ramps(start_pps, [high_pps], accel_pps2, multiplier, shape,
+                       triangle_avoidance=triangle_avoidance, max_pps=max_pps)[0]
+
+
+def build_ramps(start_pps: float, highs_pps: Sequence[float], accel_pps2: float,
+                multiplier: int, shape: RampShape = "linear", *,
+                triangle_avoidance: bool = False, max_pps: int = 0) -> list[AlinkRamp]:
+    """`build_ramp` to each of `highs_pps`. The linear law reaches a step at one instant
+    whatever the top, so each linear ramp's steps are the first ones of the ramp to the
+    highest: their pulses are counted once (the loop over the steps was most of the
+    speed-change and limit verdicts' ramps); the S-curve's law stretches with the top."""
+    for high in highs_pps:
+        if not 0 < start_pps <= high:
+            raise FieldRangeError("start_pps", start_pps, 1, high)
     if not accel_pps2 > 0:
         raise FieldRangeError("accel_pps2", accel_pps2, PPS2_PER_INV_PARA / 4e6, math.inf)
-    k_steps = int((high_pps - start_pps) // multiplier)
-    if k_steps == 0:
-        empty = np.zeros(0)
-        return AlinkRamp(shape, start_pps, high_pps, accel_pps2, multiplier, empty,
-                         empty.astype(np.int64), triangle_avoidance, 0, max_pps)
-    k = np.arange(k_steps + 1, dtype=float)
-    v = start_pps + k[:-1] * multiplier
-    top = start_pps + k_steps * multiplier
-    ramp_s = (top - start_pps) / accel_pps2
-    if shape == "linear":
-        t = k * multiplier / accel_pps2
-    else:
-        t = ramp_s / math.pi * np.arccos(np.clip(1 - 2 * k / k_steps, -1.0, 1.0))
-    counts = np.asarray(_step_pulses(t.tolist(), v.tolist()), dtype=np.int64)
+    steps = [int((high - start_pps) // multiplier) for high in highs_pps]
+    shared: list[int] = []
+    if shape == "linear" and steps:
+        k = np.arange(max(steps) + 1, dtype=float)
+        shared = _step_pulses((k * multiplier / accel_pps2).tolist(),
+                              (start_pps + k[:-1] * multiplier).tolist())
+    out = []
+    for high, k_steps in zip(highs_pps, steps, strict=True):
+        if k_steps == 0:
+            empty = np.zeros(0)
+            out.append(AlinkRamp(shape, start_pps, high, accel_pps2, multiplier, empty,
+                                 empty.astype(np.int64), triangle_avoidance, 0, max_pps))
+            continue
+        k = np.arange(k_steps + 1, dtype=float)
+        v = start_pps + k[:-1] * multiplier
+        top = start_pps + k_steps * multiplier
+        ramp_s = (top - start_pps) / accel_pps2
+        if shape == "linear":
+            t = k * multiplier / accel_pps2
+            counts = np.asarray(shared[:k_steps], dtype=np.int64)
+        else:
+            t = ramp_s / math.pi * np.arccos(np.clip(1 - 2 * k / k_steps, -1.0, 1.0))
+            counts = np.asarray(_step_pulses(t.tolist(), v.tolist()), dtype=np.int64)
+        out.append(_staged(shape, start_pps, high, accel_pps2, multiplier, t, v, counts,
+                           ramp_s, triangle_avoidance, max_pps))
+    return out
+
+
+def _staged(shape: RampShape, start_pps: float, high_pps: float, accel_pps2: float,
+            multiplier: int, t: np.ndarray, v: np.ndarray, counts: np.ndarray, ramp_s: float,
+            triangle_avoidance: bool, max_pps: int) -> AlinkRamp:
+    """The ramp of the steps' instants `t`, speeds `v` and pulses `counts`, as stages."""
+    k_steps = len(v)
     if k_steps > MAX_STAGES:
         # the first step alone (the start speed exact), the rest in stages of equal time
         rest = (t[1:-1] - t[1]) / (ramp_s - t[1]) * (MAX_STAGES - 1)
@@ -152,12 +183,18 @@ def build_ramp(start_pps: float, high_pps: float, accel_pps2: float, multiplier:
 
 def _step_pulses(t: list[float], v: list[float]) -> list[int]:
     """How many pulses begin in each step k (from t[k] to t[k+1], at v[k]), each lasting one
-    period of the step it begins in; a loop over the unit's steps (≤ 8000), not pulses."""
+    period of the step it begins in; a loop over the unit's steps (≤ 8000), not pulses:
+    step k's count depends on the steps before it alone, so a prefix of `v` (and `t`)
+    gives a prefix of the counts."""
     out = []
     tau = 0.0
-    for k, speed in enumerate(v):
-        end = t[k + 1]
-        count = max(math.ceil((end - tau) * speed - 1e-9), 0) if tau < end else 0
+    ceil = math.ceil
+    for end, speed in zip(t[1:], v, strict=False):
+        count = 0
+        if tau < end:
+            count = ceil((end - tau) * speed - 1e-9)
+            if count < 0:
+                count = 0
         out.append(count)
         tau += count / speed
     return out

@@ -324,9 +324,10 @@ def _spans(rates: np.ndarray, counts: np.ndarray, lo: int, hi: int, hz: float,
 def _reference(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, dur: np.ndarray,
                vel: np.ndarray, step: float, slip: float, tol: float, settle_periods: int,
                limit: int, ref_max: np.ndarray, ref_lag: np.ndarray, ref_s: np.ndarray,
-               suffix: np.ndarray) -> tuple[int, int, int]:
+               suffix: np.ndarray) -> tuple[int, int, int, int]:
     """The reference execution from rest: its spans' worst |lag| and end states, and
-    `suffix[k]` its worst from span k on. Returns (status, slipped, steps)."""
+    `suffix[k]` its worst from span k on. Returns (status, slipped, steps, spans whose end
+    states are known: every one before a slip)."""
     no_kb = np.full(len(dur), -1, dtype=np.int64)
     no_record = np.empty(0)
     done, status, slipped, _, used, _, _ = follow_spans(
@@ -336,7 +337,7 @@ def _reference(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, dur:
     suffix[:] = 0.0
     for k in range(done - 1, -1, -1):
         suffix[k] = max(suffix[k + 1], ref_max[k])
-    return status, slipped, used
+    return status, slipped, used, done - 1 if slipped else done
 
 
 @_jit
@@ -378,7 +379,7 @@ def _execution(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, rate
             counts[a0 + head] == counts[s0 + head]:
         head += 1
     tail = 0
-    if not ref_slipped:  # a slipped reference has no states to share
+    if not ref_slipped:  # a slipped reference has no tail to share (its head: src_valid)
         lim = min(length, m) - (head if s0 == r0 else 0)
         while tail < lim and rates[a1 - 1 - tail] == rates[r1 - 1 - tail] and \
                 counts[a1 - 1 - tail] == counts[r1 - 1 - tail]:
@@ -434,10 +435,14 @@ def references(curve_v: np.ndarray, curve_t: np.ndarray, rotors: np.ndarray, ste
                hz: float, slip_deg: float, tol_deg: float, settle_periods: int,
                rejoin_deg: float, max_trace_steps: int, ref_max: np.ndarray,
                ref_lag: np.ndarray, ref_s: np.ndarray, suffix: np.ndarray, limits: np.ndarray,
-               status: np.ndarray, slipped: np.ndarray, used: np.ndarray) -> None:
+               status: np.ndarray, slipped: np.ndarray, used: np.ndarray,
+               valid: np.ndarray) -> None:
     """Each rotor row's reference execution (segments r0..r1) from rest, into the per-rotor
     rows of `ref_*` and `suffix`; `limits` gets each rotor's (slip, settle tolerance,
-    rejoin tolerance of the lag, of its rate) in pulses."""
+    rejoin tolerance of the lag, of its rate) in pulses; `valid` how many of its segments'
+    end states are known (all of them unless it slipped: those before the slip, which
+    executions still start from — a stop at once that slips from the top speed leaves
+    every state of the ramp below it)."""
     for r in range(rotors.shape[0]):
         c_e = rotors[r, C_E]
         limits[r, 0] = math.radians(slip_deg) / c_e
@@ -446,12 +451,14 @@ def references(curve_v: np.ndarray, curve_t: np.ndarray, rotors: np.ndarray, ste
         period = natural_period_s(curve_v, curve_t[r], rotors[r], 0.0)
         limits[r, 3] = limits[r, 2] * (2 * math.pi / period if math.isfinite(period) else 1.0)
         dur, vel = _spans(rates, counts, r0, r1, hz, settles[r])
-        st, sl, u = _reference(curve_v, curve_t[r], rotors[r], dur, vel, steps[r], limits[r, 0],
-                               limits[r, 1], settle_periods, max_trace_steps, ref_max[r],
-                               ref_lag[r], ref_s[r], suffix[r])
+        st, sl, u, known = _reference(curve_v, curve_t[r], rotors[r], dur, vel, steps[r],
+                                      limits[r, 0], limits[r, 1], settle_periods,
+                                      max_trace_steps, ref_max[r], ref_lag[r], ref_s[r],
+                                      suffix[r])
         status[r] = st
         slipped[r] = sl == 1
         used[r] = u
+        valid[r] = min(known, r1 - r0)
 
 
 @_jit
@@ -460,7 +467,8 @@ def executions(curve_v: np.ndarray, curve_t: np.ndarray, rotors: np.ndarray, ste
                ref: int, source: np.ndarray, slot: np.ndarray, hz: float, settle_periods: int,
                max_trace_steps: int, ref_worst: np.ndarray, ref_lag: np.ndarray,
                ref_s: np.ndarray, suffix: np.ndarray, limits: np.ndarray,
-               ref_status: np.ndarray, ref_slipped: np.ndarray, fam_lag: np.ndarray,
+               ref_status: np.ndarray, ref_slipped: np.ndarray, ref_valid: np.ndarray,
+               fam_lag: np.ndarray,
                fam_s: np.ndarray, fam_worst: np.ndarray, fam_known: np.ndarray,
                order: np.ndarray, first: int, last: int, worst: np.ndarray,
                slipped: np.ndarray, status: np.ndarray, used: np.ndarray) -> None:
@@ -477,7 +485,6 @@ def executions(curve_v: np.ndarray, curve_t: np.ndarray, rotors: np.ndarray, ste
     ranges run on threads at once."""
     n_order = len(order)
     r0, r1 = offsets[ref], offsets[ref + 1]
-    m = r1 - r0
     empty = np.empty(0)
     for job in range(first, last):
         r = job // n_order
@@ -495,7 +502,7 @@ def executions(curve_v: np.ndarray, curve_t: np.ndarray, rotors: np.ndarray, ste
             src = (offsets[p], offsets[p + 1], fam_lag[r, k0:k1], fam_s[r, k0:k1],
                    fam_worst[r, k0:k1], fam_known[r, p])
         else:
-            src = (r0, r1, ref_lag[r], ref_s[r], ref_worst[r], 0 if ref_slipped[r] else m)
+            src = (r0, r1, ref_lag[r], ref_s[r], ref_worst[r], ref_valid[r])
         if slot[e] >= 0:
             k0, k1 = slot[e], slot[e] + offsets[e + 1] - offsets[e]
             rec = (fam_lag[r, k0:k1], fam_s[r, k0:k1], fam_worst[r, k0:k1])

@@ -278,12 +278,17 @@ def directions(motor: Motor) -> tuple[int, ...]:
 
 
 def judge(runs: MoveBatch, hz: float, rot: Rotors, *, max_step_s: float | None = None,
-          families: bool = True) -> tuple[np.ndarray, np.ndarray]:
+          families: bool = True, share_slipped: bool = False
+          ) -> tuple[np.ndarray, np.ndarray]:
     """Every execution of `runs` for every rotor: (worst |lag| [pulses], slipped), each of
     shape (rotors, executions). A verdict that would take more than MAX_VERDICT_STEPS
     RK4 steps for one rotor is refused. `families`: the members of a family start from
     its longest member's state at the end of their own dwell (`shared_dwells`; False:
-    from the reference's, integrating their dwell themselves: the same numbers, slower)."""
+    from the reference's, integrating their dwell themselves: the same numbers, slower).
+    `share_slipped`: executions start from a slipped reference's states before its slip
+    too (the A-Link's stops at once, whose longest slips from H: the same numbers to
+    rounding, a twentieth of the steps); without it they integrate from rest, as the
+    PPMC-312's verdicts, whose planner's choices are pinned to those exact numbers, do."""
     from ..motor import rotor_kernel as rk
 
     runs = dwells(runs, _SCRATCH)
@@ -303,10 +308,14 @@ def judge(runs: MoveBatch, hz: float, rot: Rotors, *, max_step_s: float | None =
     ref_status = np.zeros(n_rot, np.int64)
     ref_slipped = np.zeros(n_rot, np.bool_)
     ref_used = np.zeros(n_rot, np.int64)
+    ref_valid = np.zeros(n_rot, np.int64)
     common = (rot.curve_v, rot.curve_t, rot.rows, steps, settles, runs.rate, runs.count)
     rk.references(*common, int(runs.offsets[ref]), int(runs.offsets[ref + 1]), hz, SLIP_DEG,
                   SETTLE_TOL_DEG, MAX_SETTLE_PERIODS, REJOIN_TOL_DEG, MAX_RK4_STEPS, ref_max,
-                  ref_lag, ref_s, suffix, limits, ref_status, ref_slipped, ref_used)
+                  ref_lag, ref_s, suffix, limits, ref_status, ref_slipped, ref_used,
+                  ref_valid)
+    if not share_slipped:
+        ref_valid[ref_slipped] = 0
     ref_worst = np.maximum.accumulate(ref_max, axis=1)
     # the sources' states at the end of each of their segments, for their members
     sources = np.unique(source[source >= 0])
@@ -331,8 +340,8 @@ def judge(runs: MoveBatch, hz: float, rot: Rotors, *, max_step_s: float | None =
     def cells(first: int, last: int) -> None:
         rk.executions(*common, runs.offsets, ref, source, slot, hz, MAX_SETTLE_PERIODS,
                       MAX_RK4_STEPS, ref_worst, ref_lag, ref_s, suffix, limits, ref_status,
-                      ref_slipped, fam_lag, fam_s, fam_worst, fam_known, order, first, last,
-                      lag, slipped, status, used)
+                      ref_slipped, ref_valid, fam_lag, fam_s, fam_worst, fam_known, order, first,
+                      last, lag, slipped, status, used)
 
     _in_parallel(cells, cuts)
     used[:, ref] += ref_used

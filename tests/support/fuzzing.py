@@ -258,11 +258,11 @@ def run_cli(argv: list[str], timeout_s: float | None = None) -> tuple[int, str, 
 @contextlib.contextmanager
 def _no_server(argv: list[str]) -> Iterator[None]:
     """`design` checks every input, then serves its page until stopped: a case stops
-    where the server would start (the page itself is tests/verify/test_webdesigner.py's)."""
+    where the server would start (the page itself is tests/verify/designer/test_web.py's)."""
     if not argv or argv[0] != "design":
         yield
         return
-    import verify.webdesigner as web
+    import verify.designer.web as web
 
     saved = web.serve
     web.serve = lambda *args, **kwargs: None

@@ -176,3 +176,42 @@ def test_limit_reads_the_stops_the_stop_family_judged(monkeypatch: pytest.Monkey
     shared = al.limit_envelope(ramp, rot, 75.0, memo=memo)
     assert len(calls) == n_alone - 1 and 4000.0 not in calls
     assert shared.degs == alone.degs and shared.speeds_pps == alone.speeds_pps
+
+
+@pytest.mark.parametrize("triangle_avoidance", [False, True])
+def test_the_compiled_assembly_gives_the_kernel_the_model_segments(
+        triangle_avoidance: bool) -> None:
+    """batch (assembled by the PPMC-312's compiled twin, or by numpy for an avoided
+    triangle's middle) hands the kernel the segments the ramp model gives, once
+    neighbours of one rate are joined, for every kind of motion."""
+    from profiles.alink.ramp import parts, segments
+    from profiles.ppmc312.load_angle import dwells
+    from verify.alink_safety import batch
+
+    ramp = build_ramp(800, 6000, 150_000.0, 20, "s_curve",
+                      triangle_avoidance=triangle_avoidance)
+    r = ramp.ramp_pulses
+    for kind, x in (("move", np.arange(1, 3 * r + 40)), ("stop", np.arange(1, r)),
+                    ("search", np.arange(1, r + 40)), ("creep", np.array([1, 5, 300]))):
+        got = dwells(batch(ramp, kind, x))
+        rate, count, offsets = segments(ramp, parts(ramp, kind, x))
+        np.testing.assert_array_equal(got.rate, rate)
+        np.testing.assert_array_equal(got.count, count)
+        np.testing.assert_array_equal(got.offsets, offsets)
+
+
+def test_stops_at_once_share_a_slipping_references_ramp() -> None:
+    """Stops at once from a fast ramp: the longest (the reference) slips at its stop from
+    H, yet its states on the ramp below are shared: judged together, each stop's worst
+    angle is the one it has judged alone (from rest), to the rounding of a dwell cut
+    alike within its family."""
+    from verify.alink_safety import motion_angles, nominal_rotors
+
+    rot = nominal_rotors(load_motor(resolve("nema17-1600")))
+    ramp = build_ramp(800, 30_000, 147_059.0, 20, "linear")
+    xs = [3, 150, 400, ramp.ramp_pulses - 5, ramp.ramp_pulses + 300]
+    together = motion_angles(ramp, "search", rot, xs)
+    assert together.slipped[:, -1].all()
+    for k, x in enumerate(xs):
+        alone = motion_angles(ramp, "search", rot, [x])
+        assert float(alone.deg[0, 0]) == pytest.approx(float(together.deg[0, k]), abs=1e-6)

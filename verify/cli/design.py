@@ -38,7 +38,7 @@ def _do_design(args: argparse.Namespace) -> int:
 
     from profiles.errors import FieldRangeError
     from verify.designer import control_specs
-    from verify.webdesigner import serve
+    from verify.designer.web import serve
 
     if args.port > 65535:
         raise FieldRangeError("--port", args.port, 0, 65535)

@@ -65,3 +65,17 @@ def test_a_cruise_in_a_resonance_band_is_a_dwell() -> None:
     outside = judge_safety(ramp_of(quantise_settings(800, 25000, 5.0)), motor,
                            load_angle=False)
     assert not outside.resonance   # the ramp crosses the band: no finding
+
+
+@pytest.mark.parametrize("shape", ["linear", "s_curve"])
+def test_ramps_to_several_tops_are_each_ramp(shape: str) -> None:
+    """build_ramps (the linear ones' pulses counted once, on the ramp to the highest top)
+    gives each ramp build_ramp does: fine ones grouped into 250 stages, exact ones, none."""
+    from profiles.alink.ramp import build_ramps
+
+    tops = [800.0, 900.5, 4000.0, 24_000.0, 48_000.0]
+    for top, ramp in zip(tops, build_ramps(800, tops, 147_059.0, 20, shape), strict=True):
+        alone = build_ramp(800, top, 147_059.0, 20, shape)
+        assert ramp.steps == alone.steps and ramp.high_pps == top
+        np.testing.assert_array_equal(ramp.pulses, alone.pulses)
+        np.testing.assert_array_equal(ramp.speeds_pps, alone.speeds_pps)

@@ -5,8 +5,8 @@ load torque, friction) and the aim (safety factor, load-angle aim), the clock an
 the stage budget; the staircase against the exact optimum, the stall margins and
 the load angle in one figure (`DesignFigure`), the verdict (`verdict`) and the
 numbers beside it; buttons that download the table (`stepramp.table/1`) and an
-upload file in any format. Everything it shows comes from verify/designer.py, which
-the notebook widget uses too: this module only lays out widgets.
+upload file in any format. Everything it shows comes from verify/designer/model.py,
+which the notebook widget uses too: this module only lays out widgets.
 
 A change shows its steps (`design_steps`) one per turn of the server (a next-tick
 callback of the tab's document, so the browser receives each before the next is
@@ -35,13 +35,14 @@ from typing import Any
 from profiles.errors import StepRampError
 from profiles.motor import Motor
 from profiles.ppmc312.clock import INTERNAL_HZ
-from verify.designer import (
+
+from .figure import DesignFigure
+from .model import (
     AUTO_CLOCK,
     OPENING_PULSES,
     UPLOAD_FORMATS,
     ControlSpec,
     Design,
-    DesignFigure,
     Settings,
     control_specs,
     design,

@@ -1,4 +1,4 @@
-"""`stepramp design`: the designer as a web page (verify/webdesigner.py, verify/cli/design.py).
+"""`stepramp design`: the designer as a web page (verify/designer/web.py, verify/cli/design.py).
 
 In-process: the command's refusals and the page's controls, verdict and files. In a
 real headless Chromium driven by Playwright: the served page, a slider dragged with the
@@ -27,11 +27,14 @@ from profiles.ppmc312.formats import parse_upload
 from profiles.ppmc312.table import load_table
 from tests.support.paths import ROOT
 from tests.support.subprocess_env import checkout_env
+from verify.designer import JUDGING, TIGHTENING, Settings, design
 
 NEMA17_PATH = next(p for p in bundled_motor_paths() if "nema17" in p.name)
 
 
 NEMA17 = load_motor(NEMA17_PATH)
+# a move whose plain table rings past the aim: the tightening changes it
+RINGS = Settings(pulses=5_000, safety_factor=NEMA17.safety_factor)
 
 
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
@@ -41,8 +44,8 @@ CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic"
 
 @pytest.mark.slow  # 2–4 s: the quick suite's budget; CI runs it
 def test_page_controls_drive_the_verdict_and_the_files() -> None:
-    from verify.designer import design, verdict
-    from verify.webdesigner import DesignPage
+    from verify.designer import verdict
+    from verify.designer.web import DesignPage
 
     page = DesignPage(NEMA17, pulses=5_000, motor_name="nema17")
     assert page.result is not None
@@ -241,7 +244,6 @@ def test_in_a_browser_a_change_shows_its_first_table_marked_then_the_final(
     the verdict over every command; the downloads only at the last."""
     from playwright.sync_api import sync_playwright
 
-    from verify.designer import JUDGING, TIGHTENING
 
     executable = chromium()
     _, url = server
@@ -274,3 +276,40 @@ def test_in_a_browser_a_change_shows_its_first_table_marked_then_the_final(
                              ["safe", False, False, False]], steps
         finally:
             browser.close()
+
+
+@pytest.mark.slow  # a Panel page: about 2 s
+def test_the_page_shows_the_first_table_then_the_final_on_the_next_turn() -> None:
+    pytest.importorskip("panel")
+    from verify.designer.web import DesignPage
+
+    page = DesignPage(NEMA17, pulses=3_000, motor_name="nema17")
+    assert page.result is not None and page.result.final  # it opens on a final table
+    later: list[Any] = []
+
+    class Doc:  # a served tab's document: callbacks run on the server's next turn
+        session_context = object()
+
+        def add_next_tick_callback(self, callback: Any) -> None:
+            later.append(callback)
+
+    page._doc = Doc()
+    page.controls["pulses"].value = RINGS.pulses
+    assert page.result.final is False and len(later) == 1
+    assert "data-level='tightening'" in page.verdict.object
+    assert all(b.disabled for b in page.downloads.values())
+    assert TIGHTENING in page.summary.object
+    page.controls["pulses"].value = 5_200  # a newer change before the final came
+    later.pop(0)()                          # the older final is dropped
+    assert page.result.settings.pulses == 5_200 and not page.result.final
+    later.pop(0)()
+    assert page.result.final and page.result.plan.table == design(
+        NEMA17, page.settings).plan.table
+    assert "data-level='safe'" in page.verdict.object and JUDGING in page.verdict.object
+    assert all(b.disabled for b in page.downloads.values())  # not judged in full yet
+    assert "final table shown in" in page.summary.object
+    later.pop(0)()
+    assert page.result.complete and not later
+    assert "data-level='safe'" in page.verdict.object and JUDGING not in page.verdict.object
+    assert not any(b.disabled for b in page.downloads.values())
+    assert "judged in full in" in page.summary.object
