@@ -314,3 +314,38 @@ def test_refine_judges_around_the_worst_families_only() -> None:
     extra = refine(np.array([10, 20, 30, 40, 50, 60]), np.array([0, 0, 0, 1, 1, 1]),
                    np.array([10, 10]), np.array([10.0, 50.0, 20.0, 5.0, 8.0, 6.0]))
     assert extra.tolist() == [*range(11, 20), *range(21, 30)]
+
+
+def test_the_all_length_verdict_is_remembered_read_only_and_a_step_of_its_own_is_not(
+) -> None:
+    """`angles`: the all-length verdict is remembered and shared, its arrays read-only; a
+    verdict with a step bound of its own is judged afresh (it is not the remembered one)."""
+    from profiles.ppmc312.load_angle import angles
+
+    motor = load_motor(bundled_motor_paths()[0])
+    table = plan_free_curve(motor, pulses=400).table
+    first = angles(table, [motor])
+    assert angles(table, [motor]) is first
+    assert not any(a.flags.writeable for a in vars(first).values())
+    own = angles(table, [motor], max_step_s=1.0)
+    assert own is not first and own.deg.flags.writeable
+
+
+def test_a_dwell_with_no_torque_or_no_speed_is_sampled_whole_and_settles_by_rest() -> None:
+    """`dwell_sampling` where a rotor has no torque (past its curve: no natural period
+    there): spaced by the whole run range, dense for SETTLE_CRUISE_PERIODS natural periods
+    at rest (0 pps, not 1 pps); a dwell at 0 pps is dense for one run."""
+    from profiles.motor.rotor import Rotor
+    from profiles.ppmc312.load_angle import SETTLE_CRUISE_PERIODS, dwell_sampling
+
+    base = rotor_of(load_motor(bundled_motor_paths()[0]))
+    steep = replace(base, curve_v=(0.0, 2.0, 10.0), curve_t=(0.5, 1e-4, 0.0))
+    assert isinstance(steep, Rotor)
+    rest = steep.natural_period_s(0.0)
+    assert steep.natural_period_s(1.0) > 1.2 * rest
+    spacing, dense = dwell_sampling([steep], np.array([20.0]), np.array([100]),
+                                    np.array([10**9]), 1)
+    assert spacing.tolist() == [10**9 - 100]
+    assert dense.tolist() == [100 + math.ceil(20.0 * SETTLE_CRUISE_PERIODS * rest)]
+    _, still = dwell_sampling([base], np.array([0.0]), np.array([100]), np.array([500]), 3)
+    assert still.tolist() == [103]
