@@ -36,6 +36,7 @@ import hashlib
 import json
 import os
 import random
+import re
 import shlex
 import shutil
 import sqlite3
@@ -160,9 +161,10 @@ def annotation_spans(source: str) -> list[tuple[tuple[int, int], tuple[int, int]
 def annotation_filter(db: WorkDB, source: str) -> None:
     """A mutant inside an annotation is none (`from __future__ import annotations`: never
     evaluated): skipped, and not counted, like an excluded operator's."""
-    spans = annotation_spans(source)
+    spans, done = annotation_spans(source), dict(db.results)
     hits = [w.job_id for w in db.work_items
-            if any(a <= w.mutations[0].start_pos < b for a, b in spans)]
+            if any(a <= w.mutations[0].start_pos < b for a, b in spans)
+            and (w.job_id not in done or done[w.job_id].output != FILTERED)]
     db.set_multiple_results(hits, WorkResult(WorkerOutcome.SKIPPED, output=ANNOTATION))
 
 
@@ -172,18 +174,22 @@ def forget(session: Path, job_ids: list[str]) -> None:
         db.executemany("DELETE FROM work_results WHERE job_id = ?", [(j,) for j in job_ids])
 
 
-def sample_filter(db: WorkDB, session: Path, name: str, n: int) -> None:
-    """Mark every mutant but the first `n` of a fixed random order skipped (0: none)."""
+def sample_filter(db: WorkDB, session: Path, name: str, n: int, excluded: list[str]
+                  ) -> None:
+    """Mark every mutant but the first `n` of a fixed random order skipped (0: none):
+    the order of the mutants of the operators not `excluded`, seeded by the module's
+    name (a larger `n` extends a sample; a smaller one drops the rest)."""
     done = dict(db.results)
-    items = sorted((w for w in db.work_items
-                    if done.get(w.job_id, WorkResult(WorkerOutcome.NORMAL)).output != FILTERED),
+    pattern = re.compile("|".join(f"(?:{e})" for e in excluded) or "(?!)")
+    items = sorted((w for w in db.work_items if not pattern.match(w.mutations[0].operator_name)),
                    key=lambda w: (w.mutations[0].start_pos, w.mutations[0].operator_name,
                                   w.mutations[0].occurrence))
     random.Random(name).shuffle(items)
     keep = items[:n] if n else items
     forget(session, [w.job_id for w in keep
                      if w.job_id in done and done[w.job_id].output == NOT_SAMPLED])
-    rest = [w.job_id for w in items[len(keep):] if w.job_id not in done]
+    rest = [w.job_id for w in items[len(keep):] if w.job_id not in done
+            or done[w.job_id].output not in (NOT_SAMPLED, ANNOTATION, FILTERED)]
     db.set_multiple_results(rest, WorkResult(WorkerOutcome.SKIPPED, output=NOT_SAMPLED))
 
 
@@ -258,7 +264,7 @@ def prepare(name: str, config: dict[str, Any], sample: int, again: bool,
     with use_db(str(session)) as db:
         if again:
             forget(session, [j for j, r in db.results if r.test_outcome == TestOutcome.SURVIVED])
-        sample_filter(db, session, name, sample)
+        sample_filter(db, session, name, sample, config["run"].get("exclude-operators", []))
         annotation_filter(db, source)
         equivalent_filter(db, session, name, source, equivalents(config))
         return len(db.pending_work_items)

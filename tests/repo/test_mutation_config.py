@@ -160,7 +160,7 @@ def test_a_sample_is_fixed_and_a_larger_one_extends_it(tmp_path: Path) -> None:
 
     def sampled(path: Path, n: int) -> set[str]:
         with use_db(str(path)) as db:
-            tool.sample_filter(db, path, "m", n)
+            tool.sample_filter(db, path, "m", n, [])
             ids = ids_by_job(db, SOURCE)
             return {ids[w.job_id] for w in db.pending_work_items}
 
