@@ -341,11 +341,11 @@ def module_summary(name: str, config: dict[str, Any]) -> dict[str, Any]:
             "score": round(caught / (caught + survived), 4) if caught + survived else None,
             "sample": state.get("sample", 0), "seconds": state.get("seconds", 0.0),
             "current": state["sha"] == digest(source),
-            "survivors": sorted({"id": ids[w.job_id], "line": w.mutations[0].start_pos[0]}
-                                for w, v in items if v == "survived"),
-            "equivalent_mutants": sorted({"id": ids[w.job_id], "why": known.get(
+            "survivors": sorted(({"id": ids[w.job_id], "line": w.mutations[0].start_pos[0]}
+                                 for w, v in items if v == "survived"), key=str),
+            "equivalent_mutants": sorted(({"id": ids[w.job_id], "why": known.get(
                 (name, ids[w.job_id]), "(no longer listed)")} for w, v in items
-                if v == "equivalent")}
+                if v == "equivalent"), key=str)}
 
 
 def row(label: str, mods: list[dict[str, Any]]) -> list[str]:
