@@ -106,13 +106,15 @@ def markdown_table(columns: Sequence[str], rows: Sequence[Sequence[str]]) -> str
 
 def forget() -> None:
     """Forget what the library remembers between calls (each table's move model, the
-    verdicts judged, moves' and decel stops', the plans planned), so a repeated call costs
-    what a first one does."""
+    verdicts judged, moves', decel stops' and the A-Link ramps', the plans planned), so a
+    repeated call costs what a first one does."""
     from profiles.ppmc312.load_angle import forget_verdicts
     from profiles.ppmc312.move_batch import forget_tables
     from profiles.ppmc312.planner.free_curve import forget_plans
     from profiles.ppmc312.stops import forget_stop_verdicts
+    from verify.alink_safety import forget_ramp_verdicts
 
+    forget_ramp_verdicts()
     forget_tables()
     forget_verdicts()
     forget_stop_verdicts()

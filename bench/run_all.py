@@ -19,10 +19,10 @@ import time
 from pathlib import Path
 
 BENCH = Path(__file__).resolve().parent
-ORDER = ("safety", "plantime", "tighten", "stops", "planner", "every_move", "robust",
+ORDER = ("safety", "plantime", "tighten", "stops", "alink", "planner", "every_move", "robust",
          "designer", "sync", "sweep", "ppmc312", "devices", "streams")
-QUICK = {"safety", "plantime", "tighten", "stops", "planner", "every_move", "robust", "sync",
-         "sweep"}
+QUICK = {"safety", "plantime", "tighten", "stops", "alink", "planner", "every_move", "robust",
+         "sync", "sweep"}
 
 
 def main() -> int:

@@ -74,7 +74,9 @@ def _bundled_motors_only() -> Iterator[None]:
 # The session fails when it leaves a new or changed file in the checkout
 # (tests/support/repo_clean.py); pytester runs that plugin's own tests
 # (tests/repo/test_repo_clean.py: a test module below the top cannot load a plugin).
-pytest_plugins = ["tests.support.repo_clean", "pytester"]
+# The serial link's fixtures (skewed, pty_chip, link) serve the link's tests and the
+# `stepramp link` command's (tests/support/serial_link.py).
+pytest_plugins = ["tests.support.repo_clean", "tests.support.serial_link", "pytester"]
 
 
 @pytest.fixture

@@ -42,6 +42,7 @@ from profiles.motor.angles import PEAK_DEG
 from profiles.motor.rotor import Rotors, rotors
 from profiles.ppmc312.load_angle import dwell_sampling, judge, refine, sample_grid
 from profiles.ppmc312.move_batch import MoveBatch
+from profiles.ppmc312.stops import STOP_REFINE_DEG, refine_toward
 from profiles.remembered import Remembered
 
 from .command_families import envelope_findings
@@ -101,14 +102,19 @@ def _ladders(ramp: AlinkRamp) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nd
 
 
 def motion_angles(ramp: AlinkRamp, kind: Kind, rot: Rotors,
-                  x: Iterable[int] | None = None, *, upto: int | None = None) -> Angles:
+                  x: Iterable[int] | None = None, *, upto: int | None = None,
+                  aim_deg: float | None = None, every_pulse: bool = False) -> Angles:
     """The load angle of `kind`'s motions for every row of `rot`: at `x`, or over every
-    one through its families (sampled, then refined); `upto`: the caller keeps only the
-    motions up to it, so none past it is refined (the samples, and so which families are
-    refined, are unchanged)."""
+    one: the stops (`RAMP_STOPS`) sampled along the ramp and refined (`stop_angles`;
+    `aim_deg`: where the first stop past it comes is exact too; `upto`: none past it;
+    `every_pulse`: every stop judged, the oracle the samples are tested against), the
+    others through their families (sampled, then refined)."""
     if x is not None:
         xs = np.asarray(sorted({int(n) for n in x}), dtype=np.int64)
         return _angles(ramp, kind, xs, rot)
+    if kind in RAMP_STOPS:
+        return stop_angles(ramp, kind, rot, upto=upto, aim_deg=aim_deg,
+                           every_pulse=every_pulse)
     lo, hi, speed = families(ramp, kind)
     if not len(lo):
         return Angles(np.zeros(0, np.int64), np.zeros((len(rot), 0)),
@@ -129,6 +135,103 @@ def motion_angles(ramp: AlinkRamp, kind: Kind, rot: Rotors,
     return Angles(np.concatenate((xs, extra))[order],
                   np.concatenate((found.deg, more.deg), axis=1)[:, order],
                   np.concatenate((found.slipped, more.slipped), axis=1)[:, order])
+
+
+# The stops judged along the ramp rather than stage by stage (docs/manual-notes.md, "A-Link
+# ALUM: stops sampled along the ramp"): a stop (STOP 31) from pulse x, a stop at once
+# (STOP 28, EL, a homing search) after x pulses.
+RAMP_STOPS: tuple[Kind, ...] = ("stop", "search")
+
+
+def stop_grid(ramp: AlinkRamp, kind: Kind, rot: Rotors, upto: int | None = None
+              ) -> tuple[np.ndarray, int]:
+    """The stops that stand for every stop of `kind` (ascending x) and the last x judged:
+    one every 1/8 natural period (the stiffest row's) at the speed each pulse runs at,
+    as `load_angle.dwell_sampling` spaces a dwell, along the ramp (and, for a stop at
+    once, the cruise at H until it has lasted ten natural periods: a longer one repeats
+    that settled state); for STOP 31 a stage longer than its spacing also at its first
+    and last pulse (each stage's stops decelerate through it whole: its first stop
+    dwells longer at a higher speed than the last of the stage below); the first and
+    the last stop."""
+    r = ramp.ramp_pulses
+    n = len(ramp.pulses)
+    speeds = np.append(ramp.speeds_pps, ramp.high_pps)
+    lo = np.ones(n + 1, np.int64)
+    lo[-1] = max(r, 1)
+    hi = np.append(np.maximum(ramp.pulses, 2), MOVE_PULSES_MAX)
+    spacing, dense = dwell_sampling([rot.rotor(i) for i in range(len(rot))], speeds, lo,
+                                    hi, 1)
+    end = max(r - 1, 0) if kind == "stop" else int(dense[-1])
+    if upto is not None:
+        end = min(end, upto)
+    if end < 1:
+        return np.zeros(0, np.int64), 0
+    cruise = np.full(max(end - r, 0), min(int(spacing[-1]), max(end - r, 1)))
+    per_pulse = np.concatenate((np.repeat(spacing[:-1], ramp.pulses), cruise))[:end]
+    tick = np.floor(np.cumsum(1.0 / per_pulse) + 1e-9)
+    along = np.flatnonzero(np.diff(tick, prepend=0.0) > 0) + 1
+    ends = np.cumsum(ramp.pulses)
+    # a stop at once only adds pulses as x grows; STOP 31 past a stage's last pulse also
+    # decelerates through the next stage whole: a jump where that stage is long
+    long = (ramp.pulses > spacing[:-1]) & (kind == "stop")
+    edges = np.concatenate((ends[long] - ramp.pulses[long] + 1, ends[long]))
+    xs = np.unique(np.concatenate(([1, end], along, edges)))
+    return xs[(xs >= 1) & (xs <= end)].astype(np.int64), end
+
+
+def stop_angles(ramp: AlinkRamp, kind: Kind, rot: Rotors, *, upto: int | None = None,
+                aim_deg: float | None = None, every_pulse: bool = False) -> Angles:
+    """Every stop of `kind` (`RAMP_STOPS`) on the load angle: `stop_grid`'s samples, then
+    the stops around the worst ones (`refine_stops`); with `every_pulse`, every stop."""
+    xs, end = stop_grid(ramp, kind, rot, upto)
+    if every_pulse:
+        xs = np.arange(1, end + 1, dtype=np.int64)
+    if not len(xs):
+        return Angles(np.zeros(0, np.int64), np.zeros((len(rot), 0)),
+                      np.zeros((len(rot), 0), bool))
+    found = _angles(ramp, kind, xs, rot)
+    if every_pulse:
+        return found
+    marks = (PEAK_DEG,) if aim_deg is None else (aim_deg, PEAK_DEG)
+    extra = refine_stops(xs, found.deg.max(axis=0), marks)
+    if not len(extra):
+        return found
+    more = _angles(ramp, kind, extra, rot)
+    order = np.argsort(np.concatenate((xs, extra)), kind="stable")
+    return Angles(np.concatenate((xs, extra))[order],
+                  np.concatenate((found.deg, more.deg), axis=1)[:, order],
+                  np.concatenate((found.slipped, more.slipped), axis=1)[:, order])
+
+
+def refine_stops(xs: np.ndarray, worst: np.ndarray, marks: Sequence[float]) -> np.ndarray:
+    """The stops still to judge around the samples `xs` (their worst angles `worst`): each
+    rise and fall of the samples (from one local minimum to the next) is a range the
+    PPMC-312's decel stops' `stops.refine_toward` refines as it does a stage's dwells —
+    between its top and the larger neighbour, for the tops within STOP_REFINE_DEG of the
+    worst — and, for each angle of `marks` the verdict reads where it is first passed
+    (the aim, the 90° peak), every stop before the first sample past it and the ranges
+    before it whose top comes within STOP_REFINE_DEG of it. Past the peak a stop slips
+    and its angle is no longer smooth in x: its number there is a sample's (the verdict
+    reads only that it is past the peak)."""
+    if len(xs) < 3:
+        return np.zeros(0, np.int64)
+    falling = np.diff(worst) < 0
+    valley = np.flatnonzero(falling[:-1] & ~falling[1:]) + 1   # local minima
+    family = np.zeros(len(xs), np.int64)
+    family[valley] = 1
+    family = np.cumsum(family)
+    extra = [refine_toward(xs, family, worst)]
+    for mark in marks:
+        past = np.flatnonzero(worst >= mark)
+        first = int(past[0]) if len(past) else len(xs)
+        if 0 < first < len(xs):
+            extra.append(np.arange(xs[first - 1] + 1, xs[first]))
+        near = family[:first][worst[:first] >= mark - STOP_REFINE_DEG]
+        for f in np.unique(near).tolist():
+            mine = np.flatnonzero(family == f)
+            # the range alone: its top the worst refine_toward compares with
+            extra.append(refine_toward(xs[mine], family[mine], worst[mine]))
+    return np.setdiff1d(np.concatenate(extra), xs).astype(np.int64)
 
 
 def _angles(ramp: AlinkRamp, kind: Kind, xs: np.ndarray, rot: Rotors) -> Angles:
@@ -156,7 +259,7 @@ def judged(ramp: AlinkRamp, motor: Motor, rot: Rotors, moves: tuple[int, ...] | 
         # stops' memo)
         groups = [g for g in (("decel-stop",), ("stop", "limit"), ("change-speed",),
                               ("homing",)) if set(g) & set(families)]
-        workers = pool("alink-verdict", len(groups) + 1)
+        workers = pool("alink-verdict", 4)
         parts = [workers.submit(family_verdicts, ramp, homing, rot, aim_deg,
                                 [f for f in g if f in families]) for g in groups]
         found = motion_angles(ramp, "move", rot, moves)
@@ -545,7 +648,7 @@ def stop_envelope(ramp: AlinkRamp, rot: Rotors, aim_deg: float, *,
     ramp's stops at once (the homing search's motion on the unit's ramp), from each speed
     of the ramp and from the cruise at H; the worst at a speed counts every stop up to it.
     `memo` keeps them for `limit_envelope` (its ramp to H is this one in S-curve)."""
-    found = motion_angles(ramp, "search", rot)
+    found = motion_angles(ramp, "search", rot, aim_deg=aim_deg)
     if memo is not None:
         memo[_stops_key(ramp)] = found
     ends = np.cumsum(ramp.pulses)
@@ -584,10 +687,15 @@ def limit_envelope(ramp: AlinkRamp, rot: Rotors, aim_deg: float, *,
     degs = deg.reshape(len(grid), 2).max(axis=1)
     way = int(rot.direction[int(row[int(np.argmax(deg))])])
     executions = len(deg) * len(rot)
+    # what the verdict reads (the envelope's speeds, the use at L, the worst at H) is
+    # settled by the stops up to H and up to the first speed whose run passes the peak
+    # (every crossing comes by then): a ramp's faster stops are not judged
+    past = np.flatnonzero(degs >= PEAK_DEG)
+    bound = max(float(ramp.high_pps), grid[int(past[0])] if len(past) else math.inf)
     if ramp.shape == "linear":
-        ramp_stops = [_ramp_stops(ramps[-1], rot, memo)]
+        ramp_stops = [_ramp_stops(ramps[-1], rot, aim_deg, memo, bound)]
     else:
-        ramp_stops = [_ramp_stops(r, rot, memo) for r in ramps]
+        ramp_stops = [_ramp_stops(r, rot, aim_deg, memo, bound) for r in ramps]
     for speeds, worst, n in ramp_stops:
         executions += n
         for k, s in enumerate(grid):
@@ -620,14 +728,17 @@ def _stops_key(ramp: AlinkRamp) -> tuple[object, ...]:
     return (ramp.high_pps, ramp.pulses.tobytes(), ramp.speeds_pps.tobytes())
 
 
-def _ramp_stops(ramp: AlinkRamp, rot: Rotors,
-                memo: dict[tuple[object, ...], Angles] | None = None
-                ) -> tuple[np.ndarray, np.ndarray, int]:
-    """The stops at once from every pulse of `ramp` (not its cruise; `memo`'s when it has
-    them): (the speed of each stop judged, its worst angle over the rows, the executions)."""
+def _ramp_stops(ramp: AlinkRamp, rot: Rotors, aim_deg: float,
+                memo: dict[tuple[object, ...], Angles] | None = None,
+                upto_pps: float = math.inf) -> tuple[np.ndarray, np.ndarray, int]:
+    """The stops at once from every pulse of `ramp` up to `upto_pps` (not its cruise;
+    `memo`'s when it has them; where the first past `aim_deg` comes exact): (the speed
+    of each stop judged, its worst angle over the rows, the executions)."""
     found = (memo or {}).get(_stops_key(ramp))
     if found is None:
-        found = motion_angles(ramp, "search", rot, upto=ramp.ramp_pulses)
+        slow = np.cumsum(ramp.pulses)[ramp.speeds_pps <= upto_pps + 1e-9]
+        upto = min(ramp.ramp_pulses, int(slow[-1]) if len(slow) else 1)
+        found = motion_angles(ramp, "search", rot, upto=upto, aim_deg=aim_deg)
     on_ramp = found.x <= ramp.ramp_pulses
     stage = np.searchsorted(np.cumsum(ramp.pulses), found.x[on_ramp], side="left")
     return (ramp.speeds_pps[stage], found.deg[:, on_ramp].max(axis=0, initial=0.0),

@@ -95,7 +95,7 @@ class AlinkRamp:
 
     def key(self) -> tuple[object, ...]:
         """The values a verdict depends on (for remembering one)."""
-        return (self.shape, self.start_pps, self.high_pps, self.accel_pps2,
+        return (self.shape, self.start_pps, self.high_pps, self.accel_pps2, self.multiplier,
                 self.triangle_avoidance, self.max_pps, self.pulses.tobytes(),
                 self.speeds_pps.tobytes())
 

@@ -12,7 +12,7 @@ from importlib.metadata import version
 import pytest
 
 from profiles.ppmc312.table import load_table
-from tests.support.cli import run
+from tests.support.cli import arguments, parsers, run
 from tests.support.paths import ROOT
 from verify import cli
 
@@ -24,30 +24,15 @@ def test_version_is_the_package_metadata(capsys: pytest.CaptureFixture[str]) -> 
     assert code == 0 and out == f"stepramp {version('stepramp')}\n"
 
 
-def _parsers(parser: argparse.ArgumentParser, name: str = "stepramp"
-             ) -> list[tuple[str, argparse.ArgumentParser]]:
-    out = [(name, parser)]
-    for action in parser._actions:
-        if isinstance(action, argparse._SubParsersAction):
-            for sub_name, sub in action.choices.items():
-                out += _parsers(sub, f"{name} {sub_name}")
-    return out
-
-
-def _arguments() -> list[tuple[str, argparse.Action]]:
-    return [(name, a) for name, p in _parsers(cli.build_parser()) for a in p._actions
-            if not isinstance(a, argparse._SubParsersAction | argparse._HelpAction)]
-
-
 def test_every_option_and_argument_has_help() -> None:
-    missing = [f"{name} {a.option_strings or a.dest}" for name, a in _arguments()
+    missing = [f"{name} {a.option_strings or a.dest}" for name, a in arguments()
                if not a.help or a.help == argparse.SUPPRESS]
     assert not missing, f"arguments without help: {missing}"
-    assert len(_arguments()) > 60  # the walk found the sub-commands' options
+    assert len(arguments()) > 60  # the walk found the sub-commands' options
 
 
 def test_units_are_spelled_one_way_in_help() -> None:
-    text = " ".join(a.help or "" for _, a in _arguments())
+    text = " ".join(a.help or "" for _, a in arguments())
     for wrong in ("pps/s", "pps/s²", "pps^2", "a_pps2]", " sec"):
         assert wrong not in text
 
@@ -123,7 +108,7 @@ def test_dev_install_opens_notebooks() -> None:
 
 def _shape(parser: argparse.ArgumentParser) -> list[tuple[str, tuple[str, ...], str | None]]:
     return [(name, tuple(a.option_strings) or (a.dest,), a.help)
-            for name, p in _parsers(parser) for a in p._actions]
+            for name, p in parsers(parser) for a in p._actions]
 
 
 @pytest.mark.parametrize("command", cli.COMMANDS)

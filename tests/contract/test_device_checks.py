@@ -15,6 +15,8 @@ from profiles import alink as A
 from profiles import mc200 as M
 from profiles.formats import RenderOptions
 from profiles.mc200.formats import render as render_stream
+from tests.support.file_checks import alink_file, rules_of
+from tests.support.mc200_replies import SHORT_STREAM, packets_of
 from tests.support.paths import ROOT
 from verify.check_file import check_file
 from verify.cli import main
@@ -23,99 +25,74 @@ from verify.devices import detect
 SETTINGS = settings(max_examples=60, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])
 
-
-def _packets(data: bytes) -> list[bytes]:
-    return [data[i:i + 12] for i in range(0, len(data), 12)]
-
-
-POSITION_AT, DURATION = M.ruckig_profile(600, 8000.0, 8e4, 8e6)
-
-
-STREAM = M.stream_bytes(POSITION_AT, DURATION, 600, period_us=2000)
-
-
 SETTINGS_COMMANDS = A.settings_commands(A.quantise_settings(500, 10000, 20))
-
-
-def _rules(path: Path) -> list[tuple[str, str]]:
-    result = check_file(str(path))
-    assert result.error is None, result.error
-    return [(f.severity, f.rule) for f in result.findings]
 
 
 # --- check: MC-200 -------------------------------------------------------------------------------
 def test_check_a_planned_stream_in_every_format(tmp_path: Path) -> None:
     for fmt in ("hex", "json", "c", "ihex", "bin"):
         path = tmp_path / f"s.{fmt}"
-        path.write_bytes(render_stream(_packets(STREAM), fmt))
+        path.write_bytes(render_stream(packets_of(SHORT_STREAM), fmt))
         assert detect(path.read_bytes()).name == "mc200"
         want = [("warning", "mc200-unchecked")] if fmt == "bin" else []
-        assert _rules(path) == want, fmt
+        assert rules_of(path) == want, fmt
         assert main(["check", str(path)]) == 0
 
 
 def test_check_reports_what_the_driver_makes_of_a_stream(tmp_path: Path) -> None:
     path = tmp_path / "s.bin"
-    flipped = bytearray(STREAM)
+    flipped = bytearray(SHORT_STREAM)
     flipped[12 * 60 + 3] ^= 0x80  # position ±128: passes the packet checksum
     path.write_bytes(bytes(flipped))
-    assert _rules(path) == [("warning", "mc200-unchecked"),
-                            ("warning", "mc200-position-reversal")]
+    assert rules_of(path) == [("warning", "mc200-unchecked"),
+                              ("warning", "mc200-position-reversal")]
 
     flipped[12 * 61 + 4] ^= 0x01  # a flip the packet checksum sees
     path.write_bytes(bytes(flipped))
-    assert ("error", "mc200-packet") in _rules(path)
+    assert ("error", "mc200-packet") in rules_of(path)
     assert main(["check", str(path)]) == 1
 
-    path.write_bytes(STREAM[:-12 * 8])  # the hold cut short
-    assert _rules(path) == [("warning", "mc200-unchecked"), ("error", "mc200-hold")]
+    path.write_bytes(SHORT_STREAM[:-12 * 8])  # the hold cut short
+    assert rules_of(path) == [("warning", "mc200-unchecked"), ("error", "mc200-hold")]
 
-    broken = STREAM[:12 * 3] + M.mode_switch(0, "position")[0].encode() + STREAM[12 * 5:]
+    broken = (SHORT_STREAM[:12 * 3] + M.mode_switch(0, "position")[0].encode()
+              + SHORT_STREAM[12 * 5:])
     path.write_bytes(broken)  # the second magic packet missing: SPI error
-    rules = _rules(path)
+    rules = rules_of(path)
     assert ("error", "mc200-spi-error") in rules and ("error", "mc200-hold") in rules
 
     from dataclasses import replace
 
     path.write_bytes(b"".join(replace(p, servo=False).encode()  # servo bit never set
-                              for p in M.decode_stream(STREAM)))
-    assert _rules(path) == [("warning", "mc200-unchecked"), ("error", "mc200-servo"),
-                            ("warning", "mc200-servo-off"), ("error", "mc200-hold")]
-
-
-# --- check: A-Link ------------------------------------------------------------------------------
-def _write(tmp_path: Path, name: str, commands: list[A.Command], fmt: str = "hex") -> Path:
-    from profiles.alink.formats import render
-
-    path = tmp_path / name
-    path.write_bytes(render(commands, fmt))
-    return path
+                              for p in M.decode_stream(SHORT_STREAM)))
+    assert rules_of(path) == [("warning", "mc200-unchecked"), ("error", "mc200-servo"),
+                              ("warning", "mc200-servo-off"), ("error", "mc200-hold")]
 
 
 def test_check_settings_files(tmp_path: Path) -> None:
     for fmt in ("text", "json", "hex", "c"):
-        path = _write(tmp_path, f"a.{fmt}", SETTINGS_COMMANDS, fmt)
+        path = alink_file(tmp_path, f"a.{fmt}", SETTINGS_COMMANDS, fmt)
         assert detect(path.read_bytes()).name == "alink"
-        assert _rules(path) == [], fmt
+        assert rules_of(path) == [], fmt
     w = A.CommandWriter()
     nak = [w.put(A.Cmd.MAX_SPEED, 1, 5000), w.put(A.Cmd.MODE, 0, 5),
            w.put(A.Cmd.H_SPEED, 1, 8000), w.put(A.Cmd.L_SPEED, 1, 9000),
            w.put(A.Cmd.UP_TIME, 2, 2001)]
-    assert _rules(_write(tmp_path, "nak.hex", nak)) == [("error", "alink-nak"),
-                                                        ("warning", "alink-corrected")]
+    assert rules_of(alink_file(tmp_path, "nak.hex", nak)) == [("error", "alink-nak"),
+                                                             ("warning", "alink-corrected")]
     w = A.CommandWriter()
     over = [w.put(A.Cmd.MAX_SPEED, 1, 5000), w.put(A.Cmd.MODE, 0, 4),
             w.put(A.Cmd.H_SPEED, 1, 8000), w.put(A.Cmd.L_SPEED, 1, 500),
             w.put(A.Cmd.UP_TIME, 2, 2000)]
-    assert _rules(_write(tmp_path, "over.hex", over)) == [("error", "alink-mode"),
-                                                          ("error", "alink-nak")]
+    assert rules_of(alink_file(tmp_path, "over.hex", over)) == [("error", "alink-mode"),
+                                                               ("error", "alink-nak")]
     w = A.CommandWriter()
     part = [w.put(A.Cmd.H_SPEED, 1, 200_000)]
-    assert _rules(_write(tmp_path, "part.hex", part)) == [("warning", "alink-incomplete")]
+    assert rules_of(alink_file(tmp_path, "part.hex", part)) == [("warning", "alink-incomplete")]
     w = A.CommandWriter()
     rng = [w.put(A.Cmd.H_SPEED, 1, 200_000), w.put(A.Cmd.L_SPEED, 1, 500),
            w.put(A.Cmd.UP_TIME, 2, 2000)]
-    assert ("error", "alink-range") in _rules(_write(tmp_path, "range.hex", rng))
+    assert ("error", "alink-range") in rules_of(alink_file(tmp_path, "range.hex", rng))
 
 
 @pytest.mark.parametrize(("func", "rules"), [(0, [("error", "alink-range")]),
@@ -129,7 +106,7 @@ def test_up_time_func_is_the_rate_or_the_para(tmp_path: Path, func: int,
     commands = [w.put(A.Cmd.MAX_SPEED, 1, 5000), w.put(A.Cmd.MODE, 0, 5),
                 w.put(A.Cmd.H_SPEED, 1, 4000), w.put(A.Cmd.L_SPEED, 1, 500),
                 w.put(A.Cmd.UP_TIME, func, 2000)]
-    assert _rules(_write(tmp_path, f"f{func}.hex", commands)) == rules
+    assert rules_of(alink_file(tmp_path, f"f{func}.hex", commands)) == rules
 
 
 def test_check_pair_codes(tmp_path: Path) -> None:
@@ -139,9 +116,10 @@ def test_check_pair_codes(tmp_path: Path) -> None:
                        first.pair)
     noop = A.Command(second.name, second.cmd, second.func, second.para,
                      tuple(w & 0x3FFF for w in second.words), 0)  # type: ignore[arg-type]
-    assert _rules(_write(tmp_path, "r.hex", [first, repeat])) == [("error", "alink-pair-code"),
-                                                                  ("warning", "alink-incomplete")]
-    assert _rules(_write(tmp_path, "n.hex", [first, noop]))[0] == ("error", "alink-pair-code")
+    assert rules_of(alink_file(tmp_path, "r.hex", [first, repeat])) == [
+        ("error", "alink-pair-code"), ("warning", "alink-incomplete")]
+    assert rules_of(alink_file(tmp_path, "n.hex", [first, noop]))[0] == (
+        "error", "alink-pair-code")
 
 
 # --- PPMC-312 files keep priority --------------------------------------------------------------
@@ -174,10 +152,10 @@ def test_a_stream_file_may_be_longer_than_other_inputs(tmp_path: Path) -> None:
     packet stream is 144 MB of hex); any other file that long is still refused."""
     from profiles.reading import MAX_INPUT_BYTES
 
-    hold = STREAM[-12:]
+    hold = SHORT_STREAM[-12:]
     path = tmp_path / "long.mc200.bin"
-    path.write_bytes(STREAM + hold * ((MAX_INPUT_BYTES - len(STREAM)) // 12 + 10))
-    assert _rules(path) == [("warning", "mc200-unchecked")]
+    path.write_bytes(SHORT_STREAM + hold * ((MAX_INPUT_BYTES - len(SHORT_STREAM)) // 12 + 10))
+    assert rules_of(path) == [("warning", "mc200-unchecked")]
     other = tmp_path / "long.txt"
     other.write_bytes(b"02 03 01 00 03\n" * (MAX_INPUT_BYTES // 15 + 1))
     assert "more than the" in (check_file(str(other)).error or "")
@@ -193,7 +171,7 @@ def test_check_reads_stdin_once(kind: str, monkeypatch: pytest.MonkeyPatch,
     root = ROOT / "examples"
     data = {"table": (root / "free-curve-nema17.json").read_bytes(),
             "upload": (root / "free-curve-nema17.json").read_bytes(),
-            "stream": render_stream(_packets(STREAM), "hex")}[kind]
+            "stream": render_stream(packets_of(SHORT_STREAM), "hex")}[kind]
     if kind == "upload":
         from profiles.ppmc312.formats import render
         from profiles.ppmc312.table import table_from_json

@@ -1,8 +1,10 @@
-"""The PPMC-312 ASCII command frames of the manual's figures (§13), and a frame built
-by hand from §13-2/§13-4 alone."""
+"""The PPMC-312 ASCII command frames of the manual's figures (§13), a frame built by hand
+from §13-2/§13-4 alone, the `stepramp move` command line that writes a command, and
+`check`'s reading of a file of commands."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 
@@ -78,3 +80,29 @@ FIGURES: list[tuple[str, dict[str, Any], str, str | None]] = [
     # §7-6 / §15-5: `03 03 05 rate(2)`; serial 47 rate(2)
     ("high-speed-limit", {"rate": 500}, "03 03 05 01 F4", "47 01F4"),
 ]
+
+
+OPTION = {"rate": "--rate", "pulses": "--pulses", "override_at": "--override-at",
+          "on": "--on"}
+FLAG = {"ccw": "--ccw", "index": "--index"}
+
+
+def move_argv(name: str, params: dict[str, Any]) -> list[str]:
+    """`stepramp move --command NAME` with `params` (a FIGURES row's) as its options."""
+    out = ["move", "--command", name]
+    for key, value in params.items():
+        out += [FLAG[key]] if key in FLAG else [OPTION[key], str(value)]
+    return out
+
+
+def judge(tmp_path: Path, items: list[bytes]) -> Any:
+    """`check_file`'s result for `items` (command blocks or frames) written as a text file
+    in `tmp_path` (read without error)."""
+    from profiles.ppmc312.formats import render
+    from verify.check_file import check_file
+
+    path = tmp_path / "cmd.hex"
+    path.write_bytes(render(items, "text"))
+    result = check_file(str(path))
+    assert result.error is None
+    return result

@@ -1,5 +1,6 @@
 """What the format tests of every device share: single-bit flips of a file, the
-one-line parse errors, and compiling C headers with the system's compiler."""
+one-line parse errors, what every format reads from garbage, compiling C headers with the
+system's compiler, `check`'s rules on a file, and A-Link command files to check."""
 
 from __future__ import annotations
 
@@ -49,6 +50,18 @@ def assert_one_line_error(read: Callable[[bytes], Any], data: bytes, words: str)
     assert "\n" not in str(err.value)
 
 
+def parsed_in_any_format(parse: Callable[..., Any], data: bytes,
+                         formats: Iterable[str]) -> Iterator[list[Any]]:
+    """The items `parse(data, fmt=…)` reads, by guess (fmt=None) and as each of `formats`,
+    wherever it reads any: a StepRampError is a refusal, any other exception fails."""
+    for fmt in (None, *formats):
+        try:
+            items = parse(data, fmt=fmt).items
+        except StepRampError:
+            continue
+        yield items
+
+
 def compile_and_run(folder: Path, files: dict[str, bytes], main_c: str
                     ) -> subprocess.CompletedProcess[str]:
     """Write the headers and main.c into `folder`, build with every warning an error,
@@ -63,3 +76,21 @@ def compile_and_run(folder: Path, files: dict[str, bytes], main_c: str
                            timeout=60)
     assert build.returncode == 0, build.stderr
     return subprocess.run([str(exe)], capture_output=True, text=True, timeout=10)
+
+
+def rules_of(path: Path) -> list[tuple[str, str]]:
+    """`check_file`'s findings on `path` (read without error): (severity, rule) each."""
+    from verify.check_file import check_file
+
+    result = check_file(str(path))
+    assert result.error is None, result.error
+    return [(f.severity, f.rule) for f in result.findings]
+
+
+def alink_file(tmp_path: Path, name: str, commands: list[Any], fmt: str = "hex") -> Path:
+    """A-Link `commands` written as `fmt` into `tmp_path` / `name`."""
+    from profiles.alink.formats import render
+
+    path = tmp_path / name
+    path.write_bytes(render(commands, fmt))
+    return path

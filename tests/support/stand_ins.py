@@ -1,5 +1,6 @@
 """A stand-in for a motor with hand-checkable accelerations, as the PPMC-312 stall
-criterion reads it, and the exact float limit of the criterion's relative tolerance."""
+criterion reads it, the exact float limit of the criterion's relative tolerance, and a
+plain NEMA17 the load-angle tests drive."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from profiles.motor import Motor
 from profiles.ppmc312.criterion import REL_TOL
 
 
@@ -37,3 +39,13 @@ def exact_limit(v: float) -> float:
             return lim
         lim = float(np.nextafter(lim, v if lim * tol < v else 0.0))
     raise AssertionError(f"no exact limit for {v}")
+
+
+def plain_motor(**kw: object) -> Motor:
+    """0.4 N·m flat to 2000 pps, then falling: a NEMA17 at 1/8 step."""
+    args: dict[str, object] = dict(
+        steps_per_rev=1600, curve_speed_pps=np.array([0.0, 2000.0, 8000.0, 48000.0]),
+        curve_torque_nm=np.array([0.4, 0.4, 0.32, 0.04]), inertia_kgm2=6.8e-6,
+        safety_factor=0.6, start_pps=800.0)
+    args.update(kw)
+    return Motor(**args)  # type: ignore[arg-type]

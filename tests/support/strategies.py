@@ -1,14 +1,19 @@
 """Hypothesis strategies more than one test module draws from: motors, free-curve
-tables, the tables the chip accepts."""
+tables, the tables the chip accepts, the fields of a PPMC-312 answer, A-Link commands."""
 
 from __future__ import annotations
+
+from typing import Any
 
 import numpy as np
 from hypothesis import reject
 from hypothesis import strategies as st
 
+from profiles.alink.commands import COMMANDS, Value
 from profiles.errors import FormatError
+from profiles.fields import Array, Bits, SInt, UInt
 from profiles.motor import Motor
+from profiles.ppmc312.answer_kinds import SOURCES, Kind
 from profiles.ppmc312.clock import INTERNAL_HZ, Clock
 from profiles.ppmc312.table import FreeCurveTable
 
@@ -115,3 +120,56 @@ def accepted_tables(draw: st.DrawFn, separate: bool | None = None) -> FreeCurveT
     rates = draw(st.lists(st.integers(2, 0xFFFF), min_size=n_rates, max_size=n_rates))
     return FreeCurveTable(clock, tuple(rates), tuple(accel),
                           None if decel is None else tuple(decel))
+
+
+# --- every kind round-trips ----------------------------------------------------------------------
+def answer_fields(kind: Kind) -> st.SearchStrategy[dict[str, Any]]:
+    """Values of every field `kind` carries, as the manual allows them."""
+    frame = kind.frame
+    assert frame is not None
+    out: dict[str, st.SearchStrategy[Any]] = {}
+    length = frame.fields[1] if len(frame.fields) > 1 else None
+    fixed = sum(f.size for f in frame.fields[2:] if not isinstance(f, Array))
+    for f in frame.fields:
+        if isinstance(f, Bits) and f.name == "header":
+            if kind.fixed_bit("resp") is None:
+                out["source"] = st.sampled_from(sorted(SOURCES.values()))
+            if kind.fixed_bit("next") is None:
+                out["next"] = st.integers(0, 1)
+        elif isinstance(f, UInt) and f.name != "length":
+            texts = kind.choices.get(f.name)
+            out[f.name] = st.sampled_from(sorted(texts)) if texts else \
+                st.integers(f.lo, f.max)
+        elif isinstance(f, SInt):
+            out[f.name] = st.integers(-(1 << (8 * f.size - 1)), (1 << (8 * f.size - 1)) - 1)
+        elif isinstance(f, Array):
+            room = (length.max - fixed) // f.item.size if isinstance(length, UInt) else 8
+            most = min(room, f.max_items if f.max_items is not None else room)
+            out[f.name] = st.lists(st.integers(f.item.lo, f.item.max),
+                                   min_size=f.min_items, max_size=most)
+    return st.fixed_dictionaries(out)
+
+
+def alink_values(v: Value) -> st.SearchStrategy[int]:
+    """A value an A-Link command form takes (`v`), as §11 allows it (D8, the factory
+    check, never written)."""
+    if v.bits:
+        optional = [b for b in v.bits if b != 8]  # D8 is the factory check: not written
+        return st.sets(st.sampled_from(optional)).map(
+            lambda bits: v.fixed | sum(1 << b for b in bits))
+    if v.choices:
+        plain = [k for k in v.choices if k not in (0xF, 0x3FFF)]
+        opened = [] if v.open_from is None else [st.integers(v.open_from, v.hi - 1)]
+        return st.one_of(st.sampled_from(plain), *opened)
+    if not v.takes:
+        return st.just(0)
+    return st.integers(v.lo, v.hi).filter(lambda x: x not in v.refused)
+
+
+@st.composite
+def alink_commands(draw: st.DrawFn) -> tuple[str, int, int, int]:
+    """An A-Link command: (its name, its form nn, a value it takes, a pair code 1–3)."""
+    name = draw(st.sampled_from(sorted(COMMANDS)))
+    nn = draw(st.sampled_from(sorted(COMMANDS[name].forms)))
+    value = draw(alink_values(COMMANDS[name].forms[nn].value))
+    return name, nn, value, draw(st.integers(1, 3))

@@ -215,3 +215,48 @@ def test_stops_at_once_share_a_slipping_references_ramp() -> None:
     for k, x in enumerate(xs):
         alone = motion_angles(ramp, "search", rot, [x])
         assert float(alone.deg[0, 0]) == pytest.approx(float(together.deg[0, k]), abs=1e-6)
+
+
+@pytest.mark.parametrize(("start", "high", "accel", "m", "shape"), [
+    (800, 4000, 150_000.0, 20, "linear"), (800, 6000, 150_000.0, 20, "s_curve"),
+    (800, 12_000, 60_000.0, 10, "s_curve"), (300, 3000, 9_000.0, 5, "linear")])
+def test_stops_sampled_along_the_ramp_find_the_every_pulse_worst(
+        start: int, high: int, accel: float, m: int, shape: str) -> None:
+    """STOP 31 and the stops at once, sampled along the ramp and refined (the verdict's),
+    against every stop judged (the oracle): the same worst within 0.1° where the rotor
+    does not slip, and where the first stop past the aim comes."""
+    from verify.alink_safety import motion_angles, nominal_rotors
+
+    rot = nominal_rotors(load_motor(resolve("nema17-1600")))
+    ramp = build_ramp(start, high, accel, m, shape)
+    for kind in ("stop", "search"):
+        got = motion_angles(ramp, kind, rot, aim_deg=75.0)
+        every = motion_angles(ramp, kind, rot, every_pulse=True)
+        assert got.x.size <= every.x.size   # a slow ramp: a sample every pulse
+        want = every.deg.max(axis=0)
+        if want.max() < 90:
+            assert float(got.deg.max()) == pytest.approx(float(want.max()), abs=0.1)
+        past = every.x[want > 75.0]
+        past_got = got.x[got.deg.max(axis=0) > 75.0]
+        assert (past[0] if len(past) else None) == (past_got[0] if len(past_got) else None)
+
+
+def test_limit_stops_past_h_and_the_first_slipping_run_change_nothing_read(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """LIMIT's ramps judged only up to H and the first speed whose run passes the peak:
+    the envelope's speeds, the use at L and the worst at H are those of judging every
+    ramp whole."""
+    from verify import alink_safety as al
+
+    rot = al.nominal_rotors(load_motor(resolve("nema17-1600")))
+    ramp = build_ramp(800, 30_000, 94_340.0, 20, "s_curve")
+    bounded = al.limit_envelope(ramp, rot, 75.0)
+    plain = al._ramp_stops
+    monkeypatch.setattr(al, "_ramp_stops", lambda r, rows, aim, memo=None, upto_pps=0.0:
+                        plain(r, rows, aim, memo))
+    whole = al.limit_envelope(ramp, rot, 75.0)
+    assert bounded.executions < whole.executions
+    assert bounded.reach(75.0) == whole.reach(75.0)
+    assert bounded.reach(90.0) == whole.reach(90.0)
+    assert bounded.use_deg == pytest.approx(whole.use_deg, abs=0.1)
+    assert bounded.top_deg == pytest.approx(whole.top_deg, abs=0.1)

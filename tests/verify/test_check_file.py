@@ -3,14 +3,12 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 import pytest
 
 from profiles.findings import Finding
 from profiles.motor import load_motor
-from profiles.ppmc312.formats import render
-from tests.support.ascii_frames import by_hand
+from tests.support.ascii_frames import by_hand, judge
 from tests.support.paths import ROOT
 from verify.check_file import check_file, dedupe
 
@@ -86,16 +84,6 @@ def test_check_file_defaults_are_check_options_defaults() -> None:
     assert shared >= {"physics", "samples", "seed", "strict", "pulses", "clock", "extck_hz"}
     assert {n: params[n].default for n in shared} == {n: fields[n] for n in shared}
     assert (fields["physics"], fields["seed"], fields["strict"]) == (True, 0, False)
-
-
-def judge(tmp_path: Path, items: list[bytes]) -> Any:
-    from verify.check_file import check_file
-
-    path = tmp_path / "cmd.hex"
-    path.write_bytes(render(items, "text"))
-    result = check_file(str(path))
-    assert result.error is None
-    return result
 
 
 # Every rule on a command of each family: (block hex, rule, chip code, severity)

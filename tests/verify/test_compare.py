@@ -13,6 +13,7 @@ from profiles.errors import ReferenceSolveError
 from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.planner import plan_free_curve
+from tests.support.figures import close
 from verify.compare import compare_table
 from verify.report import FileResult, file_lines
 
@@ -124,12 +125,6 @@ def cmp() -> Any:
 def legend_texts(fig: Any) -> list[str]:
     legends = [ax.get_legend() for ax in fig.axes] + list(fig.legends)
     return [t.get_text() for lg in legends if lg is not None for t in lg.get_texts()]
-
-
-def close(fig: Any) -> None:
-    import matplotlib.pyplot as plt
-
-    plt.close(fig)
 
 
 def test_compare_has_a_load_angle_panel_with_the_aim_and_the_peak(cmp: Any) -> None:

@@ -9,20 +9,18 @@ not drawn and not judged).
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Iterator
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
 import pytest
-from matplotlib.figure import Figure
 
 from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312.planner import plan_free_curve
-from tests.support.figures import problems
+from tests.support.cli import exits
+from tests.support.figures import close, problems, record_saved, scale_labels
 from tests.support.paths import ROOT
-from verify import cli
 from verify.compare import compare_table
 from verify.plot import comparison_figure, fit_texts, texts_outside
 
@@ -30,29 +28,16 @@ EXAMPLES = ROOT / "examples"
 
 
 @pytest.fixture
-def saved(monkeypatch: pytest.MonkeyPatch) -> Iterator[list[Any]]:
+def saved(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
     """The figures saved while the test runs."""
-    figures: list[Any] = []
-    original = Figure.savefig
-
-    def record(self: Any, *args: Any, **kwargs: Any) -> None:
-        figures.append(self)
-        original(self, *args, **kwargs)
-
-    monkeypatch.setattr(Figure, "savefig", record)
-    yield figures
-
-
-def run_cli(argv: list[str], tmp_path: Path, exit_codes: tuple[int, ...] = (0,)) -> None:
-    code = cli.main(argv)
-    assert code in exit_codes, argv
+    return record_saved(monkeypatch)
 
 
 @pytest.mark.slow  # ~3 s; CI runs it
 def test_motor_show_plot(tmp_path: Path, saved: list[Any],
                          capsys: pytest.CaptureFixture[str]) -> None:
     for motor in ("nema17-1600", str(EXAMPLES / "motor-nema17-tolerances.json")):
-        run_cli(["motor", "show", motor, "--plot", str(tmp_path / "m.png")], tmp_path)
+        exits(["motor", "show", motor, "--plot", str(tmp_path / "m.png")])
     assert len(saved) == 2 and (tmp_path / "m.png").stat().st_size > 1000
     for fig in saved:
         assert problems(fig) == []
@@ -103,7 +88,7 @@ def test_every_cli_figure(tmp_path: Path, saved: list[Any],
                          str(tmp_path / f"{axes}-{mode}"), "--plot",
                          str(tmp_path / f"{axes}-{mode}.png")])
     for argv in runs:
-        run_cli(argv, tmp_path, (0, 1))
+        exits(argv, (0, 1))
     assert len(saved) == len(runs)
     for argv, fig in zip(runs, saved, strict=True):
         assert problems(fig) == [], argv
@@ -118,12 +103,6 @@ PLAN = plan_free_curve(MOTOR, pulses=4000)
 @pytest.fixture(scope="module")
 def cmp() -> Any:
     return compare_table(PLAN.table, MOTOR, 4000, include=("ruckig",))
-
-
-def close(fig: Any) -> None:
-    import matplotlib.pyplot as plt
-
-    plt.close(fig)
 
 
 def test_negative_stall_margins_are_drawn_below_zero(cmp: Any) -> None:
@@ -186,11 +165,6 @@ def test_motor_show_hides_no_line_under_another() -> None:
     zero = next(ln for ln in ax_t.get_lines() if ln.get_label().startswith("cruising needs"))
     assert ax_t.get_ylim()[0] < float(zero.get_ydata()[0]) == 0.0  # above the frame
     close(fig)
-
-
-def scale_labels(ax: Any) -> list[str]:
-    """The labels of the second scales (real units) on `ax`."""
-    return [c.get_ylabel() or c.get_xlabel() for c in ax.child_axes]
 
 
 def test_real_units_beside_pulses_mm_with_a_travel_else_rev(cmp: Any) -> None:

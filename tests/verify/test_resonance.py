@@ -6,30 +6,19 @@ import json
 import re
 from pathlib import Path
 
-import numpy as np
 import pytest
 
-from profiles.motor import Motor, load_motor
+from profiles.motor import Motor
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312.table import FreeCurveTable, dump_table
-from tests.support.paths import ROOT
+from tests.support.nominal_table import NEMA17, PULSES, nominal_plan, speeds
 from verify import cli
 from verify.resonance import resonance_findings
-
-NEMA17 = ROOT / "profiles" / "data" / "motor-nema17-1600.json"
-
-
-PULSES = 20000
-
-
-def speeds(table: FreeCurveTable) -> np.ndarray:
-    return np.sort(table.clock.hz / np.asarray(table.rates, dtype=float))  # ascending
 
 
 @pytest.fixture(scope="module")
 def nominal() -> tuple[Motor, FreeCurveTable]:
-    m = load_motor(NEMA17)
-    return m, plan_free_curve(m, pulses=PULSES).table
+    return nominal_plan()
 
 
 def test_check_reports_resonance_dwell(tmp_path: Path, nominal: tuple[Motor, FreeCurveTable],

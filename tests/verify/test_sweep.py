@@ -16,10 +16,11 @@ import pytest
 
 from profiles.errors import ClusterError
 from profiles.motor import load_motor
-from profiles.motor.catalogue import resolve
 from profiles.motor.tolerance import worst_case_motor
 from profiles.ppmc312.criterion import all_length_problems
 from profiles.ppmc312.planner import plan_free_curve
+from tests.support.figures import close
+from tests.support.motor_folders import LEAD_MM, screw_motor_file
 from tests.support.paths import ROOT
 from verify.sweep import COLUMNS, jobs_of, run_sweep
 
@@ -248,12 +249,6 @@ def test_ctrl_c_cancels_the_cluster_jobs_and_writes_nothing(cluster: Cluster,
             time.sleep(0.2)
 
 
-def close(fig: Any) -> None:
-    import matplotlib.pyplot as plt
-
-    plt.close(fig)
-
-
 def sweep_row(motor: str, pulses: int, worst_pulses: int, angle: float) -> dict[str, Any]:
     return {"motor": motor, "pulses": pulses, "worst_pulses": worst_pulses, "error": "",
             "worst_load_angle_deg": angle, "move_time_s": 1e-5 * pulses}
@@ -284,16 +279,10 @@ def test_sweep_draws_each_angle_at_the_length_where_it_occurs() -> None:
     close(fig)
 
 
-LEAD_MM = 8.0   # nema17-1600 (1600 pulses/rev) on an 8 mm lead: 0.005 mm per pulse
-
-
 @pytest.fixture
 def screw(tmp_path: Path) -> str:
     """The bundled nema17-1600 with an 8 mm lead screw's travel."""
-    obj = json.loads(resolve("nema17-1600").read_text())
-    path = tmp_path / "screw.json"
-    path.write_text(json.dumps({**obj, "travel_mm_per_rev": LEAD_MM}))
-    return str(path)
+    return screw_motor_file(tmp_path)
 
 
 def test_sweep_rows_give_rev_and_rpm_always_and_mm_with_a_travel(screw: str) -> None:

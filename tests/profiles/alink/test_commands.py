@@ -8,16 +8,14 @@ word), not from the code."""
 
 from __future__ import annotations
 
-from typing import Any
-
 import pytest
 from hypothesis import given, settings
-from hypothesis import strategies as st
 
 from profiles import alink as A
-from profiles.alink.commands import COMMANDS, Value, decode_command, encode_command
+from profiles.alink.commands import COMMANDS, decode_command, encode_command
 from profiles.errors import FieldRangeError, StepRampError
 from tests.support.alink_figures import BY_HAND
+from tests.support.strategies import alink_commands
 
 
 def test_every_command_and_form_of_section_11_is_written_by_hand() -> None:
@@ -29,30 +27,8 @@ def test_every_command_and_form_of_section_11_is_written_by_hand() -> None:
                for c in COMMANDS.values() if c.cmd is not A.Cmd.CHANGE_SPD)
 
 
-def _values(v: Value) -> st.SearchStrategy[int]:
-    if v.bits:
-        optional = [b for b in v.bits if b != 8]  # D8 is the factory check: not written
-        return st.sets(st.sampled_from(optional)).map(
-            lambda bits: v.fixed | sum(1 << b for b in bits))
-    if v.choices:
-        plain = [k for k in v.choices if k not in (0xF, 0x3FFF)]
-        opened = [] if v.open_from is None else [st.integers(v.open_from, v.hi - 1)]
-        return st.one_of(st.sampled_from(plain), *opened)
-    if not v.takes:
-        return st.just(0)
-    return st.integers(v.lo, v.hi).filter(lambda x: x not in v.refused)
-
-
-@st.composite
-def _command(draw: Any) -> tuple[str, int, int, int]:
-    name = draw(st.sampled_from(sorted(COMMANDS)))
-    nn = draw(st.sampled_from(sorted(COMMANDS[name].forms)))
-    value = draw(_values(COMMANDS[name].forms[nn].value))
-    return name, nn, value, draw(st.integers(1, 3))
-
-
 @settings(max_examples=300, deadline=None)
-@given(_command())
+@given(alink_commands())
 def test_every_command_round_trips(case: tuple[str, int, int, int]) -> None:
     name, nn, value, pair = case
     c = encode_command(name, value if COMMANDS[name].forms[nn].value.takes else None, nn,

@@ -79,3 +79,9 @@ def test_ramps_to_several_tops_are_each_ramp(shape: str) -> None:
         assert ramp.steps == alone.steps and ramp.high_pps == top
         np.testing.assert_array_equal(ramp.pulses, alone.pulses)
         np.testing.assert_array_equal(ramp.speeds_pps, alone.speeds_pps)
+
+
+def test_a_ramps_key_tells_its_multiplier() -> None:
+    """Two ramps of no steps (L = H) differ by their multiplier only, which sets the speed
+    changes' and limit runs' grid: their keys (what a verdict is remembered by) differ."""
+    assert build_ramp(1000, 1000, 1e5, 1).key() != build_ramp(1000, 1000, 1e5, 2).key()

@@ -4,8 +4,9 @@ built into them; the report as text, JSON and a figure; bad input one line, exit
 
 `examples/move.mc200.replies.hex` is such a log: the guide's stream (ruckig, 20 000 pps,
 200 000 pps², 5e6 pps³, 3 200 pulses, one packet a ms) answered by a driver 3 packets
-behind (`lagging_replies(GUIDE_STREAM, 3)`; `test_the_example_reply_log_is_the_guides_
-stream_3_packets_behind` rewrites it when STEPRAMP_WRITE_EXAMPLES=1).
+behind (`lagging_replies(GUIDE_STREAM, 3)`, both in tests/support/mc200_replies.py;
+`test_the_example_reply_log_is_the_guides_stream_3_packets_behind` rewrites it when
+STEPRAMP_WRITE_EXAMPLES=1).
 """
 
 from __future__ import annotations
@@ -24,46 +25,18 @@ from profiles.mc200.follow import Following, commanded_positions, following_erro
 from profiles.mc200.formats import render
 from profiles.motor import load_motor
 from tests.support.figures import problems
+from tests.support.mc200_replies import (
+    DURATION,
+    EXAMPLE_REPLIES,
+    EXAMPLE_STREAM,
+    GUIDE_STREAM,
+    POSITION_AT,
+    lagging_replies,
+)
 from tests.support.paths import ROOT
 from verify.check_file import check_file
 
-EXAMPLE_REPLIES = ROOT / "examples" / "move.mc200.replies.hex"
-
-
-EXAMPLE_STREAM = ROOT / "examples" / "move.mc200.hex"
-
-
 MOTOR = ROOT / "profiles" / "data" / "motor-nema17-1600.json"
-
-
-POSITION_AT, DURATION = M.ruckig_profile(3200, 20000.0, 2e5, 5e6)
-
-
-GUIDE_STREAM = M.stream_bytes(POSITION_AT, DURATION, 3200, period_us=1000)
-
-
-def lagging_replies(stream: bytes, lag: int, *, period_s: float = 1e-3, origin: int = 0,
-                    amps_per_pulse: float = 0.01, alarm_at: int | None = None) -> bytes:
-    """A driver `lag` packets behind the command it is given: the encoder at reply k is
-    ⌊the command of reply k − lag⌋ (+ `origin`, where the encoder counted from), the
-    servo on from the packet after the stream turns it on, in position from `lag`
-    replies after the command's end, the current proportional to the error. Written
-    straight from the definitions, one reply at a time."""
-    reading = M.read_stream(stream)
-    n = reading.packets
-    commanded = commanded_positions(reading.commands, np.full(n, origin), period_s)
-    commanded = np.nan_to_num(commanded, nan=float(origin))
-    final = np.flatnonzero(commanded != commanded[-1])
-    end = int(final[-1]) + 1 if len(final) else 0
-    mode = int(reading.commands.mode[-1])
-    out = []
-    for k in range(n):
-        encoder = int(np.floor(commanded[max(k - lag, 0)]))
-        on = reading.servo_on_at is not None and k > reading.servo_on_at
-        out.append(M.DriverPacket(
-            0, on, k == alarm_at, False, False, encoder,
-            amps_per_pulse * float(commanded[k] - encoder), on and k >= end + lag, mode).encode())
-    return b"".join(out)
 
 
 def _write_replies(path: Path, replies: bytes, comment: str = "") -> None:

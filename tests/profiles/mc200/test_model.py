@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 from profiles import mc200 as M
 from profiles.errors import FieldRangeError, FormatError, StepRampError
 from profiles.mc200.model import read_stream
+from tests.support.mc200_replies import SHORT_STREAM, packets_of
 
 
 def test_servo_on_needs_three_and_off_needs_five() -> None:
@@ -77,16 +78,6 @@ SETTINGS = settings(max_examples=60, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])
 
 
-def _packets(data: bytes) -> list[bytes]:
-    return [data[i:i + 12] for i in range(0, len(data), 12)]
-
-
-POSITION_AT, DURATION = M.ruckig_profile(600, 8000.0, 8e4, 8e6)
-
-
-STREAM = M.stream_bytes(POSITION_AT, DURATION, 600, period_us=2000)
-
-
 # --- the driver's reading of a stream ----------------------------------------------------------
 @st.composite
 def host_sequences(draw: st.DrawFn) -> bytes:
@@ -131,7 +122,7 @@ def test_read_stream_is_the_model_fed_packet_by_packet(data: bytes,
     packet the Frame accepts through DriverModel, one by one."""
     model = M.DriverModel(driver_id=driver_id)
     bad = 0
-    for packet in _packets(data):
+    for packet in packets_of(data):
         try:
             M.HostPacket.decode(packet, mode="position")
         except StepRampError:
@@ -144,7 +135,7 @@ def test_read_stream_is_the_model_fed_packet_by_packet(data: bytes,
 
 
 def test_read_stream_of_a_planned_stream() -> None:
-    r = read_stream(STREAM)
+    r = read_stream(SHORT_STREAM)
     assert (r.servo_on_at, r.mode_switches, r.spi_errors, r.reversal_count) == (2, ((4, 1),),
                                                                                 (), 0)
     assert r.target == 600 and r.hold == 11  # the last command and the 10 hold packets
@@ -152,7 +143,7 @@ def test_read_stream_of_a_planned_stream() -> None:
 
 def test_a_stream_of_broken_packets_applies_no_position() -> None:
     """Every packet fails its checksum: the driver applies none, so nothing is held."""
-    broken = bytearray(STREAM[:12 * 4])
+    broken = bytearray(SHORT_STREAM[:12 * 4])
     for k in range(4):
         broken[12 * k + 4] ^= 0x01
     r = read_stream(bytes(broken))

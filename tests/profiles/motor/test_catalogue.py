@@ -20,33 +20,11 @@ from profiles.motor.catalogue import (
     motor_name,
     resolve,
 )
+from tests.support.motor_folders import NEMA17, motor_file, motor_folders
 from tests.support.paths import ROOT
 from verify import cli
 
 EXAMPLES = ROOT / "examples"
-
-
-NEMA17 = ROOT / "profiles" / "data" / "motor-nema17-1600.json"
-
-
-def motor_file(folder: Path, file_name: str, name: str = "", steps: int = 400) -> Path:
-    obj = json.loads(NEMA17.read_text(encoding="utf-8"))
-    obj.update(name=name or file_name, steps_per_rev=steps)
-    del obj["holding_torque_nm"]  # `motor list` falls back on the curve at 0 pps
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / file_name
-    path.write_text(json.dumps(obj), encoding="utf-8")
-    return path
-
-
-@pytest.fixture
-def folders(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> tuple[Path, Path, Path]:
-    """Two STEPRAMP_MOTORS folders and the XDG config folder's motors, all empty."""
-    env_a, env_b, config = tmp_path / "env-a", tmp_path / "env-b", tmp_path / "config"
-    monkeypatch.setenv(ENV_VAR, f"{env_a}:{env_b}")
-    monkeypatch.setenv("XDG_CONFIG_HOME", str(config))
-    monkeypatch.chdir(tmp_path)
-    return env_a, env_b, config / "stepramp" / "motors"
 
 
 def test_names_from_file_names() -> None:
@@ -62,6 +40,11 @@ def test_bundled_motors_by_name() -> None:
     assert resolve("nema17-1600") == NEMA17
     assert load_motor("nema17-1600").to_json() == load_motor(NEMA17).to_json()
     assert {e.source for e in entries()} == {BUNDLED}  # conftest: no user folders
+
+
+@pytest.fixture
+def folders(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> tuple[Path, Path, Path]:
+    return motor_folders(tmp_path, monkeypatch)
 
 
 def test_lookup_order_and_shadowing(folders: tuple[Path, Path, Path]) -> None:

@@ -15,22 +15,12 @@ from profiles.ppmc312.criterion import all_length_problems
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312.resonance import forbidden_dwells
 from profiles.ppmc312.table import FreeCurveTable
-from tests.support.paths import ROOT
-
-NEMA17 = ROOT / "profiles" / "data" / "motor-nema17-1600.json"
-
-
-PULSES = 20000
-
-
-def speeds(table: FreeCurveTable) -> np.ndarray:
-    return np.sort(table.clock.hz / np.asarray(table.rates, dtype=float))  # ascending
+from tests.support.nominal_table import NEMA17, PULSES, nominal_plan, speeds
 
 
 @pytest.fixture(scope="module")
 def nominal() -> tuple[Motor, FreeCurveTable]:
-    m = load_motor(NEMA17)
-    return m, plan_free_curve(m, pulses=PULSES).table
+    return nominal_plan()
 
 
 def with_bands(m: Motor, bands: list[tuple[float, float]]) -> Motor:

@@ -26,6 +26,7 @@ from profiles.ppmc312.load_angle import worst_load_angle
 from profiles.ppmc312.table import FreeCurveTable
 from tests.support import rotor_oracle as oracle
 from tests.support.oracle_moves import worst_whole_move
+from tests.support.stand_ins import plain_motor
 from tests.support.strategies import MHZ1
 from tests.support.strategies import rotor_motors as motors
 from tests.support.strategies import rotor_tables as tables
@@ -77,16 +78,6 @@ def test_a_move_judged_through_shared_prefixes_is_the_oracles_whole_move(
         fast = worst_load_angle(table, motor, pulses=[n]).worst_angle_deg
         if fast < SLIP_DEG:
             assert fast == pytest.approx(worst_whole_move(table, motor, n), abs=AGREE_DEG)
-
-
-def plain_motor(**kw: object) -> Motor:
-    """0.4 N·m flat to 2000 pps, then falling: a NEMA17 at 1/8 step."""
-    args: dict[str, object] = dict(
-        steps_per_rev=1600, curve_speed_pps=np.array([0.0, 2000.0, 8000.0, 48000.0]),
-        curve_torque_nm=np.array([0.4, 0.4, 0.32, 0.04]), inertia_kgm2=6.8e-6,
-        safety_factor=0.6, start_pps=800.0)
-    args.update(kw)
-    return Motor(**args)  # type: ignore[arg-type]
 
 
 def test_the_rotor_slips_a_pole_where_the_lag_first_passes_180_degrees() -> None:

@@ -18,6 +18,7 @@ from profiles.ppmc312.load_angle import worst_load_angle
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312.table import FreeCurveTable
 from tests.support.oracle_moves import worst_whole_move
+from tests.support.stand_ins import plain_motor
 from tests.support.strategies import MHZ1
 
 AGREE_DEG = 0.1   # the kernel and the oracle: the issue's bound (they agree to rounding)
@@ -37,16 +38,6 @@ def test_bundled_plans_agree_with_the_oracle_and_every_length(motor: Motor) -> N
     every = worst_load_angle(table, motor,
                              pulses=range(1, table.accel_total + table.decel_total + 2))
     assert verdict.worst_angle_deg >= every.worst_angle_deg - AGREE_DEG
-
-
-def plain_motor(**kw: object) -> Motor:
-    """0.4 N·m flat to 2000 pps, then falling: a NEMA17 at 1/8 step."""
-    args: dict[str, object] = dict(
-        steps_per_rev=1600, curve_speed_pps=np.array([0.0, 2000.0, 8000.0, 48000.0]),
-        curve_torque_nm=np.array([0.4, 0.4, 0.32, 0.04]), inertia_kgm2=6.8e-6,
-        safety_factor=0.6, start_pps=800.0)
-    args.update(kw)
-    return Motor(**args)  # type: ignore[arg-type]
 
 
 def test_a_weak_rotor_still_has_a_finite_natural_period() -> None:

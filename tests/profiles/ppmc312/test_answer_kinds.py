@@ -7,7 +7,6 @@ from typing import Any
 from hypothesis import given
 from hypothesis import strategies as st
 
-from profiles.fields import Array, Bits, SInt, UInt
 from profiles.ppmc312 import frames as F
 from profiles.ppmc312.answer_kinds import BY_KEY, KINDS, SOURCES, Kind
 from profiles.ppmc312.answers import (
@@ -16,40 +15,14 @@ from profiles.ppmc312.answers import (
     decode_read_order,
     encode_answer,
 )
+from tests.support.strategies import answer_fields
 
 
 # --- every kind round-trips ----------------------------------------------------------------------
-def field_values(kind: Kind) -> st.SearchStrategy[dict[str, Any]]:
-    """Values of every field `kind` carries, as the manual allows them."""
-    frame = kind.frame
-    assert frame is not None
-    out: dict[str, st.SearchStrategy[Any]] = {}
-    length = frame.fields[1] if len(frame.fields) > 1 else None
-    fixed = sum(f.size for f in frame.fields[2:] if not isinstance(f, Array))
-    for f in frame.fields:
-        if isinstance(f, Bits) and f.name == "header":
-            if kind.fixed_bit("resp") is None:
-                out["source"] = st.sampled_from(sorted(SOURCES.values()))
-            if kind.fixed_bit("next") is None:
-                out["next"] = st.integers(0, 1)
-        elif isinstance(f, UInt) and f.name != "length":
-            texts = kind.choices.get(f.name)
-            out[f.name] = st.sampled_from(sorted(texts)) if texts else \
-                st.integers(f.lo, f.max)
-        elif isinstance(f, SInt):
-            out[f.name] = st.integers(-(1 << (8 * f.size - 1)), (1 << (8 * f.size - 1)) - 1)
-        elif isinstance(f, Array):
-            room = (length.max - fixed) // f.item.size if isinstance(length, UInt) else 8
-            most = min(room, f.max_items if f.max_items is not None else room)
-            out[f.name] = st.lists(st.integers(f.item.lo, f.item.max),
-                                   min_size=f.min_items, max_size=most)
-    return st.fixed_dictionaries(out)
-
-
 @st.composite
 def kind_and_values(draw: st.DrawFn) -> tuple[Kind, dict[str, Any]]:
     kind = draw(st.sampled_from(KINDS))
-    return kind, draw(field_values(kind))
+    return kind, draw(answer_fields(kind))
 
 
 @given(kind_and_values())

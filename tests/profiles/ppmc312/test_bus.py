@@ -4,8 +4,6 @@ unread raising alarm F4 01 at the line that overwrote it."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -22,9 +20,8 @@ from profiles.ppmc312.emulator import expected_answers
 from profiles.ppmc312.formats import parse, render
 from profiles.ppmc312.table import FreeCurveTable, InitTable
 from profiles.ppmc312.upload import bus_writes, encode_free_curve, encode_init
-from tests.support.paths import ROOT
+from tests.support.bus_scripts import header_lines, read_groups
 from tests.support.strategies import accepted_tables
-from verify import cli
 
 SETTINGS = settings(max_examples=40, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])
@@ -37,20 +34,6 @@ BLOCKS = encode_free_curve(FreeCurveTable(CLOCK, (100, 200, 300), (10, 20, 30)),
 
 
 SCRIPT = render(BLOCKS, "bus").decode().splitlines()
-
-
-def read_groups(lines: list[str]) -> list[int]:
-    """The index of each answer's first line (its MREF wait)."""
-    return [k for k, line in enumerate(lines) if line.startswith("WAIT CSR.MREF")]
-
-
-def header_lines(lines: list[str]) -> list[int]:
-    """The line number (from 1) of each block's last DWR write: its header, which issues it."""
-    out = []
-    for k, line in enumerate(lines):
-        if line.startswith("DWR") and (k + 1 == len(lines) or not lines[k + 1].startswith("DWR")):
-            out.append(k + 1)
-    return out
 
 
 # --- our own scripts ---------------------------------------------------------------------------
@@ -245,37 +228,3 @@ def test_the_bus_format_checks_its_answers(change: object, error: type[Exception
     assert callable(change)
     with pytest.raises(error, match=says):
         parse("\n".join(change(list(SCRIPT))).encode())
-
-
-# --- the command: `stepramp emulate --bus SCRIPT` ------------------------------------------------
-EXAMPLE = str(ROOT / "examples" / "free-curve-nema17.json")
-
-
-def emulate_bus(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    code = cli.main(["emulate", *argv])
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-@pytest.fixture
-def exported(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> Path:
-    """Our own upload of the example table, `export --format bus` as a user writes it."""
-    script = tmp_path / "x.bus"
-    assert cli.main(["export", EXAMPLE, "--format", "bus", "-o", str(script)]) == 0
-    capsys.readouterr()
-    return script
-
-
-def test_emulate_bus_names_the_line_and_f4_01_when_an_answer_is_not_read(
-        exported: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    lines = exported.read_text(encoding="utf-8").splitlines()
-    start = read_groups(lines)[0]            # block 0's answer: its MREF wait …
-    end = start + 3 + 0x40 - int(lines[start + 2].split()[1], 16)  # … to its last DRR read
-    answer = lines[start].partition(": ")[2]
-    skipped = lines[:start] + lines[end:]
-    exported.write_text("\n".join(skipped) + "\n", encoding="utf-8")
-    line = header_lines(skipped)[1]          # block 1's header, which issues it
-    assert emulate_bus(capsys, "--bus", str(exported)) == (
-        1, f"{exported}: line {line}: block 1 is issued while block 0's answer {answer} is "
-           "still unread: the chip raises alarm F4 01 (§5-4, §11-9: 命令の多重書込み), stops "
-           "pulse output and answers 23 02 F4 01 instead\n", "")

@@ -26,8 +26,8 @@ from profiles.ppmc312.init_planner import (
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312.table import FreeCurveTable, InitTable
 from tests.support.cli import run
+from tests.support.datasheet_motor import datasheet_motor_file
 from verify.chip_rules import check_table
-from verify.cli import main
 from verify.criterion import check_stall
 from verify.init_judge import init_judge
 from verify.plan_text import LINE_MAX, fix_lines, init_tightening
@@ -118,22 +118,14 @@ def test_bad_shape_is_refused() -> None:
         init_candidates(MOTORS[0], "cubic")  # type: ignore[arg-type]
 
 
-# a datasheet NEMA17 on a lead screw: the plain init table's origin return (11) reverses
-# by twice a start speed the rotor cannot follow (the report of issue 33)
-DATASHEET = ["--name", "17hs19", "--holding-torque-nm", "0.59", "--rated-current-a", "2",
-             "--current-a", "1.5", "--resistance-ohm", "1.4", "--inductance-mh", "3.0",
-             "--rotor-inertia-gcm2", "82", "--supply-v", "24", "--microstep", "8",
-             "--load", "screw:lead_mm=8,mass_kg=4"]
-
-
 PULSES = 4000
 
 
 @pytest.fixture(scope="module")
 def datasheet_path(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    path = tmp_path_factory.mktemp("motor") / "17hs19.json"
-    assert main(["motor", "new", *DATASHEET, "-o", str(path)]) == 0
-    return path
+    """The datasheet NEMA17 on its lead screw (tests/support/datasheet_motor.py)."""
+    return datasheet_motor_file(tmp_path_factory.mktemp("motor") / "17hs19.json",
+                                "--name", "17hs19")
 
 
 def test_the_untightened_table_is_past_the_aim(datasheet_path: Path) -> None:

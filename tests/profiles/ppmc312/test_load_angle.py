@@ -20,6 +20,7 @@ from profiles.ppmc312.load_angle import worst_load_angle, worst_load_angles
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312.table import FreeCurveTable
 from tests.support.oracle_moves import whole_move, worst_whole_move
+from tests.support.stand_ins import plain_motor
 from tests.support.strategies import MHZ1
 from tests.support.strategies import rotor_motors as motors
 from tests.support.strategies import rotor_tables as tables
@@ -69,16 +70,6 @@ def test_tolerance_corners_in_one_call_are_each_corners_own_verdict() -> None:
         assert verdict == alone
         assert verdict.worst_angle_deg == pytest.approx(
             worst_whole_move(table, corner.motor, verdict.worst_pulses), abs=AGREE_DEG)
-
-
-def plain_motor(**kw: object) -> Motor:
-    """0.4 N·m flat to 2000 pps, then falling: a NEMA17 at 1/8 step."""
-    args: dict[str, object] = dict(
-        steps_per_rev=1600, curve_speed_pps=np.array([0.0, 2000.0, 8000.0, 48000.0]),
-        curve_torque_nm=np.array([0.4, 0.4, 0.32, 0.04]), inertia_kgm2=6.8e-6,
-        safety_factor=0.6, start_pps=800.0)
-    args.update(kw)
-    return Motor(**args)  # type: ignore[arg-type]
 
 
 def test_a_few_moves_of_a_tiny_table_are_the_oracles_whole_moves() -> None:

@@ -25,7 +25,7 @@ from profiles.ppmc312.motion import (
     field_range,
 )
 from profiles.ppmc312.upload import encode_move
-from tests.support.ascii_frames import FIGURES, by_hand
+from tests.support.ascii_frames import FIGURES, by_hand, judge
 
 SETTINGS = settings(max_examples=150, deadline=None)
 
@@ -233,17 +233,6 @@ def test_decode_refuses_bad_frames_naming_the_character() -> None:
         decode_command(encode_frame("poll", 2, b""))
     with pytest.raises(DecodeError, match="expected a block of bytes"):
         decode_command("03 02 80 00")  # type: ignore[arg-type]
-
-
-def judge(tmp_path: Path, items: list[bytes]) -> Any:
-    from profiles.ppmc312.formats import render
-    from verify.check_file import check_file
-
-    path = tmp_path / "cmd.hex"
-    path.write_bytes(render(items, "text"))
-    result = check_file(str(path))
-    assert result.error is None
-    return result
 
 
 def test_a_file_of_commands_is_described_and_the_table_it_needs_named(tmp_path: Path

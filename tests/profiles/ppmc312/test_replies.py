@@ -14,9 +14,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from profiles.errors import CorruptedError, DecodeError, FormatError
-from profiles.fields import Array, Bits, SInt, UInt
 from profiles.formats import RenderOptions
-from profiles.ppmc312.answer_kinds import BY_KEY, SOURCES, Kind
+from profiles.ppmc312.answer_kinds import BY_KEY
 from profiles.ppmc312.answers import (
     Answer,
 )
@@ -50,7 +49,7 @@ from profiles.ppmc312.upload import (
     encode_table_read_response,
 )
 from tests.support.file_checks import compile_and_run, needs_cc
-from tests.support.strategies import accepted_tables
+from tests.support.strategies import accepted_tables, answer_fields
 
 SETTINGS = settings(max_examples=60, deadline=None,
                     suppress_health_check=[HealthCheck.too_slow])
@@ -276,34 +275,6 @@ def text(a: Answer) -> str:
     return "\n".join(a.describe())
 
 
-# --- every kind round-trips ----------------------------------------------------------------------
-def field_values(kind: Kind) -> st.SearchStrategy[dict[str, Any]]:
-    """Values of every field `kind` carries, as the manual allows them."""
-    frame = kind.frame
-    assert frame is not None
-    out: dict[str, st.SearchStrategy[Any]] = {}
-    length = frame.fields[1] if len(frame.fields) > 1 else None
-    fixed = sum(f.size for f in frame.fields[2:] if not isinstance(f, Array))
-    for f in frame.fields:
-        if isinstance(f, Bits) and f.name == "header":
-            if kind.fixed_bit("resp") is None:
-                out["source"] = st.sampled_from(sorted(SOURCES.values()))
-            if kind.fixed_bit("next") is None:
-                out["next"] = st.integers(0, 1)
-        elif isinstance(f, UInt) and f.name != "length":
-            texts = kind.choices.get(f.name)
-            out[f.name] = st.sampled_from(sorted(texts)) if texts else \
-                st.integers(f.lo, f.max)
-        elif isinstance(f, SInt):
-            out[f.name] = st.integers(-(1 << (8 * f.size - 1)), (1 << (8 * f.size - 1)) - 1)
-        elif isinstance(f, Array):
-            room = (length.max - fixed) // f.item.size if isinstance(length, UInt) else 8
-            most = min(room, f.max_items if f.max_items is not None else room)
-            out[f.name] = st.lists(st.integers(f.item.lo, f.item.max),
-                                   min_size=f.min_items, max_size=most)
-    return st.fixed_dictionaries(out)
-
-
 # --- serial replies (§13, §15–19) -----------------------------------------------------------------
 @pytest.mark.parametrize("frame, reply_to, name, fields, line", [
     (encode_frame("busy", 3, b""), None, "pulse output in progress (80+a)", {},
@@ -392,7 +363,7 @@ def test_serial_replies_back_to_back() -> None:
 def reply_and_values(draw: st.DrawFn) -> tuple[str, dict[str, Any], int]:
     key = draw(st.sampled_from(sorted(REPLY_KINDS)))
     kind = REPLY_KINDS[key][0]
-    values = draw(field_values(kind)) if kind.frame is not None else {}
+    values = draw(answer_fields(kind)) if kind.frame is not None else {}
     return key, values, draw(st.integers(0, 15))
 
 

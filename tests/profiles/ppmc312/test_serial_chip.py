@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import random
 import time
-from collections.abc import Iterator
 from typing import Any
 
 import pytest
@@ -46,10 +45,11 @@ from profiles.ppmc312.link import (
     PollReply,
 )
 from profiles.ppmc312.replies import REPLY_TO, decode_reply
-from profiles.ppmc312.serial_chip import COMMANDS, LoopSerial, PtyServer, SerialChip, command_of
+from profiles.ppmc312.serial_chip import COMMANDS, LoopSerial, SerialChip, command_of
 from profiles.ppmc312.table import FreeCurveTable, InitTable
 from profiles.ppmc312.timing import motion_window
-from tests.support.paths import ROOT
+from tests.support.serial_link import ADDRESS as ADDRESS_LINK
+from tests.support.serial_link import FakeTime, SkewedTime, move_s, wait_stopped
 
 ADDRESS = 3
 
@@ -676,73 +676,6 @@ def test_fhl_decelerates_at_or_above_the_05_speed(clock: Clock_, limit: int | No
         line.startswith("/FHL at pulse 12000: DEL") for line in chip.log)
 
 
-ADDRESS_LINK = 5
-
-
-def move_s(pulses: int) -> float:
-    run = simulate_move(TABLE, pulses)
-    return run.first_pulse_latency_s + run.duration_s
-
-
-def wait_stopped(link: Link, pulses: int) -> Any:
-    time.sleep(move_s(pulses) + 0.02)
-    return link.poll()
-
-
-class SkewedTime:
-    """Real time plus every wait the link asked for: the link's waits after an init cost
-    no real time, and the chip, on the same clock, sees them pass (moves still run on
-    real time)."""
-
-    def __init__(self) -> None:
-        self.skew = 0.0
-        self.slept: list[float] = []
-
-    def now(self) -> float:
-        return time.monotonic() + self.skew
-
-    def sleep(self, seconds: float) -> None:
-        self.slept.append(seconds)
-        self.skew += seconds
-
-    def timing(self) -> dict[str, Any]:
-        """A Link's clock_s and sleep_s."""
-        return {"clock_s": self.now, "sleep_s": self.sleep}
-
-
-class FakeTime:
-    """A clock only the link's sleeps move (and the test, by setting `t`)."""
-
-    def __init__(self) -> None:
-        self.t = 100.0
-        self.slept: list[float] = []
-
-    def now(self) -> float:
-        return self.t
-
-    def sleep(self, seconds: float) -> None:
-        self.slept.append(seconds)
-        self.t += seconds
-
-
-@pytest.fixture
-def skewed() -> SkewedTime:
-    return SkewedTime()
-
-
-@pytest.fixture
-def pty_chip(skewed: SkewedTime) -> Iterator[tuple[SerialChip, str]]:
-    chip = SerialChip(ADDRESS_LINK, clock_s=skewed.now)
-    with PtyServer(chip) as server:
-        yield chip, server.path
-
-
-@pytest.fixture
-def link(pty_chip: tuple[SerialChip, str], skewed: SkewedTime) -> Iterator[Link]:
-    with Link(pty_chip[1], ADDRESS_LINK, timeout_s=0.5, **skewed.timing()) as opened:
-        yield opened
-
-
 def test_stop_halts_a_move_midway(link: Link, pty_chip: tuple[SerialChip, str]) -> None:
     link.init(TABLE)
     link.move(100_000)
@@ -1043,30 +976,6 @@ def test_a_noisy_line_loses_and_misreads_nothing(pty_chip: tuple[SerialChip, str
     assert sum(line.startswith("move:") for line in chip.log) == 6  # no move twice
     assert noisy.faults >= 5 and link.stats["resends"] > 0 and chip.error_count > 0
     noisy.close()
-
-
-def run_cli(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    from verify.cli import main
-
-    code = main(argv)
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-@pytest.mark.parametrize(("argv", "message"), [
-    (["--address", "16", "poll"], "address: 16 (0x10) is outside the allowed range 0..15"),
-    (["--address", "6", "--timeout-s", "0.05", "--retries", "0", "poll"],
-     "slave 6: poll: no reply within 0.05 s (1 attempt)"),
-    (["--address", "5", "init", "{examples}/free-curve-nema17.json"], "no serial form"),
-])
-def test_cli_link_bad_input_is_one_line_exit_2(pty_chip: tuple[SerialChip, str], argv: list[str],
-                                               message: str,
-                                               capsys: pytest.CaptureFixture[str]) -> None:
-    examples = str(ROOT / "examples")
-    argv = [a.replace("{examples}", examples) for a in argv]
-    code, out, err = run_cli(["link", "--port", pty_chip[1], *argv], capsys)
-    assert (code, out) == (2, "")
-    assert err.startswith("stepramp link: ") and message in err and err.count("\n") == 1
 
 
 def motion_link(fake: FakeTime, origin_at: int | None = None, on_reply: Any = None

@@ -10,15 +10,18 @@ from typing import Any
 
 import pytest
 from hypothesis import given, settings
-from hypothesis import strategies as st
 
 from profiles import alink as A
-from profiles.alink.commands import COMMANDS, Value, decode_command, encode_command
+from profiles.alink.commands import COMMANDS, decode_command, encode_command
 from tests.support.alink_figures import BY_HAND
 from tests.support.cli import run
+from tests.support.datasheet_motor import datasheet_motor_file
+from tests.support.file_checks import alink_file, rules_of
+from tests.support.strategies import alink_commands
 from verify import cli
-from verify.check_file import check_file
 from verify.cli import main
+
+SETTINGS_COMMANDS = A.settings_commands(A.quantise_settings(500, 10000, 20))
 
 
 @pytest.mark.parametrize(("word", "code"), [("0xFFFF", 0), ("65535", 0), ("0x10000", 2),
@@ -45,7 +48,6 @@ def test_settings_take_a_motor_or_the_speeds_never_both(
                                        "--start-pps/--high-pps/--accel-ms-per-kpps\n")
 
 
-
 @pytest.mark.parametrize(("name", "nn", "value", "words"), BY_HAND)
 def test_words_are_the_figures_and_decode_names_the_command(
         name: str, nn: int, value: int, words: tuple[int, int, int],
@@ -68,28 +70,6 @@ def test_words_are_the_figures_and_decode_names_the_command(
         (name, COMMANDS[name].cmd.name, nn, value, [])
 
 
-def _values(v: Value) -> st.SearchStrategy[int]:
-    if v.bits:
-        optional = [b for b in v.bits if b != 8]  # D8 is the factory check: not written
-        return st.sets(st.sampled_from(optional)).map(
-            lambda bits: v.fixed | sum(1 << b for b in bits))
-    if v.choices:
-        plain = [k for k in v.choices if k not in (0xF, 0x3FFF)]
-        opened = [] if v.open_from is None else [st.integers(v.open_from, v.hi - 1)]
-        return st.one_of(st.sampled_from(plain), *opened)
-    if not v.takes:
-        return st.just(0)
-    return st.integers(v.lo, v.hi).filter(lambda x: x not in v.refused)
-
-
-@st.composite
-def _command(draw: Any) -> tuple[str, int, int, int]:
-    name = draw(st.sampled_from(sorted(COMMANDS)))
-    nn = draw(st.sampled_from(sorted(COMMANDS[name].forms)))
-    value = draw(_values(COMMANDS[name].forms[nn].value))
-    return name, nn, value, draw(st.integers(1, 3))
-
-
 def _cli(argv: list[str]) -> Any:
     """`stepramp ARGV --format json`'s document (exit 0), in-process."""
     out = io.StringIO()
@@ -99,7 +79,7 @@ def _cli(argv: list[str]) -> Any:
 
 
 @settings(max_examples=100, deadline=None)
-@given(_command())
+@given(alink_commands())
 def test_every_command_round_trips_through_the_cli(case: tuple[str, int, int, int]) -> None:
     """`alink command` writes the words, `alink decode --command` names them back."""
     name, nn, value, pair = case
@@ -171,24 +151,6 @@ def test_alink_homing_writes_a_checked_file(tmp_path: Path,
     assert capsys.readouterr().err.startswith("stepramp alink: --max-pps: -1.0 is outside")
 
 
-SETTINGS_COMMANDS = A.settings_commands(A.quantise_settings(500, 10000, 20))
-
-
-def _rules(path: Path) -> list[tuple[str, str]]:
-    result = check_file(str(path))
-    assert result.error is None, result.error
-    return [(f.severity, f.rule) for f in result.findings]
-
-
-# --- check: A-Link ------------------------------------------------------------------------------
-def _write(tmp_path: Path, name: str, commands: list[A.Command], fmt: str = "hex") -> Path:
-    from profiles.alink.formats import render
-
-    path = tmp_path / name
-    path.write_bytes(render(commands, fmt))
-    return path
-
-
 def test_alink_read_and_corrupted_settings(tmp_path: Path,
                                            capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["alink", "settings", "--start-pps", "500", "--high-pps", "10000",
@@ -198,25 +160,18 @@ def test_alink_read_and_corrupted_settings(tmp_path: Path,
     assert main(["alink", "read", str(tmp_path / "a.json"), "--format", "json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["start_pps"] == 500 and doc["commands"][0]["address"] == "0x086"
-    path = _write(tmp_path, "a.h", SETTINGS_COMMANDS, "c")
+    path = alink_file(tmp_path, "a.h", SETTINGS_COMMANDS, "c")
     path.write_text(path.read_text().replace("0x4112", "0x4113"))  # L_SPEED → H_SPEED
-    assert _rules(path) == [("error", "alink-corrupted")]
+    assert rules_of(path) == [("error", "alink-corrupted")]
     assert main(["alink", "read", str(path)]) == 2
     err = capsys.readouterr().err
     assert err.startswith("stepramp alink: corrupted: STEPRAMP_ALINK_CRC32 says CRC-32")
 
 
-DATASHEET = ["motor", "new", "--holding-torque-nm", "0.59", "--rated-current-a", "2",
-             "--resistance-ohm", "1.4", "--inductance-mh", "3.0", "--rotor-inertia-gcm2", "82",
-             "--supply-v", "24", "--microstep", "8", "--current-a", "1.5",
-             "--load", "screw:lead_mm=8,mass_kg=4"]
-
-
 @pytest.fixture(scope="module")
 def datasheet_motor(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    path = tmp_path_factory.mktemp("motor") / "m.json"
-    assert cli.main([*DATASHEET, "--output", str(path)]) == 0
-    return path
+    """The datasheet NEMA17 on its lead screw (tests/support/datasheet_motor.py)."""
+    return datasheet_motor_file(tmp_path_factory.mktemp("motor") / "m.json")
 
 
 @pytest.mark.parametrize(("name", "extra"), [

@@ -6,7 +6,6 @@ import itertools
 import json
 import re
 from pathlib import Path
-from typing import Any
 
 import pytest
 
@@ -15,10 +14,11 @@ from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.motion import COMMANDS
 from profiles.ppmc312.table import FreeCurveTable, dump_table, load_table
-from tests.support.ascii_frames import FIGURES
+from tests.support.ascii_frames import FIGURES, move_argv
 from tests.support.cli import run
+from tests.support.datasheet_motor import datasheet_motor_file
 from tests.support.paths import ROOT
-from verify import cli
+from tests.support.switching_table import switching_table
 
 MOTORS = {p.stem: p for p in bundled_motor_paths()}
 
@@ -27,14 +27,6 @@ NEMA23 = MOTORS["motor-nema23-heavy"]
 
 
 NEMA17 = MOTORS["motor-nema17-1600"]
-
-
-def switching_table(tmp_path: Path) -> Path:
-    # LE=1, decel counts heavy at the slow end: short triangles switch down
-    table = FreeCurveTable(Clock.internal("8MHz"), (1455, 1873, 2500), (40, 40, 40), (2, 2, 200))
-    path = tmp_path / "switch.table.json"
-    path.write_text(dump_table(table))
-    return path
 
 
 def test_check_motor_fails_a_table_unsafe_only_for_some_lengths(
@@ -85,29 +77,6 @@ def test_check_motor_reports_the_load_angle_judge(
                    if f["rule"] == "load-angle")
     assert "the criterion passes" in message
     assert run(capsys, "check", path, "--motor", motor_path, "--no-physics")[0] == 0
-
-
-def plan_from(capsys: pytest.CaptureFixture[str], tmp_path: Path, motor: str, source: str,
-              pulses: int) -> tuple[int, dict[str, Any], Path]:
-    out_path = tmp_path / f"{source}-{pulses}.json"
-    code, out, err = run(capsys, "plan", "--motor", motor, "--pulses", str(pulses), "--from",
-                         source, "--format", "json", "-o", out_path)
-    return code, json.loads(out) if code == 0 else {"err": err}, out_path
-
-
-@pytest.mark.parametrize("source", ["ruckig", "toppra"])
-def test_plan_from_a_reference_gives_a_safe_table_and_its_price(
-        tmp_path: Path, capsys: pytest.CaptureFixture[str], source: str) -> None:
-    code, doc, out_path = plan_from(capsys, tmp_path, NEMA17, source, 2000)
-    assert code == 0 and out_path.exists()
-    assert doc["safety"]["safe"] and doc["safety"]["within_aim"]
-    table = load_table(out_path)
-    assert doc["move_time_s"] == pytest.approx(simulate_move(table, 2000).duration_s)
-    # what following the reference costs: its time beside the reference's and the planner's
-    assert doc["table/planner"] == pytest.approx(doc["move_time_s"] / doc["planner_s"])
-    assert doc["table/reference"] == pytest.approx(doc["move_time_s"] / doc["reference_s"])
-    code, _, _ = run(capsys, "check", out_path, "--motor", NEMA17)
-    assert code == 0
 
 
 GOOD = ROOT / "examples" / "free-curve-nema17.json"
@@ -181,20 +150,6 @@ def test_check_with_motor_on_an_init_table_the_chip_refuses(
     assert [f["chip_code"] for f in json.loads(out)["files"][0]["findings"]] == ["0x03"]
 
 
-OPTION = {"rate": "--rate", "pulses": "--pulses", "override_at": "--override-at",
-          "on": "--on"}
-
-
-FLAG = {"ccw": "--ccw", "index": "--index"}
-
-
-def argv(name: str, params: dict[str, Any]) -> list[str]:
-    out = ["move", "--command", name]
-    for key, value in params.items():
-        out += [FLAG[key]] if key in FLAG else [OPTION[key], str(value)]
-    return out
-
-
 @pytest.mark.parametrize("name", sorted(COMMANDS))
 def test_every_command_in_every_format_is_judged_ok(capsys: pytest.CaptureFixture[str],
                                                    tmp_path: Path, name: str) -> None:
@@ -206,7 +161,7 @@ def test_every_command_in_every_format_is_judged_ok(capsys: pytest.CaptureFixtur
             if to == "ascii" and fmt == "bus":
                 continue  # the bus is parallel only
             out = tmp_path / f"{name}.{to}.{fmt}"
-            code, _, err = run(capsys, *argv(name, params), "--to", to, "--format", fmt,
+            code, _, err = run(capsys, *move_argv(name, params), "--to", to, "--format", fmt,
                                "-o", out)
             assert (code, err) == (0, ""), (fmt, to)
             code, text, err = run(capsys, "check", out)
@@ -214,17 +169,10 @@ def test_every_command_in_every_format_is_judged_ok(capsys: pytest.CaptureFixtur
             assert f"note: {COMMANDS[name].label if name != 'accel' else 'move'}" in text
 
 
-DATASHEET = ["motor", "new", "--holding-torque-nm", "0.59", "--rated-current-a", "2",
-             "--resistance-ohm", "1.4", "--inductance-mh", "3.0", "--rotor-inertia-gcm2", "82",
-             "--supply-v", "24", "--microstep", "8", "--current-a", "1.5",
-             "--load", "screw:lead_mm=8,mass_kg=4"]
-
-
 @pytest.fixture(scope="module")
 def datasheet_motor(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    path = tmp_path_factory.mktemp("motor") / "m.json"
-    assert cli.main([*DATASHEET, "--output", str(path)]) == 0
-    return path
+    """The datasheet NEMA17 on its lead screw (tests/support/datasheet_motor.py)."""
+    return datasheet_motor_file(tmp_path_factory.mktemp("motor") / "m.json")
 
 
 def test_check_motor_exits_1_on_an_unsafe_hand_written_file(

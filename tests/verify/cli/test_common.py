@@ -10,24 +10,8 @@ import sys
 
 import pytest
 
-from verify import cli
+from tests.support.cli import arguments
 from verify.cli import _common
-
-
-def _parsers(parser: argparse.ArgumentParser, name: str = "stepramp"
-             ) -> list[tuple[str, argparse.ArgumentParser]]:
-    out = [(name, parser)]
-    for action in parser._actions:
-        if isinstance(action, argparse._SubParsersAction):
-            for sub_name, sub in action.choices.items():
-                out += _parsers(sub, f"{name} {sub_name}")
-    return out
-
-
-def _arguments() -> list[tuple[str, argparse.Action]]:
-    return [(name, a) for name, p in _parsers(cli.build_parser()) for a in p._actions
-            if not isinstance(a, argparse._SubParsersAction | argparse._HelpAction)]
-
 
 # motor new's datasheet options add N·m, A, Ω, mH, V, g·cm², ° and [1] (a ratio); mc200
 # stream's torque constant N·m/A
@@ -37,7 +21,7 @@ UNIT = re.compile(r"\[(pps|pps²|pps³|s|ms|µs|Hz|pulses|N·m|N·m/A|N·cm|A|Ω
 def test_every_quantity_option_names_its_unit() -> None:
     # Number-typed options and those named for a unit are quantities: their help
     # says the unit in brackets, spelled one way.
-    quantity = [(name, a) for name, a in _arguments()
+    quantity = [(name, a) for name, a in arguments()
                 if a.type is _common.number
                 or any(re.search(r"(pps|-us|-hz|pulses)$", o) for o in a.option_strings)]
     assert len(quantity) >= 10

@@ -8,25 +8,17 @@ from pathlib import Path
 import pytest
 
 from profiles.motor import bundled_motor_paths
-from profiles.motor.catalogue import resolve
-from profiles.ppmc312.clock import Clock
-from profiles.ppmc312.table import FreeCurveTable, dump_table, load_table
+from profiles.ppmc312.table import load_table
 from tests.support.cli import run
+from tests.support.motor_folders import LEAD_MM, screw_motor_file
 from tests.support.paths import ROOT
+from tests.support.switching_table import switching_table
 from verify.cli import main
 
 MOTORS = {p.stem: p for p in bundled_motor_paths()}
 
 
 NEMA23 = MOTORS["motor-nema23-heavy"]
-
-
-def switching_table(tmp_path: Path) -> Path:
-    # LE=1, decel counts heavy at the slow end: short triangles switch down
-    table = FreeCurveTable(Clock.internal("8MHz"), (1455, 1873, 2500), (40, 40, 40), (2, 2, 200))
-    path = tmp_path / "switch.table.json"
-    path.write_text(dump_table(table))
-    return path
 
 
 def test_compare_exits_1_on_an_unsafe_move(tmp_path: Path,
@@ -46,16 +38,10 @@ def test_compare_exits_1_on_an_unsafe_move(tmp_path: Path,
                           "constant, origin-search, origin-return, stop, set-speed)") in out
 
 
-LEAD_MM = 8.0   # nema17-1600 (1600 pulses/rev) on an 8 mm lead: 0.005 mm per pulse
-
-
 @pytest.fixture
 def screw(tmp_path: Path) -> str:
     """The bundled nema17-1600 with an 8 mm lead screw's travel."""
-    obj = json.loads(resolve("nema17-1600").read_text())
-    path = tmp_path / "screw.json"
-    path.write_text(json.dumps({**obj, "travel_mm_per_rev": LEAD_MM}))
-    return str(path)
+    return screw_motor_file(tmp_path)
 
 
 def test_compare_gives_mm_beside_pulses(screw: str, capsys: pytest.CaptureFixture[str]) -> None:

@@ -6,14 +6,9 @@ from pathlib import Path
 
 import pytest
 
+from tests.support.bus_scripts import header_lines, read_groups
 from tests.support.paths import ROOT
 from verify import cli
-
-
-def read_groups(lines: list[str]) -> list[int]:
-    """The index of each answer's first line (its MREF wait)."""
-    return [k for k, line in enumerate(lines) if line.startswith("WAIT CSR.MREF")]
-
 
 # --- the command: `stepramp emulate --bus SCRIPT` ------------------------------------------------
 EXAMPLE = str(ROOT / "examples" / "free-curve-nema17.json")
@@ -42,6 +37,21 @@ def test_emulate_bus_passes_our_own_export(exported: Path,
     assert emulate_bus(capsys, "--bus", str(exported)) == (
         0, f"{exported}: {blocks} blocks written, {blocks} answers read, every expected read "
            "matched\n", "")
+
+
+def test_emulate_bus_names_the_line_and_f4_01_when_an_answer_is_not_read(
+        exported: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    lines = exported.read_text(encoding="utf-8").splitlines()
+    start = read_groups(lines)[0]            # block 0's answer: its MREF wait …
+    end = start + 3 + 0x40 - int(lines[start + 2].split()[1], 16)  # … to its last DRR read
+    answer = lines[start].partition(": ")[2]
+    skipped = lines[:start] + lines[end:]
+    exported.write_text("\n".join(skipped) + "\n", encoding="utf-8")
+    line = header_lines(skipped)[1]          # block 1's header, which issues it
+    assert emulate_bus(capsys, "--bus", str(exported)) == (
+        1, f"{exported}: line {line}: block 1 is issued while block 0's answer {answer} is "
+           "still unread: the chip raises alarm F4 01 (§5-4, §11-9: 命令の多重書込み), stops "
+           "pulse output and answers 23 02 F4 01 instead\n", "")
 
 
 def test_emulate_bus_a_read_that_differs_is_a_finding(exported: Path,

@@ -6,55 +6,26 @@ import io
 import json
 import sys
 from pathlib import Path
-from typing import Any
 
-import numpy as np
 import pytest
 
 from profiles import mc200 as M
-from profiles.mc200.follow import commanded_positions
 from profiles.mc200.formats import render
 from profiles.mc200.formats import render as render_stream
-from tests.support.figures import problems
+from tests.support.figures import problems, record_saved
+from tests.support.file_checks import rules_of
+from tests.support.mc200_replies import (
+    EXAMPLE_REPLIES,
+    EXAMPLE_STREAM,
+    GUIDE_STREAM,
+    SHORT_STREAM,
+    lagging_replies,
+    packets_of,
+)
 from tests.support.paths import ROOT
 from verify import cli
 from verify.check_file import check_file
 from verify.cli import _common, main
-
-EXAMPLE_REPLIES = ROOT / "examples" / "move.mc200.replies.hex"
-
-
-EXAMPLE_STREAM = ROOT / "examples" / "move.mc200.hex"
-
-
-POSITION_AT, DURATION = M.ruckig_profile(3200, 20000.0, 2e5, 5e6)
-
-
-GUIDE_STREAM = M.stream_bytes(POSITION_AT, DURATION, 3200, period_us=1000)
-
-
-def lagging_replies(stream: bytes, lag: int, *, period_s: float = 1e-3, origin: int = 0,
-                    amps_per_pulse: float = 0.01, alarm_at: int | None = None) -> bytes:
-    """A driver `lag` packets behind the command it is given: the encoder at reply k is
-    ⌊the command of reply k − lag⌋ (+ `origin`, where the encoder counted from), the
-    servo on from the packet after the stream turns it on, in position from `lag`
-    replies after the command's end, the current proportional to the error. Written
-    straight from the definitions, one reply at a time."""
-    reading = M.read_stream(stream)
-    n = reading.packets
-    commanded = commanded_positions(reading.commands, np.full(n, origin), period_s)
-    commanded = np.nan_to_num(commanded, nan=float(origin))
-    final = np.flatnonzero(commanded != commanded[-1])
-    end = int(final[-1]) + 1 if len(final) else 0
-    mode = int(reading.commands.mode[-1])
-    out = []
-    for k in range(n):
-        encoder = int(np.floor(commanded[max(k - lag, 0)]))
-        on = reading.servo_on_at is not None and k > reading.servo_on_at
-        out.append(M.DriverPacket(
-            0, on, k == alarm_at, False, False, encoder,
-            amps_per_pulse * float(commanded[k] - encoder), on and k >= end + lag, mode).encode())
-    return b"".join(out)
 
 
 def test_the_example_stream_is_the_guides(tmp_path: Path) -> None:
@@ -95,16 +66,7 @@ def test_follow_text_json_and_figure(files: tuple[Path, Path], tmp_path: Path,
         "the command reaches 3200 pulses at reply 305 (305 ms)",
         "in position: from reply 308 (308 ms), 3 ms after the command's end, to the log's end"]
     assert len(out.splitlines()) == 6 + 2 + 20
-    figures: list[Any] = []
-    from matplotlib.figure import Figure
-
-    original = Figure.savefig
-
-    def record(self: Any, *args: Any, **kwargs: Any) -> None:
-        figures.append(self)
-        original(self, *args, **kwargs)
-
-    monkeypatch.setattr(Figure, "savefig", record)
+    figures = record_saved(monkeypatch)
     plot = tmp_path / "follow.png"
     code, out, _ = _run(capsys, "mc200", "follow", str(stream), str(replies), "--format",
                         "json", "--plot", str(plot))
@@ -211,29 +173,13 @@ def test_stream_files_in_every_mode_check_clean(tmp_path: Path, mode: str,
     assert code == 0 and "value_kind=raw" not in text  # read with the other page's magic
 
 
-def _packets(data: bytes) -> list[bytes]:
-    return [data[i:i + 12] for i in range(0, len(data), 12)]
-
-
-POSITION_AT_DEV, DURATION_DEV = M.ruckig_profile(600, 8000.0, 8e4, 8e6)
-
-
-STREAM = M.stream_bytes(POSITION_AT_DEV, DURATION_DEV, 600, period_us=2000)
-
-
-def _rules(path: Path) -> list[tuple[str, str]]:
-    result = check_file(str(path))
-    assert result.error is None, result.error
-    return [(f.severity, f.rule) for f in result.findings]
-
-
 def test_stream_file_corrupted_and_hand_made(tmp_path: Path,
                                              capsys: pytest.CaptureFixture[str]) -> None:
-    text = render_stream(_packets(STREAM), "hex").decode().splitlines()
+    text = render_stream(packets_of(SHORT_STREAM), "hex").decode().splitlines()
     text[30] = text[30][:-1] + ("1" if text[30][-1] != "1" else "2")
     bad = tmp_path / "bad.mc200.hex"
     bad.write_text("\n".join(text) + "\n")
-    assert _rules(bad) == [("error", "mc200-corrupted")]
+    assert rules_of(bad) == [("error", "mc200-corrupted")]
     assert main(["check", str(bad)]) == 1
     capsys.readouterr()
     assert main(["mc200", "decode", str(bad)]) == 2
@@ -242,12 +188,13 @@ def test_stream_file_corrupted_and_hand_made(tmp_path: Path,
     assert len(err.splitlines()) == 1
 
     hand = tmp_path / "hand.mc200.hex"
-    hand.write_text("\n".join(line for line in render_stream(_packets(STREAM), "hex").decode()
-                              .splitlines() if not line.startswith("#")) + "\n")
-    assert _rules(hand) == [("warning", "mc200-unchecked")]
+    rendered = render_stream(packets_of(SHORT_STREAM), "hex").decode()
+    hand.write_text("\n".join(line for line in rendered.splitlines()
+                              if not line.startswith("#")) + "\n")
+    assert rules_of(hand) == [("warning", "mc200-unchecked")]
     assert main(["mc200", "decode", str(hand), "--format", "json"]) == 0
     out, err = capsys.readouterr()
-    assert len(json.loads(out)["packets"]) == len(STREAM) // 12
+    assert len(json.loads(out)["packets"]) == len(SHORT_STREAM) // 12
     assert err.startswith(f"stepramp mc200: warning: {hand}: no CRC-32 in the file")
 
 
@@ -259,7 +206,7 @@ def test_mc200_stream_cli_writes_every_format(tmp_path: Path) -> None:
         path = tmp_path / name
         assert main([*args, "-o", str(path), *extra]) == 0
         assert main(["mc200", "decode", str(path)]) == 0
-        assert _rules(path) == []
+        assert rules_of(path) == []
     assert b"stepramp mc200 stream --vmax 8000" in (tmp_path / "s.h").read_bytes()
     assert b"x_axis_packets[X_AXIS_PACKET_COUNT][12]" in (tmp_path / "s.txt").read_bytes()
     assert main([*args, "--name", "x"]) == 2  # --name is for C

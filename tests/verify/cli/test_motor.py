@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
-from typing import Any
 
 import pytest
 
@@ -14,8 +13,7 @@ from profiles.motor.catalogue import (
     ENV_VAR,
 )
 from profiles.motor.travel import axis_units
-from tests.support.cli import run
-from tests.support.paths import ROOT
+from tests.support.motor_folders import motor_file, motor_folders
 from verify import cli
 from verify.cli import main
 
@@ -126,27 +124,9 @@ def test_vertical_axis_load_torque_is_written(tmp_path: Path,
     assert run_argv(["motor", "check", str(path)], capsys)[:2] == (0, f"{path}: ok\n")
 
 
-NEMA17 = ROOT / "profiles" / "data" / "motor-nema17-1600.json"
-
-
-def motor_file(folder: Path, file_name: str, name: str = "", steps: int = 400) -> Path:
-    obj = json.loads(NEMA17.read_text(encoding="utf-8"))
-    obj.update(name=name or file_name, steps_per_rev=steps)
-    del obj["holding_torque_nm"]  # `motor list` falls back on the curve at 0 pps
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / file_name
-    path.write_text(json.dumps(obj), encoding="utf-8")
-    return path
-
-
 @pytest.fixture
 def folders(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> tuple[Path, Path, Path]:
-    """Two STEPRAMP_MOTORS folders and the XDG config folder's motors, all empty."""
-    env_a, env_b, config = tmp_path / "env-a", tmp_path / "env-b", tmp_path / "config"
-    monkeypatch.setenv(ENV_VAR, f"{env_a}:{env_b}")
-    monkeypatch.setenv("XDG_CONFIG_HOME", str(config))
-    monkeypatch.chdir(tmp_path)
-    return env_a, env_b, config / "stepramp" / "motors"
+    return motor_folders(tmp_path, monkeypatch)
 
 
 def test_motor_list_text_and_json(folders: tuple[Path, Path, Path],
@@ -227,32 +207,6 @@ MOTORS = {p.stem: p for p in bundled_motor_paths()}
 
 
 NEMA23 = MOTORS["motor-nema23-heavy"]
-
-
-NEMA17_EM = MOTORS["motor-nema17-1600"]
-
-
-PK566 = MOTORS["motor-pk566-5phase-half"]
-
-
-def plan_from(capsys: pytest.CaptureFixture[str], tmp_path: Path, motor: str, source: str,
-              pulses: int) -> tuple[int, dict[str, Any], Path]:
-    out_path = tmp_path / f"{source}-{pulses}.json"
-    code, out, err = run(capsys, "plan", "--motor", motor, "--pulses", str(pulses), "--from",
-                         source, "--format", "json", "-o", out_path)
-    return code, json.loads(out) if code == 0 else {"err": err}, out_path
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("pulses", [2000, 10_000])
-@pytest.mark.parametrize("source", ["ruckig", "toppra"])
-@pytest.mark.parametrize("motor", [NEMA17_EM, NEMA23, PK566])
-def test_plan_from_every_bundled_motor_and_reference(
-        tmp_path: Path, capsys: pytest.CaptureFixture[str], motor: str, source: str,
-        pulses: int) -> None:
-    code, doc, out_path = plan_from(capsys, tmp_path, motor, source, pulses)
-    assert code == 0, doc
-    assert run(capsys, "check", out_path, "--motor", motor)[0] == 0
 
 
 def test_motor_new_writes_the_screws_travel_with_its_source(

@@ -10,31 +10,18 @@ from typing import Any
 import pytest
 
 from profiles.ppmc312.upload import decode_move, encode_move
-from tests.support.ascii_frames import FIGURES, by_hand
+from tests.support.ascii_frames import FIGURES, by_hand, move_argv
 from tests.support.cli import run
-
-OPTION = {"rate": "--rate", "pulses": "--pulses", "override_at": "--override-at",
-          "on": "--on"}
-
-
-FLAG = {"ccw": "--ccw", "index": "--index"}
-
-
-def argv(name: str, params: dict[str, Any]) -> list[str]:
-    out = ["move", "--command", name]
-    for key, value in params.items():
-        out += [FLAG[key]] if key in FLAG else [OPTION[key], str(value)]
-    return out
 
 
 @pytest.mark.parametrize(("name", "params", "block", "serial"), FIGURES)
 def test_move_writes_every_figure(capsys: pytest.CaptureFixture[str], name: str,
                                   params: dict[str, Any], block: str, serial: str | None
                                   ) -> None:
-    code, out, err = run(capsys, *argv(name, params))
+    code, out, err = run(capsys, *move_argv(name, params))
     assert (code, err) == (0, "")
     assert bytes.fromhex(out.splitlines()[0]) == bytes.fromhex(block)
-    code, out, err = run(capsys, *argv(name, params), "--to", "ascii", "--address", "5")
+    code, out, err = run(capsys, *move_argv(name, params), "--to", "ascii", "--address", "5")
     if serial is None:
         assert code == 2 and err.count("\n") == 1 and "no serial form" in err
     else:

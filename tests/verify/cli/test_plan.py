@@ -8,6 +8,7 @@ import json
 import re
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -18,8 +19,11 @@ from profiles.ppmc312.ascii import decode_serial_init
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.init_model import expand_init
+from profiles.ppmc312.planner import duty_cycle
 from profiles.ppmc312.table import InitTable, load_table
 from tests.support.cli import run
+from tests.support.datasheet_motor import datasheet_motor_file
+from tests.support.motor_folders import LEAD_MM, screw_motor_file
 from tests.support.paths import ROOT
 from verify.cli import main
 from verify.plan_text import pps
@@ -29,6 +33,7 @@ MOTORS = {p.stem: p for p in bundled_motor_paths()}
 
 
 PK566 = MOTORS["motor-pk566-5phase-half"]
+NEMA17 = MOTORS["motor-nema17-1600"]
 
 
 # --- plan --moves --------------------------------------------------------------------------------
@@ -60,6 +65,17 @@ def test_plan_moves_names_the_file_line_and_field(
     assert code == 2 and says in err, err
     assert len(err.splitlines()) == 1 and len(err) < 300  # one short line, never the field
     assert "--pulses" not in err and "motor" not in err
+
+
+def test_plan_moves_caps_its_rows(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(duty_cycle, "MIX_ROWS_MAX", 3)
+    code, err = plan_moves(tmp_path, capsys, "pulses,weight\n300,1\n400,1\n300,1\n400,1\n")
+    assert code == 2 and "more than 3 rows, the cap of plan --moves" in err
+    monkeypatch.setattr(duty_cycle, "MIX_ROWS_MAX", 10)
+    monkeypatch.setattr(duty_cycle, "MIX_LENGTHS_MAX", 1)
+    code, err = plan_moves(tmp_path, capsys, "pulses,weight\n300,1\n400,1\n")
+    assert code == 2 and "2 distinct move lengths, more than the 1 plan --moves takes" in err
 
 
 def test_plan_moves_names_the_first_byte_that_is_not_utf8(
@@ -240,22 +256,14 @@ def test_plan_moves_from_stdin_carries_the_mix_hash(tmp_path: Path,
     assert hashlib.sha256(mix).hexdigest() in json.dumps(provenance)
 
 
-# a datasheet NEMA17 on a lead screw: the plain init table's origin return (11) reverses
-# by twice a start speed the rotor cannot follow (the report of issue 33)
-DATASHEET = ["--name", "17hs19", "--holding-torque-nm", "0.59", "--rated-current-a", "2",
-             "--current-a", "1.5", "--resistance-ohm", "1.4", "--inductance-mh", "3.0",
-             "--rotor-inertia-gcm2", "82", "--supply-v", "24", "--microstep", "8",
-             "--load", "screw:lead_mm=8,mass_kg=4"]
-
-
 PULSES = 4000
 
 
 @pytest.fixture(scope="module")
 def datasheet_path(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    path = tmp_path_factory.mktemp("motor") / "17hs19.json"
-    assert main(["motor", "new", *DATASHEET, "-o", str(path)]) == 0
-    return path
+    """The datasheet NEMA17 on its lead screw (tests/support/datasheet_motor.py)."""
+    return datasheet_motor_file(tmp_path_factory.mktemp("motor") / "17hs19.json",
+                                "--name", "17hs19")
 
 
 def test_plan_tightens_the_datasheet_motors_linear_table(
@@ -298,16 +306,10 @@ def test_plan_commands_narrows_the_verdict_and_refuses_an_unknown_one(
     assert code == 2 and len(err.strip().splitlines()) == 1 and "'warp'" in err
 
 
-LEAD_MM = 8.0   # nema17-1600 (1600 pulses/rev) on an 8 mm lead: 0.005 mm per pulse
-
-
 @pytest.fixture
 def screw(tmp_path: Path) -> str:
     """The bundled nema17-1600 with an 8 mm lead screw's travel."""
-    obj = json.loads(resolve("nema17-1600").read_text())
-    path = tmp_path / "screw.json"
-    path.write_text(json.dumps({**obj, "travel_mm_per_rev": LEAD_MM}))
-    return str(path)
+    return screw_motor_file(tmp_path)
 
 
 def test_plan_gives_mm_beside_pulses(screw: str, tmp_path: Path,
@@ -393,3 +395,41 @@ def test_plan_distance_refusals_name_the_flag_and_unit(
     assert main(["plan", *argv]) == 2
     err = capsys.readouterr().err
     assert text in err and len(err.splitlines()) == 1
+
+
+# --- plan --from ---------------------------------------------------------------------------------
+def plan_from(capsys: pytest.CaptureFixture[str], tmp_path: Path, motor: str, source: str,
+              pulses: int) -> tuple[int, dict[str, Any], Path]:
+    """`stepramp plan --from SOURCE` for `motor`: (exit code, its JSON or its stderr, the
+    table's path)."""
+    out_path = tmp_path / f"{source}-{pulses}.json"
+    code, out, err = run(capsys, "plan", "--motor", motor, "--pulses", str(pulses), "--from",
+                         source, "--format", "json", "-o", out_path)
+    return code, json.loads(out) if code == 0 else {"err": err}, out_path
+
+
+@pytest.mark.parametrize("source", ["ruckig", "toppra"])
+def test_plan_from_a_reference_gives_a_safe_table_and_its_price(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], source: str) -> None:
+    code, doc, out_path = plan_from(capsys, tmp_path, NEMA17, source, 2000)
+    assert code == 0 and out_path.exists()
+    assert doc["safety"]["safe"] and doc["safety"]["within_aim"]
+    table = load_table(out_path)
+    assert doc["move_time_s"] == pytest.approx(simulate_move(table, 2000).duration_s)
+    # what following the reference costs: its time beside the reference's and the planner's
+    assert doc["table/planner"] == pytest.approx(doc["move_time_s"] / doc["planner_s"])
+    assert doc["table/reference"] == pytest.approx(doc["move_time_s"] / doc["reference_s"])
+    code, _, _ = run(capsys, "check", out_path, "--motor", NEMA17)
+    assert code == 0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("pulses", [2000, 10_000])
+@pytest.mark.parametrize("source", ["ruckig", "toppra"])
+@pytest.mark.parametrize("motor", [NEMA17, MOTORS["motor-nema23-heavy"], PK566])
+def test_plan_from_every_bundled_motor_and_reference(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], motor: str, source: str,
+        pulses: int) -> None:
+    code, doc, out_path = plan_from(capsys, tmp_path, motor, source, pulses)
+    assert code == 0, doc
+    assert run(capsys, "check", out_path, "--motor", motor)[0] == 0

@@ -9,11 +9,11 @@ from pathlib import Path
 
 import pytest
 
-from profiles.motor.catalogue import resolve
 from profiles.ppmc312.clock import Clock
 from profiles.ppmc312.init_model import expand_init
 from profiles.ppmc312.table import FreeCurveTable, load_table
 from tests.support.cli import run
+from tests.support.motor_folders import LEAD_MM, screw_motor_file
 from tests.support.paths import ROOT
 from verify.cli import main
 
@@ -127,16 +127,10 @@ def test_show_reports_it_and_takes_the_tables_own(capsys: pytest.CaptureFixture[
     assert code == 2 and "--cruise-reserve holds the table's top speed" in err
 
 
-LEAD_MM = 8.0   # nema17-1600 (1600 pulses/rev) on an 8 mm lead: 0.005 mm per pulse
-
-
 @pytest.fixture
 def screw(tmp_path: Path) -> str:
     """The bundled nema17-1600 with an 8 mm lead screw's travel."""
-    obj = json.loads(resolve("nema17-1600").read_text())
-    path = tmp_path / "screw.json"
-    path.write_text(json.dumps({**obj, "travel_mm_per_rev": LEAD_MM}))
-    return str(path)
+    return screw_motor_file(tmp_path)
 
 
 def test_show_gives_mm_with_a_linear_motor_and_rev_with_a_rotary_one(

@@ -24,6 +24,7 @@ from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.formats import parse, parse_c_set
 from profiles.ppmc312.table import load_table
 from profiles.ppmc312.upload import decode_move
+from tests.support.figures import record_saved, scale_labels
 from tests.support.paths import ROOT
 from verify.cli import main
 from verify.criterion import check_stall
@@ -227,18 +228,11 @@ def test_simulate_axes_reports_the_spread_of_tables_that_do_not_end_together(
     assert doc["finish_spread_s"] == pytest.approx(spread, rel=1e-12)
 
 
-def scale_labels(ax: Any) -> list[str]:
-    """The labels of the second scales (real units) on `ax`."""
-    return [c.get_ylabel() or c.get_xlabel() for c in ax.child_axes]
-
-
 @pytest.mark.slow  # plans a two-axis line move (~3 s); CI runs it
 def test_sync_scales_in_mm_when_every_axis_shares_its_units(
         tmp_path: Any, monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str]) -> None:
     import json
-
-    from matplotlib.figure import Figure
 
     from verify import cli
 
@@ -248,14 +242,7 @@ def test_sync_scales_in_mm_when_every_axis_shares_its_units(
         "format": "stepramp.axes/1", "mode": "line",
         "axes": [{"name": "x", "motor": "m.json", "pulses": 4000},
                  {"name": "y", "motor": "m.json", "pulses": -1500}]}))
-    saved: list[Any] = []
-    original = Figure.savefig
-
-    def record(self: Any, *args: Any, **kwargs: Any) -> None:
-        saved.append(self)
-        original(self, *args, **kwargs)
-
-    monkeypatch.setattr(Figure, "savefig", record)
+    saved = record_saved(monkeypatch)
     assert cli.main(["sync", str(tmp_path / "axes.json"), "-o", str(tmp_path / "out"),
                      "--no-ruckig", "--plot", str(tmp_path / "s.png")]) in (0, 1)
     path_ax, _, speed_ax = saved[0].axes

@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
 from profiles.errors import FormatError
-from profiles.motor import Motor, bundled_motor_paths, load_motor
+from tests.support.reference_moves import BUNDLED, assert_move
 from verify.references import (
-    Reference,
     ReferenceSolveError,
     best_reference,
     is_feasible,
@@ -18,19 +16,6 @@ from verify.references import (
 )
 from verify.references._common import capability_violation
 from verify.references._suite import CHECK_REL_TOL
-
-BUNDLED = {p.stem: load_motor(p) for p in bundled_motor_paths()}
-
-
-def assert_move(motor: Motor, n: float, ref: Reference, rel_tol: float = 1e-6) -> None:
-    """Starts and ends at v0, covers exactly 0…N, time runs forward, stays in capability."""
-    lim = move_limits(motor, n)
-    assert ref.v_pps[0] == pytest.approx(lim.v0_pps, rel=1e-9)
-    assert ref.v_pps[-1] == pytest.approx(lim.v0_pps, rel=1e-9)
-    assert ref.x_pulses[0] == 0 and ref.x_pulses[-1] == pytest.approx(n, rel=1e-12)
-    assert np.all(np.diff(ref.t_s) >= 0)
-    assert ref.t_s[-1] == pytest.approx(ref.duration_s, rel=1e-9)
-    assert capability_violation(motor, lim, ref, rel_tol=rel_tol) == ""
 
 
 @pytest.mark.slow

@@ -12,12 +12,7 @@ from profiles.alink.sync import (
     pulse_times_s,
 )
 from profiles.joint import spread_tolerance_s
-from profiles.motor import bundled_motor_paths, load_motor
-
-MOTORS = [load_motor(p) for p in bundled_motor_paths()]
-
-
-NEMA17, NEMA23, PK566 = MOTORS
+from tests.support.sync_checks import NEMA17, PK566
 
 
 # --------------------------------------------------------------------------- A-Link

@@ -282,17 +282,24 @@ def oracle(pb: Problem, r_slow: np.ndarray, r_fast: np.ndarray
              & ~in_bands(f_fast, narrow_bands(m)))
     return n, d, valid
 
+def counts_problem(motor: Motor, separate: bool, shaped: int,
+                   rng: np.random.Generator) -> Problem:
+    """The problem the counts are compared on: unshaped, uniformly shaped, or its first
+    band scaled (and the rest by a common factor), as `shaped` picks."""
+    shaping = (None, Shaping.uniform(float(rng.uniform(0.4, 1.0))),
+               Shaping.bands(motor).scaled({1: float(rng.uniform(0.4, 1.0))},
+                                           float(rng.uniform(0.5, 1.0))))[shaped]
+    slowest = replace(motor, start_pps=motor.start_pps * (shaping or Shaping()).start_scale)
+    return make_problem(motor, choose_clock(slowest), separate, shaping)
+
+
 
 @SETTINGS_COUNTS
 @given(motors(), st.booleans(), st.integers(0, 2), st.integers(0, 2**32 - 1))
 def test_compiled_counts_equal_the_capabilitys_to_the_bit(motor: Motor, separate: bool,
                                                          shaped: int, seed: int) -> None:
     rng = np.random.default_rng(seed)
-    shaping = (None, Shaping.uniform(float(rng.uniform(0.4, 1.0))),
-               Shaping.bands(motor).scaled({1: float(rng.uniform(0.4, 1.0))},
-                                           float(rng.uniform(0.5, 1.0))))[shaped]
-    slowest = replace(motor, start_pps=motor.start_pps * (shaping or Shaping()).start_scale)
-    pb = make_problem(motor, choose_clock(slowest), separate, shaping)
+    pb = counts_problem(motor, separate, shaped, rng)
     r_slow = rng.integers(pb.r_fast, 0xFFFF, 3000).astype(float)
     # steps up, down, none, a zero fast rate, and steps ending exactly on a breakpoint
     r_fast = r_slow - rng.integers(-3, max(4, int(r_slow.min()) // 2), 3000)
@@ -370,11 +377,7 @@ def test_the_graphs_counts_equal_the_step_by_step_counts(motor: Motor, separate:
     from profiles.ppmc312.planner.search import GRID_TARGET, grid_rates
 
     rng = np.random.default_rng(seed)
-    shaping = (None, Shaping.uniform(float(rng.uniform(0.4, 1.0))),
-               Shaping.bands(motor).scaled({1: float(rng.uniform(0.4, 1.0))},
-                                           float(rng.uniform(0.5, 1.0))))[shaped]
-    slowest = replace(motor, start_pps=motor.start_pps * (shaping or Shaping()).start_scale)
-    pb = make_problem(motor, choose_clock(slowest), separate, shaping)
+    pb = counts_problem(motor, separate, shaped, rng)
     rates = grid_rates(pb, int(rng.integers(20, GRID_TARGET)))
     width = int(rng.integers(1, 60))
     w, wa, packed_w, valid, reach = pb.graph_counts(rates, width)

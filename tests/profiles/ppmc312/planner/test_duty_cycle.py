@@ -4,8 +4,6 @@ of candidate tables, every length timed at once exactly as the chip runs it, and
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -18,7 +16,6 @@ from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.planner import duty_cycle, plan_duty_cycle, plan_free_curve
 from profiles.ppmc312.planner.duty_cycle import candidate_lengths, mix_arrays, move_ticks
 from profiles.ppmc312.table import FreeCurveTable
-from verify.cli import main
 
 MOTORS = {p.stem: p for p in bundled_motor_paths()}
 
@@ -104,26 +101,3 @@ def test_duty_cycle_is_never_worse_than_any_candidates_plan() -> None:
         single = plan_free_curve(motor, pulses=n).table
         assert weighted <= sum(w * simulate_move(single, m).duration_s for m, w in mix) \
             * (1 + 1e-12)
-
-
-# --- plan --moves --------------------------------------------------------------------------------
-def plan_moves(tmp_path: Path, capsys: pytest.CaptureFixture[str],
-               text: str) -> tuple[int, str]:
-    mix = tmp_path / "mix.csv"
-    mix.write_text(text)
-    out = tmp_path / "t.json"
-    code = main(["plan", "--motor", str(PK566), "--moves", str(mix), "-o", str(out)])
-    err = capsys.readouterr().err
-    assert not out.exists() or code == 0
-    return code, err
-
-
-def test_plan_moves_caps_its_rows(tmp_path: Path, capsys: pytest.CaptureFixture[str],
-                                  monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(duty_cycle, "MIX_ROWS_MAX", 3)
-    code, err = plan_moves(tmp_path, capsys, "pulses,weight\n300,1\n400,1\n300,1\n400,1\n")
-    assert code == 2 and "more than 3 rows, the cap of plan --moves" in err
-    monkeypatch.setattr(duty_cycle, "MIX_ROWS_MAX", 10)
-    monkeypatch.setattr(duty_cycle, "MIX_LENGTHS_MAX", 1)
-    code, err = plan_moves(tmp_path, capsys, "pulses,weight\n300,1\n400,1\n")
-    assert code == 2 and "2 distinct move lengths, more than the 1 plan --moves takes" in err

@@ -475,8 +475,9 @@ def test_ringing_after_the_stop_to_rest_is_blamed_on_the_start_speed() -> None:
 def test_one_round_blames_every_band_that_rings(monkeypatch: pytest.MonkeyPatch) -> None:
     """The NEMA23's plain table at 11 000 pulses rings past the aim in eight speed bands,
     its worst six executions in four of them: blamed with the worst of each other band
-    too, one round reaches the aim (3 plans: plain, tightened, a relax step); the worst
-    six alone surfaced the bands one by one (7 plans) for a slower table."""
+    that rings 10 % past the aim too, one round reaches the aim (3 plans: plain,
+    tightened, a relax step); the worst six alone surfaced the bands one by one (7
+    plans) for a slower table."""
     from dataclasses import replace
 
     from profiles.ppmc312.load_angle import forget_verdicts

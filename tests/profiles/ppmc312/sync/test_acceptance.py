@@ -5,12 +5,7 @@ from __future__ import annotations
 import pytest
 
 from profiles.errors import SyncError
-from profiles.motor import bundled_motor_paths, load_motor
-
-MOTORS = [load_motor(p) for p in bundled_motor_paths()]
-
-
-NEMA17, NEMA23, PK566 = MOTORS
+from tests.support.sync_checks import NEMA17
 
 
 def test_line_mode_falls_back_below_the_peak_and_says_so(monkeypatch: pytest.MonkeyPatch

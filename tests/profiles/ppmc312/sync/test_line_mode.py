@@ -3,15 +3,11 @@ recomputed here independently of the library."""
 
 from __future__ import annotations
 
-import math
-
-import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from profiles.motor import bundled_motor_paths, load_motor
-from profiles.ppmc312.execution import Execution
+from profiles.motor import load_motor
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312.sync import (
     cap_top,
@@ -19,33 +15,8 @@ from profiles.ppmc312.sync import (
     plan_line_sync,
     spread_tolerance_s,
 )
+from tests.support.sync_checks import NEMA17, PK566, independent_deviation
 from verify.criterion import check_stall
-
-MOTORS = [load_motor(p) for p in bundled_motor_paths()]
-
-
-NEMA17, NEMA23, PK566 = MOTORS
-
-
-# --------------------------------------------------------------------------- recomputation
-def pulse_instants(e: Execution) -> list[float]:
-    """Every pulse's instant from the segments, one by one (ticks, then seconds)."""
-    out = []
-    tick = 0
-    for s in e.segments:
-        for _ in range(s.pulses):
-            tick += s.rate
-            out.append(tick / e.clock.hz)
-    return out
-
-
-def independent_deviation(a: Execution, b: Execution) -> float:
-    """Largest distance of the 2-D joint path from the line, at every pulse instant."""
-    t = np.array(sorted(set(pulse_instants(a)) | set(pulse_instants(b))))
-    x = np.asarray(a.position_at(t), dtype=float)
-    y = np.asarray(b.position_at(t), dtype=float)
-    nx, ny = a.pulses, b.pulses
-    return float(np.max(np.abs(x * ny - y * nx)) / math.hypot(nx, ny))
 
 
 def test_cap_top_never_asks_more() -> None:

@@ -13,17 +13,12 @@ import math
 
 import pytest
 
-from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312.execution import Execution, simulate_move
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312.sync import (
     line_deviation,
 )
-
-MOTORS = [load_motor(p) for p in bundled_motor_paths()]
-
-
-NEMA17, NEMA23, PK566 = MOTORS
+from tests.support.sync_checks import NEMA17
 
 
 def test_line_deviation_is_zero_for_identical_axes() -> None:

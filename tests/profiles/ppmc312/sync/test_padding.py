@@ -2,17 +2,12 @@
 
 from __future__ import annotations
 
-from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312.sync import (
     pad_to_ticks,
 )
-
-MOTORS = [load_motor(p) for p in bundled_motor_paths()]
-
-
-NEMA17, NEMA23, PK566 = MOTORS
+from tests.support.sync_checks import NEMA17
 
 
 def test_padding_lands_within_a_tick_step_and_only_grows_counts() -> None:

@@ -7,38 +7,16 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from profiles.errors import SyncError
-from profiles.motor import bundled_motor_paths, load_motor
-from profiles.ppmc312.execution import Execution, simulate_move
+from profiles.ppmc312.execution import simulate_move
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312.sync import (
     plan_time_sync,
     spread_tolerance_s,
 )
 from profiles.ppmc312.upload import decode_move
+from tests.support.sync_checks import NEMA17, NEMA23, PK566, independent_spread, pulse_instants
 from verify.criterion import check_stall
 from verify.sync import sync_report
-
-MOTORS = [load_motor(p) for p in bundled_motor_paths()]
-
-
-NEMA17, NEMA23, PK566 = MOTORS
-
-
-# --------------------------------------------------------------------------- recomputation
-def pulse_instants(e: Execution) -> list[float]:
-    """Every pulse's instant from the segments, one by one (ticks, then seconds)."""
-    out = []
-    tick = 0
-    for s in e.segments:
-        for _ in range(s.pulses):
-            tick += s.rate
-            out.append(tick / e.clock.hz)
-    return out
-
-
-def independent_spread(executions: list[Execution]) -> float:
-    ends = [pulse_instants(e)[-1] for e in executions]
-    return max(ends) - min(ends)
 
 
 # --------------------------------------------------------------------------- time mode
