@@ -103,7 +103,10 @@ def verdicts(res: Results, quick: bool, folder: str) -> None:
                 "tolerance box: every corner). At 67140f2, before the changes it came with, the "
                 "same verdicts took 0.30–0.46 s CPU (linear) and 1.5–3.4 s CPU (S-curve), "
                 "measured beside this tree on the same settings (their JSON equal to 1e-6): "
-                "3–8× the CPU they take now.")
+                "3–8× the CPU they took at 3c8a3fe (102–118 ms linear, 240–406 ms S-curve, "
+                "load 7–8); since then the stop families are sampled along the ramp and "
+                "refined (docs/manual-notes.md, \"A-Link ALUM: stops sampled along the "
+                "ramp\"): fewer stops judged, the same verdicts.")
 
 
 def main() -> None:
