@@ -6,7 +6,8 @@ No deadline anywhere: a 2-core machine running two workers is no place to time
 single examples (speed goals live in bench/). The quick local suite (`pytest -m
 "not slow"`, outside CI) runs each property on 30 examples instead of hypothesis's
 100, unless the test sets its own count: a first look, not the verdict (CI and the
-mutation runs, which set CI, keep the full count).
+mutation runs keep the full count). tools/mutation.py's runs use the `mutation` profile
+(derandomised, no database, no shrinking).
 
 The fuzz campaign is the `fuzz` profile (`HYPOTHESIS_PROFILE=fuzz`, or pytest's
 `--hypothesis-profile=fuzz`): tests/contract/test_fuzz.py's campaign tests then run
@@ -26,7 +27,7 @@ import tempfile
 from collections.abc import Iterator
 
 import pytest
-from hypothesis import HealthCheck, settings
+from hypothesis import HealthCheck, Phase, settings
 
 settings.register_profile("ci", derandomize=True, deadline=None, print_blob=True)
 settings.register_profile("dev", deadline=None)
@@ -34,6 +35,10 @@ settings.register_profile("quick", deadline=None, max_examples=30)
 settings.register_profile("fuzz", deadline=None, print_blob=True,
                           max_examples=int(os.environ.get("STEPRAMP_FUZZ_EXAMPLES", "100")),
                           suppress_health_check=list(HealthCheck))
+# tools/mutation.py's runs: a mutant needs only *a* failing example, and shrinking one can
+# take longer than every other test together
+settings.register_profile("mutation", derandomize=True, deadline=None, database=None,
+                          phases=(Phase.explicit, Phase.reuse, Phase.generate))
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE")
                       or ("ci" if os.environ.get("CI") else "dev"))
 

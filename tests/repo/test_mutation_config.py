@@ -1,24 +1,40 @@
-"""tools/mutation.toml against the code: every module of profiles/ and verify/ is mapped
-to tests or excluded with a reason, every test it names exists, and every mutant it
-calls equivalent still exists (ids are code, so a stale one is found here, not kept
-silently). And the mutants' ids are code: lines moving leave them unchanged."""
+"""tools/mutation.toml against the code, and tools/mutation.py's filters: every module
+of profiles/ and verify/ is mapped to tests or excluded with a reason, every test it names
+exists, every mutant it calls equivalent still exists (ids are code, so a stale one is
+found here, not kept silently) and is marked skipped with its reason; a mutant in an
+annotation is none; a sample is fixed and a larger one extends it. The report's rows (the
+README's block) are its modules'."""
 
 from __future__ import annotations
 
-import os
+import importlib.util
+import json
 import re
 import subprocess
 import sys
 from pathlib import Path
+from types import ModuleType
+
+from cosmic_ray.commands import init
+from cosmic_ray.work_db import WorkDB, use_db
+from cosmic_ray.work_item import TestOutcome as Outcome
+from cosmic_ray.work_item import WorkerOutcome, WorkResult
 
 from tests.support.paths import ROOT
 
-sys.path.insert(0, str(ROOT / "tools"))
 
-import mutants
-from mutation_config import equivalents, excluded, load_config, module_path, modules
+def load_tool() -> ModuleType:
+    spec = importlib.util.spec_from_file_location("stepramp_mutation",
+                                                  ROOT / "tools" / "mutation.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module
 
-CONFIG = load_config()
+
+tool = load_tool()
+CONFIG = tool.load_config()
 
 
 def package_modules() -> set[str]:
@@ -30,124 +46,167 @@ def package_modules() -> set[str]:
 
 
 def test_every_module_is_mapped_or_excluded_with_a_reason() -> None:
-    mapped = {m.name for m in modules(CONFIG)}
-    left_out = excluded(CONFIG)
+    mapped, left_out = set(CONFIG["modules"]), CONFIG["excluded"]
     assert not mapped & set(left_out)
     assert mapped | set(left_out) == package_modules()
     assert all(why.strip() for why in left_out.values())
 
 
 def test_every_mapped_test_exists() -> None:
-    for m in modules(CONFIG):
-        files = [t.split("::")[0] for t in m.tests if t.startswith("tests/")]
-        assert files, m.name
+    for name, tests in CONFIG["modules"].items():
+        files = [t.split("::")[0] for t in tests if t.startswith("tests/")]
+        assert files, name
         for f in files:
-            assert (ROOT / f).is_file(), (m.name, f)
+            assert (ROOT / f).is_file(), (name, f)
+
+
+def test_the_load_angle_kernels_run_as_plain_python() -> None:
+    assert set(CONFIG["env"]) <= set(CONFIG["modules"])
+    assert CONFIG["env"]["profiles.motor.rotor_kernel"] == {"NUMBA_DISABLE_JIT": "1"}
+    assert set(tool.LOAD_ANGLE) <= set(CONFIG["modules"])
 
 
 def test_every_equivalent_mutant_exists_and_says_why() -> None:
-    ids: dict[str, set[str]] = {}
-    for (name, mid), why in equivalents(CONFIG).items():
-        if name not in ids:
-            ids[name] = {s.id for s in mutants.sites(module_path(name).read_text())}
-        assert mid in ids[name], f"{name}: no mutant {mid!r} (stale: the code changed)"
-        assert len(why) > 20, (name, mid)
+    assert set(CONFIG["equivalent"]) <= set(CONFIG["modules"])
+    for name, listed in CONFIG["equivalent"].items():
+        source = tool.module_path(name).read_text(encoding="utf-8")
+        firsts = {mid.split(": ", 1)[1].split(" → ")[0].split(" / ")[0] for mid in listed}
+        lines = {i for i, line in enumerate(source.splitlines(), 1) if line.strip() in firsts}
+        ids = tool.mutant_ids_at(source, lines)
+        for mid, why in listed.items():
+            assert mid in ids, f"{name}: no mutant {mid!r} (stale: the code changed)"
+            assert len(why) > 20, (name, mid)
 
 
-def test_ids_are_the_code_not_its_line() -> None:
-    source = (ROOT / "profiles" / "motor" / "rotor.py").read_text()
-    moved = source.replace("\nimport bisect\n", "\nimport bisect\n\n\ndef _new(x):\n"
-                                                "    return x[-1] + 1 if x else max(x)\n", 1)
-    before = [s.id for s in mutants.sites(source)]
-    after = {s.id for s in mutants.sites(moved)}
-    assert len(before) == len(set(before))
-    assert set(before) <= after and len(after) > len(before)
+SOURCE = ("def f(a, b):\n"
+          "    if a < b:\n"
+          "        return a + 1\n"
+          "    return b\n")
 
 
-def test_each_operator_makes_the_mutant_its_id_says() -> None:
-    source = ("def f(a, fr, u, xs):\n"
-              "    if not xs:\n"
-              "        print(a)\n"
-              "    return max(a + fr, xs[-1] * 2) if u > 0 and True else None\n")
-    sites = mutants.sites(source)
-    ret = "return max(a + fr, xs[-1] * 2) if u > 0 and True else None"
-    expected = {
-        "f: not xs → xs", "f: print(a) → None",
-        f"f: {ret} → return max(a - fr, xs[-1] * 2) if u > 0 and True else None",
-        f"f: {ret} → return max(a + fr, xs[+1] * 2) if u > 0 and True else None",
-        f"f: {ret} → return max(a + fr, xs[-2] * 2) if u > 0 and True else None",
-        f"f: {ret} → return max(a + fr, xs[-1] / 2) if u > 0 and True else None",
-        f"f: {ret} → return min(a + fr, xs[-1] * 2) if u > 0 and True else None",
-        f"f: {ret} → return max(a + fr, xs[-1] * 2) if u >= 0 and True else None",
-        f"f: {ret} → return max(a + fr, xs[-1] * 2) if u > 1 and True else None",
-        f"f: {ret} → return max(a + fr, xs[-1] * 2) if u > 0 or True else None",
-        f"f: {ret} → return max(a + fr, xs[-1] * 2) if u > 0 and False else None",
-    }
-    assert expected <= {site.id for site in sites} and len(sites) == 15
-    plain = mutants.mutant(source, -1)  # no site: the source unparsed
-    for site in sites:
-        changed = mutants.mutant(source, site.index)
-        assert changed != plain
-        assert site.after in changed or site.after == "None"
-    catalogue = (ROOT / "profiles" / "motor" / "catalogue.py").read_text()
-    for site in mutants.sites(catalogue):  # every mutant of a real module compiles
-        compile(mutants.mutant(catalogue, site.index), "catalogue", "exec")
+def session(folder: Path, source: str = SOURCE) -> tuple[Path, Path]:
+    """A cosmic-ray session of a module `m` holding `source`, in `folder`."""
+    folder.mkdir(exist_ok=True)
+    module = folder / "m.py"
+    module.write_text(source, encoding="utf-8")
+    db_path = folder / "m.sqlite"
+    with use_db(str(db_path)) as db:
+        init([module], db, {})
+    return module, db_path
 
 
-def test_a_mutant_replaces_its_module_in_the_processes_its_tests_start(tmp_path: Path) -> None:
-    """A test that runs the CLI in a subprocess judges the mutant too (tools/mutant_finder:
-    the environment names it, tools/mutant_site/sitecustomize.py installs it there); a
-    process started without it imports the module as it is."""
-    probe = ("import subprocess, sys\n"
-             "child = 'import stepramp_probe; print(stepramp_probe.SAYS)'\n"
-             "print(subprocess.run([sys.executable, '-c', child], capture_output=True, "
-             "text=True).stdout.strip() or 'no such module')\n")
-    # a module only the mutant's source defines stands in for a project module
-    setup = ("import sys; sys.path.insert(0, {tools!r})\n"
-             "from pathlib import Path\n"
-             "import mutant_finder\n"
-             "mutant_finder.install('stepramp_probe', Path({path!r}), 'SAYS = \"mutant\"', "
-             "Path({file!r}))\n")
-    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "STEPRAMP_MUTANT")}
-    code = setup.format(tools=str(ROOT / "tools"), path=str(tmp_path / "stepramp_probe.py"),
-                        file=str(tmp_path / "mutant.py")) + probe
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         env=env, timeout=60)
-    assert out.returncode == 0, out.stderr
-    assert out.stdout.strip() == "mutant"
-    plain = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
-                           env=env, timeout=60)
-    assert plain.stdout.strip() == "no such module"
+def ids_by_job(db: WorkDB, source: str) -> dict[str, str]:
+    return {w.job_id: tool.mutant_id(source, w.mutations[0]) for w in db.work_items}
+
+
+def test_ids_are_the_code_not_its_line(tmp_path: Path) -> None:
+    _, db_path = session(tmp_path)
+    moved = "import os\n\n\n" + SOURCE
+    _, moved_db = session(tmp_path / "moved", moved)
+    with use_db(str(db_path)) as db, use_db(str(moved_db)) as other:
+        before, after = ids_by_job(db, SOURCE), ids_by_job(other, moved)
+    assert "f: if a < b: → if a <= b:" in before.values()
+    assert "f: return a + 1 → return a - 1" in before.values()
+    assert set(before.values()) == set(after.values())
+
+
+def test_the_equivalents_filter_marks_them_skipped_with_their_reason(tmp_path: Path) -> None:
+    _, db_path = session(tmp_path)
+    why = "a reason long enough to be one"
+    with use_db(str(db_path)) as db:
+        ids = ids_by_job(db, SOURCE)
+        [job] = [j for j, i in ids.items() if i == "f: if a < b: → if a <= b:"]
+        [survivor] = [j for j, i in ids.items() if i == "f: return a + 1 → return a - 1"]
+        db.set_result(survivor, WorkResult(WorkerOutcome.NORMAL,
+                                           test_outcome=Outcome.SURVIVED))
+        known = {("m", "f: if a < b: → if a <= b:"): why,
+                 ("m", "f: return a + 1 → return a - 1"): why}
+        tool.equivalent_filter(db, db_path, "m", SOURCE, known)
+        results = dict(db.results)
+        assert {j: r.output for j, r in results.items()} == \
+            {job: "equivalent: " + why, survivor: "equivalent: " + why}
+        assert all(r.worker_outcome == WorkerOutcome.SKIPPED for r in results.values())
+        assert tool.verdict(results[job]) == "equivalent"
+        tool.equivalent_filter(db, db_path, "m", SOURCE, {})  # no longer listed: run again
+        assert dict(db.results) == {}
+
+
+def test_a_mutant_in_an_annotation_is_none(tmp_path: Path) -> None:
+    """Annotations are never evaluated (`from __future__ import annotations`): a mutant
+    there is skipped and not counted; a default value's is kept, and so is every mutant of
+    a module that evaluates its annotations."""
+    line = "def f(a: int | None, b: int = 1 | 2) -> int | None:"
+    body = f"{line}\n    x: int | None = a\n    return x\n"
+    default = (4, line.index("1 | 2") + 2)  # the `|` of the default value
+    for future in (True, False):
+        text = ("from __future__ import annotations\n\n\n" if future else "\n\n\n") + body
+        _, db_path = session(tmp_path / str(future), text)
+        with use_db(str(db_path)) as db:
+            tool.annotation_filter(db, text)
+            done = dict(db.results)
+            skipped = {w.mutations[0].start_pos for w in db.work_items if w.job_id in done}
+            kept = {w.mutations[0].start_pos for w in db.work_items if w.job_id not in done}
+            assert {tool.verdict(r) for r in done.values()} <= {"filtered"}
+        assert default in kept
+        if future:
+            assert skipped == {(4, line.index("|")), (4, line.rindex("|"))}
+        else:
+            assert not skipped
+
+
+def test_a_sample_is_fixed_and_a_larger_one_extends_it(tmp_path: Path) -> None:
+    _, db_path = session(tmp_path)
+    _, again = session(tmp_path / "again")
+
+    def sampled(path: Path, n: int) -> set[str]:
+        with use_db(str(path)) as db:
+            tool.sample_filter(db, path, "m", n, [])
+            ids = ids_by_job(db, SOURCE)
+            return {ids[w.job_id] for w in db.pending_work_items}
+
+    three = sampled(db_path, 3)
+    assert len(three) == 3 and sampled(again, 3) == three
+    five = sampled(db_path, 5)
+    assert len(five) == 5 and three <= five
+    with use_db(str(db_path)) as db:
+        assert {r.output for _, r in db.results} == {tool.NOT_SAMPLED}
 
 
 def test_a_mutants_run_turns_off_the_plugin_the_suite_loads() -> None:
-    """tools/mutation_run.py blocks the repo-clean plugin by the name tests/conftest.py
-    loads it under (a name that blocks nothing would fail every mutant's run whenever
-    the checkout changes meanwhile)."""
-    source = (ROOT / "tools" / "mutation_run.py").read_text(encoding="utf-8")
-    blocked = [name.removeprefix("no:") for name in re.findall(r'"(no:[\w.]+)"', source)]
+    """A mutant's tests run without the repo-clean check (it would fail every run: the
+    mutant is in the copy's file), blocked by the name tests/conftest.py loads it under."""
+    command = tool.test_command(["tests/x.py"])
+    blocked = [command[i + 1].removeprefix("no:") for i, a in enumerate(command) if a == "-p"]
     conftest = (ROOT / "tests" / "conftest.py").read_text(encoding="utf-8")
     plugins = re.search(r"^pytest_plugins = \[(.*)\]$", conftest, re.M)
     assert plugins is not None
     assert "tests.support.repo_clean" in re.findall(r'"([\w.]+)"', plugins.group(1))
     assert "tests.support.repo_clean" in blocked
+    assert command[len(command) - 1 - command[::-1].index("-m") + 1] == "not slow"
 
 
-def test_mutmut_mutates_both_packages_and_selects_existing_tests() -> None:
-    """pyproject.toml's [tool.mutmut] (the maintained tool replacing tools/mutation.py):
-    it mutates profiles/ and verify/ whole, its test selection names folders that exist,
-    slow tests and the repo-clean check stay out of a mutant's run, and its working copy
-    (mutants/) is git-ignored, never committed."""
+def test_cosmic_ray_is_a_dev_dependency_and_the_runs_are_git_ignored() -> None:
     import tomllib
 
     config = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
-    mutmut = config["tool"]["mutmut"]
-    assert sorted(mutmut["source_paths"]) == ["profiles", "verify"]
-    for selected in mutmut["pytest_add_cli_args_test_selection"]:
-        assert (ROOT / selected).exists(), selected
-    args = mutmut["pytest_add_cli_args"]
-    assert args[args.index("-m") + 1] == "not slow"
-    assert "no:tests.support.repo_clean" in args
-    assert any(d.startswith("mutmut") for d in config["project"]["optional-dependencies"]["dev"])
-    r = subprocess.run(["git", "check-ignore", "-q", "mutants/profiles/x.py"], cwd=ROOT)
-    assert r.returncode == 0, "mutants/ is not git-ignored"
+    assert any(d.startswith("cosmic-ray") for d in
+               config["project"]["optional-dependencies"]["dev"])
+    r = subprocess.run(["git", "check-ignore", "-q", ".mutation/profiles.axes.sqlite"],
+                       cwd=ROOT)
+    assert r.returncode == 0, ".mutation/ is not git-ignored"
+
+
+def test_the_reports_rows_are_its_modules() -> None:
+    """reports/mutation.json's summary (the README's block, bench/readme.py) adds up its
+    modules' counts."""
+    doc = json.loads(tool.REPORT.read_text(encoding="utf-8"))
+    modules = doc["values"]["modules"]
+    assert set(modules) <= set(CONFIG["modules"])
+    rows = doc["sections"]["summary"]["rows"]
+    assert rows[-1] == tool.row("**all**", list(modules.values()))
+    for r in rows[:-2]:
+        assert r == tool.row(r[0], [modules[r[0]]])
+    for m in modules.values():
+        assert m["survived"] == len(m["survivors"])
+        assert m["equivalent"] == len(m["equivalent_mutants"])
+        assert all(e["why"] != "(no longer listed)" for e in m["equivalent_mutants"])

@@ -8,7 +8,7 @@ from tests.support.paths import ROOT
 
 
 def checkout_env(**extra: str) -> dict[str, str]:
-    """os.environ with the checkout first on PYTHONPATH, then what the caller had there
-    (a mutation run's import hook, tools/mutant_site), and `extra`."""
+    """os.environ with the checkout first on PYTHONPATH, then what the caller had there,
+    and `extra`."""
     kept = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
     return {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), *kept]), **extra}

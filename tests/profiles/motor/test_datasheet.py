@@ -258,3 +258,14 @@ def test_a_vendor_curve_keeps_micro_newton_metres() -> None:
     obj = motor_object(np.array([0.0, 1234.56789]), np.array([0.0123456789, 0.0023456789]),
                        Mechanics(step_angle_deg=1.8, rotor_inertia_kgm2=5e-6), 1)
     assert obj["pullout_torque"] == [[0.0, 0.012346], [1234.568, 0.002346]]
+
+
+def test_an_assumed_detent_is_5_percent_of_the_holding_torque_and_may_be_none() -> None:
+    """A datasheet without a detent torque: 5 % of the holding torque is counted as
+    friction, with 0 as its least (the motor may have less)."""
+    from profiles.motor.datasheet import assumed_detent
+
+    detent = assumed_detent(0.5)
+    assert detent.field == "friction_torque_nm"
+    assert detent.value == pytest.approx(0.025)
+    assert detent.low == 0.0

@@ -346,3 +346,16 @@ def test_a_screw_a_belt_and_a_gear_give_their_travel(specs: list[str], mm: float
 def test_rotary_loads_have_no_travel() -> None:
     assert mechanisms_from_specs(["disc:mass_kg=1,diameter_mm=50", "gear:ratio=3",
                                   "inertia:j_kgm2=1e-5"]) == []
+
+
+def test_a_lead_in_metres_typed_as_mm_is_refused_saying_so() -> None:
+    with pytest.raises(FormatError, match=r"m typed as mm\? 0\.005 m = 5 mm"):
+        parse_load("screw:lead_mm=0.005,mass_kg=2")
+    with pytest.raises(FormatError, match=r"outside any lead screw's lead \(0\.1\.\.500 mm\)$"):
+        parse_load("screw:lead_mm=900,mass_kg=2")
+
+
+def test_direct_values_refuse_a_negative_inertia() -> None:
+    with pytest.raises(FieldRangeError, match="inertia_kgm2"):
+        direct(inertia_kgm2=-1e-9)
+    assert direct(inertia_kgm2=0.0) is not None

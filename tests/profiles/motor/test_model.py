@@ -89,3 +89,31 @@ def test_a_load_takes_from_both_sides_and_one_step_a_turn_is_a_motor() -> None:
     assert Motor.from_json(m.to_json() | {"steps_per_rev": 1}).steps_per_rev == 1
     with pytest.raises(FieldRangeError, match="steps_per_rev"):
         Motor.from_json(m.to_json() | {"steps_per_rev": 0})
+
+
+def test_a_damping_ratio_other_than_the_default_is_written_either_way() -> None:
+    """to_json leaves out only the default damping ratio: one above it, or below, is
+    written and read back."""
+    from dataclasses import replace
+
+    from profiles.motor.model import DEFAULT_DAMPING_RATIO
+
+    base = MOTORS[0]
+    for ratio in (DEFAULT_DAMPING_RATIO / 2, DEFAULT_DAMPING_RATIO * 2):
+        motor = replace(base, damping_ratio=ratio)
+        assert motor.to_json()["damping_ratio"] == ratio
+        assert Motor.from_json(json.loads(json.dumps(motor.to_json()))).damping_ratio == ratio
+    assert "damping_ratio" not in replace(base, damping_ratio=DEFAULT_DAMPING_RATIO).to_json()
+
+
+def test_the_curve_may_reach_the_speed_bound_but_not_pass_it() -> None:
+    from profiles.motor.model import MAX_SPEED_PPS
+
+    doc = MOTORS[0].to_json()
+    for top, ok in ((MAX_SPEED_PPS, True), (MAX_SPEED_PPS * 1.5, False)):
+        curve = [[0.0, 0.5], [top, 0.1]]
+        if ok:
+            assert Motor.from_json({**doc, "pullout_torque": curve}).curve_speed_pps[-1] == top
+        else:
+            with pytest.raises(FormatError, match="speeds up to"):
+                Motor.from_json({**doc, "pullout_torque": curve})

@@ -4,6 +4,7 @@ plain-Python oracle (tests/support/rotor_oracle.py), step by step."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -169,6 +170,28 @@ def test_box_rows_for_a_motor_with_no_tolerances_are_its_rotor() -> None:
     assert rotors(motor, direction=-1).rotor(0) == rotor_of(motor, direction=-1)
     assert rotors(motor, {"torque_scale": [0.8]}).rotor(0) == rotor_of(
         variant(motor, {"torque_scale": 0.8}))
+
+
+def test_a_slow_rotor_is_followed_at_most_400_seconds_at_a_fine_step() -> None:
+    """The rest counts natural periods of at most 1 s: a rotor with a 4 s period at rest,
+    followed with a step ten times finer than its own, rests 400 s, not 1 600."""
+    rotor = rotor_of(plain_motor())
+    slow = replace(rotor, k=rotor.k * (rotor.natural_period_s(0.0) / 4.0) ** 2)
+    assert slow.natural_period_s(0.0) == pytest.approx(4.0)
+    assert settle_s(slow, slow.step_s() / 10) == pytest.approx(MAX_SETTLE_PERIODS * 1.0)
+    assert settle_s(slow, slow.step_s()) == pytest.approx(MAX_SETTLE_PERIODS * 4.0)
+
+
+def test_the_periods_at_rest_are_each_rotors_own_or_none_off_a_curve_from_rest() -> None:
+    """`Rotors.periods_at_rest_s`: every row's `natural_period_s(0.0)` at once when the
+    curve starts at 0 pps; None (ask each rotor) when it starts above, or is empty."""
+    box = rotors(plain_motor(), {"torque_scale": [0.8, 1.0, 1.2]})
+    periods = box.periods_at_rest_s()
+    assert periods is not None
+    assert periods == pytest.approx([box.rotor(i).natural_period_s(0.0)
+                                     for i in range(len(box))], rel=1e-12)
+    assert replace(box, curve_v=box.curve_v + 100.0).periods_at_rest_s() is None
+    assert replace(box, curve_v=box.curve_v[:0]).periods_at_rest_s() is None
 
 
 def test_the_rk4_step_is_a_fiftieth_and_the_rest_four_hundred_natural_periods() -> None:

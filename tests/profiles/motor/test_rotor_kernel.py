@@ -109,3 +109,45 @@ def test_every_family_is_sampled_by_its_own_slowest_changing_stage() -> None:
         assert mine[0] == fam.lo and np.all(np.diff(mine) <= expected), (f, mine)
         checked += 1
     assert checked >= 3
+
+
+def test_a_worst_exactly_at_the_bound_ends_the_integration() -> None:
+    """`_joins`: away from the reference's state, the worst so far bounds the rest once it
+    is no less than the reference's worst from there plus `bound` amplitudes of the
+    difference (≥: exactly at the bound counts; just below does not)."""
+    from profiles.motor import rotor_kernel as rk
+
+    rotor = rotor_of(load_motor(bundled_motor_paths()[0]))
+    curve_v, curve_t = rotor.curve()
+    row, v, lag, s, ref_rest, bound = rotor.row(), 1000.0, 0.5, 100.0, 2.0, 1.5
+    at = ref_rest + bound * rk._amplitude(curve_v, curve_t, row, v, lag, s)
+
+    def joins(worst: float, bound: float = bound) -> bool:
+        return bool(rk._joins(curve_v, curve_t, row, v, lag, s, worst, 0.0, 0.0, 1e-9, 1e-9,
+                              ref_rest, bound))
+
+    assert joins(at)
+    assert not joins(float(np.nextafter(at, -math.inf)))
+    assert not joins(math.inf, bound=0.0)  # no bound: only rejoining the reference ends it
+
+
+def test_a_full_record_stops_the_integration_out_of_room() -> None:
+    """`follow_spans` records every step's (t, lag) while its buffers have room; once they
+    are full it stops with OUT_OF_ROOM (profiles.motor.rotor.follow then integrates again
+    with longer ones), never writing past them."""
+    from profiles.motor import rotor_kernel as rk
+    from profiles.motor.rotor import SETTLE_TOL_DEG, SLIP_DEG
+
+    rotor = rotor_of(load_motor(bundled_motor_paths()[0]))
+    step = rotor.step_s()
+    out_max, out_lag, out_s = np.zeros(1), np.zeros(1), np.zeros(1)
+    rec_t, rec_lag = np.full(3, np.nan), np.full(3, np.nan)
+    _, status, _, _, _, _, recorded = rk.follow_spans(
+        *rotor.curve(), rotor.row(), np.array([20 * step]), np.array([500.0]), 0.0, 0.0,
+        0.0, 0.0, step, math.radians(SLIP_DEG) / rotor.c_e,
+        math.radians(SETTLE_TOL_DEG) / rotor.c_e, 400, 10**6, np.full(1, -1, dtype=np.int64),
+        out_lag, out_s, 0.0, 0.0, out_max, out_lag, out_s, True, rec_t, rec_lag, False,
+        out_max, 0.0, 0.0)
+    assert status == rk.OUT_OF_ROOM and recorded == 3
+    assert rec_t == pytest.approx([step, 2 * step, 3 * step])
+    assert np.all(np.isfinite(rec_lag))

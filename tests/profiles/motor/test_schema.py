@@ -71,7 +71,11 @@ def test_schema_names_the_wrong_field(mutate: Any, where: str) -> None:
 
 @pytest.mark.parametrize("mutate, where, text", [
     (lambda o: o["pullout_torque"][2].__setitem__(0, 1000), "/pullout_torque/2/0",
-     "does not exceed"),
+     "speed 1000 does not exceed the previous 2000"),
+    (lambda o: o["pullout_torque"][1].__setitem__(0, 0), "/pullout_torque/1/0",
+     "speed 0 does not exceed the previous 0"),
+    (lambda o: o.update(resonance_bands_pps=[[800, 800]]), "/resonance_bands_pps/0",
+     "lo 800 is not below hi 800"),
     (lambda o: o.update(tolerances={"inertia_kgm2": [2e-5, 1e-5]}), "/tolerances/inertia_kgm2",
      "exceeds high"),
     (lambda o: o.update(resonance_bands_pps=[[900, 800]]), "/resonance_bands_pps/0",

@@ -235,3 +235,12 @@ def test_judge_box_tells_its_progress_corners_then_samples(samples: int,
     judge_box(table, m, pulses=[200, 5000], samples=samples, seed=4,
               progress=lambda done, total: heard.append((done, total)))
     assert heard == told
+
+
+def test_samples_are_seeded_by_0_unless_told() -> None:
+    """`samples` draws the same motors as `sample_params` with seed 0 by default, and other
+    ones with another seed."""
+    m = motor_with(tolerances=FULL_BOX)
+    default = [v.params for v in samples(m, 3)]
+    assert default == [v.params for v in samples(m, 3, seed=0)]
+    assert default != [v.params for v in samples(m, 3, seed=1)]

@@ -105,3 +105,9 @@ def test_a_curve_in_hz_needs_a_microstep_of_at_least_one() -> None:
 def test_a_linear_speed_needs_a_positive_travel_per_rev(mm_per_rev: float | None) -> None:
     with pytest.raises(FormatError, match=r"needs the travel per motor revolution"):
         machine_to_pps(10, "mm/s", steps_per_rev=200, mm_per_rev=mm_per_rev)
+
+
+@pytest.mark.parametrize("bad", ["rpx", "zzz", "rps "])
+def test_an_unknown_machine_speed_unit_is_a_one_line_error(bad: str) -> None:
+    with pytest.raises(FormatError, match="speed unit"):
+        machine_to_pps(1.0, bad, steps_per_rev=200)

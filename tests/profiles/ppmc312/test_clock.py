@@ -19,3 +19,10 @@ def test_clock_names_any_case(typed: str) -> None:
 def test_each_clk_code_is_the_manuals_clock(code: int, hz: float) -> None:
     """SPEC §1: CLK 000 8 MHz … 101 15.625 kHz (000 is a clock, not "none")."""
     assert Clock.from_code(code) == Clock(code, hz)
+
+
+def test_an_external_clock_is_named_by_its_edge() -> None:
+    from profiles.ppmc312.clock import EXTCK_RISING, Clock
+
+    assert Clock(EXTCK_RISING, 2e6).name == "EXTCK 2e+06 Hz rising"
+    assert Clock(EXTCK_RISING + 1, 2e6).name == "EXTCK 2e+06 Hz falling"

@@ -185,3 +185,10 @@ def test_0x05_boundary_matches_two_stage_share() -> None:
     assert need == 628
     assert init_stage_problem(replace(base, accel_pulses=need)) is None
     assert init_stage_problem(replace(base, accel_pulses=need - 1)) is not None
+
+
+def test_the_stage_budget_is_keyword_only() -> None:
+    from profiles.ppmc312.init_model import init_stage_problem
+
+    with pytest.raises(TypeError, match="positional argument"):
+        init_stage_problem(None, 10)  # type: ignore[arg-type, misc]

@@ -266,3 +266,80 @@ def test_after_the_last_pulse_a_loaded_rotor_creeping_to_its_held_lag_is_followe
     fast = worst_load_angle(table, motor, pulses=[1]).worst_angle_deg
     assert fast == pytest.approx(worst_whole_move(table, motor, 1), abs=AGREE_DEG)
     assert fast > 7.1
+
+
+def test_the_options_are_keyword_only() -> None:
+    with pytest.raises(TypeError, match="positional argument"):
+        worst_load_angles(None, [], None)  # type: ignore[arg-type, misc]
+
+
+def test_refine_names_whole_lengths_up_to_the_first_sample_past_the_peak() -> None:
+    """A family whose last sample passes the 90° peak: every length between the sample
+    before it and it (so the shortest unstable move is named exactly), as whole
+    lengths, none of those already judged."""
+    from profiles.motor.batch_angle import PEAK_DEG, refine
+
+    extra = refine(np.array([10, 20, 30]), np.array([0, 0, 0]), np.array([10]),
+                   np.array([10.0, 20.0, PEAK_DEG + 5.0]))
+    assert extra.dtype.kind == "i"
+    assert extra.tolist() == list(range(21, 30))
+
+
+def test_a_slow_rotors_dwell_settles_within_periods_of_at_most_1_s() -> None:
+    """`dwell_sampling`: the densely judged runs last SETTLE_CRUISE_PERIODS natural
+    periods of the dwell, each counted as at most 1 s (a rotor with a 4 s period at
+    rest: 10 s of dwell, not 40)."""
+    from profiles.motor.batch_angle import SETTLE_CRUISE_PERIODS, dwell_sampling
+
+    rotor = rotor_of(load_motor(bundled_motor_paths()[0]))
+    slow = replace(rotor, k=rotor.k * (rotor.natural_period_s(0.0) / 4.0) ** 2)
+    speed = np.array([10.0])
+    assert slow.natural_periods_s(speed)[0] > 2.0
+    _, dense = dwell_sampling([slow], speed, np.array([0]), np.array([10**6]), 1)
+    assert dense.tolist() == [math.ceil(10.0 * SETTLE_CRUISE_PERIODS * 1.0)]
+
+
+def test_refine_judges_around_the_worst_families_only() -> None:
+    """Every length within a spacing of the worst sample of a family within REFINE_DEG of
+    the worst of all; a family far below it (and below the peak) is left sampled."""
+    from profiles.motor.batch_angle import refine
+
+    extra = refine(np.array([10, 20, 30, 40, 50, 60]), np.array([0, 0, 0, 1, 1, 1]),
+                   np.array([10, 10]), np.array([10.0, 50.0, 20.0, 5.0, 8.0, 6.0]))
+    assert extra.tolist() == [*range(11, 20), *range(21, 30)]
+
+
+def test_the_all_length_verdict_is_remembered_read_only_and_a_step_of_its_own_is_not(
+) -> None:
+    """`angles`: the all-length verdict is remembered and shared, its arrays read-only; a
+    verdict with a step bound of its own is judged afresh (it is not the remembered one)."""
+    from profiles.ppmc312.load_angle import angles
+
+    motor = load_motor(bundled_motor_paths()[0])
+    table = plan_free_curve(motor, pulses=400).table
+    first = angles(table, [motor])
+    assert angles(table, [motor]) is first
+    assert not any(a.flags.writeable for a in vars(first).values())
+    own = angles(table, [motor], max_step_s=1.0)
+    assert own is not first and own.deg.flags.writeable
+
+
+def test_a_dwell_with_no_torque_or_no_speed_is_sampled_whole_and_settles_by_rest() -> None:
+    """`dwell_sampling` where a rotor has no torque (past its curve: no natural period
+    there): spaced by the whole run range, dense for SETTLE_CRUISE_PERIODS natural periods
+    at rest (0 pps, not 1 pps); a dwell at 0 pps is dense for one run."""
+    from profiles.motor.batch_angle import SETTLE_CRUISE_PERIODS, dwell_sampling
+    from profiles.motor.rotor import Rotor
+
+    base = rotor_of(load_motor(bundled_motor_paths()[0]))
+    steep = replace(base, curve_v=(0.0, 2.0, 10.0), curve_t=(0.5, 1e-4, 0.0))
+    assert isinstance(steep, Rotor)
+    rest = steep.natural_period_s(0.0)
+    assert steep.natural_period_s(1.0) > 1.2 * rest
+    speed = 1e6  # past the curve: no torque; the dense runs then count many pulses
+    spacing, dense = dwell_sampling([steep], np.array([speed]), np.array([100]),
+                                    np.array([10**12]), 1)
+    assert spacing.tolist() == [10**12 - 100]
+    assert dense.tolist() == [100 + math.ceil(speed * SETTLE_CRUISE_PERIODS * rest)]
+    _, still = dwell_sampling([base], np.array([0.0]), np.array([100]), np.array([500]), 3)
+    assert still.tolist() == [103]

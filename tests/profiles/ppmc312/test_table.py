@@ -89,6 +89,7 @@ def test_schema_is_valid_draft_2020_12() -> None:
     (with_(FREE, clock=8), FormatError, "neither a clock name"),
     (with_(INIT, shape="cubic"), FormatError, "shape: 'cubic'"),
     (with_(INIT, stop_rate=3000), FormatError, "stop_rate and decel_pulses go together"),
+    (with_(INIT, decel_pulses=10), FormatError, "stop_rate and decel_pulses go together"),
     (with_(INIT, start_rate="2000"), FormatError, "start_rate: expected an integer"),
     (with_(INIT, high_rate=70000), FieldRangeError, "high_rate: 70000"),
 ])
