@@ -34,7 +34,7 @@ from bench_plantime import bench_motors, run_cli, toppra_solve_s  # noqa: E402
 from benchlib import Results, count, timed, verdict  # noqa: E402
 
 from profiles.alink.formats import parse, settings_of  # noqa: E402
-from profiles.alink.homing import plan_homing  # noqa: E402
+from profiles.alink.planner.homing import plan_homing  # noqa: E402
 from profiles.alink.ramp import AlinkRamp, ramp_of  # noqa: E402
 from profiles.motor import Motor, load_motor  # noqa: E402
 from profiles.motor.catalogue import resolve  # noqa: E402

@@ -24,7 +24,7 @@ from profiles.progress import Progress
 from profiles.verdict import DEFAULT_SAMPLES, LoadAngle, SafetyVerdict
 
 if TYPE_CHECKING:
-    from profiles.alink.homing import HomingSettings
+    from profiles.alink.planner.homing import HomingSettings
     from profiles.alink.ramp import AlinkRamp
     from profiles.ppmc312.table import FreeCurveTable, InitTable
 

@@ -62,7 +62,6 @@ from .commands import (
     form_of,
 )
 from .formats import SETTINGS_FORMATS, render_settings
-from .homing import HomingSettings, homing_commands, plan_homing
 from .model import (
     BANDS_BY_HIGH,
     BANDS_BY_MAX,
@@ -90,6 +89,9 @@ from .model import (
 )
 from .planner import (
     S_CURVE_PEAK_FACTOR,
+    HomingSettings,
+    homing_commands,
+    plan_homing,
     plan_settings,
 )
 from .unit import Answer, Issue, UnitRun, run_commands

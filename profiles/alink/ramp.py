@@ -31,7 +31,7 @@ model, which the load-angle judge (verdict.judge_ramp, on safety.py) runs:
    the speed it decelerated to (L) within a step.
 6. A decel stop (STOP nn 31) at pulse A of the ramp decelerates from the stage it is in
    along the ramp reversed: up A pulses, down the whole ramp below and including that stage.
-7. Homing legs (profiles.alink.homing): a search ramps from OL to OH at O_UPTIME's rate in
+7. Homing legs (profiles.alink.planner.homing): a search ramps from OL to OH at O_UPTIME's rate in
    MODE's shape, cruises at OH and stops at once where it meets the origin (no ramp down);
    the alignment runs at OL and stops at once at the edge.
 

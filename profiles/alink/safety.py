@@ -22,9 +22,9 @@ from typing import Any
 
 import numpy as np
 
-from profiles.alink.homing import STEP_PPS, HomingSettings
 from profiles.alink.model import MOVE_PULSES_MAX
 from profiles.alink.planner import Judgement
+from profiles.alink.planner.homing import STEP_PPS, HomingSettings
 from profiles.alink.ramp import (
     RAMP_HZ,
     AlinkRamp,
@@ -444,7 +444,7 @@ def homing_verdict(homing: HomingSettings, shapes: Sequence[RampShape], rot: Rot
 
 
 def homing_judge(motor: Motor, *, aim_deg: float) -> Callable[[HomingSettings], Judgement]:
-    """The homing legs' verdict as `profiles.alink.homing.tighten_homing`'s judge: over the
+    """The homing legs' verdict as `profiles.alink.planner.homing.tighten_homing`'s judge: over the
     motor's box corners, both ramp shapes (an `alink homing` file knows no MODE)."""
     from profiles.motor.tolerance import corners
 

@@ -17,9 +17,8 @@ if TYPE_CHECKING:
     from ..motor import Motor
     from ..progress import Progress
     from ..verdict import LoadAngle, SafetyVerdict
-    from .homing import HomingSettings
     from .model import AlinkSettings
-    from .planner import SettingsJudge
+    from .planner import HomingSettings, SettingsJudge
     from .ramp import AlinkRamp
 
 

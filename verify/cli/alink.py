@@ -265,7 +265,7 @@ def _do_homing(args: argparse.Namespace) -> int:
 
     from profiles.alink import homing_commands, plan_homing
     from profiles.alink.formats import C_NAME_DEFAULT, FORMATS, render
-    from profiles.alink.homing import tighten_homing
+    from profiles.alink.planner.homing import tighten_homing
     from profiles.alink.safety import homing_judge
     from profiles.formats import Provenance
     from profiles.motor import load_motor

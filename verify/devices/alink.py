@@ -60,8 +60,8 @@ def ramp_of_commands(commands: Sequence[Command]) -> tuple[Any, Any, str | None]
     applies them: `unit_applies`) and their homing speeds (None when the list sets none of
     OL_SPEED, OH_SPEED, O_UPTIME); or why there is none (a line)."""
     from profiles.alink import FUNC_ACCEL_PARA, Cmd, unit_applies
-    from profiles.alink.homing import HomingSettings
     from profiles.alink.model import MODE_DEFAULT, MODE_S_CURVE, MODE_TRIANGLE_AVOID
+    from profiles.alink.planner.homing import HomingSettings
     from profiles.alink.ramp import build_ramp
 
     last: dict[int, Command] = {}

@@ -55,7 +55,7 @@ def test_verdict_against_the_oracle_on_sampled_moves(shape: str) -> None:
 def test_homing_legs_are_judged_and_a_fast_origin_stop_fails() -> None:
     """A search stopping at once from OH far above the self-start speed slips; within it,
     the homing legs are within the aim (the bundled NEMA17: self-start 800 pps)."""
-    from profiles.alink.homing import HomingSettings
+    from profiles.alink.planner.homing import HomingSettings
 
     motor = load_motor(resolve("nema17-1600"))
     ramp = ramp_of(quantise_settings(800, 20000, 5.0))

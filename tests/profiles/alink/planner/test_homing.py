@@ -1,4 +1,4 @@
-"""profiles.alink.homing: homing speeds whose every stop is safe for a motor."""
+"""profiles.alink.planner.homing: homing speeds whose every stop is safe for a motor."""
 
 from __future__ import annotations
 
@@ -44,7 +44,7 @@ def test_homing_under_max_speed_and_refused_without_a_safe_speed() -> None:
 
 
 def test_tighten_homing_lowers_oh_until_the_judge_agrees() -> None:
-    from profiles.alink.homing import HomingSettings, tighten_homing
+    from profiles.alink.planner.homing import HomingSettings, tighten_homing
 
     motor = load_motor(resolve("nema17-1600"))
 

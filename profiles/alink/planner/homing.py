@@ -28,10 +28,10 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from ..errors import PlanError
-from ..motor import Motor
-from ..result import PlanResult
-from .codec import (
+from ...errors import PlanError
+from ...motor import Motor
+from ...result import PlanResult
+from ..codec import (
     FUNC_ACCEL_PARA,
     FUNC_SPEED_PPS,
     Cmd,
@@ -40,8 +40,8 @@ from .codec import (
     Duplex,
     command_address,
 )
-from .model import PPS2_PER_INV_PARA, SPEED_MAX_PPS, STEPS_MAX, max_setting
-from .planner import Judgement
+from ..model import PPS2_PER_INV_PARA, SPEED_MAX_PPS, STEPS_MAX, max_setting
+from .settings import Judgement
 
 STEP_PPS = 20            # ×20, the largest multiplier either table of appendix 2 selects
 PARA_TOP = STEPS_MAX     # 8000: the top of ×1's para range, the narrowest (appendix 3)

@@ -15,10 +15,10 @@ from typing import Literal
 
 import numpy as np
 
-from ..errors import FieldRangeError, PlanError, StepRampError, require_int, require_number
-from ..motor import Motor
-from ..result import PlanResult
-from .model import (
+from ...errors import FieldRangeError, PlanError, StepRampError, require_int, require_number
+from ...motor import Motor
+from ...result import PlanResult
+from ..model import (
     BANDS_BY_HIGH,
     BANDS_BY_MAX,
     MOVE_PULSES_MAX,
