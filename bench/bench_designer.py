@@ -8,10 +8,11 @@ tables, each timed as a view shows it (`verify.designer.design_steps` and
 `DesignFigure.update`, PNG included, on one figure kept across the changes):
 
 - first table: the plain criterion's plan, its execution, exact optimum and stall
-  margins, drawn over the kept axes when it fits them (else the panels whose limits
-  moved drawn again) and marked as being tightened. Goal (issue #32 item 9): ≤ 50 ms.
+  margins, drawn over the kept frames (verify/designer/figure.py: the time axes' numbers
+  change under fixed ticks; only a design outside the fixed scales redraws a panel) and
+  marked as being tightened. Goal (issue #32 item 9): ≤ 50 ms.
 - final table: then the table tightened to the load-angle aim, judged for the moves
-  and decel stops it was planned for and drawn (over the kept axes when it fits).
+  and decel stops it was planned for and drawn over the kept frames.
   Goal: ≤ 150 ms from the change.
 - judged in full: then its verdict over every motion command (`judge_safety`, as
   `check --motor` gives it); the figure is unchanged. No goal of its own: shown.
@@ -128,7 +129,7 @@ def main() -> None:
     res.section("designer", [
         "motor", "stages", "planner alone (reference)", "first table shown (marked)",
         "first / planner", "final table shown", "final / planner",
-        "of which: tightening (plans a change)", "first, final drawn over the kept axes",
+        "of which: tightening (plans a change)", "first, final drawn over the kept frames",
         "judged over every command", "goal (every change)"], rows,
         note=f"Medians and the worst of {args.changes} slider changes (move length and "
              "safety factor varied, so each is a new plan), wall time from the change to the "
@@ -136,9 +137,9 @@ def main() -> None:
              "criterion's, shown marked as being tightened; the final one is tightened to the "
              "load-angle aim as `stepramp plan` plans it and shown judged for moves and decel "
              "stops, then judged over every command (`check --motor`'s verdict; downloads "
-             "are offered from then). A design that does not fit the kept axes redraws the "
-             "panels whose limits moved (their ticks and labels: the worst cases); "
-             "'drawn over' counts the changes that did not.")
+             "are offered from then). The figure keeps its frames and draws a change's data "
+             "over them (the time axes' numbers change under fixed ticks); 'drawn over' "
+             "counts the changes that redrew no panel.")
     res.write()
 
 
