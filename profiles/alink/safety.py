@@ -122,8 +122,7 @@ def motion_angles(ramp: AlinkRamp, kind: Kind, rot: Rotors,
                            every_pulse=every_pulse)
     lo, hi, speed = families(ramp, kind)
     if not len(lo):
-        return Angles(np.zeros(0, np.int64), np.zeros((len(rot), 0)),
-                      np.zeros((len(rot), 0), bool))
+        return _no_angles(rot)
     rotor_list = [rot.rotor(i) for i in range(len(rot))]
     spacing, dense = dwell_sampling(rotor_list, speed, lo, hi, 1)
     hi = np.where(hi >= MOVE_PULSES_MAX, dense, hi)  # a longer cruise repeats the settled one
@@ -133,13 +132,7 @@ def motion_angles(ramp: AlinkRamp, kind: Kind, rot: Rotors,
     extra = refine(xs, fam[first], spacing, found.deg.max(axis=0))
     if upto is not None:
         extra = extra[extra <= upto]
-    if not len(extra):
-        return found
-    more = _angles(ramp, kind, extra, rot)
-    order = np.argsort(np.concatenate((xs, extra)), kind="stable")
-    return Angles(np.concatenate((xs, extra))[order],
-                  np.concatenate((found.deg, more.deg), axis=1)[:, order],
-                  np.concatenate((found.slipped, more.slipped), axis=1)[:, order])
+    return _with_extra(ramp, kind, rot, found, extra)
 
 
 # The stops judged along the ramp rather than stage by stage (docs/manual-notes.md, "A-Link
@@ -192,20 +185,13 @@ def stop_angles(ramp: AlinkRamp, kind: Kind, rot: Rotors, *, upto: int | None = 
     if every_pulse:
         xs = np.arange(1, end + 1, dtype=np.int64)
     if not len(xs):
-        return Angles(np.zeros(0, np.int64), np.zeros((len(rot), 0)),
-                      np.zeros((len(rot), 0), bool))
+        return _no_angles(rot)
     found = _angles(ramp, kind, xs, rot)
     if every_pulse:
         return found
     marks = (PEAK_DEG,) if aim_deg is None else (aim_deg, PEAK_DEG)
     extra = refine_stops(xs, found.deg.max(axis=0), marks)
-    if not len(extra):
-        return found
-    more = _angles(ramp, kind, extra, rot)
-    order = np.argsort(np.concatenate((xs, extra)), kind="stable")
-    return Angles(np.concatenate((xs, extra))[order],
-                  np.concatenate((found.deg, more.deg), axis=1)[:, order],
-                  np.concatenate((found.slipped, more.slipped), axis=1)[:, order])
+    return _with_extra(ramp, kind, rot, found, extra)
 
 
 def refine_stops(xs: np.ndarray, worst: np.ndarray, marks: Sequence[float]) -> np.ndarray:
@@ -237,6 +223,24 @@ def refine_stops(xs: np.ndarray, worst: np.ndarray, marks: Sequence[float]) -> n
             # the range alone: its top the worst refine_toward compares with
             extra.append(refine_toward(xs[mine], family[mine], worst[mine]))
     return np.setdiff1d(np.concatenate(extra), xs).astype(np.int64)
+
+
+def _no_angles(rot: Rotors) -> Angles:
+    """No motion judged, for every row of `rot`."""
+    return Angles(np.zeros(0, np.int64), np.zeros((len(rot), 0)),
+                  np.zeros((len(rot), 0), bool))
+
+
+def _with_extra(ramp: AlinkRamp, kind: Kind, rot: Rotors, found: Angles, extra: np.ndarray
+                ) -> Angles:
+    """`found` with the motions at `extra` (none of its x) judged too, in order of x."""
+    if not len(extra):
+        return found
+    more = _angles(ramp, kind, extra, rot)
+    xs = np.concatenate((found.x, extra))
+    order = np.argsort(xs, kind="stable")
+    return Angles(xs[order], np.concatenate((found.deg, more.deg), axis=1)[:, order],
+                  np.concatenate((found.slipped, more.slipped), axis=1)[:, order])
 
 
 def _angles(ramp: AlinkRamp, kind: Kind, xs: np.ndarray, rot: Rotors) -> Angles:
