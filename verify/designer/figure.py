@@ -264,10 +264,7 @@ class DesignFigure:
 def nice_step(x: float) -> float:
     """The first of 1, 2, 2.5, 5 × 10^k at or above `x` (> 0): a time axis of five such
     steps is filled at least halfway."""
-    if not x > 0:
-        return 1.0
-    scale = 10.0 ** math.floor(math.log10(x))
-    return next(m * scale for m in (*NICE_STEPS, 10.0) if m * scale >= x * (1 - 1e-12))
+    return _first_at_or_above(x, NICE_STEPS)
 
 
 def _tick_numbers(fig: Any, ax: Any) -> list[Any]:
@@ -298,11 +295,15 @@ def _reference_style(name: str) -> dict[str, Any]:
 
 def _rounded_up(x: float) -> float:
     """The first of 1, 1.2, 1.5, 2, 2.5, 3, 4, 5, 6, 8 × 10^k at or above `x` (> 0)."""
+    return _first_at_or_above(x, (1.0, 1.2, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0))
+
+
+def _first_at_or_above(x: float, mantissas: tuple[float, ...]) -> float:
+    """The first of `mantissas` (ascending, from 1) × 10^k at or above `x`; 1 for x ≤ 0."""
     if not x > 0:
         return 1.0
     scale = 10.0 ** math.floor(math.log10(x))
-    return next(m * scale for m in (1, 1.2, 1.5, 2, 2.5, 3, 4, 5, 6, 8, 10)
-                if m * scale >= x * (1 - 1e-12))
+    return next(m * scale for m in (*mantissas, 10.0) if m * scale >= x * (1 - 1e-12))
 
 
 def render_figure(result: Design, slow: dict[str, Any] | None = None) -> bytes:
