@@ -10,13 +10,10 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from profiles.motor import bundled_motor_paths, load_motor
+from tests.support.designer_settings import NEMA17, RINGS
 from verify.designer import DesignFigure, Settings, design, first_design
 from verify.designer.figure import TIME_TICKS, nice_step
 
-NEMA17 = load_motor(next(p for p in bundled_motor_paths() if "nema17" in p.name))
-# a move whose plain table rings past the aim: the tightening changes it
-RINGS = Settings(pulses=5_000, safety_factor=NEMA17.safety_factor)
 MARK_RGB = (0xB3, 0x6B, 0x00)  # the first table's mark
 
 

@@ -13,6 +13,7 @@ from profiles.motor import bundled_motor_paths, load_motor
 from profiles.motor.reserve import parse_cruise_reserve
 from profiles.ppmc312.planner import plan_free_curve
 from profiles.ppmc312.table import load_table
+from tests.support.designer_settings import NEMA17, NEMA17_PATH, RINGS
 from verify.designer import (
     JUDGING,
     TIGHTENING,
@@ -23,11 +24,6 @@ from verify.designer import (
     loaded_motor,
     verdict,
 )
-
-NEMA17_PATH = next(p for p in bundled_motor_paths() if "nema17" in p.name)
-NEMA17 = load_motor(NEMA17_PATH)
-# a move whose plain table rings past the aim: the tightening changes it (4 plans)
-RINGS = Settings(pulses=5_000, safety_factor=NEMA17.safety_factor)
 
 
 def test_verdict_is_the_one_safety_verdict_over_every_move() -> None:

@@ -16,10 +16,10 @@ import ipywidgets  # noqa: F401  (a [dev] dependency: missing, the suite fails)
 import numpy as np
 import pytest
 
-from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312 import decode_upload
 from profiles.ppmc312.formats import parse_upload
 from profiles.ppmc312.table import load_table
+from tests.support.designer_settings import NEMA17, RINGS
 from tests.support.paths import ROOT
 from tests.support.subprocess_env import checkout_env
 from verify.designer import (
@@ -32,11 +32,6 @@ from verify.designer import (
     designer,
     loaded_motor,
 )
-
-NEMA17_PATH = next(p for p in bundled_motor_paths() if "nema17" in p.name)
-NEMA17 = load_motor(NEMA17_PATH)
-# a move whose plain table rings past the aim: the tightening changes it (4 plans)
-RINGS = Settings(pulses=5_000, safety_factor=NEMA17.safety_factor)
 
 
 @pytest.fixture

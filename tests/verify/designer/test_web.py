@@ -21,21 +21,13 @@ from typing import Any
 
 import pytest
 
-from profiles.motor import bundled_motor_paths, load_motor
 from profiles.ppmc312 import decode_upload
 from profiles.ppmc312.formats import parse_upload
 from profiles.ppmc312.table import load_table
+from tests.support.designer_settings import NEMA17, NEMA17_PATH, RINGS
 from tests.support.paths import ROOT
 from tests.support.subprocess_env import checkout_env
-from verify.designer import JUDGING, TIGHTENING, Settings, design
-
-NEMA17_PATH = next(p for p in bundled_motor_paths() if "nema17" in p.name)
-
-
-NEMA17 = load_motor(NEMA17_PATH)
-# a move whose plain table rings past the aim: the tightening changes it
-RINGS = Settings(pulses=5_000, safety_factor=NEMA17.safety_factor)
-
+from verify.designer import JUDGING, TIGHTENING, design
 
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
                  "--no-first-run", "--disable-background-networking",
