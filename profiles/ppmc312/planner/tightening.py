@@ -230,18 +230,12 @@ def _screened_out(table: FreeCurveTable, judges: Sequence[Motor], screen: Screen
     if len(screen.lengths) and float(angles(table, judges, pulses=screen.lengths.tolist())
                                      .deg.max()) > limit_deg:
         return True
-    pairs = _stop_pairs(table, screen)
-    return bool(pairs) and stop_angles(table, judges, stops=pairs).worst_deg() > limit_deg
-
-
-def _stop_pairs(table: FreeCurveTable, screen: Screen) -> list[tuple[int, int]]:
-    """`screen`'s decel stops as (stage, dwell) of `table` (one past its ramp left out)."""
     pairs = []
     for pulse, reading in screen.stops:
         where = locate(table, pulse)
         if where is not None:
             pairs.append((where[0], dwell_of(table, where[0], where[1], reading)))
-    return pairs
+    return bool(pairs) and stop_angles(table, judges, stops=pairs).worst_deg() > limit_deg
 
 
 class Blame:
@@ -288,9 +282,10 @@ def _diverse(past: list[tuple[float, int, int]], table: FreeCurveTable, shaping:
              found: Angles, stops: StopAngles | None, aim_deg: float
              ) -> list[tuple[float, int, int]]:
     """The CULPRITS worst of `past` (deg, pool, index: 0 a move, 1 a stop), and beside
-    them the worst of every speed band where an execution past the aim reaches its top
-    speed (a move's: the stage its ramp turns at; a stop's: where it comes), at most
-    BAND_CULPRITS: blamed in one round, the bands that ring do not surface one by one."""
+    them the worst of every other speed band where an execution at least
+    BAND_CULPRIT_PAST × the aim reaches its top speed (a move's: the stage its ramp turns
+    at; a stop's: where it comes), at most BAND_CULPRITS: blamed in one round, the bands
+    that ring hard do not surface one by one."""
     hz = table.clock.hz
     slowest = len(table.rates) - 1       # stages are listed fastest first
     reach = np.cumsum(table.accel_pulses[::-1])  # pulses from rest to each stage's end
