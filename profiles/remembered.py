@@ -37,6 +37,14 @@ class Remembered(Generic[V]):
                 self._kept.popitem(last=False)
         return value, False
 
+    def peek(self, key: Hashable) -> V | None:
+        """The value kept under `key` (kept as recently used), else None; nothing computed."""
+        with self._lock:
+            if key in self._kept:
+                self._kept.move_to_end(key)
+                return self._kept[key]
+        return None
+
     def clear(self) -> None:
         with self._lock:
             self._kept.clear()

@@ -128,11 +128,18 @@ def motion_angles(ramp: AlinkRamp, kind: Kind, rot: Rotors,
     hi = np.where(hi >= MOVE_PULSES_MAX, dense, hi)  # a longer cruise repeats the settled one
     xs, fam = sample_grid(lo, spacing, dense, hi)
     xs, first = np.unique(xs, return_index=True)
-    found = _angles(ramp, kind, xs, rot)
-    extra = refine(xs, fam[first], spacing, found.deg.max(axis=0))
-    if upto is not None:
-        extra = extra[extra <= upto]
-    return _with_extra(ramp, kind, rot, found, extra)
+    found = [_angles(ramp, kind, xs, rot)]
+
+    def judge_at(extra: np.ndarray) -> np.ndarray:
+        mine = extra if upto is None else extra[extra <= upto]  # ascending: a prefix
+        worst = np.full(len(extra), -np.inf)  # past `upto`: never the top searched for
+        if len(mine):
+            found.append(_angles(ramp, kind, mine, rot))
+            worst[:len(mine)] = found[-1].deg.max(axis=0)
+        return worst
+
+    refine(xs, fam[first], spacing, found[0].deg.max(axis=0), judge_at)
+    return _merged(found)
 
 
 # The stops judged along the ramp rather than stage by stage (docs/manual-notes.md, "A-Link
@@ -234,13 +241,17 @@ def _no_angles(rot: Rotors) -> Angles:
 def _with_extra(ramp: AlinkRamp, kind: Kind, rot: Rotors, found: Angles, extra: np.ndarray
                 ) -> Angles:
     """`found` with the motions at `extra` (none of its x) judged too, in order of x."""
-    if not len(extra):
-        return found
-    more = _angles(ramp, kind, extra, rot)
-    xs = np.concatenate((found.x, extra))
+    return _merged([found, _angles(ramp, kind, extra, rot)]) if len(extra) else found
+
+
+def _merged(parts: Sequence[Angles]) -> Angles:
+    """The motions of `parts` (no x twice) as one verdict, in order of x."""
+    if len(parts) == 1:
+        return parts[0]
+    xs = np.concatenate([p.x for p in parts])
     order = np.argsort(xs, kind="stable")
-    return Angles(xs[order], np.concatenate((found.deg, more.deg), axis=1)[:, order],
-                  np.concatenate((found.slipped, more.slipped), axis=1)[:, order])
+    return Angles(xs[order], np.concatenate([p.deg for p in parts], axis=1)[:, order],
+                  np.concatenate([p.slipped for p in parts], axis=1)[:, order])
 
 
 def _angles(ramp: AlinkRamp, kind: Kind, xs: np.ndarray, rot: Rotors) -> Angles:

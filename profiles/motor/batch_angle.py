@@ -37,7 +37,7 @@ REJOIN_TOL_DEG = 0.05
 MAX_VERDICT_STEPS = 8_000_000   # RK4 steps for every execution of one verdict, per rotor
 SETTLE_CRUISE_PERIODS = 10
 PHASE_SAMPLES = 8               # samples per natural period of a partial stage's dwell
-REFINE_DEG = 3.0                # sampled families this close to the worst: every length
+REFINE_DEG = 3.0                # sampled families this close to the worst: their peak searched
 STOP_REFINE_DEG = 1.5           # stops' sampled ranges this close to the worst: refined
 
 
@@ -77,30 +77,70 @@ def dwell_sampling(rotor_list: Sequence[Rotor], speed: np.ndarray, lo: np.ndarra
 
 
 def refine(lengths: np.ndarray, family: np.ndarray, spacing: np.ndarray,
-           worst_deg: np.ndarray) -> np.ndarray:
-    """The lengths still to judge around the sampled families that come out worst: every
-    length within a spacing of a family's worst sample when that family is within
-    REFINE_DEG of the worst of all (sampling may pass a peak's top by a little), and
-    every length before a family's first sample past the 90° peak (so the shortest
-    unstable move is named exactly)."""
+           worst_deg: np.ndarray, judge_at: Callable[[np.ndarray], np.ndarray]) -> None:
+    """Judge, through `judge_at` (lengths never asked before, ascending → each one's
+    worst angle), what the samples of the families that come out worst leave open: each
+    such family's peak (sampling may pass its top by a little), for the families within
+    REFINE_DEG of the worst of all, and every length before a family's first sample past
+    the 90° peak (so the shortest unstable move is named exactly).
+
+    A peak is searched between the family's worst sample and each of its neighbours:
+    the worst angle varies with the length as the ringing's phase at the next speed
+    change, smooth over the eighth of a period between samples, so each span rises to
+    one top. A round judges SEARCH_POINTS lengths evenly inside every open span and
+    keeps the spans beside each one's highest point, until no length is left inside;
+    a span of SEARCH_POINTS lengths or fewer is judged whole. (Checked against every
+    length: tests/profiles/ppmc312/test_load_angle.py; about a quarter of the lengths.)"""
     best = float(worst_deg.max())
-    extra: list[np.ndarray] = []
     starts = np.flatnonzero(np.diff(family, prepend=-1))
     ends = np.append(starts[1:], len(family))
     top = np.maximum.reduceat(worst_deg, starts)  # each family's worst sample
     wanted = (spacing[family[starts]] > 1) & ((top >= best - REFINE_DEG) | (top >= PEAK_DEG))
+    spans: list[tuple[int, float, int, float]] = []  # (a, angle at a, b, angle at b)
+    whole: list[np.ndarray] = []
     for a, b in zip(starts[wanted].tolist(), ends[wanted].tolist(), strict=True):
-        sp = int(spacing[family[a]])
-        w, at = worst_deg[a:b], lengths[a:b]
+        w, at = worst_deg[a:b].tolist(), lengths[a:b].tolist()
         k = int(np.argmax(w))
         if w[k] >= best - REFINE_DEG:
-            extra.append(np.arange(max(at[0], at[k] - sp + 1), min(at[-1], at[k] + sp - 1) + 1))
-        unstable = np.flatnonzero(w >= PEAK_DEG)
+            spans += [(at[j], w[j], at[j + 1], w[j + 1]) for j in (k - 1, k)
+                      if 0 <= j < len(w) - 1]
+        unstable = np.flatnonzero(np.asarray(w) >= PEAK_DEG)
         if len(unstable) and unstable[0] > 0:
-            extra.append(np.arange(at[unstable[0] - 1] + 1, at[unstable[0]]))
-    if not extra:
-        return np.zeros(0, dtype=np.int64)
-    return np.setdiff1d(np.concatenate(extra), lengths)
+            whole.append(np.arange(at[unstable[0] - 1] + 1, at[unstable[0]]))
+    known: dict[int, float] = {}
+    while spans or whole:
+        inside = [_inside(a, b) for a, _, b, _ in spans]
+        ask = np.setdiff1d(np.concatenate([*inside, *whole, np.zeros(0, np.int64)]),
+                           np.fromiter(known, np.int64, len(known)))
+        whole = []
+        if len(ask):
+            known.update(zip(ask.tolist(), judge_at(ask).tolist(), strict=True))
+        spans = [s for span, points in zip(spans, inside, strict=True)
+                 for s in _beside_top(span, points.tolist(), known)]
+
+
+SEARCH_POINTS = 3   # lengths judged inside a span a round while searching for its top
+
+
+def _inside(a: int, b: int) -> np.ndarray:
+    """The lengths a round judges strictly between a and b: all of them when there are
+    SEARCH_POINTS or fewer, else SEARCH_POINTS evenly spread."""
+    if b - a - 1 <= SEARCH_POINTS:
+        return np.arange(a + 1, b, dtype=np.int64)
+    return np.unique(np.linspace(a, b, SEARCH_POINTS + 2)[1:-1].round().astype(np.int64))
+
+
+def _beside_top(span: tuple[int, float, int, float], points: list[int],
+                known: dict[int, float]) -> list[tuple[int, float, int, float]]:
+    """The spans left to search once `points` inside `span` are judged: the two beside
+    the highest of its ends and points (one at an end), those with lengths left inside."""
+    a, fa, b, fb = span
+    xs = [a, *points, b]
+    ys = [fa, *(known[x] for x in points), fb]
+    i = int(np.argmax(ys))
+    return [(xs[j], ys[j], xs[j + 1], ys[j + 1]) for j in (i - 1, i)
+            if 0 <= j < len(xs) - 1 and xs[j + 1] - xs[j] > 1
+            and not all(x in known for x in range(xs[j] + 1, xs[j + 1]))]
 
 
 def refine_toward(keys: np.ndarray, family: np.ndarray, worst_deg: np.ndarray) -> np.ndarray:
@@ -316,6 +356,6 @@ def batch_sample_peaks(runs: MoveBatch, hz: float, motor: Motor, samples: int, s
 
 
 __all__ = ["MAX_VERDICT_STEPS", "PARALLEL_MIN_CELLS", "PHASE_SAMPLES", "REFINE_DEG",
-           "REJOIN_TOL_DEG", "SETTLE_CRUISE_PERIODS", "SHARED_PIECES", "Scratch",
+           "REJOIN_TOL_DEG", "SEARCH_POINTS", "SETTLE_CRUISE_PERIODS", "SHARED_PIECES", "Scratch",
            "batch_sample_peaks", "dwell_sampling", "dwells", "judge", "refine", "sample_grid",
            "shared_dwells"]

@@ -6,8 +6,8 @@ The model is `profiles.motor.rotor`, integrated by its compiled kernel
 families (lengths that run the same segment rates; only partial stages and the
 cruise change length): each family is sampled finely enough in its partial stages'
 dwell that the ringing's phase at the next speed change is seen (`samples`), and the
-families that come out worst are judged again at every length around their worst
-sample (`refine`); a trapezoid's cruise long enough to settle stands for every
+families that come out worst are searched for their peak around their worst sample
+(`refine`); a trapezoid's cruise long enough to settle stands for every
 longer one. Both directions are judged when the motor has a load torque.
 
 Executions share their accel prefix with a reference (the longest trapezoid) and
@@ -26,6 +26,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 
@@ -88,6 +89,7 @@ class Angles:
     slipped: np.ndarray
     owner: np.ndarray
     direction: np.ndarray
+    refined: bool = True   # False: the samples alone (`angles`' past_deg), a lower bound
 
     def worst(self, motor: int) -> WorstAngle:
         mine = np.flatnonzero(self.owner == motor)
@@ -101,12 +103,19 @@ class Angles:
 
 VERDICTS_KEPT = 32   # all-length verdicts remembered (a few KB each)
 _verdicts: Remembered[Angles] = Remembered(VERDICTS_KEPT)
+# and the samples' verdicts, which an all-length verdict goes on from (`past_deg`)
+_sampled: Remembered[tuple[np.ndarray, ...]] = Remembered(VERDICTS_KEPT)
 
 
 def angles(table: FreeCurveTable | InitTable, motors: Sequence[Motor], *,
-           pulses: Iterable[int] | None = None, max_step_s: float | None = None) -> Angles:
+           pulses: Iterable[int] | None = None, max_step_s: float | None = None,
+           past_deg: float | None = None) -> Angles:
     """The load angle of every move judged for every motor and direction: the given
     lengths, or every length through its family (`samples`, then `refine`).
+
+    `past_deg`: when a sampled length is already past it, the samples' verdict alone
+    (`Angles.refined` False: its worst is a lower bound, enough to say "past"; a
+    tightening round asks so, refining only a table that may be within its aim).
 
     The last VERDICTS_KEPT all-length verdicts are remembered by table and motor values,
     and shared read-only: tightening judges a table, and the verdict that every command
@@ -114,49 +123,91 @@ def angles(table: FreeCurveTable | InitTable, motors: Sequence[Motor], *,
     lengths whose tables coincide."""
     check_step(max_step_s)
     free = as_free_curve(table)
-    if pulses is not None or max_step_s is not None:
-        return _angles(free, motors, pulses, max_step_s)
+    owner, rot = _rows(motors)
+    if pulses is not None:
+        lengths = np.asarray(sorted(set(int(n) for n in pulses)), dtype=np.int64)
+        if not len(lengths):
+            raise FieldRangeError("move lengths to judge", 0, 1, 0xFFFFFFFF)
+        return _found(lengths, *_judge(free, lengths, rot, max_step_s), owner, rot)
+    if max_step_s is not None:
+        return _found(*_refined(free, _sample(free, motors, rot, max_step_s), rot,
+                                max_step_s), owner, rot)
+    key = (free, tuple(m.values_key() for m in motors))
+    known = _verdicts.peek(key)
+    if known is not None:
+        return known
 
-    def judged() -> Angles:
-        found = _angles(free, motors, None, None)
-        for a in vars(found).values():
-            a.flags.writeable = False  # shared by every caller that asks again
-        return found
+    def sampled() -> tuple[np.ndarray, ...]:
+        return _read_only(_sample(free, motors, rot, None))
 
-    return _verdicts.get((free, tuple(m.values_key() for m in motors)), judged)[0]
+    first = _sampled.get(key, sampled)[0]
+    if past_deg is not None and float(np.degrees(first[3].max() * rot.c_e)) > past_deg:
+        return _found(first[0], first[3], first[4], owner, rot, refined=False)
+    return _verdicts.get(key, lambda: _read_only(
+        _found(*_refined(free, first, rot, None), owner, rot)))[0]
 
 
 def forget_verdicts() -> None:
     """Forget the remembered verdicts (a benchmark times a table's first verdict)."""
     _verdicts.clear()
+    _sampled.clear()
 
 
-def _angles(free: FreeCurveTable, motors: Sequence[Motor], pulses: Iterable[int] | None,
-            max_step_s: float | None) -> Angles:
+T = TypeVar("T", Angles, tuple[np.ndarray, ...])
+
+
+def _read_only(found: T) -> T:
+    """`found` with its arrays read-only: shared by every caller that asks again."""
+    for a in (found if isinstance(found, tuple) else vars(found).values()):
+        if isinstance(a, np.ndarray):
+            a.flags.writeable = False
+    return found
+
+
+def _rows(motors: Sequence[Motor]) -> tuple[np.ndarray, Rotors]:
+    """The verdict's rotor rows: each motor in each direction judged, and whose it is."""
     owner = np.asarray([m for m, motor in enumerate(motors) for _ in directions(motor)])
-    rot = Rotors.stack([rotors(motor, direction=d) for motor in motors
-                        for d in directions(motor)])
-    hz = free.clock.hz
-    if pulses is not None:
-        lengths = np.asarray(sorted(set(int(n) for n in pulses)), dtype=np.int64)
-        if not len(lengths):
-            raise FieldRangeError("move lengths to judge", 0, 1, 0xFFFFFFFF)
-        lag, slipped = judge(moves(free, lengths, compiled=True), hz, rot,
-                             max_step_s=max_step_s)
-    else:
-        lengths, family, spacing = samples(free, motors)
-        lag, slipped = judge(moves(free, lengths, compiled=True), hz, rot,
-                             max_step_s=max_step_s)
-        extra = refine(lengths, family, spacing, np.degrees(lag.max(axis=0) * rot.c_e))
-        if len(extra):
-            more_lag, more_slipped = judge(moves(free, extra, compiled=True), hz, rot,
-                                           max_step_s=max_step_s)
-            lengths = np.concatenate((lengths, extra))
-            order = np.argsort(lengths, kind="stable")
-            lengths = lengths[order]
-            lag = np.concatenate((lag, more_lag), axis=1)[:, order]
-            slipped = np.concatenate((slipped, more_slipped), axis=1)[:, order]
-    return Angles(lengths, np.degrees(lag * rot.c_e), slipped, owner, rot.direction)
+    return owner, Rotors.stack([rotors(motor, direction=d) for motor in motors
+                                for d in directions(motor)])
+
+
+def _judge(free: FreeCurveTable, lengths: np.ndarray, rot: Rotors,
+           max_step_s: float | None) -> tuple[np.ndarray, np.ndarray]:
+    return judge(moves(free, lengths, compiled=True), free.clock.hz, rot,
+                 max_step_s=max_step_s)
+
+
+def _found(lengths: np.ndarray, lag: np.ndarray, slipped: np.ndarray, owner: np.ndarray,
+           rot: Rotors, refined: bool = True) -> Angles:
+    return Angles(lengths, np.degrees(lag * rot.c_e), slipped, owner, rot.direction,
+                  refined)
+
+
+def _sample(free: FreeCurveTable, motors: Sequence[Motor], rot: Rotors,
+            max_step_s: float | None) -> tuple[np.ndarray, ...]:
+    """The samples' verdict: (lengths, family, spacing, lag, slipped) (`samples`)."""
+    lengths, family, spacing = samples(free, motors)
+    return (lengths, family, spacing, *_judge(free, lengths, rot, max_step_s))
+
+
+def _refined(free: FreeCurveTable, sampled: tuple[np.ndarray, ...], rot: Rotors,
+             max_step_s: float | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The samples' verdict with the lengths `refine` asks for: (lengths ascending, lag,
+    slipped)."""
+    lengths, family, spacing, lag, slipped = sampled
+    found = [(lengths, lag, slipped)]
+
+    def judge_at(extra: np.ndarray) -> np.ndarray:
+        found.append((extra, *_judge(free, extra, rot, max_step_s)))
+        return np.degrees(found[-1][1].max(axis=0) * rot.c_e)
+
+    refine(lengths, family, spacing, np.degrees(lag.max(axis=0) * rot.c_e), judge_at)
+    if len(found) == 1:
+        return lengths, lag, slipped
+    order = np.argsort(np.concatenate([n for n, _, _ in found]), kind="stable")
+    return (np.concatenate([n for n, _, _ in found])[order],
+            np.concatenate([a for _, a, _ in found], axis=1)[:, order],
+            np.concatenate([b for _, _, b in found], axis=1)[:, order])
 
 
 def samples(table: FreeCurveTable, motors: Sequence[Motor]

@@ -88,6 +88,11 @@ class Judged(NamedTuple):
         return max(float(self.moves.deg.max()),
                    0.0 if self.stops is None else self.stops.worst_deg())
 
+    @property
+    def exact(self) -> bool:
+        """False: the moves' samples alone, past the aim (`worst` a lower bound)."""
+        return self.moves.refined
+
 
 class Screen(NamedTuple):
     """Where a shaping past the aim was worst: the move lengths and the decel stops, each
@@ -97,10 +102,17 @@ class Screen(NamedTuple):
     stops: list[tuple[int, str]]
 
 
-def judged(table: FreeCurveTable, judges: Sequence[Motor], stops: bool = True) -> Judged:
+def judged(table: FreeCurveTable, judges: Sequence[Motor], stops: bool = True,
+           past_deg: float | None = None) -> Judged:
     """Every move and (`stops`) every decel stop of `table` on `judges`, both remembered:
-    the safety verdict asks again."""
-    return Judged(angles(table, judges), stop_angles(table, judges) if stops else None)
+    the safety verdict asks again. `past_deg`: the moves' samples alone when one is past
+    it (`load_angle.angles`; `Judged.exact` False)."""
+    if not stops:
+        return Judged(angles(table, judges, past_deg=past_deg), None)
+    # the two verdicts' serial parts (batches built, references integrated) overlap
+    # the other's kernels, which run on every core
+    side = pool("judge-stops", 1).submit(stop_angles, table, judges)
+    return Judged(angles(table, judges, past_deg=past_deg), side.result())
 
 
 def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
@@ -130,6 +142,7 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
     failed: Shaping | None = None   # the last shaping past the aim
     failed_at = Screen(np.zeros(0, dtype=np.int64), [])  # where it was worst
     made = [0]                                # plans tried
+    bounded: list[tuple[int, Plan, Shaping]] = []  # tried plans past the aim at a sample
 
     def attempt(shaping: Shaping, screen: Screen | None = None) -> tuple[Plan, Judged] | None:
         """The plan and its verdict; None when there is no table, or when it is past the
@@ -145,7 +158,10 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
         if screen is not None and _screened_out(plan.table, judges, screen,
                                                 load_angle_deg + SCREEN_MARGIN_DEG):
             return None
-        found = judged(plan.table, judges, stops)  # remembered: the verdict asks again
+        # remembered: the verdict asks again; one past the aim at a sample needs no more
+        found = judged(plan.table, judges, stops, past_deg=load_angle_deg)
+        if not found.exact:
+            bounded.append((len(tried), plan, shaping))
         plan = _annotated(plan, found.worst(), shaping, len(judges), t0, stops)
         tried.append(plan)
         return plan, found
@@ -161,16 +177,8 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
             # the factors are first-order: halfway back towards the last shaping past the
             # aim is often within it too, and faster
             room = plan.extras["worst_load_angle_deg"] < load_angle_deg - RELAX_ROOM_DEG
-            for _ in range(RELAX_STEPS if failed is not None and room else 0):
-                mid = shaping.between(failed)  # type: ignore[arg-type]
-                again = attempt(mid, screen=failed_at)
-                if again is not None and again[0].extras["worst_load_angle_deg"] \
-                        <= load_angle_deg:
-                    shaping = mid
-                else:
-                    failed = mid
-                    if again is not None:
-                        failed_at = _worst_lengths(again[1], load_angle_deg)
+            if failed is not None and room:
+                _relax(attempt, shaping, failed, failed_at, load_angle_deg)
             return _counted(_best(tried, load_angle_deg), made[0])
         failed, failed_at = shaping, _worst_lengths(found, load_angle_deg)
         blame = culprits(plan.table, judges, found.moves, load_angle_deg, shaping, found.stops)
@@ -181,7 +189,25 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
         made[0] += uniform.extras["plans"]
     except PlanError:
         pass
+    for k, plan, shaping in bounded:  # none within the aim: the least past it, judged whole
+        tried[k] = _annotated(plan, judged(plan.table, judges, stops).worst(), shaping,
+                              len(judges), t0, stops)
     return _counted(_best(tried, load_angle_deg), made[0])
+
+
+def _relax(attempt: Callable[[Shaping, Screen], tuple[Plan, Judged] | None],
+           shaping: Shaping, failed: Shaping, failed_at: Screen, aim_deg: float) -> None:
+    """RELAX_STEPS bisections from `shaping` (within the aim) back towards `failed` (past
+    it, worst at `failed_at`), each plan tried through `attempt` (which keeps it)."""
+    for _ in range(RELAX_STEPS):
+        mid = shaping.between(failed)
+        again = attempt(mid, failed_at)
+        if again is not None and again[0].extras["worst_load_angle_deg"] <= aim_deg:
+            shaping = mid
+        else:
+            failed = mid
+            if again is not None:
+                failed_at = _worst_lengths(again[1], aim_deg)
 
 
 def _counted(plan: Plan, plans: int) -> Plan:

@@ -4,6 +4,7 @@ integrated whole by the plain-Python oracle."""
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
@@ -173,35 +174,79 @@ def test_a_verdict_names_its_direction_and_counts_its_executions() -> None:
     assert loaded.executions == 6 and loaded.worst_direction in (1, -1)
 
 
-def test_refine_judges_every_length_around_the_worst_sample_and_before_the_first_unstable(
-        ) -> None:
-    """`refine`: a family within REFINE_DEG of the worst gets every length within one
-    spacing of its worst sample (its ends excluded: they are samples), a family far
-    below gets none, and a family whose samples pass 90° gets every length before its
-    first unstable sample."""
+class _Asked:
+    """A stand-in for the kernel under `refine`: each length's angle from `curve`, every
+    call recorded (ascending, none asked before, none of the samples)."""
+
+    def __init__(self, curve: Callable[[int], float], sampled: np.ndarray) -> None:
+        self.curve, self.sampled, self.calls = curve, set(sampled.tolist()), []
+
+    def __call__(self, lengths: np.ndarray) -> np.ndarray:
+        asked = lengths.tolist()
+        assert lengths.dtype.kind == "i" and asked == sorted(set(asked))
+        assert not set(asked) & (self.sampled | set(self.every))
+        self.calls.append(asked)
+        return np.array([self.curve(n) for n in asked])
+
+    @property
+    def every(self) -> list[int]:
+        return [n for call in self.calls for n in call]
+
+
+def _refined(lengths: list[int], family: list[int], spacing: list[int],
+             curve: Callable[[int], float]) -> _Asked:
     from profiles.motor.batch_angle import refine
 
-    lengths = np.array([10, 20, 30, 40, 100, 110, 120, 200, 210, 220, 230])
-    family = np.array([0, 0, 0, 0, 1, 1, 1, 2, 2, 2, 2])
-    spacing = np.array([10, 10, 10])
-    # family 0 is the worst (80° at 30), family 2 within 3° of it (78° at 220)
-    worst = np.array([40.0, 60.0, 80.0, 70.0, 20.0, 30.0, 25.0, 50.0, 60.0, 78.0, 70.0])
-    assert refine(lengths, family, spacing, worst).tolist() == [
-        *range(21, 30), *range(31, 40), *range(211, 220), *range(221, 230)]
-    # family 2 passes 90° at 220 and is worst at its end (99° at 230): family 0 is now
-    # far below; family 2 gets the lengths before 220 and those around 230
-    worst = np.array([40.0, 60.0, 80.0, 70.0, 20.0, 30.0, 25.0, 50.0, 60.0, 95.0, 99.0])
-    assert refine(lengths, family, spacing, worst).tolist() == [*range(211, 220),
-                                                                *range(221, 230)]
-    assert not refine(lengths, family, np.array([1, 1, 1]), worst).tolist()  # dense already
-    # spacing 2: the one length between samples on each side of the worst; a family at
-    # exactly 90° (far below a 99° one) still names its shortest unstable move, and only
-    # the lengths before its first unstable sample, not up to a later one
-    lengths = np.array([10, 12, 14, 16, 100, 104, 108, 112])
-    family = np.array([0, 0, 0, 0, 1, 1, 1, 1])
-    worst = np.array([50.0, 99.0, 60.0, 95.0, 40.0, 90.0, 85.0, 88.0])
-    assert refine(lengths, family, np.array([2, 4]), worst).tolist() == [
-        11, 13, 101, 102, 103]
+    at = np.array(lengths)
+    asked = _Asked(curve, at)
+    refine(at, np.array(family), np.array(spacing), np.array([curve(n) for n in lengths]),
+           asked)
+    return asked
+
+
+def test_refine_finds_the_peak_of_every_family_near_the_worst_and_no_other() -> None:
+    """`refine`: a family within REFINE_DEG of the worst sample is searched until its
+    peak between samples is judged (80° at 27, 79° at 224: each sampled lower), a family
+    far below gets nothing, and the search asks fewer lengths than the spans hold."""
+    def curve(n: int) -> float:
+        if n < 100:
+            return 80.0 - 0.05 * (n - 27) ** 2
+        return 25.0 if n < 200 else 79.0 - 0.05 * (n - 224) ** 2
+
+    lengths = [10, 20, 30, 40, 100, 110, 120, 200, 210, 220, 230]
+    asked = _refined(lengths, [0, 0, 0, 0, 1, 1, 1, 2, 2, 2, 2], [10, 10, 10], curve)
+    assert max(asked.every, key=curve) == 27 and 224 in asked.every
+    assert not [n for n in asked.every if 100 <= n <= 120]
+    assert all(21 <= n <= 39 or 211 <= n <= 229 for n in asked.every)
+    assert len(asked.every) < 2 * 18  # each family's two spans hold 18 lengths
+    assert not _refined(lengths, [0, 0, 0, 0, 1, 1, 1, 2, 2, 2, 2], [1, 1, 1], curve).calls
+
+
+@pytest.mark.parametrize("peak", [11, 12, 15, 19, 20, 21, 25, 29])
+def test_refine_finds_a_peak_anywhere_between_the_samples(peak: int) -> None:
+    """Wherever the top lies beside the worst sample (20), on either side, next to a
+    sample or halfway, the search judges it."""
+    asked = _refined([0, 10, 20, 30, 40], [0] * 5, [10],
+                     lambda n: 60.0 - 0.1 * abs(n - peak))
+    assert peak in asked.every or peak in (10, 20)
+
+
+def test_refine_judges_every_length_before_the_first_sample_past_the_peak() -> None:
+    """A family whose samples pass the 90° peak gets every length before its first
+    unstable sample (so the shortest unstable move is named exactly), even when it is
+    far below the worst family; not those up to a later unstable sample."""
+    from profiles.motor.batch_angle import PEAK_DEG
+
+    worst = {10: 10.0, 20: 20.0, 30: PEAK_DEG + 5.0}
+    asked = _refined([10, 20, 30], [0, 0, 0], [10], lambda n: worst.get(n, 20.0 + n))
+    assert asked.every == list(range(21, 30))
+    # spacing 2: one length between samples; a family at exactly 90° (far below a 99°
+    # one) names its shortest unstable move too
+    worst = {10: 50.0, 12: 99.0, 14: 60.0, 16: 95.0, 100: 40.0, 104: 90.0, 108: 85.0,
+             112: 88.0}
+    asked = _refined(list(worst), [0, 0, 0, 0, 1, 1, 1, 1], [2, 4],
+                     lambda n: worst.get(n, 0.0))
+    assert sorted(asked.every) == [11, 13, 101, 102, 103]
 
 
 def test_a_batch_on_threads_judges_every_cell_as_one_at_a_time() -> None:
@@ -273,18 +318,6 @@ def test_the_options_are_keyword_only() -> None:
         worst_load_angles(None, [], None)  # type: ignore[arg-type, misc]
 
 
-def test_refine_names_whole_lengths_up_to_the_first_sample_past_the_peak() -> None:
-    """A family whose last sample passes the 90° peak: every length between the sample
-    before it and it (so the shortest unstable move is named exactly), as whole
-    lengths, none of those already judged."""
-    from profiles.motor.batch_angle import PEAK_DEG, refine
-
-    extra = refine(np.array([10, 20, 30]), np.array([0, 0, 0]), np.array([10]),
-                   np.array([10.0, 20.0, PEAK_DEG + 5.0]))
-    assert extra.dtype.kind == "i"
-    assert extra.tolist() == list(range(21, 30))
-
-
 def test_a_slow_rotors_dwell_settles_within_periods_of_at_most_1_s() -> None:
     """`dwell_sampling`: the densely judged runs last SETTLE_CRUISE_PERIODS natural
     periods of the dwell, each counted as at most 1 s (a rotor with a 4 s period at
@@ -299,16 +332,6 @@ def test_a_slow_rotors_dwell_settles_within_periods_of_at_most_1_s() -> None:
     assert dense.tolist() == [math.ceil(10.0 * SETTLE_CRUISE_PERIODS * 1.0)]
 
 
-def test_refine_judges_around_the_worst_families_only() -> None:
-    """Every length within a spacing of the worst sample of a family within REFINE_DEG of
-    the worst of all; a family far below it (and below the peak) is left sampled."""
-    from profiles.motor.batch_angle import refine
-
-    extra = refine(np.array([10, 20, 30, 40, 50, 60]), np.array([0, 0, 0, 1, 1, 1]),
-                   np.array([10, 10]), np.array([10.0, 50.0, 20.0, 5.0, 8.0, 6.0]))
-    assert extra.tolist() == [*range(11, 20), *range(21, 30)]
-
-
 def test_the_all_length_verdict_is_remembered_read_only_and_a_step_of_its_own_is_not(
 ) -> None:
     """`angles`: the all-length verdict is remembered and shared, its arrays read-only; a
@@ -319,9 +342,43 @@ def test_the_all_length_verdict_is_remembered_read_only_and_a_step_of_its_own_is
     table = plan_free_curve(motor, pulses=400).table
     first = angles(table, [motor])
     assert angles(table, [motor]) is first
-    assert not any(a.flags.writeable for a in vars(first).values())
+    assert not any(a.flags.writeable for a in vars(first).values()
+                   if isinstance(a, np.ndarray))
     own = angles(table, [motor], max_step_s=1.0)
     assert own is not first and own.deg.flags.writeable
+
+
+def test_past_deg_stops_at_the_samples_only_when_one_is_past_it(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """`angles(past_deg=…)`: a sample past it gives the samples' verdict alone (not
+    refined, its worst that sample's); below it, the whole verdict. The whole verdict
+    asked later goes on from the remembered samples (the kernel not run on them again)
+    and is the one judged from scratch."""
+    from profiles.ppmc312 import load_angle
+    from profiles.ppmc312.load_angle import angles, forget_verdicts
+
+    motor = load_motor(next(p for p in bundled_motor_paths() if "nema23" in p.name))
+    table = plan_free_curve(motor, pulses=12_000).table
+    forget_verdicts()
+    whole = angles(table, [motor])
+    worst = float(whole.deg.max())
+    forget_verdicts()
+    sampled = angles(table, [motor], past_deg=worst - 10.0)
+    assert not sampled.refined and len(sampled.lengths) < len(whole.lengths)
+    assert worst - 10.0 < float(sampled.deg.max()) <= worst
+    judged: list[int] = []
+    real = load_angle.judge
+
+    def counted(runs: object, *args: object, **kw: object) -> object:
+        judged.append(len(runs))  # type: ignore[arg-type]
+        return real(runs, *args, **kw)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(load_angle, "judge", counted)
+    again = angles(table, [motor], past_deg=worst + 1.0)
+    assert again.refined and sum(judged) == len(again.lengths) - len(sampled.lengths)
+    np.testing.assert_array_equal(again.lengths, whole.lengths)
+    np.testing.assert_allclose(again.deg, whole.deg)
+    assert angles(table, [motor], past_deg=0.0) is again  # the whole one, once known
 
 
 def test_a_dwell_with_no_torque_or_no_speed_is_sampled_whole_and_settles_by_rest() -> None:

@@ -303,8 +303,8 @@ def test_uniform_tightening_steps_down_then_bisects_back(monkeypatch: pytest.Mon
         asked.append(sh)
         return base
 
-    monkeypatch.setattr(tightening, "angles", lambda table, judges: types.SimpleNamespace(
-        deg=np.array([next(worst)])))
+    monkeypatch.setattr(tightening, "angles", lambda table, judges, **kw: types.SimpleNamespace(
+        deg=np.array([next(worst)]), refined=True))
     got = tighten_uniform(NEMA23, make, AIM_DEG, stops=False)  # type: ignore[arg-type]
     scales = [1.0 if s is None else s.scale[0] for s in asked]
     mid = (0.7225 + 0.85) / 2
@@ -340,7 +340,7 @@ def test_a_relax_step_past_the_aim_where_its_bound_was_worst_skips_the_full_verd
     calls: list[str] = []
 
     def counted(table: object, judges: object, **kw: object) -> object:
-        calls.append("screen" if kw else "full")
+        calls.append("screen" if kw.get("pulses") is not None else "full")
         return angles(table, judges, **kw)  # type: ignore[arg-type]
 
     monkeypatch.setattr(tightening, "angles", counted)
@@ -379,7 +379,7 @@ class _Scripted:
     def angles(self, table: object, judges: object, **kw: object) -> object:
         from profiles.ppmc312.load_angle import Angles
 
-        deg = next(self.screen if kw else self.full)
+        deg = next(self.screen if kw.get("pulses") is not None else self.full)
         one = np.zeros(1, np.int64)
         return Angles(np.array([20]), np.array([[deg]]), np.zeros((1, 1), bool), one, one + 1)
 
@@ -426,8 +426,8 @@ def test_uniform_tightening_takes_eight_rounds_and_refuses_a_motor_with_no_table
 
     base = plan_free_curve(MOTORS["pk566-5phase-half"], pulses=2_000)
     worst = iter([89.0] * 7 + [70.0, 80.0, 80.0])
-    monkeypatch.setattr(tightening, "angles", lambda table, judges: types.SimpleNamespace(
-        deg=np.array([next(worst)])))
+    monkeypatch.setattr(tightening, "angles", lambda table, judges, **kw: types.SimpleNamespace(
+        deg=np.array([next(worst)]), refined=True))
     got = tighten_uniform(NEMA23, lambda m, sh=None: base, AIM_DEG,  # type: ignore[arg-type]
                           stops=False)
     assert got.extras["shaping"].scale[0] == pytest.approx(0.85 ** 7)
