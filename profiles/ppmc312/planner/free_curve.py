@@ -67,21 +67,24 @@ VARIANTS = ("LE=1", "LE=1 on LE=0's rates", "LE=0")
 def plan(motor: Motor, clock: Clock | None, max_stages: int, pulses: int | None,
          separate_decel: bool | None, *, grid: str = "adaptive", refine: bool = True,
          label: str = "planner", exhaustive_tops: bool = False,
-         shaping: Shaping | None = None, variant: str | None = None) -> Plan:
+         shaping: Shaping | None = None, variant: str | None = None,
+         without: str | None = None) -> Plan:
     """The fastest table that passes the criterion for every move length (with `shaping`:
     within its bands' share of the motor); `variant` (one of VARIANTS) plans only that
-    one, and `extras["variant"]` says which won. The last PLANS_KEPT plans are
-    remembered by their arguments (the motor by its values): a duty cycle plans its
-    candidates by the criterion, then tightens the best, whose first attempt is that
-    same plan."""
+    one, `without` every other one, and `extras["variant"]` says which won. The last
+    PLANS_KEPT plans are remembered by their arguments (the motor by its values): a duty
+    cycle plans its candidates by the criterion, then tightens the best, whose first
+    attempt is that same plan."""
     t0 = time.perf_counter()
     check_plan_args(max_stages, pulses)
     clock = clock or choose_clock(motor)
     kinds = [k for k in VARIANTS if separate_decel is None or (k == "LE=0") != separate_decel]
+    for given in (variant, without):
+        if given is not None and given not in kinds:
+            raise ValueError(f"variant {given!r} is not one of {kinds}")
     if variant is not None:
-        if variant not in kinds:
-            raise ValueError(f"variant {variant!r} is not one of {kinds}")
         kinds = [variant]
+    kinds = [k for k in kinds if k != without]
     key = (motor.values_key(), clock, max_stages, pulses, tuple(kinds), grid, refine, label,
            exhaustive_tops, shaping or None)
     result, known = _plans.get(key, lambda: _plan(
@@ -183,12 +186,14 @@ def plan_free_curve(motor: Motor, *, clock: Clock | None = None, max_stages: int
     def make(m: Motor, shaping: Shaping | None = None) -> Plan:
         if shaping is not None and chosen:
             # a gentler plan of the same motor and move keeps the variant the plain one
-            # won with (planning them all again changes nothing but the time)
+            # won with (planning them all again changes nothing but the time); when that
+            # one has no table (a gentler LE=1 often has none), the fastest of the others
             try:
                 return plan(m, clock, max_stages, pulses, separate_decel, shaping=shaping,
                             variant=chosen[0])
             except PlanError:
-                pass
+                return plan(m, clock, max_stages, pulses, separate_decel, shaping=shaping,
+                            without=chosen[0])
         result = plan(m, clock, max_stages, pulses, separate_decel, shaping=shaping)
         if shaping is None:
             chosen[:] = [result.extras["variant"]]

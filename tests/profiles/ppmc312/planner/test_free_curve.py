@@ -22,7 +22,7 @@ from profiles.ppmc312.planner import (
     reference_pulses,
     switch_safe,
 )
-from profiles.ppmc312.planner.free_curve import RAMP_FLOOR, TOP_ROUNDS, TOP_STEP
+from profiles.ppmc312.planner.free_curve import RAMP_FLOOR, TOP_ROUNDS, TOP_STEP, VARIANTS
 from profiles.ppmc312.planner.problem import Plan
 from profiles.ppmc312.planner.quantise import quantise_reference
 from profiles.ppmc312.table import FreeCurveTable
@@ -164,6 +164,21 @@ def test_the_decel_sides_own_counts_never_lose_to_le0() -> None:
             assert check_stall(mixed.table, motor) == []
     with pytest.raises(ValueError, match="variant"):
         plan(motor, None, 127, 2000, False, variant="LE=1")
+
+
+def test_without_a_variant_is_the_fastest_of_the_others() -> None:
+    """`without`: every variant but the one named, the fastest kept (what a gentler plan
+    falls back to when the plain plan's variant has no table: NEMA23's LE=1 at 10 000
+    pulses)."""
+    motor = MOTORS["motor-nema23-heavy"]
+    others = [plan(motor, None, 127, 10_000, None, variant=v) for v in VARIANTS[1:]]
+    without = plan(motor, None, 127, 10_000, None, without="LE=1")
+    fastest = min(others, key=lambda p: p.duration_s)
+    assert without.table == fastest.table
+    assert without.extras["variant"] == fastest.extras["variant"]
+    assert without.table == plan(motor, None, 127, 10_000, None).table  # LE=1 has none
+    with pytest.raises(ValueError, match="variant"):
+        plan(motor, None, 127, 2000, False, without="LE=1")
 
 
 def test_switch_safe_matches_the_move_model() -> None:
