@@ -32,7 +32,7 @@ import numpy as np
 
 from ..errors import FieldRangeError
 from ..motor import Motor
-from ..motor.batch_angle import dwell_sampling, judge, refine, sample_grid
+from ..motor.batch_angle import REFINE_DEG, dwell_sampling, judge, refine, sample_grid
 from ..motor.rotor import (
     PEAK_DEG,
     Rotor,
@@ -89,7 +89,7 @@ class Angles:
     slipped: np.ndarray
     owner: np.ndarray
     direction: np.ndarray
-    refined: bool = True   # False: the samples alone (`angles`' past_deg), a lower bound
+    refined: bool = True   # False: the samples alone (`angles`' aim_deg), a lower bound
 
     def worst(self, motor: int) -> WorstAngle:
         mine = np.flatnonzero(self.owner == motor)
@@ -103,19 +103,21 @@ class Angles:
 
 VERDICTS_KEPT = 32   # all-length verdicts remembered (a few KB each)
 _verdicts: Remembered[Angles] = Remembered(VERDICTS_KEPT)
-# and the samples' verdicts, which an all-length verdict goes on from (`past_deg`)
+# and the samples' verdicts, which an all-length verdict goes on from (`aim_deg`)
 _sampled: Remembered[tuple[np.ndarray, ...]] = Remembered(VERDICTS_KEPT)
 
 
 def angles(table: FreeCurveTable | InitTable, motors: Sequence[Motor], *,
            pulses: Iterable[int] | None = None, max_step_s: float | None = None,
-           past_deg: float | None = None) -> Angles:
+           aim_deg: float | None = None) -> Angles:
     """The load angle of every move judged for every motor and direction: the given
     lengths, or every length through its family (`samples`, then `refine`).
 
-    `past_deg`: when a sampled length is already past it, the samples' verdict alone
-    (`Angles.refined` False: its worst is a lower bound, enough to say "past"; a
-    tightening round asks so, refining only a table that may be within its aim).
+    `aim_deg`: the samples' verdict alone (`Angles.refined` False: its worst a lower
+    bound) when it already says whether every move is within that aim: a sample is past
+    it, or every sample is REFINE_DEG or more below it (refining raises a family's worst
+    by less: the sampling's premise, on which it leaves the families further below the
+    worst unrefined). Tightening asks so, and refines only the table it keeps.
 
     The last VERDICTS_KEPT all-length verdicts are remembered by table and motor values,
     and shared read-only: tightening judges a table, and the verdict that every command
@@ -141,7 +143,8 @@ def angles(table: FreeCurveTable | InitTable, motors: Sequence[Motor], *,
         return _read_only(_sample(free, motors, rot, None))
 
     first = _sampled.get(key, sampled)[0]
-    if past_deg is not None and float(np.degrees(first[3].max() * rot.c_e)) > past_deg:
+    if aim_deg is not None and not (
+            aim_deg - REFINE_DEG < float(np.degrees(first[3].max() * rot.c_e)) <= aim_deg):
         return _found(first[0], first[3], first[4], owner, rot, refined=False)
     return _verdicts.get(key, lambda: _read_only(
         _found(*_refined(free, first, rot, None), owner, rot)))[0]

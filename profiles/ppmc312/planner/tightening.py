@@ -33,6 +33,7 @@ this one replaced and the baseline it is measured against (bench/bench_tighten.p
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -90,7 +91,8 @@ class Judged(NamedTuple):
 
     @property
     def exact(self) -> bool:
-        """False: the moves' samples alone, past the aim (`worst` a lower bound)."""
+        """False: the moves' samples alone (`worst` a lower bound, on the same side of
+        the aim as the exact one)."""
         return self.moves.refined
 
 
@@ -103,16 +105,16 @@ class Screen(NamedTuple):
 
 
 def judged(table: FreeCurveTable, judges: Sequence[Motor], stops: bool = True,
-           past_deg: float | None = None) -> Judged:
+           aim_deg: float | None = None) -> Judged:
     """Every move and (`stops`) every decel stop of `table` on `judges`, both remembered:
-    the safety verdict asks again. `past_deg`: the moves' samples alone when one is past
-    it (`load_angle.angles`; `Judged.exact` False)."""
+    the safety verdict asks again. `aim_deg`: the moves' samples alone when they say
+    whether the table is within it (`load_angle.angles`; `Judged.exact` False)."""
     if not stops:
-        return Judged(angles(table, judges, past_deg=past_deg), None)
+        return Judged(angles(table, judges, aim_deg=aim_deg), None)
     # the two verdicts' serial parts (batches built, references integrated) overlap
     # the other's kernels, which run on every core
     side = pool("judge-stops", 1).submit(stop_angles, table, judges)
-    return Judged(angles(table, judges, past_deg=past_deg), side.result())
+    return Judged(angles(table, judges, aim_deg=aim_deg), side.result())
 
 
 def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
@@ -142,7 +144,8 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
     failed: Shaping | None = None   # the last shaping past the aim
     failed_at = Screen(np.zeros(0, dtype=np.int64), [])  # where it was worst
     made = [0]                                # plans tried
-    bounded: list[tuple[int, Plan, Shaping]] = []  # tried plans past the aim at a sample
+    # tried plans judged by their samples alone (by index): made exact if kept
+    bounded: dict[int, tuple[Plan, Shaping]] = {}
 
     def attempt(shaping: Shaping, screen: Screen | None = None) -> tuple[Plan, Judged] | None:
         """The plan and its verdict; None when there is no table, or when it is past the
@@ -158,14 +161,16 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
         if screen is not None and _screened_out(plan.table, judges, screen,
                                                 load_angle_deg + SCREEN_MARGIN_DEG):
             return None
-        # remembered: the verdict asks again; one past the aim at a sample needs no more
-        found = judged(plan.table, judges, stops, past_deg=load_angle_deg)
+        # remembered: the verdict asks again; samples that say within or past are enough
+        # until the plan is kept
+        found = judged(plan.table, judges, stops, aim_deg=load_angle_deg)
         if not found.exact:
-            bounded.append((len(tried), plan, shaping))
+            bounded[len(tried)] = (plan, shaping)
         plan = _annotated(plan, found.worst(), shaping, len(judges), t0, stops)
         tried.append(plan)
         return plan, found
 
+    within = False
     for _ in range(LOCAL_ROUNDS):
         done = attempt(shaping)
         if done is None and not tried and not shaping.plain:
@@ -179,20 +184,34 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
             room = plan.extras["worst_load_angle_deg"] < load_angle_deg - RELAX_ROOM_DEG
             if failed is not None and room:
                 _relax(attempt, shaping, failed, failed_at, load_angle_deg)
-            return _counted(_best(tried, load_angle_deg), made[0])
+            within = True
+            break
         failed, failed_at = shaping, _worst_lengths(found, load_angle_deg)
         blame = culprits(plan.table, judges, found.moves, load_angle_deg, shaping, found.stops)
         shaping = _gentler(shaping, blame, load_angle_deg, ramp_floor)
-    try:
-        uniform = tighten_uniform(motor, make, load_angle_deg, judges=judges, stops=stops)
-        tried.append(uniform)
-        made[0] += uniform.extras["plans"]
-    except PlanError:
-        pass
-    for k, plan, shaping in bounded:  # none within the aim: the least past it, judged whole
-        tried[k] = _annotated(plan, judged(plan.table, judges, stops).worst(), shaping,
-                              len(judges), t0, stops)
-    return _counted(_best(tried, load_angle_deg), made[0])
+    if not within:  # the bands did not converge: the whole table tightened alike too
+        with contextlib.suppress(PlanError):
+            tried.append(tighten_uniform(motor, make, load_angle_deg, judges=judges,
+                                         stops=stops))
+            made[0] += tried[-1].extras["plans"]
+    return _counted(_kept(tried, bounded, lambda plan, shaping: _annotated(
+        plan, judged(plan.table, judges, stops).worst(), shaping, len(judges), t0, stops),
+        load_angle_deg), made[0])
+
+
+def _kept(tried: list[Plan], bounded: dict[int, tuple[Plan, Shaping]],
+          exact: Callable[[Plan, Shaping], Plan], aim_deg: float) -> Plan:
+    """The plan `_best` keeps of `tried`, judged exactly: a plan judged by its samples
+    alone (`bounded`: by its index, unannotated, and its shaping) is judged whole
+    (`exact`) once it is the one kept; when none is within the aim, every one is."""
+    while True:
+        within = [k for k, p in enumerate(tried) if p.extras["worst_load_angle_deg"] <= aim_deg]
+        pick = min(within, key=lambda k: float(tried[k].duration_s or 0.0), default=None)
+        todo = list(bounded) if pick is None else [pick] if pick in bounded else []
+        if not todo:
+            return _best(tried, aim_deg)
+        for k in todo:
+            tried[k] = exact(*bounded.pop(k))
 
 
 def _relax(attempt: Callable[[Shaping, Screen], tuple[Plan, Judged] | None],

@@ -348,12 +348,14 @@ def test_the_all_length_verdict_is_remembered_read_only_and_a_step_of_its_own_is
     assert own is not first and own.deg.flags.writeable
 
 
-def test_past_deg_stops_at_the_samples_only_when_one_is_past_it(
+def test_aim_deg_stops_at_the_samples_when_they_settle_within_or_past(
         monkeypatch: pytest.MonkeyPatch) -> None:
-    """`angles(past_deg=…)`: a sample past it gives the samples' verdict alone (not
-    refined, its worst that sample's); below it, the whole verdict. The whole verdict
+    """`angles(aim_deg=…)`: a sample past the aim, or every sample REFINE_DEG or more
+    below it, gives the samples' verdict alone (not refined: its worst that of the
+    samples); a worst sample just below the aim, the whole verdict. The whole verdict
     asked later goes on from the remembered samples (the kernel not run on them again)
     and is the one judged from scratch."""
+    from profiles.motor.batch_angle import REFINE_DEG
     from profiles.ppmc312 import load_angle
     from profiles.ppmc312.load_angle import angles, forget_verdicts
 
@@ -363,9 +365,11 @@ def test_past_deg_stops_at_the_samples_only_when_one_is_past_it(
     whole = angles(table, [motor])
     worst = float(whole.deg.max())
     forget_verdicts()
-    sampled = angles(table, [motor], past_deg=worst - 10.0)
+    sampled = angles(table, [motor], aim_deg=worst - 10.0)
     assert not sampled.refined and len(sampled.lengths) < len(whole.lengths)
-    assert worst - 10.0 < float(sampled.deg.max()) <= worst
+    top = float(sampled.deg.max())
+    assert worst - 10.0 < top <= worst
+    assert not angles(table, [motor], aim_deg=top + REFINE_DEG).refined  # well within
     judged: list[int] = []
     real = load_angle.judge
 
@@ -374,11 +378,11 @@ def test_past_deg_stops_at_the_samples_only_when_one_is_past_it(
         return real(runs, *args, **kw)  # type: ignore[arg-type]
 
     monkeypatch.setattr(load_angle, "judge", counted)
-    again = angles(table, [motor], past_deg=worst + 1.0)
+    again = angles(table, [motor], aim_deg=top + REFINE_DEG / 2)  # may be past: refined
     assert again.refined and sum(judged) == len(again.lengths) - len(sampled.lengths)
     np.testing.assert_array_equal(again.lengths, whole.lengths)
     np.testing.assert_allclose(again.deg, whole.deg)
-    assert angles(table, [motor], past_deg=0.0) is again  # the whole one, once known
+    assert angles(table, [motor], aim_deg=0.0) is again  # the whole one, once known
 
 
 def test_a_dwell_with_no_torque_or_no_speed_is_sampled_whole_and_settles_by_rest() -> None:

@@ -340,7 +340,8 @@ def test_a_relax_step_past_the_aim_where_its_bound_was_worst_skips_the_full_verd
     calls: list[str] = []
 
     def counted(table: object, judges: object, **kw: object) -> object:
-        calls.append("screen" if kw.get("pulses") is not None else "full")
+        calls.append("screen" if kw.get("pulses") is not None else
+                     "full" if kw.get("aim_deg") is not None else "kept")
         return angles(table, judges, **kw)  # type: ignore[arg-type]
 
     monkeypatch.setattr(tightening, "angles", counted)
@@ -356,8 +357,10 @@ def test_a_relax_step_past_the_aim_where_its_bound_was_worst_skips_the_full_verd
     assert screened.table == judged.table and screened.extras["shaping"] == \
         judged.extras["shaping"]
     assert screened.extras["worst_load_angle_deg"] == judged.extras["worst_load_angle_deg"]
-    # as many plans either way: judged at every length, one verdict each
+    # as many plans either way: judged at every length, one verdict each (and the one
+    # kept judged whole, when its samples were enough to say it is within the aim)
     assert screened.extras["plans"] == judged.extras["plans"] == calls.count("full")
+    assert calls.count("kept") <= 1
 
 
 class _Scripted:
@@ -495,3 +498,35 @@ def test_one_round_blames_every_band_that_rings(monkeypatch: pytest.MonkeyPatch)
     assert diverse.extras["worst_load_angle_deg"] <= AIM_DEG
     assert diverse.extras["plans"] <= 4 < worst_only.extras["plans"]
     assert diverse.duration_s <= worst_only.duration_s
+
+
+def test_judged_by_samples_until_kept_the_same_table_as_judged_whole(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A tightening round whose samples already say within or past the aim is judged no
+    further; the plan kept is judged whole. The table, its shaping and its worst angle
+    are those of a tightening that judges every plan whole, and the worst is the whole
+    verdict's."""
+    from dataclasses import replace
+
+    from profiles.ppmc312.load_angle import forget_verdicts
+    from profiles.ppmc312.planner import tightening
+    from profiles.ppmc312.planner.free_curve import forget_plans
+    from profiles.ppmc312.planner.tightening import judged
+
+    motor = replace(NEMA23, safety_factor=round(NEMA23.safety_factor * 0.98, 3))
+    forget_plans(), forget_verdicts()
+    lazy = plan_free_curve(motor, pulses=11_000, load_angle_deg=AIM_DEG)
+    assert lazy.extras["worst_load_angle_deg"] == judged(lazy.table, [motor]).worst()
+    whole: list[object] = []
+
+    def every(table: object, judges: object, **kw: object) -> object:
+        whole.append(kw.pop("aim_deg", None))
+        return angles(table, judges, **kw)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(tightening, "angles", every)
+    forget_plans(), forget_verdicts()
+    eager = plan_free_curve(motor, pulses=11_000, load_angle_deg=AIM_DEG)
+    assert AIM_DEG in whole  # the rounds asked with their aim, and were judged whole
+    assert lazy.table == eager.table and lazy.extras["shaping"] == eager.extras["shaping"]
+    assert lazy.extras["worst_load_angle_deg"] == eager.extras["worst_load_angle_deg"]
+    assert lazy.extras["plans"] == eager.extras["plans"] > 2
