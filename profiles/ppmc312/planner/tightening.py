@@ -16,12 +16,15 @@ executions are the moves' and, by default, a decel stop's (81) at every pulse of
 ramp under every reading (profiles.ppmc312.stops): a stop that rings is traced alike
 and blames the stages just before its worst angle (where it comes and the decel below).
 A round traces the worst executions and, beside them, the worst of every other speed
-band where one at least 10 % past the aim tops out (`_diverse`): the bands that ring
-hard are blamed at once instead of surfacing one round at a time (NEMA23's designer
-changes: 3–5 plans where they took 5–8; one nearer the aim may be the echo of the
-others, and blamed too it only made tables slower: NEMA17's +0.5 %).
+band where one past the aim tops out (`_diverse`): the bands that ring are blamed at
+once instead of surfacing one round at a time (NEMA23's designer changes: 2–4 plans
+where they took 5–8). One just past the aim may be the others' echo, blamed for
+nothing: NEMA17's 10 000-pulse table is 0.3 % slower for it, NEMA23's as much faster
+(bench/bench_tighten.py).
 
-Once within the aim, two bisections back towards the last shaping past it buy speed;
+Once within the aim by more than RELAX_ROOM_DEG, two bisections back towards the last
+shaping past it buy speed (up to 3 % of NEMA23's move time; with less room they bought
+under 0.2 % for two more plans);
 such a step only asks within-or-not, so its plan is judged first at the move lengths
 where that shaping was worst, and one past the aim there is refused without the
 all-length verdict (the same decisions, about a verdict less per tightening).
@@ -66,10 +69,9 @@ Make = Callable[[Motor, Shaping | None], Plan]
 
 LOCAL_ROUNDS = 8          # band repairs before falling back to uniform tightening
 RELAX_STEPS = 2           # bisections back towards the last shaping past the aim,
-RELAX_ROOM_DEG = 2.0      # when the plan came out this far within the aim
+RELAX_ROOM_DEG = 4.0      # when the plan came out this far within the aim
 CULPRITS = 6              # executions past the aim traced per round (the worst first)
-BAND_CULPRITS = 8         # and the worst of each other speed band's (`_diverse`),
-BAND_CULPRIT_PAST = 1.1   # when this far past the aim (nearer, it may be the others' echo)
+BAND_CULPRITS = 8         # and the worst of each other speed band's past the aim
 SCREEN = 12               # a relax step is judged first at the move lengths where the
 SCREEN_MARGIN_DEG = 0.1   # shaping past the aim was worst: this far past it there, it fails
 WINDOW_PERIODS = 0.75     # how far before its worst angle an execution's steps are blamed
@@ -307,7 +309,7 @@ def culprits(table: FreeCurveTable, judges: Sequence[Motor], found: Angles, aim_
         pools.append((stops.deg, stops.owner, stops.direction, "stop"))
     past = [(float(deg[:, e].max()), k, e) for k, (deg, _, _, _) in enumerate(pools)
             for e in np.flatnonzero(deg.max(axis=0) > aim_deg).tolist()]
-    worst = _diverse(sorted(past, reverse=True), table, shaping, found, stops, aim_deg)
+    worst = _diverse(sorted(past, reverse=True), table, shaping, found, stops)
     lengths = [int(found.lengths[e]) for _, k, e in worst if pools[k][3] == "move"]
     moves = iter(simulate_moves(table, lengths) if lengths else [])
     rotor_list: dict[tuple[int, int], Rotor] = {}  # by (pool, row): a motor and a direction
@@ -324,13 +326,12 @@ def culprits(table: FreeCurveTable, judges: Sequence[Motor], found: Angles, aim_
 
 
 def _diverse(past: list[tuple[float, int, int]], table: FreeCurveTable, shaping: Shaping,
-             found: Angles, stops: StopAngles | None, aim_deg: float
-             ) -> list[tuple[float, int, int]]:
-    """The CULPRITS worst of `past` (deg, pool, index: 0 a move, 1 a stop), and beside
-    them the worst of every other speed band where an execution at least
-    BAND_CULPRIT_PAST × the aim reaches its top speed (a move's: the stage its ramp turns
-    at; a stop's: where it comes), at most BAND_CULPRITS: blamed in one round, the bands
-    that ring hard do not surface one by one."""
+             found: Angles, stops: StopAngles | None) -> list[tuple[float, int, int]]:
+    """The CULPRITS worst of `past` (deg, pool, index: 0 a move, 1 a stop; every one past
+    the aim), and beside them the worst of every other speed band where one of them
+    reaches its top speed (a move's: the stage its ramp turns at; a stop's: where it
+    comes), at most BAND_CULPRITS: blamed in one round, the bands that ring do not
+    surface one by one."""
     hz = table.clock.hz
     slowest = len(table.rates) - 1       # stages are listed fastest first
     reach = np.cumsum(table.accel_pulses[::-1])  # pulses from rest to each stage's end
@@ -345,7 +346,7 @@ def _diverse(past: list[tuple[float, int, int]], table: FreeCurveTable, shaping:
     chosen = past[:CULPRITS]
     seen = {band(k, e) for _, k, e in chosen}
     for deg, k, e in past[CULPRITS:]:
-        if len(chosen) >= CULPRITS + BAND_CULPRITS or deg < BAND_CULPRIT_PAST * aim_deg:
+        if len(chosen) >= CULPRITS + BAND_CULPRITS:
             break
         b = band(k, e)
         if b not in seen:

@@ -261,7 +261,8 @@ def nema23_moves_only() -> FreeCurveTable:
 
 def test_a_table_known_to_ring_on_a_stop_is_flagged() -> None:
     """A table whose every move is within the aim rings past it on a decel stop a few
-    pulses into a mid-ramp stage (the immediate reversal of reading (c)): a warning, and
+    pulses into a mid-ramp stage (reading (a), the same stop as reading (c) a few pulses
+    on): a warning, and
     past the 90° peak on a less damped motor an error, naming the command, the stage,
     the pulse of the ramp, the reading and the angle; `--commands 82` leaves it out."""
     from dataclasses import replace
@@ -275,9 +276,10 @@ def test_a_table_known_to_ring_on_a_stop_is_flagged() -> None:
     assert verdict.safe and not verdict.within_aim and verdict.failed == ()
     (warning,) = [f for f in verdict.findings() if f.rule.startswith("decel-stop")]
     assert warning.severity == "warning" and warning.rule == "decel-stop-load-angle-margin"
-    assert warning.message.startswith("a decel stop (81) 7 pulses into stage 93 (pulse ")
-    assert "reading (c): at once, one stage down" in warning.message
-    assert "drives the rotor to 85.8° electrical" in warning.message
+    assert warning.message.startswith("a decel stop (81) 2 pulses into stage 84 (pulse ")
+    assert "reading (a): at once, same stage" in warning.message
+    assert "the same stop as reading (c) 9 pulses into it" in warning.message
+    assert "drives the rotor to 85.9° electrical" in warning.message
     assert judge_safety(table, motor, commands=["82"]).within_aim
     weak = replace(motor, damping_ratio=0.08)
     verdict = judge_safety(table, weak)
@@ -310,10 +312,10 @@ def test_the_verdicts_json_carries_the_commands_object() -> None:
         "executions", "sample_failures", "criterion_findings"}
     assert (stop["command"], stop["code"], stop["safe"], stop["within_aim"]) == (
         "decel-stop", "81", True, False)
-    assert stop["reading"] == "c" and stop["readings"] == [
-        {"reading": "c", "pulses_into_stage": 7}]
-    assert (stop["stage"], stop["pulses_into_stage"], stop["dwell_pulses"]) == (93, 7, 7)
-    assert stop["ramp_pulse"] == sum(table.accel_pulses[94:]) + 7
+    assert stop["reading"] == "a" and stop["readings"] == [
+        {"reading": "a", "pulses_into_stage": 2}, {"reading": "c", "pulses_into_stage": 9}]
+    assert (stop["stage"], stop["pulses_into_stage"], stop["dwell_pulses"]) == (84, 2, 9)
+    assert stop["ramp_pulse"] == sum(table.accel_pulses[85:]) + 2
     assert stop["margin_to_aim_deg"] == pytest.approx(75.0 - stop["worst_load_angle_deg"])
     assert stop["margin_deg"] == pytest.approx(90.0 - stop["worst_load_angle_deg"])
     assert stop["worst_at"] == "nominal" and stop["first_unstable"] is None
@@ -348,9 +350,9 @@ def test_check_judges_stops_and_commands_narrows_them(tmp_path: Path) -> None:
 
     code, out = run("check", str(path), "--motor", "nema23-heavy", "--format", "json")
     safety = json.loads(out)["files"][0]["safety"]
-    assert code == 0 and safety["commands"]["decel-stop"]["stage"] == 93
+    assert code == 0 and safety["commands"]["decel-stop"]["stage"] == 84
     code, out = run("check", str(path), "--motor", "nema23-heavy")
-    assert code == 0 and "warning [decel-stop-load-angle-margin]: a decel stop (81) 7" in out
+    assert code == 0 and "warning [decel-stop-load-angle-margin]: a decel stop (81) 2" in out
     code, out = run("check", str(path), "--motor", "nema23-heavy", "--commands", "82",
                     "--format", "json")
     assert code == 0 and json.loads(out)["files"][0]["safety"]["commands"] == {}
