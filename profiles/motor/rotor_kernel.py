@@ -51,9 +51,20 @@ OK, OUT_OF_STEPS, OUT_OF_ROOM = 0, 1, 2
 # cached on disk beside this file (or in numba's user cache when that is read-only);
 # `nogil`: ranges of (rotor, execution) pairs run on threads at once
 _jit = nb.njit(cache=True, nogil=True, error_model="numpy")
+# `follow_spans`, the loop over spans and steps, and the helpers it calls allocate
+# nothing and run without numba's reference counting (`_plain`: `_nrt=False`): with it,
+# every span counted its arrays up and down (an atomic add each way), half the kernel's
+# time where spans last a step or two (a table's short stages). A span's and a step's
+# own helpers are inlined into it (numba's IR: `_inline`); inlining the rest too only
+# lengthened the first compilation (by a quarter).
+# (`_nrt` is numba's own flag, which its stubs do not list)
+_plain = nb.njit(cache=True, nogil=True, error_model="numpy",
+                 _nrt=False)  # type: ignore[call-overload]
+_inline = nb.njit(cache=True, nogil=True, error_model="numpy", inline="always",
+                  _nrt=False)  # type: ignore[call-overload]
 
 
-@_jit
+@_plain
 def _piece(curve_v: np.ndarray, curve_t: np.ndarray, speed: float
            ) -> tuple[float, float, float, float]:
     """The curve's linear piece holding |speed| below its last point: (its speeds from,
@@ -73,7 +84,7 @@ def _piece(curve_v: np.ndarray, curve_t: np.ndarray, speed: float
     return curve_v[lo], curve_v[lo + 1], curve_t[lo], slope
 
 
-@_jit
+@_plain
 def _t_peak(curve_v: np.ndarray, curve_t: np.ndarray, speed: float) -> float:
     """The peak restoring torque at |speed| (linear between curve points, 0 beyond)."""
     v = abs(speed)
@@ -84,7 +95,7 @@ def _t_peak(curve_v: np.ndarray, curve_t: np.ndarray, speed: float) -> float:
     return torque + (v - at) * slope
 
 
-@_jit
+@_inline
 def _torque(curve_v: np.ndarray, curve_t: np.ndarray, piece: tuple[float, float, float, float],
             speed: float) -> float:
     """`_t_peak`, from `piece` when |speed| lies in it (a span's rotor speed stays near
@@ -95,7 +106,7 @@ def _torque(curve_v: np.ndarray, curve_t: np.ndarray, piece: tuple[float, float,
     return _t_peak(curve_v, curve_t, v)
 
 
-@_jit
+@_inline
 def _accel(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
            piece: tuple[float, float, float, float], v: float, lag: float, s: float) -> float:
     """The rotor's acceleration relative to the command's (d²lag/dt² = −this); `piece`:
@@ -113,20 +124,20 @@ def _accel(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
     return a - math.copysign(fr, a)
 
 
-@_jit
+@_plain
 def natural_period_s(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
                      speed: float) -> float:
     return _period(rotor, _t_peak(curve_v, curve_t, speed))
 
 
-@_jit
+@_plain
 def _period(rotor: np.ndarray, torque: float) -> float:
     """The natural period where the peak restoring torque is `torque`."""
     stiffness = rotor[K] * rotor[C_E] * torque
     return 2 * math.pi / math.sqrt(stiffness) if stiffness > 0 else math.inf
 
 
-@_jit
+@_inline
 def _rk4(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
          piece: tuple[float, float, float, float], v: float, lag: float, s: float, h: float
          ) -> tuple[float, float]:
@@ -143,7 +154,7 @@ def _rk4(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
             s + h / 6 * (k1s + 2 * k2s + 2 * k3s + k4s))
 
 
-@_jit
+@_plain
 def _put(rec_t: np.ndarray, rec_lag: np.ndarray, recorded: int, t: float, lag: float) -> bool:
     """Record (t, lag) at `recorded`; False when the buffers are full."""
     if recorded == len(rec_t):
@@ -153,7 +164,7 @@ def _put(rec_t: np.ndarray, rec_lag: np.ndarray, recorded: int, t: float, lag: f
     return True
 
 
-@_jit
+@_plain
 def _held_lag(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray) -> float:
     """The largest |lag| [pulses] the rotor can come to rest at: where the restoring
     torque at rest balances the load and friction together. Below it, a ringing that
@@ -164,7 +175,7 @@ def _held_lag(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray) -> fl
     return math.asin(min(1.0, (abs(rotor[LOAD]) + rotor[FRICTION]) / stiff)) / rotor[C_E]
 
 
-@_jit
+@_inline
 def _span(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, d: float, v: float,
           lag: float, s: float, t: float, step: float, slip: float, tol: float,
           settle_periods: int, limit: int, steps: int, resting: bool, record: bool,
@@ -226,7 +237,7 @@ def _span(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, d: float,
     return OK, 0, 0.0, lag, s, peak, steps, recorded
 
 
-@_jit
+@_plain
 def follow_spans(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
                  dur: np.ndarray, vel: np.ndarray, lag: float, s: float, previous: float,
                  t0: float, step: float, slip: float, tol: float, settle_periods: int,
@@ -283,7 +294,7 @@ def follow_spans(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray,
     return len(dur), OK, 0, 0.0, steps, -1, recorded
 
 
-@_jit
+@_plain
 def _joins(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, v: float, lag: float,
            s: float, worst: float, ref_lag: float, ref_s: float, tol_lag: float, tol_s: float,
            ref_rest: float, bound: float) -> bool:
@@ -296,7 +307,7 @@ def _joins(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, v: float
         curve_v, curve_t, rotor, v, lag - ref_lag, s - ref_s)
 
 
-@_jit
+@_plain
 def _amplitude(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, v: float,
                lag: float, s: float) -> float:
     """The amplitude [pulses] of a free oscillation from (lag, s) at the natural frequency
@@ -340,7 +351,7 @@ def _reference(curve_v: np.ndarray, curve_t: np.ndarray, rotor: np.ndarray, dur:
     return status, slipped, used, done - 1 if slipped else done
 
 
-@_jit
+@_plain
 def _boundary(rates: np.ndarray, at: int, remaining: int, tail: int, r0: int, m: int,
               ref_slipped: bool) -> int:
     """The reference's boundary (the end of its segment r0 + k) matching the end of

@@ -107,16 +107,20 @@ class Screen(NamedTuple):
 
 
 def judged(table: FreeCurveTable, judges: Sequence[Motor], stops: bool = True,
-           aim_deg: float | None = None) -> Judged:
+           aim_deg: float | None = None, *, settle: bool = False) -> Judged:
     """Every move and (`stops`) every decel stop of `table` on `judges`, both remembered:
     the safety verdict asks again. `aim_deg`: the moves' samples alone when they say
-    whether the table is within it (`load_angle.angles`; `Judged.exact` False)."""
-    if not stops:
-        return Judged(angles(table, judges, aim_deg=aim_deg), None)
-    # the two verdicts' serial parts (batches built, references integrated) overlap
-    # the other's kernels, which run on every core
-    side = pool("judge-stops", 1).submit(stop_angles, table, judges)
-    return Judged(angles(table, judges, aim_deg=aim_deg), side.result())
+    whether the table is within it (`load_angle.angles`; `Judged.exact` False).
+    `settle`: only within-or-not is asked, so the moves are judged first, and with them
+    past the aim the stops are not judged (`Judged.stops` None)."""
+    if stops and not settle:
+        # the stops' verdict beside the moves': each one's serial parts (batches built,
+        # references integrated) overlap the other's kernels, which run on every core
+        side = pool("judge-stops", 1).submit(stop_angles, table, judges)
+        return Judged(angles(table, judges, aim_deg=aim_deg), side.result())
+    moves = angles(table, judges, aim_deg=aim_deg)
+    past = aim_deg is not None and float(moves.deg.max()) > aim_deg
+    return Judged(moves, stop_angles(table, judges) if stops and not past else None)
 
 
 def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
@@ -165,7 +169,7 @@ def tighten(motor: Motor, make: Make, load_angle_deg: float, *,
             return None
         # remembered: the verdict asks again; samples that say within or past are enough
         # until the plan is kept
-        found = judged(plan.table, judges, stops, aim_deg=load_angle_deg)
+        found = judged(plan.table, judges, stops, load_angle_deg, settle=screen is not None)
         if not found.exact:
             bounded[len(tried)] = (plan, shaping)
         plan = _annotated(plan, found.worst(), shaping, len(judges), t0, stops)
