@@ -108,26 +108,28 @@ def refine(lengths: np.ndarray, family: np.ndarray, spacing: np.ndarray,
         if len(unstable) and unstable[0] > 0:
             whole.append(np.arange(at[unstable[0] - 1] + 1, at[unstable[0]]))
     known: dict[int, float] = {}
-    while spans or whole:
+    asked: set[int] = {n for part in whole for n in part.tolist()}
+    while spans or asked:
         inside = [_inside(a, b) for a, _, b, _ in spans]
-        ask = np.setdiff1d(np.concatenate([*inside, *whole, np.zeros(0, np.int64)]),
-                           np.fromiter(known, np.int64, len(known)))
-        whole = []
+        asked.update(n for points in inside for n in points)
+        ask = np.array(sorted(asked.difference(known)), dtype=np.int64)
+        asked = set()
         if len(ask):
             known.update(zip(ask.tolist(), judge_at(ask).tolist(), strict=True))
         spans = [s for span, points in zip(spans, inside, strict=True)
-                 for s in _beside_top(span, points.tolist(), known)]
+                 for s in _beside_top(span, points, known)]
 
 
 SEARCH_POINTS = 3   # lengths judged inside a span a round while searching for its top
 
 
-def _inside(a: int, b: int) -> np.ndarray:
+def _inside(a: int, b: int) -> list[int]:
     """The lengths a round judges strictly between a and b: all of them when there are
-    SEARCH_POINTS or fewer, else SEARCH_POINTS evenly spread."""
+    SEARCH_POINTS or fewer, else SEARCH_POINTS evenly spread (nearest, halves to even)."""
     if b - a - 1 <= SEARCH_POINTS:
-        return np.arange(a + 1, b, dtype=np.int64)
-    return np.unique(np.linspace(a, b, SEARCH_POINTS + 2)[1:-1].round().astype(np.int64))
+        return list(range(a + 1, b))
+    return sorted({round(a + (b - a) * k / (SEARCH_POINTS + 1))
+                   for k in range(1, SEARCH_POINTS + 1)})
 
 
 def _beside_top(span: tuple[int, float, int, float], points: list[int],
@@ -137,7 +139,7 @@ def _beside_top(span: tuple[int, float, int, float], points: list[int],
     a, fa, b, fb = span
     xs = [a, *points, b]
     ys = [fa, *(known[x] for x in points), fb]
-    i = int(np.argmax(ys))
+    i = max(range(len(ys)), key=ys.__getitem__)  # the first of the highest
     return [(xs[j], ys[j], xs[j + 1], ys[j + 1]) for j in (i - 1, i)
             if 0 <= j < len(xs) - 1 and xs[j + 1] - xs[j] > 1
             and not all(x in known for x in range(xs[j] + 1, xs[j + 1]))]

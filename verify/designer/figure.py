@@ -61,13 +61,17 @@ class DesignFigure:
         self.ax_m.legend(fontsize=7, ncols=3, loc="upper left")
         self.lag_line, = self.ax_l.plot([], [], color="tab:blue", lw=1.0)
         self.time_labels = {ax: _tick_numbers(self.fig, ax) for ax in (self.ax_v, self.ax_l)}
+        # each time label's pixels once drawn, by (label, text): the numbers under the
+        # fixed ticks come back change after change, and rendering text is half a
+        # drawing; kept while the background under them is
+        self.label_pixels: dict[tuple[int, str], Any] = {}
         # a first table's mark, over the speed panel
         self.mark = self.ax_v.text(0.99, 0.04, f"{TIGHTENING} first table, not judged: "
                                    "not safe to use", transform=self.ax_v.transAxes,
                                    ha="right", va="bottom", fontsize=10, fontweight="bold",
                                    color="white", bbox={"facecolor": "#b36b00",
                                                         "edgecolor": "none", "pad": 3})
-        for artist in self._live():
+        for artist in (*self._live(), *(t for ts in self.time_labels.values() for t in ts)):
             artist.set_animated(True)  # left out of the background, drawn over it
         self.mark.set_animated(True)
         self.background: Any = None   # the canvas without the live artists, once drawn
@@ -134,8 +138,11 @@ class DesignFigure:
         else:
             self.canvas.restore_region(self.background)
             self.last_drawing = "over"
+        if self.last_drawing != "over":
+            self.label_pixels.clear()
         for artist in self._live():
             self.fig.draw_artist(artist)
+        self._draw_labels()
         if not result.final:
             self.canvas.restore_region(self.mark_pixels)
         from verify.plot import fast_png
@@ -187,9 +194,24 @@ class DesignFigure:
         self.units, self.background = units, None
 
     def _live(self) -> list[Any]:
-        """The artists every change draws again (animated: the background leaves them out)."""
+        """The lines every change draws again (animated: the background leaves them out)."""
         return [self.table_line, *self.ref_lines.values(), *self.margin_lines.values(),
-                self.lag_line, *(t for texts in self.time_labels.values() for t in texts)]
+                self.lag_line]
+
+    def _draw_labels(self) -> None:
+        """The time labels (animated too), each from its pixels when drawn before over
+        this background (below the axes: no line crosses them)."""
+        labels = (t for texts in self.time_labels.values() for t in texts)
+        for k, text in enumerate(labels):
+            if not text.get_text():
+                continue
+            key = (k, text.get_text())
+            if key in self.label_pixels:
+                self.canvas.restore_region(self.label_pixels[key])
+                continue
+            self.fig.draw_artist(text)
+            box = text.get_window_extent(self.canvas.get_renderer()).padded(2)
+            self.label_pixels[key] = self.canvas.copy_from_bbox(box)
 
     def _set_lines(self, result: Design, slow: dict[str, Any] | None) -> None:
         import numpy as np
