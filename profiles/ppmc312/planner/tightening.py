@@ -17,17 +17,21 @@ ramp under every reading (profiles.ppmc312.stops): a stop that rings is traced a
 and blames the stages just before its worst angle (where it comes and the decel below).
 A round traces the worst executions and, beside them, the worst of every other speed
 band where one past the aim tops out (`_diverse`): the bands that ring are blamed at
-once instead of surfacing one round at a time (NEMA23's designer changes: 2–4 plans
+once instead of surfacing one round at a time (NEMA23's designer changes: 1–4 plans
 where they took 5–8). One just past the aim may be the others' echo, blamed for
-nothing: NEMA17's 10 000-pulse table is 0.3 % slower for it, NEMA23's as much faster
-(bench/bench_tighten.py).
+nothing: NEMA17's 10 000-pulse table is 0.3 % slower for it, NEMA23's 0.8 % faster.
 
 Once within the aim by more than RELAX_ROOM_DEG, two bisections back towards the last
-shaping past it buy speed (up to 3 % of NEMA23's move time; with less room they bought
-under 0.2 % for two more plans);
-such a step only asks within-or-not, so its plan is judged first at the move lengths
-where that shaping was worst, and one past the aim there is refused without the
-all-length verdict (the same decisions, about a verdict less per tightening).
+shaping past it buy speed (2–3 % of NEMA23's short moves' time with 10° of room; with
+2–4° they bought under 0.2 % for two more plans). Such a step only asks within-or-not:
+its plan is judged first at the move lengths where that shaping was worst, and one past
+the aim there is refused without the all-length verdict; then its moves, and its stops
+only when the moves are within (`judged`'s `settle`).
+
+A round's moves are judged by their samples alone when these already say within or
+past (`load_angle.angles`' aim_deg: one past the aim, or every one 3° or more below it,
+refining raising a family's worst by less); the plan kept is then judged whole. The
+decisions are those of judging every plan whole (tested), a refinement fewer a round.
 
 When the bands do not converge, the whole table is tightened alike (`tighten_uniform`:
 the safety factor, the largest jump and the start speed scaled together), the method
