@@ -19,7 +19,9 @@ A round traces the worst executions and, beside them, the worst of every other s
 band where one past the aim tops out (`_diverse`): the bands that ring are blamed at
 once instead of surfacing one round at a time (NEMA23's designer changes: 1–4 plans
 where they took 5–8). One just past the aim may be the others' echo, blamed for
-nothing: NEMA17's 10 000-pulse table is 0.3 % slower for it, NEMA23's 0.8 % faster.
+nothing: NEMA17's 3 200–10 000-pulse tables are 0.3–0.5 % slower for it, NEMA23's
+10 000-pulse one 0.8 % faster; blaming only bands 4 % past the aim cost NEMA17 0.1 %
+but left NEMA23's designer changes at 4 plans where they now take 3.
 
 Once within the aim by more than RELAX_ROOM_DEG, two bisections back towards the last
 shaping past it buy speed (2–3 % of NEMA23's short moves' time with 10° of room; with
