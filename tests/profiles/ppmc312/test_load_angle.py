@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import replace
+from itertools import pairwise
 
 import numpy as np
 import pytest
@@ -404,3 +405,24 @@ def test_a_dwell_with_no_torque_or_no_speed_is_sampled_whole_and_settles_by_rest
     assert dense.tolist() == [100 + math.ceil(speed * SETTLE_CRUISE_PERIODS * rest)]
     _, still = dwell_sampling([base], np.array([0.0]), np.array([100]), np.array([500]), 3)
     assert still.tolist() == [103]
+
+
+def test_a_trace_joins_a_rate_into_one_span_and_ends_resting() -> None:
+    """`spans_of`: the command as the verdict integrates it: neighbouring segments of one
+    rate one span (their time summed), then the command at rest (0 pps) while the rotor
+    settles, as the kernel's executions end."""
+    from profiles.motor.rotor import settle_s
+    from profiles.ppmc312.execution import simulate_move
+    from profiles.ppmc312.load_angle import spans_of
+
+    motor = plain_motor(damping_ratio=0.3)
+    table = FreeCurveTable(MHZ1, (120, 200, 400), (3, 3, 2))
+    run = simulate_move(table, 40)  # a trapezoid: the top stage, cruise and decel at 120
+    rotor = rotor_of(motor)
+    step = rotor.step_s()
+    spans = spans_of(run, rotor, step)
+    assert spans[-1] == (settle_s(rotor, step), 0.0)
+    speeds = [v for _, v in spans[:-1]]
+    assert all(a != b for a, b in pairwise(speeds))  # one span a rate in a row
+    assert speeds.count(MHZ1.hz / 120) == 1
+    assert sum(d for d, _ in spans[:-1]) == pytest.approx(run.duration_s)
