@@ -23,7 +23,7 @@ from tests.support.notebooks import (
     kernel_for_this_interpreter,
     runs_this_interpreter,
 )
-from tests.support.paths import ROOT
+from tests.support.paths import ROOT, load_script
 
 NOTEBOOK_DIR = ROOT / "notebooks"
 
@@ -36,13 +36,7 @@ CELL_TIMEOUT_S = 120
 
 
 def _load_build() -> Any:
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("notebooks_build", NOTEBOOK_DIR / "build.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script(NOTEBOOK_DIR / "build.py", "notebooks_build")
 
 
 @pytest.mark.parametrize("stem", NOTEBOOKS)

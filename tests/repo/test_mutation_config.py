@@ -7,11 +7,9 @@ README's block) are its modules'."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import re
 import subprocess
-import sys
 from pathlib import Path
 from types import ModuleType
 
@@ -20,17 +18,11 @@ from cosmic_ray.work_db import WorkDB, use_db
 from cosmic_ray.work_item import TestOutcome as Outcome
 from cosmic_ray.work_item import WorkerOutcome, WorkResult
 
-from tests.support.paths import ROOT
+from tests.support.paths import ROOT, load_script
 
 
 def load_tool() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("stepramp_mutation",
-                                                  ROOT / "tools" / "mutation.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+    return load_script(ROOT / "tools" / "mutation.py", "stepramp_mutation")
 
 
 tool = load_tool()
