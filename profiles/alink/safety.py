@@ -44,6 +44,7 @@ from profiles.motor.batch_angle import (
     STOP_REFINE_DEG,
     dwell_sampling,
     judge,
+    merged,
     refine,
     refine_toward,
     sample_grid,
@@ -246,12 +247,7 @@ def _with_extra(ramp: AlinkRamp, kind: Kind, rot: Rotors, found: Angles, extra: 
 
 def _merged(parts: Sequence[Angles]) -> Angles:
     """The motions of `parts` (no x twice) as one verdict, in order of x."""
-    if len(parts) == 1:
-        return parts[0]
-    xs = np.concatenate([p.x for p in parts])
-    order = np.argsort(xs, kind="stable")
-    return Angles(xs[order], np.concatenate([p.deg for p in parts], axis=1)[:, order],
-                  np.concatenate([p.slipped for p in parts], axis=1)[:, order])
+    return Angles(*merged([(p.x, p.deg, p.slipped) for p in parts]))
 
 
 def _angles(ramp: AlinkRamp, kind: Kind, xs: np.ndarray, rot: Rotors) -> Angles:

@@ -97,7 +97,7 @@ def refine(lengths: np.ndarray, family: np.ndarray, spacing: np.ndarray,
     top = np.maximum.reduceat(worst_deg, starts)  # each family's worst sample
     wanted = (spacing[family[starts]] > 1) & ((top >= best - REFINE_DEG) | (top >= PEAK_DEG))
     spans: list[tuple[int, float, int, float]] = []  # (a, angle at a, b, angle at b)
-    whole: list[np.ndarray] = []
+    asked: set[int] = set()  # judged in the next round
     for a, b in zip(starts[wanted].tolist(), ends[wanted].tolist(), strict=True):
         w, at = worst_deg[a:b].tolist(), lengths[a:b].tolist()
         k = int(np.argmax(w))
@@ -106,9 +106,8 @@ def refine(lengths: np.ndarray, family: np.ndarray, spacing: np.ndarray,
                       if 0 <= j < len(w) - 1]
         unstable = np.flatnonzero(np.asarray(w) >= PEAK_DEG)
         if len(unstable) and unstable[0] > 0:
-            whole.append(np.arange(at[unstable[0] - 1] + 1, at[unstable[0]]))
+            asked.update(range(at[unstable[0] - 1] + 1, at[unstable[0]]))
     known: dict[int, float] = {}
-    asked: set[int] = {n for part in whole for n in part.tolist()}
     while spans or asked:
         inside = [_inside(a, b) for a, _, b, _ in spans]
         asked.update(n for points in inside for n in points)
@@ -121,6 +120,18 @@ def refine(lengths: np.ndarray, family: np.ndarray, spacing: np.ndarray,
 
 
 SEARCH_POINTS = 3   # lengths judged inside a span a round while searching for its top
+
+
+def merged(parts: Sequence[tuple[np.ndarray, ...]]) -> tuple[np.ndarray, ...]:
+    """Parts of one verdict judged apart (as `refine` asks for them), each (the keys of
+    its executions, then arrays of rows × executions), as one in the order of the keys
+    (none in two parts)."""
+    if len(parts) == 1:
+        return tuple(parts[0])
+    keys = np.concatenate([p[0] for p in parts])
+    order = np.argsort(keys, kind="stable")
+    return (keys[order], *(np.concatenate([p[i] for p in parts], axis=1)[:, order]
+                           for i in range(1, len(parts[0]))))
 
 
 def _inside(a: int, b: int) -> list[int]:
@@ -359,5 +370,6 @@ def batch_sample_peaks(runs: MoveBatch, hz: float, motor: Motor, samples: int, s
 
 __all__ = ["MAX_VERDICT_STEPS", "PARALLEL_MIN_CELLS", "PHASE_SAMPLES", "REFINE_DEG",
            "REJOIN_TOL_DEG", "SEARCH_POINTS", "SETTLE_CRUISE_PERIODS", "SHARED_PIECES", "Scratch",
-           "batch_sample_peaks", "dwell_sampling", "dwells", "judge", "refine", "sample_grid",
+           "batch_sample_peaks", "dwell_sampling", "dwells", "judge", "merged", "refine",
+           "sample_grid",
            "shared_dwells"]

@@ -32,7 +32,14 @@ import numpy as np
 
 from ..errors import FieldRangeError
 from ..motor import Motor
-from ..motor.batch_angle import REFINE_DEG, dwell_sampling, judge, refine, sample_grid
+from ..motor.batch_angle import (
+    REFINE_DEG,
+    dwell_sampling,
+    judge,
+    merged,
+    refine,
+    sample_grid,
+)
 from ..motor.rotor import (
     PEAK_DEG,
     Rotor,
@@ -205,12 +212,8 @@ def _refined(free: FreeCurveTable, sampled: tuple[np.ndarray, ...], rot: Rotors,
         return np.degrees(found[-1][1].max(axis=0) * rot.c_e)
 
     refine(lengths, family, spacing, np.degrees(lag.max(axis=0) * rot.c_e), judge_at)
-    if len(found) == 1:
-        return lengths, lag, slipped
-    order = np.argsort(np.concatenate([n for n, _, _ in found]), kind="stable")
-    return (np.concatenate([n for n, _, _ in found])[order],
-            np.concatenate([a for _, a, _ in found], axis=1)[:, order],
-            np.concatenate([b for _, _, b in found], axis=1)[:, order])
+    lengths, lag, slipped = merged(found)
+    return lengths, lag, slipped
 
 
 def samples(table: FreeCurveTable, motors: Sequence[Motor]

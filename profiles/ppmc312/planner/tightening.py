@@ -217,13 +217,15 @@ def _kept(tried: list[Plan], bounded: dict[int, tuple[Plan, Shaping]],
     alone (`bounded`: by its index, unannotated, and its shaping) is judged whole
     (`exact`) once it is the one kept; when none is within the aim, every one is."""
     while True:
-        within = [k for k, p in enumerate(tried) if p.extras["worst_load_angle_deg"] <= aim_deg]
-        pick = min(within, key=lambda k: float(tried[k].duration_s or 0.0), default=None)
-        todo = list(bounded) if pick is None else [pick] if pick in bounded else []
-        if not todo:
+        if not any(p.extras["worst_load_angle_deg"] <= aim_deg for p in tried):
+            for k in list(bounded):  # the least past the aim, by every plan's whole verdict
+                tried[k] = exact(*bounded.pop(k))
             return _best(tried, aim_deg)
-        for k in todo:
-            tried[k] = exact(*bounded.pop(k))
+        best = _best(tried, aim_deg)
+        k = next(k for k, p in enumerate(tried) if p is best)
+        if k not in bounded:
+            return best
+        tried[k] = exact(*bounded.pop(k))
 
 
 def _relax(attempt: Callable[[Shaping, Screen], tuple[Plan, Judged] | None],
